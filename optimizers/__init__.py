@@ -1,0 +1,1 @@
+"""Optimiser backends, one module each."""

@@ -1,0 +1,67 @@
+"""The 14 parameters: names, Table 5 search bounds, unit-cube mapping and JSON files."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from bwbench.errors import InputFileError
+from bwbench.model import PARAM_NAMES
+
+# Paper Table 5. ξ₋ is printed "−23 to −575"; stored as lower −575, upper −23 (DESIGN.md §2).
+TABLE5 = {
+    "A+": (0.001, 0.025), "n+": (0.43, 10.75), "alpha+": (0.07, 1.75), "beta+": (0.1, 2.5),
+    "gamma+": (0.3, 7.5), "xi+": (20.0, 500.0), "wn+": (0.3, 7.5),
+    "A-": (0.05, 1.25), "n-": (0.2, 5.0), "alpha-": (0.0055, 0.1375), "beta-": (0.001, 0.025),
+    "gamma-": (0.2, 5.0), "xi-": (-575.0, -23.0), "wn-": (1.8, 45.0),
+}
+LOWER = np.array([TABLE5[name][0] for name in PARAM_NAMES])
+UPPER = np.array([TABLE5[name][1] for name in PARAM_NAMES])
+
+UNITS = {name: ("rad/s" if name.startswith("wn") else "-") for name in PARAM_NAMES}
+LABELS = {
+    "A+": "A₊", "n+": "n₊", "alpha+": "α₊", "beta+": "β₊", "gamma+": "γ₊", "xi+": "ξ₊", "wn+": "ωn₊",
+    "A-": "A₋", "n-": "n₋", "alpha-": "α₋", "beta-": "β₋", "gamma-": "γ₋", "xi-": "ξ₋", "wn-": "ωn₋",
+}
+
+
+def to_dict(params) -> dict[str, float]:
+    return {name: float(value) for name, value in zip(PARAM_NAMES, params)}
+
+
+def from_dict(values: dict, source: str = "parameters") -> np.ndarray:
+    missing = [name for name in PARAM_NAMES if name not in values]
+    if missing:
+        raise InputFileError(source, None, f"missing parameter(s): {', '.join(missing)}")
+    out = []
+    for name in PARAM_NAMES:
+        value = values[name]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise InputFileError(source, None, f"parameter {name!r} must be a finite number, got {value!r}")
+        out.append(float(value))
+    return np.array(out)
+
+
+def read_json(path) -> np.ndarray:
+    """A parameters JSON: an object with the 14 names (or a fit result with a ``params`` object)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputFileError(path, None, f"cannot read: {getattr(err, 'strerror', None) or err}") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise InputFileError(path, err.lineno, f"not valid JSON: {err.msg}") from None
+    if isinstance(data, dict) and isinstance(data.get("params"), dict):
+        data = data["params"]
+    if not isinstance(data, dict):
+        raise InputFileError(path, 1, "expected a JSON object with the 14 parameter names")
+    return from_dict(data, str(path))
+
+
+def write_json(path, params) -> None:
+    Path(path).write_text(json.dumps(to_dict(params), indent=2) + "\n", encoding="utf-8")

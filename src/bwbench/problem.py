@@ -1,0 +1,62 @@
+"""The identification problem: model + specimen + bounds + loss. Knows nothing of optimisers.
+
+A problem maps unit coordinates u ∈ [0, 1]^d to physical parameters and returns the mean squared
+error (the paper's −F_err) of a whole population in one batched call. ``Objective`` wraps any
+object with this interface; a second problem (another model, another loss) plugs in the same way.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bwbench import excitation as excitation_mod
+from bwbench import model
+from bwbench.parameters import LOWER, UPPER
+from bwbench.specimen import Specimen
+
+
+@dataclass
+class SwitchedBoucWenProblem:
+    """The paper's 14-parameter switched Bouc-Wen fit to one specimen (loss: MSE in N²)."""
+
+    specimen: Specimen
+    state: str = "shared"
+    excitation: str = "measured"
+    param_names: tuple = model.PARAM_NAMES
+    lower: np.ndarray = field(default_factory=lambda: LOWER.copy())
+    upper: np.ndarray = field(default_factory=lambda: UPPER.copy())
+
+    def __post_init__(self):
+        if self.state not in model.STATES:
+            raise ValueError(f"state must be one of {model.STATES}, got {self.state!r}")
+        self.signal = excitation_mod.build(self.excitation, self.specimen.t, self.specimen.x)
+
+    @property
+    def name(self) -> str:
+        return self.specimen.name
+
+    @property
+    def dim(self) -> int:
+        return len(self.param_names)
+
+    @property
+    def info(self) -> dict:
+        return {"specimen": self.specimen.name, "state": self.state, "excitation": self.excitation}
+
+    def from_unit(self, U) -> np.ndarray:
+        return self.lower + np.asarray(U, dtype=float) * (self.upper - self.lower)
+
+    def to_unit(self, P) -> np.ndarray:
+        return (np.asarray(P, dtype=float) - self.lower) / (self.upper - self.lower)
+
+    def simulate(self, params) -> np.ndarray:
+        """Model force (N) at the specimen's sample times; +inf everywhere on blow-up."""
+        s = self.signal
+        return model.simulate(params, s.t, s.x, s.v, s.a, self.state)
+
+    def loss_batch(self, P) -> np.ndarray:
+        """MSE (N²) of each row of P (physical units, shape (m, 14)); +inf where it blows up."""
+        s = self.signal
+        return model.mse_batch(P, s.t, s.x, s.v, s.a, self.specimen.f, self.state)

@@ -1,0 +1,221 @@
+"""Specimen files: one force-displacement test as CSV (DESIGN.md §4).
+
+Format::
+
+    time_s,displacement_mm,force_N
+    0.000,0.0000,-0.12
+    0.025,0.0031,0.87
+    ...
+
+- Line 1 is the header: the three names, in any order (columns are matched by name, so a
+  re-ordered export still reads correctly); whitespace around names and a UTF-8 BOM are allowed.
+  No other columns.
+- If the header contains ``;`` the file is a European spreadsheet export: cells are separated by
+  ``;`` and a decimal comma (``1,25``) is read as a decimal point.
+- One row per sample, at least ``MIN_SAMPLES`` rows, time strictly increasing, every value finite,
+  and the displacement must actually move. Blank lines are ignored.
+
+Every malformed file raises ``InputFileError(path, line, problem)`` with the 1-based line of the
+first offending line (line 1 = header). A file that cannot be opened has no line (``line=None``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from bwbench.errors import InputFileError
+
+COLUMNS = ("time_s", "displacement_mm", "force_N")
+MIN_SAMPLES = 20
+# Below this the test did not move: no hysteresis loop to fit, and velocities are pure noise.
+MIN_DISPLACEMENT_RANGE_MM = 1e-6
+
+# What a cell may contain. Stricter than float(), which would also take "1_000" and non-ASCII digits.
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", re.ASCII)
+_NAN = {"nan", "+nan", "-nan"}
+_INF = {"inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
+
+
+@dataclass(frozen=True, eq=False)  # eq=False: comparing/hashing ndarray fields would raise
+class Specimen:
+    """One specimen: sample times (s), displacement (mm) and force (N), all the same length."""
+
+    path: str
+    name: str
+    t: np.ndarray
+    x: np.ndarray
+    f: np.ndarray
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+
+def read_specimen(path) -> Specimen:
+    """Read and validate a specimen CSV; raise ``InputFileError`` for anything malformed."""
+    path = str(path)
+    data = _read_bytes(path)
+    text = _decode(path, data)
+    if not text.strip():
+        raise InputFileError(path, 1, "empty file: expected the header " + ",".join(COLUMNS))
+
+    header, _, rest = text.partition("\n")
+    sep, order = _parse_header(path, header)
+    if not rest or rest.isspace():
+        raise InputFileError(path, 1, "header only, no data rows")
+
+    # Fast path: the C parser over the bytes after the header. It is only an optimisation: if it
+    # fails or yields anything non-finite, the line-by-line pass below decides, so both paths
+    # accept exactly the same files and the error names the right line.
+    values = _fast_parse(data[data.index(b"\n") + 1:], sep)
+    line_nos = None
+    if values is None or not np.isfinite(values).all():
+        values, line_nos = _slow_parse(path, text, sep)
+
+    def line_of(row: int) -> int:
+        nonlocal line_nos
+        if line_nos is None:  # only needed for an error: pay for the slow pass then
+            line_nos = _slow_parse(path, text, sep)[1]
+        return int(line_nos[row])
+
+    t, x, f = (np.ascontiguousarray(values[:, j]) for j in order)
+    _check_values(path, t, x, line_of)
+    for a in (t, x, f):
+        a.flags.writeable = False  # a frozen Specimen should not change under its users
+    return Specimen(path=path, name=Path(path).stem, t=t, x=x, f=f)
+
+
+def _read_bytes(path: str) -> bytes:
+    try:
+        with open(path, "rb") as fh:
+            return fh.read()
+    except FileNotFoundError:
+        raise InputFileError(path, None, "no such file") from None
+    except IsADirectoryError:
+        raise InputFileError(path, None, "is a directory, not a file") from None
+    except OSError as err:
+        raise InputFileError(path, None, f"cannot read file: {err.strerror or err}") from None
+
+
+def _line_at(data: bytes, offset: int) -> int:
+    return data.count(b"\n", 0, offset) + 1
+
+
+def _decode(path: str, data: bytes) -> str:
+    # Spreadsheets are the usual source of wrong files: say what to do, not just "bad byte".
+    if data.startswith(b"PK\x03\x04"):
+        raise InputFileError(path, 1, "binary file (a ZIP/.xlsx workbook?): export the sheet as CSV")
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise InputFileError(path, 1, "UTF-16 text: save the file as UTF-8 CSV")
+    nul = data.find(b"\x00")
+    if nul >= 0:
+        raise InputFileError(path, _line_at(data, nul), "binary file (contains NUL bytes), not CSV text")
+    try:
+        return data.decode("utf-8-sig")  # -sig: drops a leading BOM, as Excel writes one
+    except UnicodeDecodeError as err:
+        bad = data[err.start]
+        raise InputFileError(
+            path, _line_at(data, err.start), f"not UTF-8 text (byte 0x{bad:02x}): save the file as UTF-8 CSV"
+        ) from None
+
+
+def _parse_header(path: str, header: str) -> tuple[str, list[int]]:
+    """Separator and, for each of COLUMNS, the index of its cell in a row."""
+    sep = ";" if ";" in header else ","
+    names = [name.strip().strip('"').strip() for name in header.strip().split(sep)]
+    missing = [c for c in COLUMNS if c not in names]
+    if missing:
+        found = header.strip()
+        found = found if len(found) <= 60 else found[:57] + "..."
+        which = ", ".join(repr(c) for c in missing)
+        raise InputFileError(
+            path, 1,
+            f"missing column{'s' if len(missing) > 1 else ''} {which} in header "
+            f"(expected {','.join(COLUMNS)}, found {found!r})",
+        )
+    extra = [n for n in names if n not in COLUMNS]
+    if extra:
+        raise InputFileError(path, 1, f"unexpected column {extra[0]!r} in header (expected {','.join(COLUMNS)})")
+    if len(names) != len(COLUMNS):
+        dup = next(n for n in names if names.count(n) > 1)
+        raise InputFileError(path, 1, f"column {dup!r} appears twice in header")
+    return sep, [names.index(c) for c in COLUMNS]
+
+
+def _fast_parse(body: bytes, sep: str) -> np.ndarray | None:
+    if sep == ";":
+        body = body.replace(b",", b".")  # with ';' as separator a comma can only be a decimal mark
+    try:
+        df = pd.read_csv(
+            io.BytesIO(body), header=None, sep=sep, dtype=np.float64, engine="c",
+            quoting=csv.QUOTE_NONE,  # a quoted number is refused by the slow pass too
+        )
+    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError):
+        return None
+    values = df.to_numpy(dtype=np.float64)
+    return values if values.ndim == 2 and values.shape[1] == len(COLUMNS) else None
+
+
+def _slow_parse(path: str, text: str, sep: str) -> tuple[np.ndarray, np.ndarray]:
+    """Line-by-line parse: the reference for what is valid, and the source of error line numbers."""
+    header = [n.strip().strip('"').strip() for n in text.partition("\n")[0].strip().split(sep)]
+    rows, line_nos = [], []
+    for line_no, raw in enumerate(text.split("\n")[1:], start=2):
+        line = raw.strip()
+        if not line:
+            continue
+        cells = line.split(sep)
+        if len(cells) != len(COLUMNS):
+            raise InputFileError(
+                path, line_no, f"{len(cells)} cell{'s' if len(cells) != 1 else ''} on this row, "
+                f"expected {len(COLUMNS)} separated by {sep!r}",
+            )
+        rows.append([_parse_cell(path, line_no, cell, column, sep) for cell, column in zip(cells, header)])
+        line_nos.append(line_no)
+    return np.array(rows, dtype=np.float64).reshape(-1, len(COLUMNS)), np.array(line_nos)
+
+
+def _parse_cell(path: str, line_no: int, cell: str, column: str, sep: str) -> float:
+    text = cell.strip()
+    if not text:
+        raise InputFileError(path, line_no, f"empty cell in column {column}")
+    number = text.replace(",", ".") if sep == ";" else text
+    if number.lower() in _NAN:
+        raise InputFileError(path, line_no, f"NaN in column {column}: {text!r}")
+    if number.lower() in _INF:
+        raise InputFileError(path, line_no, f"infinite value in column {column}: {text!r}")
+    if not _NUMBER.fullmatch(number):
+        raise InputFileError(path, line_no, f"not a number in column {column}: {text!r}")
+    value = float(number)
+    if not np.isfinite(value):  # e.g. 1e999
+        raise InputFileError(path, line_no, f"infinite value in column {column}: {text!r} overflows")
+    return value
+
+
+def _check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise InputFileError(
+            path, line_of(i), f"time not strictly increasing: {t[i]:.9g} s after {t[i - 1]:.9g} s"
+        )
+    if t.size < MIN_SAMPLES:
+        raise InputFileError(path, line_of(t.size - 1), f"too few samples: {t.size}, need at least {MIN_SAMPLES}")
+    span = float(x.max() - x.min())
+    if span < MIN_DISPLACEMENT_RANGE_MM:
+        raise InputFileError(
+            path, line_of(0),
+            f"no motion: displacement_mm stays at {x[0]:.9g} mm (range {span:.3g} mm, "
+            f"need at least {MIN_DISPLACEMENT_RANGE_MM:g} mm)",
+        )
