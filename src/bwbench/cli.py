@@ -7,7 +7,11 @@ it never shows a traceback.
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import sys
+
+import pandas as pd
 
 from bwbench.errors import UserError
 
@@ -27,6 +31,60 @@ def _cmd_data_check(args) -> int:
     return status
 
 
+def _problem(args):
+    from bwbench.problem import SwitchedBoucWenProblem
+    from bwbench.specimen import read_specimen
+
+    return SwitchedBoucWenProblem(read_specimen(args.specimen), args.state, args.excitation)
+
+
+def _fit_metrics(mse: float, n: int) -> dict:
+    return {"mse": mse, "f_err": -mse, "rmse_N": math.sqrt(mse) if math.isfinite(mse) else math.inf, "n": n}
+
+
+def _cmd_simulate(args) -> int:
+    from bwbench.parameters import read_json
+
+    params = read_json(args.params)
+    problem = _problem(args)
+    force = problem.simulate(params)
+    s = problem.signal
+    frame = pd.DataFrame({
+        "time_s": s.t, "displacement_mm": s.x, "velocity_mm_per_s": s.v,
+        "acceleration_mm_per_s2": s.a, "force_model_N": force, "force_measured_N": problem.specimen.f,
+    })
+    frame.to_csv(args.out, index=False, float_format="%.6g")
+    mse = float(problem.loss_batch(params[None, :])[0])
+    print(json.dumps({"out": str(args.out), **_fit_metrics(mse, len(force))}))
+    return 0
+
+
+def _cmd_evaluate(args) -> int:
+    from bwbench.parameters import read_json
+
+    params = read_json(args.params)
+    problem = _problem(args)
+    mse = float(problem.loss_batch(params[None, :])[0])
+    out = {**_fit_metrics(mse, problem.specimen.n_samples), **problem.info}
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+def _cmd_data_generate(args) -> int:
+    from bwbench import synthetic
+
+    written = synthetic.generate(args.out)
+    print(f"wrote {len(written) - 1} specimens and {synthetic.MANIFEST} to {args.out}")
+    return 0
+
+
+def _add_model_options(p) -> None:
+    p.add_argument("--state", choices=["shared", "split"], default="shared",
+                   help="hysteretic state convention (default: shared)")
+    p.add_argument("--excitation", choices=["measured", "sine"], default="measured",
+                   help="measured: the specimen's own displacement (default); sine: the paper's fit")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="bwbench", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -36,11 +94,29 @@ def build_parser() -> argparse.ArgumentParser:
     check = data_sub.add_parser("check", help="validate specimen CSV files")
     check.add_argument("files", nargs="+", help="specimen CSV files")
     check.set_defaults(func=_cmd_data_check)
+    generate = data_sub.add_parser("generate", help="rebuild the synthetic dataset, byte-identical")
+    generate.add_argument("--out", default=str(_default_specimen_dir()), help="output folder")
+    generate.set_defaults(func=_cmd_data_generate)
+
+    simulate = sub.add_parser("simulate", help="model force for a parameter set on a specimen")
+    simulate.add_argument("--params", required=True, help="parameters JSON (the 14 names)")
+    simulate.add_argument("--specimen", required=True, help="specimen CSV")
+    _add_model_options(simulate)
+    simulate.add_argument("--out", required=True, help="output CSV")
+    simulate.set_defaults(func=_cmd_simulate)
+
+    evaluate = sub.add_parser("evaluate", help="MSE, F_err and RMSE of a parameter set on a specimen")
+    evaluate.add_argument("--params", required=True, help="parameters JSON (the 14 names)")
+    evaluate.add_argument("--specimen", required=True, help="specimen CSV")
+    _add_model_options(evaluate)
+    evaluate.set_defaults(func=_cmd_evaluate)
     return parser
 
 
-class _Parser(argparse.ArgumentParser):
-    pass
+def _default_specimen_dir():
+    from bwbench.synthetic import SPECIMEN_DIR
+
+    return SPECIMEN_DIR
 
 
 def main(argv=None) -> int:

@@ -67,7 +67,7 @@ def read_specimen(path) -> Specimen:
     path = str(path)
     data = _read_bytes(path)
     text = _decode(path, data)
-    if not text.strip():
+    if not text or text.isspace():
         raise InputFileError(path, 1, "empty file: expected the header " + ",".join(COLUMNS))
 
     header, _, rest = text.partition("\n")
@@ -76,8 +76,8 @@ def read_specimen(path) -> Specimen:
         raise InputFileError(path, 1, "header only, no data rows")
 
     # Fast path: the C parser over the bytes after the header. It is only an optimisation: if it
-    # fails or yields anything non-finite, the line-by-line pass below decides, so both paths
-    # accept exactly the same files and the error names the right line.
+    # fails or yields anything non-finite, the line-by-line pass below decides what is wrong and
+    # on which line (it also accepts the rare valid file the C parser refuses).
     values = _fast_parse(data[data.index(b"\n") + 1:], sep)
     line_nos = None
     if values is None or not np.isfinite(values).all():
@@ -170,20 +170,41 @@ def _fast_parse(body: bytes, sep: str) -> np.ndarray | None:
 def _slow_parse(path: str, text: str, sep: str) -> tuple[np.ndarray, np.ndarray]:
     """Line-by-line parse: the reference for what is valid, and the source of error line numbers."""
     header = [n.strip().strip('"').strip() for n in text.partition("\n")[0].strip().split(sep)]
-    rows, line_nos = [], []
-    for line_no, raw in enumerate(text.split("\n")[1:], start=2):
-        line = raw.strip()
-        if not line:
-            continue
-        cells = line.split(sep)
+    lines = text.split("\n")  # kept as written, for error messages
+    numeric = text.replace(",", ".").split("\n") if sep == ";" else lines
+    # float() is the quick test; it is looser than _NUMBER only on non-ASCII digits and '_'
+    # (screened here) and on nan/inf (caught by the isfinite check below).
+    screen = not text.isascii() or "_" in text
+    flat, line_nos = [], []
+    for line_no in range(2, len(lines) + 1):
+        raw = numeric[line_no - 1]
+        cells = raw.split(sep)
         if len(cells) != len(COLUMNS):
+            if not raw.strip():
+                continue  # blank line
             raise InputFileError(
                 path, line_no, f"{len(cells)} cell{'s' if len(cells) != 1 else ''} on this row, "
                 f"expected {len(COLUMNS)} separated by {sep!r}",
             )
-        rows.append([_parse_cell(path, line_no, cell, column, sep) for cell, column in zip(cells, header)])
+        try:
+            if screen and (not raw.isascii() or "_" in raw):
+                raise ValueError
+            flat.extend(map(float, cells))
+        except ValueError:
+            _refuse_row(path, line_no, lines[line_no - 1], header, sep)
         line_nos.append(line_no)
-    return np.array(rows, dtype=np.float64).reshape(-1, len(COLUMNS)), np.array(line_nos)
+    values = np.array(flat, dtype=np.float64).reshape(-1, len(COLUMNS))
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if bad.size:
+        line_no = line_nos[bad[0]]
+        _refuse_row(path, line_no, lines[line_no - 1], header, sep)  # names the NaN or inf
+    return values, np.array(line_nos)
+
+
+def _refuse_row(path: str, line_no: int, line: str, header: list[str], sep: str) -> None:
+    for cell, column in zip(line.split(sep), header):
+        _parse_cell(path, line_no, cell, column, sep)  # raises with the precise reason
+    raise InputFileError(path, line_no, "unreadable row")  # not reached: a safety net
 
 
 def _parse_cell(path: str, line_no: int, cell: str, column: str, sep: str) -> float:
@@ -199,7 +220,7 @@ def _parse_cell(path: str, line_no: int, cell: str, column: str, sep: str) -> fl
         raise InputFileError(path, line_no, f"not a number in column {column}: {text!r}")
     value = float(number)
     if not np.isfinite(value):  # e.g. 1e999
-        raise InputFileError(path, line_no, f"infinite value in column {column}: {text!r} overflows")
+        raise InputFileError(path, line_no, f"value too large in column {column}: {text!r} (overflows to infinity)")
     return value
 
 

@@ -1,0 +1,49 @@
+"""Run one backend on one problem with an exact budget: the thin composer of DESIGN.md."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from bwbench import registry
+from bwbench.errors import BudgetExhausted, UserError
+from bwbench.objective import Objective
+from bwbench.result import Result
+
+
+def run(problem, optimizer: str, budget: int, seed, options: dict | None = None) -> Result:
+    """Minimise the problem's loss with backend ``optimizer`` on exactly ``budget`` evaluations.
+
+    ``seed`` is an int or a ``numpy.random.SeedSequence``; the backend gets a ``Generator`` made
+    from it, so the same seed gives the same run.
+    """
+    backend = registry.get(optimizer)
+    unknown = set(options or {}) - set(backend.defaults)
+    if unknown:
+        raise UserError(f"{optimizer}: unknown option(s) {', '.join(sorted(unknown))}; "
+                        f"it takes {', '.join(backend.defaults) or 'none'}")
+    opts = {**backend.defaults, **(options or {})}
+    seed_seq = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(int(seed))
+    rng = np.random.default_rng(seed_seq)
+    objective = Objective(problem, budget)
+    started = time.perf_counter()
+    extras = {}
+    try:
+        extras = backend.minimize(objective, rng=rng, **opts) or {}
+        message = extras.pop("message", "stopped before the budget was spent")
+    except BudgetExhausted:
+        message = "budget exhausted"
+    wall = time.perf_counter() - started
+    if objective.best_u is None:
+        params = {name: float("nan") for name in problem.param_names}
+    else:
+        params = {name: float(v) for name, v in zip(problem.param_names, objective.best_params)}
+    seed_value = seed if not isinstance(seed, np.random.SeedSequence) else int(seed.generate_state(1)[0])
+    return Result(
+        optimizer=optimizer, seed=int(seed_value), budget=int(budget), nfev=objective.nfev,
+        params=params, mse=float(objective.best_mse), success=bool(np.isfinite(objective.best_mse)),
+        message=message, wall_s=wall, options=opts,
+        trace_nfev=tuple(objective.trace_nfev), trace_mse=tuple(objective.trace_mse),
+        problem=dict(problem.info), extras=extras,
+    )

@@ -1,0 +1,70 @@
+"""One frozen result type for every backend, with a flat ``to_record()`` for pandas."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+from bwbench.model import PARAM_NAMES
+
+
+@dataclass(frozen=True)
+class Result:
+    """What one run found. ``params`` in physical units; MSE in N², RMSE in N."""
+
+    optimizer: str
+    seed: int
+    budget: int
+    nfev: int
+    params: dict
+    mse: float
+    success: bool
+    message: str
+    wall_s: float
+    options: dict
+    trace_nfev: tuple = ()
+    trace_mse: tuple = ()
+    problem: dict = field(default_factory=dict)  # e.g. specimen, state, excitation
+    extras: dict = field(default_factory=dict)  # backend-specific (emcee chain, ...)
+
+    @property
+    def f_err(self) -> float:
+        """The paper's fitness, eq 6: the negative mean squared error."""
+        return -self.mse
+
+    @property
+    def rmse_N(self) -> float:
+        return math.sqrt(self.mse) if math.isfinite(self.mse) else math.inf
+
+    def to_record(self) -> dict:
+        """A flat dict of scalars: one row of a tidy results table."""
+        record = {
+            "optimizer": self.optimizer, "seed": self.seed, "budget": self.budget, "nfev": self.nfev,
+            "mse": self.mse, "f_err": self.f_err, "rmse_N": self.rmse_N, "success": self.success,
+            "message": self.message, "wall_s": self.wall_s, **self.problem,
+        }
+        record.update({name: self.params.get(name, math.nan) for name in self.params})
+        return record
+
+    def to_json_dict(self) -> dict:
+        """The result JSON of DESIGN.md §4 (plus the trace and options)."""
+        out = {
+            "params": self.params, "mse": self.mse, "f_err": self.f_err, "rmse_N": self.rmse_N,
+            "nfev": self.nfev, "budget": self.budget, "optimizer": self.optimizer, "seed": self.seed,
+            "wall_s": self.wall_s, "success": self.success, "message": self.message,
+            "options": self.options, **self.problem,
+            "trace": {"nfev": list(self.trace_nfev), "mse": list(self.trace_mse)},
+        }
+        scalars = {k: v for k, v in self.extras.items() if isinstance(v, (int, float, str, bool))}
+        if scalars:
+            out["extras"] = scalars
+        return out
+
+    def write_json(self, path) -> None:
+        with open(path, "w", encoding="utf-8") as fh:
+            json.dump(self.to_json_dict(), fh, indent=2, default=float)
+            fh.write("\n")
+
+
+__all__ = ["Result", "PARAM_NAMES", "asdict"]
