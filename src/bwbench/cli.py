@@ -78,6 +78,47 @@ def _cmd_data_generate(args) -> int:
     return 0
 
 
+def _cmd_optimizers(args) -> int:
+    from bwbench import registry
+
+    backends = registry.available()
+    width = max(len(name) for name in backends)
+    for backend in backends.values():
+        defaults = ", ".join(f"{k}={v}" for k, v in backend.defaults.items()) or "-"
+        print(f"{backend.name:<{width}}  {backend.family:<12}  {backend.description}")
+        print(f"{'':<{width}}  {'':<12}  defaults: {defaults}")
+    return 0
+
+
+def _parse_option(text: str):
+    """``key=value`` from the command line; the value is read as JSON when it parses (3, 0.5, true)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise UserError(f"--option takes KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value
+
+
+def _cmd_fit(args) -> int:
+    from bwbench import fitting, synthetic
+
+    if args.budget < 1:
+        raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
+    problem = _problem(args)
+    options = dict(_parse_option(o) for o in args.option)
+    result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
+    result.write_json(args.out)
+    if args.plot:
+        from bwbench.plots import plot_fit
+
+        plot_fit(problem, result, args.plot, synthetic=synthetic.is_synthetic(args.specimen))
+    print(f"{args.optimizer}: MSE {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE {result.rmse_N:.3g} N) "
+          f"in {result.nfev} evaluations, {result.wall_s:.2f} s -> {args.out}")
+    return 0
+
+
 def _add_model_options(p) -> None:
     p.add_argument("--state", choices=["shared", "split"], default="shared",
                    help="hysteretic state convention (default: shared)")
@@ -110,6 +151,21 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--specimen", required=True, help="specimen CSV")
     _add_model_options(evaluate)
     evaluate.set_defaults(func=_cmd_evaluate)
+
+    optimizers = sub.add_parser("optimizers", help="list the registered optimiser backends")
+    optimizers.set_defaults(func=_cmd_optimizers)
+
+    fit = sub.add_parser("fit", help="fit one specimen with one optimiser")
+    fit.add_argument("specimen", help="specimen CSV")
+    fit.add_argument("--optimizer", required=True, help="backend name (see `bwbench optimizers`)")
+    fit.add_argument("--budget", type=int, default=4100, help="evaluations (default 4100, the paper's GA)")
+    fit.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    fit.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                     help="backend option, repeatable (see `bwbench optimizers`)")
+    _add_model_options(fit)
+    fit.add_argument("--out", required=True, help="result JSON")
+    fit.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
+    fit.set_defaults(func=_cmd_fit)
     return parser
 
 

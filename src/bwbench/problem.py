@@ -42,6 +42,11 @@ class SwitchedBoucWenProblem:
         return len(self.param_names)
 
     @property
+    def n_data(self) -> int:
+        """Number of force samples the loss averages over (the L of eq 6)."""
+        return self.specimen.n_samples
+
+    @property
     def info(self) -> dict:
         return {"specimen": self.specimen.name, "state": self.state, "excitation": self.excitation}
 

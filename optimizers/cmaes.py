@@ -1,0 +1,56 @@
+"""CMA-ES with IPOP restarts (the ``cma`` package, ask/tell).
+
+Algorithm: Hansen's covariance matrix adaptation evolution strategy — sample ``popsize``
+points from N(m, σ²C), rank them, move the mean to the weighted best, adapt C and σ — with
+the IPOP restart rule (Auger & Hansen 2005): when a run stops on cma's own termination tests
+(tolfun, tolx, stagnation, ...), start again from a new uniform random mean with twice the
+population.
+
+Library call: ``cma.CMAEvolutionStrategy(u0, sigma0, {"bounds": [0, 1], "popsize": λ, "randn": ...,
+"seed": nan, "verbose": -9, "verb_disp": 0, "verb_log": 0, ...})``, then ``X = es.ask()``;
+``es.tell(X, objective.batch(X))`` — each population is one batch. cma's default boundary
+handling (``BoundTransform``) maps every sample into the box, so no point is clipped.
+
+Randomness: cma's ``seed`` option calls ``np.random.seed`` and samples with the global
+``np.random.randn``. Instead ``randn`` is set to draw from the run's Generator and ``seed`` to
+NaN ("do nothing"), so the global generator is never touched. Output: by default cma prints
+to stdout, writes ``outcmaes/*.dat`` files and reads a ``cma_signals.in`` file from the
+working directory if one exists; all three are switched off.
+
+Options: ``sigma0`` (0.3, in unit coordinates: a third of the box), ``popsize`` (None = cma's
+default 4 + ⌊3 ln d⌋; doubled at each restart).
+
++inf losses are passed through: CMA-ES uses only the ranking of a population, and cma
+accepts inf (a population of all inf ends the run on flat fitness and triggers a restart).
+"""
+
+from __future__ import annotations
+
+import cma
+import numpy as np
+
+from bwbench.registry import register
+
+
+@register(
+    "cmaes",
+    family="evolution-strategy",
+    description="CMA-ES (cma package, ask/tell) on the unit box, IPOP restarts doubling the population",
+    defaults={"sigma0": 0.3, "popsize": None},
+)
+def minimize(objective, *, rng, sigma0=0.3, popsize=None):
+    d = objective.dim
+
+    def randn(*shape):  # cma's randn(lam, N) contract, drawn from the run's Generator
+        return rng.standard_normal(shape)
+
+    popsize = int(popsize) if popsize else 4 + int(3 * np.log(d))
+    while True:  # until the objective raises BudgetExhausted
+        es = cma.CMAEvolutionStrategy(rng.random(d), sigma0, {
+            "bounds": [0.0, 1.0], "popsize": popsize, "randn": randn, "seed": np.nan,
+            "verbose": -9, "verb_disp": 0, "verb_log": 0, "signals_filename": "",
+        })
+        while not es.stop():
+            X = es.ask()
+            es.tell(X, objective.batch(np.asarray(X)))
+        popsize *= 2

@@ -1,0 +1,53 @@
+"""Differential evolution (scipy ``differential_evolution``), restarted until the budget is spent.
+
+Algorithm: Storn & Price DE, strategy ``best1bin`` (mutant = best + F·(r1 − r2), binomial
+crossover with probability ``recombination``, F dithered in ``mutation``), Latin-hypercube
+initial population of ``popsize × d`` members. ``updating="deferred"`` builds the whole trial
+population from the previous generation, so each generation is ONE ``objective.batch`` call.
+
+Library call: ``scipy.optimize.differential_evolution(f, [(0, 1)] * d, vectorized=True,
+updating="deferred", polish=False, maxiter=<unbounded>, rng=rng, ...)``. With ``vectorized=True``
+scipy passes the population as shape (d, S), so ``f`` transposes it to the objective's (S, d).
+``polish=False``: the L-BFGS-B polish would spend evaluations outside the DE scheme (scipy
+counts them after the fact). ``rng`` (the run's Generator) is passed straight through. A run
+ends when the population's spread of losses falls below ``tol``/``atol`` (scipy's
+convergence test); then a new population starts. scipy never bounds the evaluation count
+exactly (its ``maxfun`` is checked between generations), so no ``maxfun`` is given: the
+objective enforces the budget, and scipy lets ``BudgetExhausted`` propagate.
+
+Options: ``popsize`` (15, scipy's default: members per dimension), ``strategy`` ("best1bin"),
+``mutation`` ((0.5, 1)), ``recombination`` (0.7), ``tol`` (0.01), ``init`` ("latinhypercube").
+
++inf losses are passed through: DE selection is a ``<`` comparison and the convergence test
+with an inf member is simply false, so a blown-up member is replaced by its next finite trial.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import differential_evolution
+
+from bwbench.registry import register
+
+
+@register(
+    "de",
+    family="evolutionary",
+    description="scipy differential_evolution (best1bin, deferred updating), one batch per generation, restarts",
+    defaults={"popsize": 15, "strategy": "best1bin", "mutation": (0.5, 1.0), "recombination": 0.7,
+              "tol": 0.01, "init": "latinhypercube"},
+)
+def minimize(objective, *, rng, popsize=15, strategy="best1bin", mutation=(0.5, 1.0), recombination=0.7,
+             tol=0.01, init="latinhypercube"):
+    d = objective.dim
+
+    def losses(U_columns):
+        return objective.batch(np.asarray(U_columns).T)  # scipy: (d, S); objective: (S, d)
+
+    while True:  # until the objective raises BudgetExhausted
+        differential_evolution(
+            losses, [(0.0, 1.0)] * d, strategy=strategy, maxiter=np.iinfo(np.int32).max, popsize=int(popsize),
+            tol=tol, mutation=tuple(mutation) if np.ndim(mutation) else mutation,
+            recombination=recombination, rng=rng, polish=False, init=init, updating="deferred",
+            vectorized=True,
+        )

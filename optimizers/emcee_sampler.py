@@ -1,0 +1,90 @@
+"""Affine-invariant ensemble MCMC (emcee) on the posterior over the unit box.
+
+Not an optimiser: it samples, and the point estimate is the best loss the objective met along
+the way (the objective tracks it). The chain comes back in the extras.
+
+Posterior over u ∈ [0, 1]^d: a uniform prior on the box (log p = −inf outside) and a Gaussian
+likelihood with the noise σ profiled out,
+
+    log p(u) = −(L/2)·log MSE(u)           (L = number of data points)
+
+which is, up to a constant, the marginal likelihood of σ under the Jeffreys prior p(σ) ∝ 1/σ:
+∫ σ^(−L)·exp(−L·MSE/(2σ²))·dσ/σ ∝ MSE^(−L/2). A blown-up model (MSE = +inf) has log p = −inf.
+L is the option ``n_data`` if given, else ``objective.problem.n_data``, else 1000.
+
+Library call: ``emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)`` with the
+default stretch move, walkers started uniformly in the box, and ``sampler.run_mcmc(state, n)``
+in a loop, ``n`` being what the remaining budget can pay for. The stretch move updates half
+the ensemble at a time, so each half-step is one ``objective.batch`` call holding only the
+proposals inside the box (those outside cost nothing). emcee samples from its own
+``RandomState``, initialised from numpy's global state; we set it through the sampler's public
+``random_state`` setter from a generator seeded by ``rng``.
+
+The objective raises ``BudgetExhausted`` in the middle of a step; this backend catches it and
+returns what the chain holds. A half-step that the budget cuts short raises at once, so the
+last stored step is a complete one.
+
+Options: ``n_walkers`` (None = 2·d + 2), ``n_data`` (None: see above).
+Extras: ``chain`` (steps, walkers, d) in unit coordinates, ``log_prob`` (steps, walkers),
+``acceptance_fraction`` (mean over walkers), ``autocorr_time`` (per dimension, emcee's estimate
+with ``tol=0``, so it is computed however short the chain; None before two steps), ``n_steps``.
+"""
+
+from __future__ import annotations
+
+import emcee
+import numpy as np
+
+from bwbench.errors import BudgetExhausted
+from bwbench.registry import register
+
+
+@register(
+    "emcee",
+    family="mcmc",
+    description="emcee ensemble sampler, uniform prior on the box, Gaussian likelihood with σ profiled out",
+    defaults={"n_walkers": None, "n_data": None},
+)
+def minimize(objective, *, rng, n_walkers=None, n_data=None):
+    d = objective.dim
+    n_walkers = int(n_walkers) if n_walkers else 2 * d + 2
+    if n_data is None:
+        n_data = getattr(objective.problem, "n_data", 1000)
+    half_L = 0.5 * float(n_data)
+
+    def log_prob(U):
+        inside = np.all((U >= 0.0) & (U <= 1.0), axis=1)
+        lp = np.full(len(U), -np.inf)
+        if inside.any():
+            cut_short = inside.sum() > objective.remaining
+            mse = objective.batch(U[inside])
+            if cut_short:  # the unrun rows would read as blow-ups: drop this half-step instead
+                raise BudgetExhausted(f"budget of {objective.budget} evaluations is spent")
+            # tiny: an exact fit must not give log p = +inf
+            lp[inside] = -half_L * np.log(np.maximum(mse, np.finfo(float).tiny))
+        return lp
+
+    sampler = emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)
+    sampler.random_state = np.random.RandomState(np.random.MT19937(rng.integers(2**63))).get_state()
+    state = rng.random((n_walkers, d))
+    try:
+        while True:
+            # Store only as many steps as the budget can still pay for: emcee preallocates them.
+            steps = objective.remaining // n_walkers + 1
+            # The ensemble check is for user-given starting points, not for a chain being continued.
+            state = sampler.run_mcmc(state, steps, skip_initial_state_check=sampler.iteration > 0)
+    except BudgetExhausted:
+        pass
+
+    n_steps = sampler.iteration
+    autocorr = sampler.get_autocorr_time(quiet=True, tol=0) if n_steps >= 2 else None
+    return {
+        "message": "budget exhausted",
+        "chain": sampler.get_chain(),
+        "log_prob": sampler.get_log_prob(),
+        "acceptance_fraction": float(np.mean(sampler.acceptance_fraction)) if n_steps else float("nan"),
+        "autocorr_time": autocorr,
+        "n_steps": int(n_steps),
+        "n_walkers": n_walkers,
+        "n_data": int(n_data),
+    }

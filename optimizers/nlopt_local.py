@@ -1,0 +1,81 @@
+"""NLopt derivative-free local optimisers with random restarts: BOBYQA, Sbplx, Nelder-Mead.
+
+Algorithms (one backend each, same restart scheme):
+- ``nlopt-bobyqa``: Powell's BOBYQA, a trust region over quadratic interpolation models.
+- ``nlopt-sbplx``: Rowan's Subplex, Nelder-Mead on a sequence of low-dimensional subspaces.
+- ``nlopt-neldermead``: the Nelder-Mead simplex with NLopt's bound handling.
+
+Library call: ``nlopt.opt(ALGORITHM, d)`` with bounds [0, 1], ``set_min_objective``,
+``set_xtol_rel``/``set_ftol_rel``/``set_maxeval`` (stopping tests of ONE local search), then
+``optimize(u0)`` from ``u0`` uniform in the box; when a local search stops, the next starts
+from a new uniform point, until the objective raises ``BudgetExhausted``. NLopt's own
+``maxeval`` is never used as the budget. An exception raised in the Python objective makes
+NLopt force-stop and re-raise that same exception from ``optimize`` (checked with nlopt 2.11),
+so ``BudgetExhausted`` reaches ``fitting.run``; the ``objective.exhausted`` check below is a
+second guard in case an NLopt build turns it into ``nlopt.ForcedStop`` instead. These three
+algorithms are deterministic (they draw no random numbers), so the run's randomness is only
+the starting points, drawn from ``rng``. The objective is called one point at a time
+(``batched=False``).
+
+Options: ``xtol_rel`` (1e-6), ``ftol_rel`` (1e-8), ``maxeval`` (0 = no limit per local search).
+
++inf losses are given to NLopt as 10 × the worst finite loss seen so far (1e300 before any):
+NLopt treats +inf as an ordinary number, and BOBYQA's quadratic models collapse on it
+(it then reports convergence at once). A local search that fails inside NLopt (round-off
+limited, an invalid model) just ends that restart.
+"""
+
+from __future__ import annotations
+
+import nlopt
+import numpy as np
+
+from bwbench.errors import BudgetExhausted
+from bwbench.registry import register
+
+_DEFAULTS = {"xtol_rel": 1e-6, "ftol_rel": 1e-8, "maxeval": 0}
+
+
+def _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxeval):
+    d = objective.dim
+    worst_finite = -np.inf
+
+    def loss(u, grad):  # grad is empty: derivative-free algorithms only
+        nonlocal worst_finite
+        value = objective(u)
+        if np.isfinite(value):
+            worst_finite = max(worst_finite, value)
+            return value
+        return 10.0 * worst_finite if np.isfinite(worst_finite) else 1e300
+
+    while True:
+        opt = nlopt.opt(algorithm, d)
+        opt.set_lower_bounds(np.zeros(d))
+        opt.set_upper_bounds(np.ones(d))
+        opt.set_min_objective(loss)
+        opt.set_xtol_rel(xtol_rel)
+        opt.set_ftol_rel(ftol_rel)
+        opt.set_maxeval(int(maxeval))
+        try:
+            opt.optimize(rng.random(d))
+        except (nlopt.RoundoffLimited, nlopt.ForcedStop, RuntimeError, ValueError):
+            pass  # a failed local search: restart elsewhere (BudgetExhausted is none of these)
+        if objective.exhausted:
+            raise BudgetExhausted(f"budget of {objective.budget} evaluations is spent")
+
+
+def _backend(name, algorithm, description):
+    @register(name, family="local", description=description, defaults=dict(_DEFAULTS), batched=False)
+    def minimize(objective, *, rng, xtol_rel=1e-6, ftol_rel=1e-8, maxeval=0):
+        _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxeval)
+
+    minimize.__name__ = minimize.__qualname__ = f"minimize_{name.split('-')[1]}"
+    return minimize
+
+
+minimize_bobyqa = _backend("nlopt-bobyqa", nlopt.LN_BOBYQA,
+                           "NLopt BOBYQA (quadratic-model trust region), bounded, random restarts")
+minimize_sbplx = _backend("nlopt-sbplx", nlopt.LN_SBPLX,
+                          "NLopt Sbplx (Subplex: Nelder-Mead on subspaces), bounded, random restarts")
+minimize_neldermead = _backend("nlopt-neldermead", nlopt.LN_NELDERMEAD,
+                               "NLopt Nelder-Mead simplex, bounded, random restarts")

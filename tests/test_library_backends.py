@@ -1,0 +1,83 @@
+"""The library-wrapping backends (pso, anneal, nlopt-*, cmaes, de, emcee) on a cheap fake problem:
+exact budget, +inf survived, better than random search, repeatable, and no global side effects."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from bwbench import fitting
+
+BACKENDS = ["pso", "anneal", "nlopt-bobyqa", "nlopt-sbplx", "nlopt-neldermead", "cmaes", "de", "emcee"]
+BUDGET = 600
+
+
+class ShiftedSphere:
+    """6-D sphere centred at 0.3 with a blow-up region (+inf) where u₀ > 0.8; counts evaluations."""
+
+    dim = 6
+    param_names = tuple(f"p{i}" for i in range(6))
+    info: dict = {}
+    n_data = 100
+
+    def __init__(self):
+        self.evaluated = 0
+        self.blew_up = 0
+
+    def from_unit(self, U):
+        return np.asarray(U, dtype=float)
+
+    def loss_batch(self, P):
+        P = np.atleast_2d(P)
+        self.evaluated += len(P)
+        blown = P[:, 0] > 0.8
+        self.blew_up += int(blown.sum())
+        return np.where(blown, np.inf, np.sum((P - 0.3) ** 2, axis=1))
+
+
+@pytest.fixture(scope="module")
+def random_mse():
+    return fitting.run(ShiftedSphere(), "random", BUDGET, seed=3).mse
+
+
+@pytest.mark.parametrize("name", BACKENDS)
+def test_spends_the_exact_budget_survives_inf_and_beats_random(name, random_mse, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # so that stray output files (report.log, outcmaes/) would show
+    global_state = np.random.get_state()
+    root_handlers = list(logging.getLogger().handlers)
+    problem = ShiftedSphere()
+
+    result = fitting.run(problem, name, BUDGET, seed=3)
+
+    assert result.message == "budget exhausted"
+    assert result.nfev == problem.evaluated == BUDGET
+    assert problem.blew_up > 0  # the +inf region was visited, and survived
+    assert np.isfinite(result.mse) and result.mse < 0.5 * random_mse
+    assert all(np.array_equal(a, b) for a, b in zip(np.random.get_state(), global_state))
+    assert logging.getLogger().handlers == root_handlers
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("name", BACKENDS)
+def test_same_seed_gives_identical_results(name):
+    first, second = (fitting.run(ShiftedSphere(), name, BUDGET, seed=3) for _ in range(2))
+    assert first.trace_mse == second.trace_mse and first.trace_nfev == second.trace_nfev
+    assert first.params == second.params
+
+
+def test_emcee_returns_its_chain():
+    result = fitting.run(ShiftedSphere(), "emcee", BUDGET, seed=3)
+    extras = result.extras
+    n_walkers = 2 * ShiftedSphere.dim + 2
+    assert extras["n_walkers"] == n_walkers and extras["n_data"] == ShiftedSphere.n_data
+    assert extras["chain"].shape == (extras["n_steps"], n_walkers, ShiftedSphere.dim)
+    assert extras["n_steps"] >= BUDGET // n_walkers  # proposals outside the box cost nothing
+    assert extras["log_prob"].shape == (extras["n_steps"], n_walkers)
+    assert np.all((extras["chain"] >= 0) & (extras["chain"] <= 1))
+    assert 0 < extras["acceptance_fraction"] < 1
+    assert extras["autocorr_time"].shape == (ShiftedSphere.dim,)
+    # The point estimate is the objective's best, which the chain must contain.
+    best = np.array([result.params[n] for n in ShiftedSphere.param_names])
+    assert np.any(np.all(extras["chain"] == best, axis=2))
