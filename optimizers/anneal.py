@@ -2,24 +2,26 @@
 
 Algorithm: Tsallis–Stariolo generalised simulated annealing — a heavy-tailed visiting
 distribution whose width shrinks with an artificial temperature, with a Metropolis-like
-acceptance — followed, at each new best point, by a bounded L-BFGS-B local search
-(finite-difference gradients) unless ``no_local_search`` is set (then it is plain GSA).
+acceptance — with a bounded L-BFGS-B local search (finite-difference gradients) from each new
+best point and from time to time otherwise, unless ``no_local_search`` is set (then it is
+plain GSA).
 
 Library call: ``scipy.optimize.dual_annealing(f, [(0, 1)] * d, maxiter=maxiter, x0=u0, rng=rng,
 no_local_search=...)`` with ``u0`` uniform in the box. ``rng`` (the run's Generator) is passed
 straight through (scipy ≥ 1.15 takes ``rng=``), so scipy's draws are part of the run's stream.
 scipy's ``maxfun`` is left at its default: scipy calls it a soft limit and overshoots it during
 local searches; the objective enforces the budget. When an annealing run ends (``maxiter``
-temperature cycles), a new one starts from a fresh random point. scipy lets the objective's
-``BudgetExhausted`` propagate out of both the annealer and the local search.
+temperature cycles), a new one starts from a fresh random point. scipy evaluates one point at a
+time (``batched=False``) and lets the objective's ``BudgetExhausted`` propagate out of both the
+annealer and the local search.
 
 Options: ``maxiter`` (1000, scipy's default: annealing iterations per restart),
 ``no_local_search`` (False).
 
 +inf losses (model blew up) are given to scipy as 10 × the worst finite loss seen so far: the
-local search takes finite-difference gradients, and inf there turns into NaN steps. Before any
-finite loss has been seen the loss stays +inf, which makes scipy redraw the starting point
-(it retries non-finite starts from new random points).
+local search takes finite-difference gradients, which would be inf or NaN next to a blow-up
+region. Before any finite loss has been seen the loss stays +inf, which makes scipy redraw the
+starting point (it retries a non-finite start from new random points, up to 1000 times).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from bwbench.registry import register
     family="annealing",
     description="scipy dual_annealing (generalised simulated annealing + L-BFGS-B), random restarts",
     defaults={"maxiter": 1000, "no_local_search": False},
+    batched=False,
 )
 def minimize(objective, *, rng, maxiter=1000, no_local_search=False):
     d = objective.dim

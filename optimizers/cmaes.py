@@ -20,8 +20,10 @@ working directory if one exists; all three are switched off.
 Options: ``sigma0`` (0.3, in unit coordinates: a third of the box), ``popsize`` (None = cma's
 default 4 + ⌊3 ln d⌋; doubled at each restart).
 
-+inf losses are passed through: CMA-ES uses only the ranking of a population, and cma
-accepts inf (a population of all inf ends the run on flat fitness and triggers a restart).
++inf losses are given to cma as 1e300. CMA-ES uses only the ranking of a population, so any
+value above every finite loss would do; cma does accept inf, but its termination tests take
+fitness ranges (max − min) and warn on inf − inf. A population that blew up entirely ends the
+run on ``tolflatfitness`` and triggers a restart, as with inf.
 """
 
 from __future__ import annotations
@@ -52,5 +54,6 @@ def minimize(objective, *, rng, sigma0=0.3, popsize=None):
         })
         while not es.stop():
             X = es.ask()
-            es.tell(X, objective.batch(np.asarray(X)))
+            losses = objective.batch(np.asarray(X))
+            es.tell(X, np.where(np.isfinite(losses), losses, 1e300))
         popsize *= 2

@@ -8,15 +8,21 @@ population from the previous generation, so each generation is ONE ``objective.b
 Library call: ``scipy.optimize.differential_evolution(f, [(0, 1)] * d, vectorized=True,
 updating="deferred", polish=False, maxiter=<unbounded>, rng=rng, ...)``. With ``vectorized=True``
 scipy passes the population as shape (d, S), so ``f`` transposes it to the objective's (S, d).
-``polish=False``: the L-BFGS-B polish would spend evaluations outside the DE scheme (scipy
-counts them after the fact). ``rng`` (the run's Generator) is passed straight through. A run
-ends when the population's spread of losses falls below ``tol``/``atol`` (scipy's
-convergence test); then a new population starts. scipy never bounds the evaluation count
-exactly (its ``maxfun`` is checked between generations), so no ``maxfun`` is given: the
-objective enforces the budget, and scipy lets ``BudgetExhausted`` propagate.
+``polish=False``: no L-BFGS-B polish (finite-difference gradients, one point per call) at the
+end of each run; the evaluations go to the next population instead. ``rng`` (the run's
+Generator) is passed straight through. A run ends when the population's spread of losses
+falls below ``tol`` (scipy's convergence test); then a new population starts. scipy 1.17's
+``differential_evolution`` has no evaluation limit (only ``maxiter`` generations), and with
+``vectorized=True`` its ``nfev`` counts calls, not points; the objective counts and enforces
+the budget, and scipy lets ``BudgetExhausted`` propagate.
 
-Options: ``popsize`` (15, scipy's default: members per dimension), ``strategy`` ("best1bin"),
+Options: ``popsize`` (5: members per dimension), ``strategy`` ("best1bin"),
 ``mutation`` ((0.5, 1)), ``recombination`` (0.7), ``tol`` (0.01), ``init`` ("latinhypercube").
+
+``popsize`` is 5, not scipy's 15: Storn & Price advise 5–10 members per dimension, and at the
+studies' budget (4,100 evaluations, d = 14) scipy's 210 members get only 19 generations, 70
+members get 58. Measured on three synthetic specimens, 3 seeds each, at 4,100 evaluations:
+popsize 15 → MSE 110–1060, popsize 5 → 12–350 (random search: 450–5500).
 
 +inf losses are passed through: DE selection is a ``<`` comparison and the convergence test
 with an inf member is simply false, so a blown-up member is replaced by its next finite trial.
@@ -33,11 +39,11 @@ from bwbench.registry import register
 @register(
     "de",
     family="evolutionary",
-    description="scipy differential_evolution (best1bin, deferred updating), one batch per generation, restarts",
-    defaults={"popsize": 15, "strategy": "best1bin", "mutation": (0.5, 1.0), "recombination": 0.7,
+    description="scipy differential_evolution (best1bin, deferred updating), restarted on convergence",
+    defaults={"popsize": 5, "strategy": "best1bin", "mutation": (0.5, 1.0), "recombination": 0.7,
               "tol": 0.01, "init": "latinhypercube"},
 )
-def minimize(objective, *, rng, popsize=15, strategy="best1bin", mutation=(0.5, 1.0), recombination=0.7,
+def minimize(objective, *, rng, popsize=5, strategy="best1bin", mutation=(0.5, 1.0), recombination=0.7,
              tol=0.01, init="latinhypercube"):
     d = objective.dim
 

@@ -9,20 +9,23 @@ likelihood with the noise σ profiled out,
     log p(u) = −(L/2)·log MSE(u)           (L = number of data points)
 
 which is, up to a constant, the marginal likelihood of σ under the Jeffreys prior p(σ) ∝ 1/σ:
-∫ σ^(−L)·exp(−L·MSE/(2σ²))·dσ/σ ∝ MSE^(−L/2). A blown-up model (MSE = +inf) has log p = −inf.
+∫ σ^(−L)·exp(−L·MSE/(2σ²))·dσ/σ ∝ MSE^(−L/2). A blown-up model (MSE = +inf): log p = −inf.
 L is the option ``n_data`` if given, else ``objective.problem.n_data``, else 1000.
 
 Library call: ``emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)`` with the
-default stretch move, walkers started uniformly in the box, and ``sampler.run_mcmc(state, n)``
-in a loop, ``n`` being what the remaining budget can pay for. The stretch move updates half
+default stretch move, walkers started uniformly in the box, and ``sampler.sample(state,
+iterations=n)`` in a loop, ``n`` being what the remaining budget can pay for. The stretch move updates half
 the ensemble at a time, so each half-step is one ``objective.batch`` call holding only the
 proposals inside the box (those outside cost nothing). emcee samples from its own
 ``RandomState``, initialised from numpy's global state; we set it through the sampler's public
 ``random_state`` setter from a generator seeded by ``rng``.
 
-The objective raises ``BudgetExhausted`` in the middle of a step; this backend catches it and
-returns what the chain holds. A half-step that the budget cuts short raises at once, so the
-last stored step is a complete one.
+The budget runs out in the middle of a step. Raising ``BudgetExhausted`` through emcee would
+work but emcee prints the walkers and a traceback for any exception from the log-probability,
+so instead the log-probability stops calling the objective once it is spent and returns −inf
+(proposals the objective cut read +inf, i.e. −inf too): those proposals are rejected, which
+is a lazy but valid transition, the step completes, is stored, and the loop stops after it.
+The backend then returns what the chain holds, with the message "budget exhausted".
 
 Options: ``n_walkers`` (None = 2·d + 2), ``n_data`` (None: see above).
 Extras: ``chain`` (steps, walkers, d) in unit coordinates, ``log_prob`` (steps, walkers),
@@ -35,7 +38,6 @@ from __future__ import annotations
 import emcee
 import numpy as np
 
-from bwbench.errors import BudgetExhausted
 from bwbench.registry import register
 
 
@@ -52,32 +54,37 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None):
         n_data = getattr(objective.problem, "n_data", 1000)
     half_L = 0.5 * float(n_data)
 
+    callers_errstate = np.geterr()
+
     def log_prob(U):
+        # Never raises: emcee prints the walkers and a traceback for any exception from here.
         inside = np.all((U >= 0.0) & (U <= 1.0), axis=1)
         lp = np.full(len(U), -np.inf)
-        if inside.any():
-            cut_short = inside.sum() > objective.remaining
-            mse = objective.batch(U[inside])
-            if cut_short:  # the unrun rows would read as blow-ups: drop this half-step instead
-                raise BudgetExhausted(f"budget of {objective.budget} evaluations is spent")
-            # tiny: an exact fit must not give log p = +inf
+        if inside.any() and not objective.exhausted:
+            with np.errstate(**callers_errstate):  # the sampling loop's silencing is for emcee only
+                mse = objective.batch(U[inside])
+            # tiny: an exact fit must not give log p = +inf.
             lp[inside] = -half_L * np.log(np.maximum(mse, np.finfo(float).tiny))
         return lp
 
     sampler = emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)
     sampler.random_state = np.random.RandomState(np.random.MT19937(rng.integers(2**63))).get_state()
     state = rng.random((n_walkers, d))
-    try:
-        while True:
+    # −inf − (−inf) = NaN in emcee's acceptance test when a walker and its proposal both blew up:
+    # the comparison with NaN is False, i.e. rejected, which is right; the warning is noise.
+    with np.errstate(invalid="ignore"):
+        while not objective.exhausted:
             # Store only as many steps as the budget can still pay for: emcee preallocates them.
             steps = objective.remaining // n_walkers + 1
             # The ensemble check is for user-given starting points, not for a chain being continued.
-            state = sampler.run_mcmc(state, steps, skip_initial_state_check=sampler.iteration > 0)
-    except BudgetExhausted:
-        pass
+            continuing = sampler.iteration > 0
+            for state in sampler.sample(state, iterations=steps, skip_initial_state_check=continuing):
+                if objective.exhausted:
+                    break
 
     n_steps = sampler.iteration
-    autocorr = sampler.get_autocorr_time(quiet=True, tol=0) if n_steps >= 2 else None
+    with np.errstate(invalid="ignore"):  # a walker that never moved has a 0/0 autocorrelation: NaN
+        autocorr = sampler.get_autocorr_time(quiet=True, tol=0) if n_steps >= 2 else None
     return {
         "message": "budget exhausted",
         "chain": sampler.get_chain(),

@@ -8,20 +8,23 @@ Algorithms (one backend each, same restart scheme):
 Library call: ``nlopt.opt(ALGORITHM, d)`` with bounds [0, 1], ``set_min_objective``,
 ``set_xtol_rel``/``set_ftol_rel``/``set_maxeval`` (stopping tests of ONE local search), then
 ``optimize(u0)`` from ``u0`` uniform in the box; when a local search stops, the next starts
-from a new uniform point, until the objective raises ``BudgetExhausted``. NLopt's own
-``maxeval`` is never used as the budget. An exception raised in the Python objective makes
-NLopt force-stop and re-raise that same exception from ``optimize`` (checked with nlopt 2.11),
-so ``BudgetExhausted`` reaches ``fitting.run``; the ``objective.exhausted`` check below is a
-second guard in case an NLopt build turns it into ``nlopt.ForcedStop`` instead. These three
-algorithms are deterministic (they draw no random numbers), so the run's randomness is only
-the starting points, drawn from ``rng``. The objective is called one point at a time
-(``batched=False``).
+from a new uniform point, until the budget is spent. NLopt's own ``maxeval`` is never used as
+the budget. ``BudgetExhausted`` is never raised through NLopt: NLopt usually force-stops and
+re-raises a Python exception from its objective, but nlopt 2.11's BOBYQA sometimes (26 of
+~3100 cut points tried, 14-D, shortly after its initial 2d+1 points) reports XTOL_REACHED
+instead of FORCED_STOP, and the Python wrapper then turns the pending exception into
+``SystemError: ... returned a result with an exception set``. So once the objective is spent,
+``loss`` calls ``opt.force_stop()`` and returns the penalty without evaluating anything, and
+the restart loop raises ``BudgetExhausted`` itself when ``optimize`` returns (or raises
+``nlopt.ForcedStop``), whatever NLopt's return code. These three algorithms draw no random
+numbers, so the run's randomness is only the starting points, drawn from ``rng``. The
+objective is called one point at a time (``batched=False``).
 
 Options: ``xtol_rel`` (1e-6), ``ftol_rel`` (1e-8), ``maxeval`` (0 = no limit per local search).
 
 +inf losses are given to NLopt as 10 × the worst finite loss seen so far (1e300 before any):
-NLopt treats +inf as an ordinary number, and BOBYQA's quadratic models collapse on it
-(it then reports convergence at once). A local search that fails inside NLopt (round-off
+BOBYQA fits quadratic models to the values, and with an inf among them it stops after its
+initial points reporting XTOL_REACHED. A local search that fails inside NLopt (round-off
 limited, an invalid model) just ends that restart.
 """
 
@@ -39,14 +42,21 @@ _DEFAULTS = {"xtol_rel": 1e-6, "ftol_rel": 1e-8, "maxeval": 0}
 def _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxeval):
     d = objective.dim
     worst_finite = -np.inf
+    opt = None
+
+    def penalty():
+        return 10.0 * worst_finite if np.isfinite(worst_finite) else 1e300
 
     def loss(u, grad):  # grad is empty: derivative-free algorithms only
         nonlocal worst_finite
+        if objective.exhausted:  # stop NLopt ourselves: an exception through it can get lost
+            opt.force_stop()
+            return penalty()
         value = objective(u)
         if np.isfinite(value):
             worst_finite = max(worst_finite, value)
             return value
-        return 10.0 * worst_finite if np.isfinite(worst_finite) else 1e300
+        return penalty()
 
     while True:
         opt = nlopt.opt(algorithm, d)
@@ -58,8 +68,8 @@ def _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxev
         opt.set_maxeval(int(maxeval))
         try:
             opt.optimize(rng.random(d))
-        except (nlopt.RoundoffLimited, nlopt.ForcedStop, RuntimeError, ValueError):
-            pass  # a failed local search: restart elsewhere (BudgetExhausted is none of these)
+        except (nlopt.ForcedStop, nlopt.RoundoffLimited, RuntimeError, ValueError):
+            pass  # ours, or a failed local search (restart elsewhere)
         if objective.exhausted:
             raise BudgetExhausted(f"budget of {objective.budget} evaluations is spent")
 

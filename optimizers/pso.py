@@ -13,22 +13,26 @@ its iteration count only between iterations, so the swarm just runs until the ob
 
 Options: ``n_particles`` (40), ``c1``/``c2``/``w``. Defaults are Clerc & Kennedy's constriction
 values (w = 0.7298, c1 = c2 = 1.49618, IEEE TEC 2002), the standard PSO setting with a
-convergence guarantee; pyswarms' documentation example (0.5, 0.3, 0.9) has an inertia so
-high that the swarm barely contracts within a few thousand evaluations.
+convergence guarantee, rather than pyswarms' documentation example (c1 0.5, c2 0.3, w 0.9).
+Measured at 4,100 evaluations, 5 seeds on each of three synthetic specimens, the median MSE
+was lower with the constriction values on all three (13 vs 22, 175 vs 247, 161 vs 171 N²),
+though not on every seed.
 
 +inf losses are passed through unchanged: PSO only compares losses (``<`` for personal bests,
 ``argmin`` for the global best), and inf never wins a comparison.
 
-Two pieces of global state need containing, both in ``_pyswarms_sandbox``:
+Two pieces of global state need containing:
 - pyswarms draws every random number from numpy's legacy global generator (``np.random.uniform``
   in the swarm initialisation and the velocity update). We save that state, set it from ``rng``,
-  and restore it afterwards, so the run is repeatable and callers' global state is untouched.
-  A lock serialises pso runs within a process, since two threads sharing the global generator
-  would interleave draws.
+  and restore it afterwards (``_global_rng_from``), so the run is repeatable and the caller's
+  global state is untouched. A lock serialises pso runs within a process, since two threads
+  sharing the global generator would interleave draws; code outside this module that draws
+  from ``np.random`` in another thread during a pso run would still disturb it.
 - every pyswarms ``Reporter`` (created at import and in each optimiser, topology and handler
   constructor) calls ``logging.config.dictConfig`` with a default that installs INFO handlers on
-  the root logger and creates ``./report.log``. We make ``dictConfig`` a no-op while pyswarms is
-  imported and constructed.
+  the root logger and creates ``./report.log``. ``_logging_config_frozen`` makes ``dictConfig`` a
+  no-op while pyswarms is imported and the optimiser constructed (``optimize`` creates no
+  Reporter), which is why pyswarms is imported inside ``minimize``, not at module level.
 """
 
 from __future__ import annotations
@@ -46,19 +50,27 @@ _GLOBAL_RNG_LOCK = threading.Lock()
 
 
 @contextlib.contextmanager
-def _pyswarms_sandbox(rng):
-    """Run pyswarms with numpy's global generator seeded from ``rng`` and logging left alone."""
+def _global_rng_from(rng):
+    """Seed numpy's legacy global generator from ``rng`` for the duration; restore it after."""
     with _GLOBAL_RNG_LOCK:
-        saved_state = np.random.get_state()
-        saved_dict_config = logging.config.dictConfig
+        saved = np.random.get_state()
         # A full MT19937 state seeded through SeedSequence, not a 32-bit np.random.seed.
         np.random.set_state(np.random.RandomState(np.random.MT19937(rng.integers(2**63))).get_state())
-        logging.config.dictConfig = lambda config: None
         try:
             yield
         finally:
-            logging.config.dictConfig = saved_dict_config
-            np.random.set_state(saved_state)
+            np.random.set_state(saved)
+
+
+@contextlib.contextmanager
+def _logging_config_frozen():
+    """Make ``logging.config.dictConfig`` a no-op for the duration (see the module docstring)."""
+    saved = logging.config.dictConfig
+    logging.config.dictConfig = lambda config: None
+    try:
+        yield
+    finally:
+        logging.config.dictConfig = saved
 
 
 @register(
@@ -69,13 +81,15 @@ def _pyswarms_sandbox(rng):
 )
 def minimize(objective, *, rng, n_particles=40, c1=1.49618, c2=1.49618, w=0.7298):
     d = objective.dim
-    with _pyswarms_sandbox(rng):
-        from pyswarms.single import GlobalBestPSO  # imported here: importing pyswarms configures logging
+    with _global_rng_from(rng):
+        with _logging_config_frozen():
+            # Imported here, not at the top: importing pyswarms configures logging.
+            from pyswarms.single import GlobalBestPSO
 
-        swarm = GlobalBestPSO(
-            n_particles=int(n_particles), dimensions=d, options={"c1": c1, "c2": c2, "w": w},
-            bounds=(np.zeros(d), np.ones(d)), bh_strategy="reflective",
-        )
+            swarm = GlobalBestPSO(
+                n_particles=int(n_particles), dimensions=d, options={"c1": c1, "c2": c2, "w": w},
+                bounds=(np.zeros(d), np.ones(d)), bh_strategy="reflective",
+            )
         # Never returns: the objective raises BudgetExhausted mid-iteration.
         swarm.optimize(objective.batch, iters=sys.maxsize, verbose=False)
     return {"message": "pyswarms stopped before the budget was spent"}

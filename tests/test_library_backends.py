@@ -15,7 +15,8 @@ BUDGET = 600
 
 
 class ShiftedSphere:
-    """6-D sphere centred at 0.3 with a blow-up region (+inf) where u₀ > 0.8; counts evaluations."""
+    """6-D sphere centred at 0.3, blowing up (+inf) where u₀ < 0.2, next to the minimum, so that
+    local searches too run into it; counts evaluations."""
 
     dim = 6
     param_names = tuple(f"p{i}" for i in range(6))
@@ -32,7 +33,7 @@ class ShiftedSphere:
     def loss_batch(self, P):
         P = np.atleast_2d(P)
         self.evaluated += len(P)
-        blown = P[:, 0] > 0.8
+        blown = P[:, 0] < 0.2
         self.blew_up += int(blown.sum())
         return np.where(blown, np.inf, np.sum((P - 0.3) ** 2, axis=1))
 
@@ -62,7 +63,13 @@ def test_spends_the_exact_budget_survives_inf_and_beats_random(name, random_mse,
 
 @pytest.mark.parametrize("name", BACKENDS)
 def test_same_seed_gives_identical_results(name):
-    first, second = (fitting.run(ShiftedSphere(), name, BUDGET, seed=3) for _ in range(2))
+    saved = np.random.get_state()
+    try:
+        first = fitting.run(ShiftedSphere(), name, BUDGET, seed=3)
+        np.random.random(1000)  # a backend secretly drawing from numpy's global generator now differs
+        second = fitting.run(ShiftedSphere(), name, BUDGET, seed=3)
+    finally:
+        np.random.set_state(saved)
     assert first.trace_mse == second.trace_mse and first.trace_nfev == second.trace_nfev
     assert first.params == second.params
 
@@ -78,6 +85,5 @@ def test_emcee_returns_its_chain():
     assert np.all((extras["chain"] >= 0) & (extras["chain"] <= 1))
     assert 0 < extras["acceptance_fraction"] < 1
     assert extras["autocorr_time"].shape == (ShiftedSphere.dim,)
-    # The point estimate is the objective's best, which the chain must contain.
-    best = np.array([result.params[n] for n in ShiftedSphere.param_names])
-    assert np.any(np.all(extras["chain"] == best, axis=2))
+    # The point estimate is the objective's best: no chain state can be better.
+    assert np.max(extras["log_prob"]) <= -0.5 * ShiftedSphere.n_data * np.log(result.mse)

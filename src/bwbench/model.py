@@ -233,21 +233,32 @@ def _simulate_one(p, t, x, v, a, split):
     return force
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _mse_one(p, t, x, v, a, f_meas, split, force):
+    if not _simulate_into(p, t, x, v, a, split, force):
+        return np.inf
+    s = 0.0
+    for k in range(x.shape[0]):
+        r = force[k] - f_meas[k]
+        s += r * r
+    m = s / x.shape[0]
+    return m if np.isfinite(m) else np.inf
+
+
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _mse_batch(P, t, x, v, a, f_meas, split):
-    n_sets = P.shape[0]
-    out = np.empty(n_sets)
-    for i in numba.prange(n_sets):
-        force = np.empty(x.shape[0])
-        if not _simulate_into(P[i], t, x, v, a, split, force):
-            out[i] = np.inf
-            continue
-        s = 0.0
-        for k in range(x.shape[0]):
-            r = force[k] - f_meas[k]
-            s += r * r
-        m = s / x.shape[0]
-        out[i] = m if np.isfinite(m) else np.inf
+def _mse_parallel(P, t, x, v, a, f_meas, split):
+    out = np.empty(P.shape[0])
+    for i in numba.prange(P.shape[0]):
+        out[i] = _mse_one(P[i], t, x, v, a, f_meas, split, np.empty(x.shape[0]))
+    return out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _mse_serial(P, t, x, v, a, f_meas, split):
+    out = np.empty(P.shape[0])
+    force = np.empty(x.shape[0])
+    for i in range(P.shape[0]):
+        out[i] = _mse_one(P[i], t, x, v, a, f_meas, split, force)
     return out
 
 
@@ -293,5 +304,8 @@ def mse_batch(P, t, x, v, a, f_meas, state: str = "shared") -> np.ndarray:
     f_meas = np.ascontiguousarray(np.asarray(f_meas, dtype=np.float64))
     if f_meas.shape != x.shape:
         raise ValueError("f_meas must have the same length as the excitation")
+    # One-point optimisers call this row by row: waking numba's thread pool would cost more
+    # than the simulation, so small batches run on the calling thread.
+    kernel = _mse_serial if P.shape[0] < 4 or numba.get_num_threads() == 1 else _mse_parallel
     with np.errstate(all="ignore"):
-        return _mse_batch(P, t, x, v, a, f_meas, split)
+        return kernel(P, t, x, v, a, f_meas, split)
