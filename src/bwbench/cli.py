@@ -166,6 +166,16 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--out", required=True, help="result JSON")
     fit.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
     fit.set_defaults(func=_cmd_fit)
+
+    from bwbench import identifiability, report
+
+    report_cmd = sub.add_parser("report", help="figures, statistics and recommendation of a study")
+    report.add_arguments(report_cmd)
+    report_cmd.set_defaults(func=report.cli_main)
+
+    ident = sub.add_parser("identifiability", help="which parameters a specimen cannot pin down")
+    identifiability.add_arguments(ident)
+    ident.set_defaults(func=identifiability.cli_main)
     return parser
 
 

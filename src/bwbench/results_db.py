@@ -1,0 +1,187 @@
+"""Read a study database (written by ``bwbench.study``) into tidy pandas tables and numpy chains.
+
+The schema is the runner's contract: tables ``study``, ``runs``, ``timings``, ``traces`` and
+``chains``. Reading never writes: the file is opened read-only, so a report can be made while
+the study is still running.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from contextlib import closing
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from bwbench.errors import UserError
+from bwbench.model import PARAM_NAMES
+from bwbench.parameters import LOWER, UPPER
+from bwbench.synthetic import MANIFEST, REPO
+
+REQUIRED_TABLES = ("study", "runs", "traces")
+KEY = ["kind", "specimen", "optimizer", "replicate"]
+
+
+@dataclass(frozen=True, eq=False)
+class Chain:
+    """One MCMC run: ``samples`` of shape (steps, walkers, 14) in unit coordinates."""
+
+    kind: str
+    specimen: str
+    optimizer: str
+    replicate: int
+    samples: np.ndarray
+    log_prob: np.ndarray | None  # (steps, walkers)
+    acceptance_fraction: float | None
+    autocorr: list | None  # the runner's per-dimension estimate (None entries = not finite)
+
+    @property
+    def steps(self) -> int:
+        return int(self.samples.shape[0])
+
+    @property
+    def walkers(self) -> int:
+        return int(self.samples.shape[1])
+
+    def physical(self, burn: int = 0, walkers=None) -> np.ndarray:
+        """Samples after ``burn`` steps, flattened to (n, 14), in physical units; ``walkers``: an
+        optional boolean mask of the walkers to keep."""
+        kept = self.samples[burn:] if walkers is None else self.samples[burn:, np.asarray(walkers, bool)]
+        flat = kept.reshape(-1, self.samples.shape[2])
+        return LOWER + flat * (UPPER - LOWER)
+
+
+@dataclass(frozen=True, eq=False)
+class Study:
+    """Everything a study database holds. ``runs`` has one row per run (timings joined in);
+    ``traces`` one row per best-so-far improvement (nfev, mse in N²)."""
+
+    path: Path
+    meta: dict  # name, config_hash, created_utc, bwbench_version
+    config: dict  # the parsed config_json
+    runs: pd.DataFrame
+    traces: pd.DataFrame
+    chains: tuple  # of Chain
+    data_dir: Path
+
+    @property
+    def name(self) -> str:
+        return self.meta.get("name") or self.config.get("study", {}).get("name", self.path.stem)
+
+    @property
+    def settings(self) -> dict:
+        """The config's [study] table: name, seed, budget, seeds, state, excitation, data."""
+        return self.config.get("study", {})
+
+    @property
+    def ranking(self) -> pd.DataFrame:
+        return self.runs[self.runs["kind"] == "ranking"]
+
+    @property
+    def optimizers(self) -> list[str]:
+        """Ranking backends in the stored configuration's order (the runner stores it as canonical
+        JSON, i.e. alphabetically), then any others found in the runs."""
+        configured = list(self.config.get("optimizers", {}))
+        found = list(dict.fromkeys(self.ranking["optimizer"]))
+        return [o for o in configured if o in found] + [o for o in found if o not in configured]
+
+    @property
+    def specimens(self) -> list[str]:
+        return list(dict.fromkeys(self.ranking["specimen"])) or list(dict.fromkeys(self.runs["specimen"]))
+
+    def specimen_path(self, specimen: str) -> Path:
+        return self.data_dir / f"{specimen}.csv"
+
+    def manifest(self) -> dict | None:
+        """The data folder's manifest.json (generation settings, truth), or None if there is none."""
+        path = self.data_dir / MANIFEST
+        if not path.is_file():
+            return None
+        return json.loads(path.read_text(encoding="utf-8"))
+
+
+def _connect(path: Path) -> sqlite3.Connection:
+    if not path.exists():
+        raise UserError(f"{path}: no such study database")
+    if not path.is_file():
+        raise UserError(f"{path}: is a directory, not a study database")
+    try:
+        conn = sqlite3.connect(f"file:{path.resolve()}?mode=ro", uri=True)
+        tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    except sqlite3.DatabaseError as err:
+        raise UserError(f"{path}: not a bwbench study database ({err})") from None
+    missing = [t for t in REQUIRED_TABLES if t not in tables]
+    if missing:
+        conn.close()
+        raise UserError(f"{path}: not a bwbench study database (no {', '.join(repr(t) for t in missing)} table)")
+    return conn
+
+
+def read_meta(conn) -> tuple[dict, dict]:
+    meta = dict(conn.execute("SELECT key, value FROM study"))
+    try:
+        config = json.loads(meta.pop("config_json", "{}") or "{}")
+    except json.JSONDecodeError:
+        config = {}
+    return meta, config
+
+
+def read_runs(conn) -> pd.DataFrame:
+    tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    if "timings" in tables:
+        query = ("SELECT runs.*, timings.wall_s, timings.worker FROM runs "
+                 "LEFT JOIN timings USING (kind, specimen, optimizer, replicate)")
+    else:
+        query = "SELECT * FROM runs"
+    runs = pd.read_sql(query + " ORDER BY kind, specimen, optimizer, replicate", conn)
+    for column in ("nfev", "mse", "f_err", "rmse_N", "budget", "underpressure_MPa", *PARAM_NAMES):
+        runs[column] = pd.to_numeric(runs[column], errors="coerce").astype(float)
+    runs["replicate"] = runs["replicate"].astype(int)
+    return runs
+
+
+def read_traces(conn) -> pd.DataFrame:
+    traces = pd.read_sql("SELECT * FROM traces ORDER BY kind, specimen, optimizer, replicate, nfev", conn)
+    traces["nfev"] = traces["nfev"].astype(int)
+    traces["mse"] = traces["mse"].astype(float)
+    return traces
+
+
+def read_chains(conn) -> tuple:
+    tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    if "chains" not in tables:
+        return ()
+    out = []
+    rows = conn.execute(
+        "SELECT kind, specimen, optimizer, replicate, steps, walkers, dim, chain, log_prob, "
+        "acceptance_fraction, autocorr_json FROM chains ORDER BY kind, specimen, optimizer, replicate")
+    for kind, specimen, optimizer, replicate, steps, walkers, dim, blob, lp_blob, acc, autocorr in rows:
+        samples = np.frombuffer(blob, dtype=np.float64).reshape(steps, walkers, dim)
+        log_prob = None if lp_blob is None else np.frombuffer(lp_blob, dtype=np.float64).reshape(steps, walkers)
+        out.append(Chain(kind, specimen, optimizer, int(replicate), samples, log_prob,
+                         None if acc is None else float(acc), json.loads(autocorr) if autocorr else None))
+    return tuple(out)
+
+
+def load_study(path, data_dir=None) -> Study:
+    """Read a whole study database.
+
+    ``data_dir``: where the specimen CSVs and manifest are; default the config's ``study.data``,
+    relative to the bwbench checkout. Raises ``UserError`` for a missing file or one that is not
+    a study database.
+    """
+    path = Path(path)
+    with closing(_connect(path)) as conn:
+        try:
+            meta, config = read_meta(conn)
+            runs, traces, chains = read_runs(conn), read_traces(conn), read_chains(conn)
+        except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError) as err:
+            raise UserError(f"{path}: unreadable study database: {err}") from None
+    if data_dir is None:
+        data = Path(config.get("study", {}).get("data", "data/specimens"))
+        data_dir = data if data.is_absolute() else REPO / data
+    return Study(path=path, meta=meta, config=config, runs=runs, traces=traces, chains=chains,
+                 data_dir=Path(data_dir))

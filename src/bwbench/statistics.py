@@ -1,0 +1,274 @@
+"""Which backend is better, and how sure are we: success rates, ERT, Friedman, Wilcoxon-Holm, MCMC.
+
+Conventions used throughout:
+
+- a run's *final MSE* (N²) is its best MSE; a run that raised or found nothing finite counts as
+  +inf (worse than every finished run);
+- the *best known* MSE of a specimen is the lowest final MSE of any run on it in the database,
+  ranking and posterior runs alike;
+- a run *reaches* tolerance τ when its best-so-far MSE gets to best_known·(1 + τ); its
+  *evaluations to target* are the evaluation count at which its trace first gets there.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import scipy.stats
+
+TOLERANCES = (0.01, 0.10)  # success at 1 % and 10 % above the best known MSE
+ALPHA = 0.05
+
+
+def final_mse(runs: pd.DataFrame) -> pd.Series:
+    """Final MSE of each run; +inf for runs that raised or have no finite MSE."""
+    mse = runs["mse"].astype(float).where(runs["status"] == "ok", np.inf)
+    return mse.where(np.isfinite(mse), np.inf)
+
+
+def best_known(runs: pd.DataFrame) -> pd.Series:
+    """Lowest final MSE (N²) per specimen over every run in ``runs``."""
+    return final_mse(runs).groupby(runs["specimen"]).min()
+
+
+def evaluations_to_target(nfev: np.ndarray, mse: np.ndarray, target: float) -> float:
+    """First evaluation count at which a best-so-far trace is ≤ ``target``; inf if never."""
+    hit = np.flatnonzero(np.asarray(mse) <= target)
+    return float(np.asarray(nfev)[hit[0]]) if hit.size else np.inf
+
+
+def runtimes(runs: pd.DataFrame, traces: pd.DataFrame, taus=TOLERANCES, best=None) -> pd.DataFrame:
+    """One row per (run, τ): ``target`` MSE, ``evals`` to reach it (inf if not), ``nfev`` spent, ``reached``.
+
+    ``best`` (per specimen) defaults to ``best_known(runs)``. A run without a trace counts as
+    reaching the target at its last evaluation if its final MSE is on target.
+    """
+    best = best_known(runs) if best is None else best
+    grouped = {key: g for key, g in traces.groupby(["kind", "specimen", "optimizer", "replicate"])}
+    final = final_mse(runs)
+    rows = []
+    for (idx, run), mse_final in zip(runs.iterrows(), final):
+        key = (run["kind"], run["specimen"], run["optimizer"], int(run["replicate"]))
+        trace = grouped.get(key)
+        nfev = float(run["nfev"]) if np.isfinite(run["nfev"]) else 0.0
+        for tau in taus:
+            target = float(best[run["specimen"]]) * (1.0 + tau)
+            if trace is not None and len(trace):
+                evals = evaluations_to_target(trace["nfev"].to_numpy(), trace["mse"].to_numpy(), target)
+            else:
+                evals = nfev if mse_final <= target else np.inf
+            rows.append({"kind": key[0], "specimen": key[1], "optimizer": key[2], "replicate": key[3],
+                         "tau": tau, "target_mse": target, "evals": evals, "nfev": nfev,
+                         "reached": bool(np.isfinite(evals))})
+    return pd.DataFrame(rows)
+
+
+def ert(evals, nfev, reached) -> float:
+    """Expected running time (COCO): evaluations spent by all runs / number of successful runs.
+
+    A successful run contributes its evaluations to target, an unsuccessful one everything it
+    spent. inf when no run succeeded.
+    """
+    evals, nfev, reached = (np.asarray(a) for a in (evals, nfev, reached))
+    reached = reached.astype(bool)
+    successes = int(reached.sum())
+    if successes == 0:
+        return np.inf
+    return float(np.where(reached, evals, nfev).sum() / successes)
+
+
+def success_and_ert(rt: pd.DataFrame, by=("optimizer", "tau")) -> pd.DataFrame:
+    """Success rate and ERT (evaluations) for each group of a ``runtimes`` table."""
+    rows = []
+    for key, g in rt.groupby(list(by), sort=False):
+        key = key if isinstance(key, tuple) else (key,)
+        rows.append({**dict(zip(by, key)), "runs": len(g), "successes": int(g["reached"].sum()),
+                     "success_rate": float(g["reached"].mean()),
+                     "ert": ert(g["evals"], g["nfev"], g["reached"])})
+    return pd.DataFrame(rows)
+
+
+def median_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """Blocks × treatments: median final MSE across seeds, one row per specimen, one column per backend."""
+    frame = runs.assign(final=final_mse(runs).to_numpy())
+    table = frame.pivot_table(index="specimen", columns="optimizer", values="final", aggfunc="median")
+    return table.dropna(axis=0, how="any")  # a specimen missing a backend cannot be a Friedman block
+
+
+@dataclass(frozen=True)
+class Friedman:
+    statistic: float
+    pvalue: float  # nan when the test is not applicable (see note)
+    mean_ranks: pd.Series  # per backend, 1 = best (lowest MSE)
+    n_blocks: int
+    note: str
+
+
+def friedman(table: pd.DataFrame) -> Friedman:
+    """Friedman test over specimens (rows = blocks) and backends (columns = treatments).
+
+    Mean ranks are always given; the test needs at least 3 backends and 2 specimens.
+    """
+    ranks = table.rank(axis=1, method="average")
+    mean_ranks = ranks.mean(axis=0).sort_values()
+    k, n = table.shape[1], table.shape[0]
+    if k < 3 or n < 2:
+        return Friedman(np.nan, np.nan, mean_ranks, n,
+                        f"Friedman test not applicable: needs ≥ 3 backends and ≥ 2 specimens (have {k} and {n})")
+    # Infinite medians (a backend that failed every seed on a specimen) are ranked last, as they should be.
+    finite = np.where(np.isfinite(table.to_numpy()), table.to_numpy(), np.finfo(float).max)
+    stat, p = scipy.stats.friedmanchisquare(*finite.T)
+    return Friedman(float(stat), float(p), mean_ranks, n, "")
+
+
+def holm(pvalues) -> np.ndarray:
+    """Holm–Bonferroni adjusted p-values (step-down, family-wise error control); NaN stays NaN.
+
+    Written out because scipy's ``false_discovery_control`` only offers BH/BY (FDR, not FWER)
+    and statsmodels is not a dependency.
+    """
+    p = np.asarray(pvalues, dtype=float)
+    out = np.full(p.shape, np.nan)
+    valid = np.flatnonzero(~np.isnan(p))
+    m = valid.size
+    order = valid[np.argsort(p[valid], kind="stable")]
+    adjusted = np.maximum.accumulate((m - np.arange(m)) * p[order])
+    out[order] = np.minimum(adjusted, 1.0)
+    return out
+
+
+def paired_log_mse(runs: pd.DataFrame) -> pd.DataFrame:
+    """Rows (specimen, replicate), columns backends: log10 final MSE, failed runs one decade
+    above the worst finished run on that specimen (rank-based tests only see them as worst)."""
+    frame = runs.assign(final=final_mse(runs).to_numpy())
+    table = frame.pivot_table(index=["specimen", "replicate"], columns="optimizer", values="final", aggfunc="first")
+    logged = np.log10(table.where(np.isfinite(table)))
+    worst = logged.max(axis=1).groupby(level="specimen").transform("max") + 1.0
+    return logged.apply(lambda col: col.fillna(worst)).where(table.notna())
+
+
+def pairwise_wilcoxon(runs: pd.DataFrame, alpha: float = ALPHA) -> pd.DataFrame:
+    """Wilcoxon signed-rank test for every pair of backends on paired (specimen, seed) log10 MSE.
+
+    Pairing: replicate r of one backend with replicate r of the other on the same specimen.
+    Columns: a, b, n_pairs, median_diff (log10 MSE a − b; < 0: a better), wins_a, wins_b,
+    statistic, p, p_holm (Holm over all pairs), significant (p_holm < alpha), better (a, b or "").
+    """
+    table = paired_log_mse(runs)
+    rows = []
+    for a, b in itertools.combinations(list(table.columns), 2):
+        pair = table[[a, b]].dropna()
+        d = (pair[a] - pair[b]).to_numpy()
+        row = {"a": a, "b": b, "n_pairs": len(d), "median_diff": float(np.median(d)) if len(d) else np.nan,
+               "wins_a": int((d < 0).sum()), "wins_b": int((d > 0).sum()), "statistic": np.nan, "p": np.nan}
+        if len(d) and np.all(d == 0):
+            row["p"] = 1.0  # identical results: no evidence of a difference
+        elif len(d) >= 2:
+            res = scipy.stats.wilcoxon(pair[a], pair[b])
+            row["statistic"], row["p"] = float(res.statistic), float(res.pvalue)
+        rows.append(row)
+    out = pd.DataFrame(rows, columns=["a", "b", "n_pairs", "median_diff", "wins_a", "wins_b", "statistic", "p"])
+    out["p_holm"] = holm(out["p"].to_numpy()) if len(out) else []
+    out["significant"] = out["p_holm"] < alpha
+    out["better"] = np.where(~out["significant"], "", np.where(out["median_diff"] < 0, out["a"], out["b"]))
+    return out
+
+
+def compare(wilcoxon: pd.DataFrame, a: str, b: str) -> dict | None:
+    """The row of ``pairwise_wilcoxon`` for the pair {a, b}, oriented so that 'a' is ``a``."""
+    hit = wilcoxon[(wilcoxon["a"] == a) & (wilcoxon["b"] == b)]
+    if len(hit):
+        return hit.iloc[0].to_dict()
+    hit = wilcoxon[(wilcoxon["a"] == b) & (wilcoxon["b"] == a)]
+    if not len(hit):
+        return None
+    row = hit.iloc[0].to_dict()
+    row.update(a=a, b=b, median_diff=-row["median_diff"], wins_a=row["wins_b"], wins_b=row["wins_a"])
+    return row
+
+
+def ranking_table(runs: pd.DataFrame, traces: pd.DataFrame, order=None) -> tuple[pd.DataFrame, Friedman]:
+    """Per backend (ranking runs only; best known over all runs): runs, errors, median and best
+    RMSE (N), success rate and ERT at each tolerance, mean Friedman rank. Sorted by mean rank."""
+    best = best_known(runs)
+    ranking = runs[runs["kind"] == "ranking"]
+    rt = runtimes(ranking, traces, TOLERANCES, best)
+    se = success_and_ert(rt)
+    fr = friedman(median_table(ranking))
+    final = final_mse(ranking)
+    rows = []
+    for optimizer in order or list(dict.fromkeys(ranking["optimizer"])):
+        mask = ranking["optimizer"] == optimizer
+        rmse = np.sqrt(final[mask])
+        row = {"optimizer": optimizer, "runs": int(mask.sum()),
+               "errors": int((ranking.loc[mask, "status"] != "ok").sum()),
+               "median_rmse_N": float(np.median(rmse)), "best_rmse_N": float(np.min(rmse))}
+        for tau in TOLERANCES:
+            s = se[(se["optimizer"] == optimizer) & (se["tau"] == tau)].iloc[0]
+            row[f"success_{tau:.0%}"] = s["success_rate"]
+            row[f"ert_{tau:.0%}"] = s["ert"]
+        row["mean_rank"] = float(fr.mean_ranks.get(optimizer, np.nan))
+        rows.append(row)
+    table = pd.DataFrame(rows).sort_values(["mean_rank", "median_rmse_N"], kind="stable").reset_index(drop=True)
+    return table, fr
+
+
+STUCK_LOG_PROB = 50.0  # a walker this far below the ensemble's median log-probability is stuck
+
+
+def stuck_walkers(samples: np.ndarray, log_prob: np.ndarray | None = None, burn: int | None = None) -> np.ndarray:
+    """Boolean mask of walkers stuck away from the bulk over the steps after ``burn`` (default half).
+
+    With ``log_prob``: the walker's median log-probability is more than ``STUCK_LOG_PROB`` below
+    the median walker's (a density e^50 times lower: it is not sampling the posterior). Without:
+    the walker moved in fewer than a fifth as many steps as the median walker.
+    """
+    steps, walkers, _ = samples.shape
+    burn = steps // 2 if burn is None else burn
+    if steps - burn < 2:
+        return np.zeros(walkers, dtype=bool)
+    if log_prob is not None:
+        med = np.median(log_prob[burn:], axis=0)
+        finite = np.isfinite(med)
+        if finite.any():
+            return ~finite | (med < np.median(med[finite]) - STUCK_LOG_PROB)
+    moved = np.any(np.diff(samples[burn:], axis=0) != 0, axis=2).mean(axis=0)
+    return moved < 0.2 * np.median(moved)
+
+
+def chain_diagnostics(samples: np.ndarray, acceptance_fraction: float | None = None,
+                      log_prob: np.ndarray | None = None) -> dict:
+    """Diagnostics of an ensemble chain of shape (steps, walkers, dim).
+
+    ``tau`` per dimension (``emcee.autocorr.integrated_time``, quiet), ``tau_max``, effective
+    sample size ``ess`` = steps·walkers/tau_max, and ``warnings`` (plain sentences): the chain is
+    shorter than 50·tau_max (emcee's rule for a trustworthy tau), or the acceptance fraction is
+    outside 0.2–0.5, or walkers are stuck (``stuck_walkers``, second half of the chain; their
+    number is ``stuck``). The acceptance fraction is estimated from the chain when not given.
+    """
+    import emcee
+
+    steps, walkers, dim = samples.shape
+    if acceptance_fraction is None or not np.isfinite(acceptance_fraction):
+        moved = np.any(np.diff(samples, axis=0) != 0, axis=2)
+        acceptance_fraction = float(moved.mean()) if steps > 1 else np.nan
+    tau = emcee.autocorr.integrated_time(samples, quiet=True, tol=0) if steps > 1 else np.full(dim, np.nan)
+    tau_max = float(np.nanmax(tau)) if np.isfinite(tau).any() else np.nan
+    ess = steps * walkers / tau_max if np.isfinite(tau_max) and tau_max > 0 else np.nan
+    warnings = []
+    if not np.isfinite(tau_max) or steps < 50 * tau_max:
+        need = f"{50 * tau_max:.0f}" if np.isfinite(tau_max) else "?"
+        warnings.append(f"chain of {steps} steps is shorter than 50·τ = {need} steps: τ and the "
+                        f"posterior summaries are not reliable; run it longer")
+    if np.isfinite(acceptance_fraction) and not 0.2 <= acceptance_fraction <= 0.5:
+        warnings.append(f"acceptance fraction {acceptance_fraction:.2f} is outside the usual 0.2–0.5")
+    stuck = int(stuck_walkers(samples, log_prob).sum())
+    if stuck:
+        warnings.append(f"{stuck} of {walkers} walkers are stuck far from the bulk (left out of the posterior "
+                        "figures and correlations)")
+    return {"steps": steps, "walkers": walkers, "dim": dim, "acceptance_fraction": float(acceptance_fraction),
+            "tau": [float(t) for t in tau], "tau_max": tau_max, "ess": float(ess), "stuck": stuck,
+            "warnings": warnings}

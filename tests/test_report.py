@@ -1,0 +1,156 @@
+"""The report: self-contained HTML, a recommendation that follows its stated rule."""
+
+import argparse
+import re
+import sqlite3
+
+import numpy as np
+import pandas as pd
+import pytest
+from study_fixture import SCHEMA, make_study_db
+
+from bwbench import report, results_db, statistics
+from bwbench.errors import UserError
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    db = make_study_db(tmp_path_factory.mktemp("db") / "study.sqlite")
+    out = tmp_path_factory.mktemp("report")
+    html_path = report.build_report(db, out, profile_params=1, profile_grid=2)
+    return db, out, html_path
+
+
+def test_html_is_self_contained(built):
+    _, out, html_path = built
+    assert html_path == out / "report.html" and (out / "report.md").is_file()
+    html = html_path.read_text(encoding="utf-8")
+    assert 'src="http' not in html and 'href="http' not in html and "<script" not in html
+    assert "<link" not in html and "@import" not in html and "url(" not in html
+    sources = re.findall(r'<img [^>]*src="([^"]*)"', html)
+    pngs = sorted(out.glob("*.png"))
+    assert len(sources) == len(pngs) >= 7
+    assert all(s.startswith("data:image/png;base64,") for s in sources)
+    for png in pngs:
+        assert png.with_suffix(".csv").is_file()
+    assert "SYNTHETIC DATA" in html
+
+
+def test_recommendation_names_the_best_mean_rank(built):
+    _, out, _ = built
+    ranking = pd.read_csv(out / "ranking.csv")
+    best = ranking.loc[ranking["mean_rank"].idxmin(), "optimizer"]
+    md = (out / "report.md").read_text(encoding="utf-8")
+    named = re.search(r"evaluations use \*\*([^*]+)\*\*", md).group(1)
+    assert named == best == "cmaes"
+    # ...and it is the first row of the ranking table the report shows
+    table_rows = [line for line in md.splitlines() if line.startswith("| cmaes |") or line.startswith("| de |")]
+    assert table_rows[0].startswith(f"| {best} |")
+    assert "Rule used: best = the backend with the lowest mean Friedman rank" in md
+    assert "Holm" in md and "Friedman test over 2 specimens" in md
+
+
+def test_report_has_tables_identifiability_and_mcmc_sections(built):
+    _, out, _ = built
+    md = (out / "report.md").read_text(encoding="utf-8")
+    for heading in ("## What was compared", "## Data", "## Ranking", "## Recommendation",
+                    "## Identified parameters per specimen", "## Identifiability", "## Posterior sampling (emcee)",
+                    "## Limits of this study"):
+        assert heading in md
+    assert "POM MT24u01: tension set (+)" in md and "truth (synthetic)" in md
+    assert "noise_force_n | 1.0 | N" in md  # the generation settings, with units
+    assert "shorter than 50·τ" in md  # the fixture chain is 300 steps
+
+
+def _table(rows):
+    return pd.DataFrame(rows, columns=["optimizer", "mean_rank", "median_rmse_N", "success_10%", "ert_10%"])
+
+
+def _pairs(rows):
+    frame = pd.DataFrame(rows, columns=["a", "b", "median_diff", "p_holm"])
+    frame["significant"] = frame["p_holm"] < 0.05
+    frame["wins_a"] = frame["wins_b"] = 0
+    return frame
+
+
+def test_recommend_applies_the_rule():
+    table = _table([("x", 1.2, 2.0, 0.8, 900.0), ("y", 1.9, 2.1, 0.6, 1200.0), ("z", 3.0, 9.0, 0.2, 5e4),
+                    ("w", 3.9, 30.0, 0.1, 9e4), ("random", 5.0, 50.0, 0.0, np.inf)])
+    pairs = _pairs([("x", "y", -0.1, 0.40), ("x", "z", -0.9, 0.01), ("x", "w", -1.0, 0.01),
+                    ("x", "random", -2.0, 0.01), ("w", "random", 0.3, 0.02), ("z", "random", -1.0, 0.01)])
+    fr = statistics.Friedman(10.0, 0.01, pd.Series(dtype=float), 6, "")
+    rec = report.recommend(table, pairs, fr, 1000)
+    assert rec["best"] == "x"
+    assert [n for n, _ in rec["tied"]] == ["y"]
+    assert [n for n, _ in rec["worse"]] == ["z"]
+    assert dict(rec["avoid"]).keys() == {"w", "random"}
+    assert "significantly worse than random" in dict(rec["avoid"])["w"]
+    assert rec["text"].startswith("For this problem at a budget of 1,000 evaluations use **x**")
+    assert "**y** is as good within noise (Holm-corrected Wilcoxon p = 0.4)" in rec["text"]
+
+
+def test_recommend_warns_when_friedman_does_not_reject():
+    table = _table([("x", 1.0, 2.0, 0.5, 10.0), ("y", 2.0, 2.5, 0.5, 20.0), ("z", 3.0, 3.0, 0.5, 30.0)])
+    pairs = _pairs([("x", "y", -0.1, 0.5), ("x", "z", -0.2, 0.5), ("y", "z", -0.1, 0.5)])
+    rec = report.recommend(table, pairs, statistics.Friedman(1.0, 0.6, pd.Series(dtype=float), 2, ""), 50)
+    assert [n for n, _ in rec["tied"]] == ["y", "z"] and not rec["avoid"]
+    assert "does not detect a difference" in rec["text"]
+
+
+def _cli(args):
+    parser = argparse.ArgumentParser()
+    report.add_arguments(parser)
+    return report.cli_main(parser.parse_args(args))
+
+
+def test_cli_refuses_a_missing_database(tmp_path):
+    with pytest.raises(UserError, match="missing.sqlite"):
+        _cli(["--db", str(tmp_path / "missing.sqlite"), "--out", str(tmp_path / "r")])
+
+
+def test_fixture_schema_is_the_runners_contract():
+    study = pytest.importorskip("bwbench.study")
+
+    def columns(schema):
+        with sqlite3.connect(":memory:") as conn:
+            conn.executescript(schema)
+            tables = [r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name")]
+            return {t: [(r[1], r[2]) for r in conn.execute(f"PRAGMA table_info({t})")] for t in tables}
+
+    assert columns(SCHEMA) == columns(study.SCHEMA)
+
+
+def test_reads_a_database_written_by_the_runner(tmp_path):
+    study = pytest.importorskip("bwbench.study")
+    from bwbench.study_config import load_study_config
+
+    toml = tmp_path / "tiny.toml"
+    toml.write_text("""
+[study]
+name = "tiny"
+seed = 3
+budget = 60
+seeds = 2
+[specimens]
+material = ["POM MT24u01"]
+underpressure_MPa = [0.01, 0.09]
+repeat = [1]
+[optimizers]
+random = {}
+de = {}
+cmaes = {}
+[posterior]
+specimens = ["pom-mt24u01_0.01MPa_r1"]
+budget = 300
+""")
+    db = tmp_path / "tiny.sqlite"
+    study.run_study(load_study_config(toml), db, workers=1, log=open(tmp_path / "log.txt", "w"))
+    loaded = results_db.load_study(db)
+    assert len(loaded.ranking) == 2 * 3 * 2 and set(loaded.optimizers) == {"random", "de", "cmaes"}
+    assert loaded.data_dir.joinpath("manifest.json").is_file()
+    (chain,) = loaded.chains
+    assert chain.samples.shape[1:] == (30, 14) and chain.log_prob.shape == chain.samples.shape[:2]
+    table, fr = statistics.ranking_table(loaded.runs, loaded.traces, loaded.optimizers)
+    assert len(table) == 3 and np.isfinite(fr.pvalue)
+    rec = report.recommend(table, statistics.pairwise_wilcoxon(loaded.ranking), fr, 60)
+    assert rec["best"] == table.iloc[0]["optimizer"]
