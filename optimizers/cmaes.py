@@ -28,7 +28,6 @@ run on ``tolflatfitness`` and triggers a restart, as with inf.
 
 from __future__ import annotations
 
-import cma
 import numpy as np
 
 from bwbench.registry import register
@@ -41,6 +40,8 @@ from bwbench.registry import register
     defaults={"sigma0": 0.3, "popsize": None},
 )
 def minimize(objective, *, rng, sigma0=0.3, popsize=None):
+    import cma  # here, not at module level: it pulls in matplotlib and scipy.stats (~1 s per worker)
+
     d = objective.dim
 
     def randn(*shape):  # cma's randn(lam, N) contract, drawn from the run's Generator

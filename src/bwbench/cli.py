@@ -167,7 +167,11 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
     fit.set_defaults(func=_cmd_fit)
 
-    from bwbench import identifiability, report
+    from bwbench import identifiability, report, study
+
+    compare = sub.add_parser("compare", help="run or resume a study: specimens × backends × seeds")
+    study.add_arguments(compare)
+    compare.set_defaults(func=study.main)
 
     report_cmd = sub.add_parser("report", help="figures, statistics and recommendation of a study")
     report.add_arguments(report_cmd)
