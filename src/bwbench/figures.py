@@ -37,8 +37,13 @@ def _theme() -> None:
 def palette(study) -> dict:
     """Backend -> colour, stable across figures (ranking backends first, then posterior ones)."""
     names = study.optimizers + [o for o in dict.fromkeys(study.runs["optimizer"]) if o not in study.optimizers]
-    colours = sns.color_palette("tab10", max(len(names), 1))
-    return dict(zip(names, colours))
+    # The baseline is always dark grey so it reads as the reference; the others get tab10's ten
+    # distinct colours (a larger registry falls back to evenly spaced hues).
+    others = [name for name in names if name != "random"]
+    colours = dict(zip(others, sns.color_palette("tab10" if len(others) <= 10 else "husl", max(len(others), 1))))
+    if "random" in names:
+        colours["random"] = (0.25, 0.25, 0.25)
+    return {name: colours[name] for name in names}
 
 
 def axis_label(name: str) -> str:
@@ -187,11 +192,12 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4) -> Path:
     for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
     handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="upper center", ncol=len(labels), bbox_to_anchor=(0.5, 0.955), frameon=False)
+    fig.legend(handles, labels, loc="upper center", ncol=min(len(labels), 6), bbox_to_anchor=(0.5, 0.96),
+               frameon=False)
     fig.suptitle("Convergence: median (line) and interquartile range (band) across seeds of the best-so-far MSE",
                  fontsize=11)
     frame = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
-    return _save(fig, out_dir, "convergence", frame, _synthetic(study, study.specimens), rect=(0, 0.03, 1, 0.93))
+    return _save(fig, out_dir, "convergence", frame, _synthetic(study, study.specimens), rect=(0, 0.03, 1, 0.90))
 
 
 # ------------------------------------------------------------------------------------ runtime ECDF
@@ -394,8 +400,8 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
                 matplotlib.patches.Patch(color="0.55", label="posterior samples")]
     if truth is not None:
         handles.append(Line2D([], [], ls="", marker="x", ms=8, mew=2, color="black", label="truth"))
-    fig.legend(handles=handles, loc="upper left", ncol=len(handles), fontsize=9, bbox_to_anchor=(0.01, 0.965),
-               frameon=False)
+    fig.legend(handles=handles, loc="upper left", ncol=min(len(handles), 7), fontsize=9,
+               bbox_to_anchor=(0.01, 0.965), frameon=False)
     dropped = f", {int(stuck.sum())} stuck walker(s) left out" if stuck.any() else ""
     fig.suptitle(f"{specimen}: emcee posterior marginals and the {len(top)} most correlated pairs "
                  f"({chain.steps} steps × {chain.walkers} walkers, first {burn} steps dropped as burn-in{dropped})",
