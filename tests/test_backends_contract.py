@@ -11,6 +11,7 @@ import pytest
 from bwbench import fitting, registry
 from bwbench.problem import SwitchedBoucWenProblem
 from bwbench.specimen import read_specimen
+from fakes import SphereProblem
 
 ROOT = Path(__file__).resolve().parents[1]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
@@ -19,26 +20,9 @@ EXPECTED = {"paper-ga", "pso", "anneal", "firefly", "nlopt-bobyqa", "nlopt-sbplx
             "emcee", "cmaes", "de", "random"}
 
 
-class CountingProblem:
-    """14-D shifted sphere with a region of +inf (a "blow-up"); counts every evaluation itself."""
-
-    dim = 14
-    param_names = tuple(f"p{i}" for i in range(14))
-    info: dict = {}
-    n_data = 100
-
-    def __init__(self):
-        self.evaluated = 0
-        self.target = np.linspace(0.2, 0.8, 14)
-
-    def from_unit(self, U):
-        return np.asarray(U, dtype=float)
-
-    def loss_batch(self, P):
-        P = np.atleast_2d(P)
-        self.evaluated += len(P)
-        loss = np.sum((P - self.target) ** 2, axis=1)
-        return np.where(P[:, 0] > 0.9, np.inf, loss)
+def CountingProblem():
+    """14-D shifted sphere that blows up (+inf) where u₀ > 0.9; counts every evaluation itself."""
+    return SphereProblem(blow_up=lambda P: P[:, 0] > 0.9)
 
 
 def test_every_backend_of_the_issue_is_registered():
@@ -65,12 +49,9 @@ def test_same_seed_is_bit_identical_and_other_seeds_differ(name):
 
 @pytest.mark.parametrize("name", BACKENDS)
 def test_infinite_loss_is_survived(name):
-    class MostlyInfinite(CountingProblem):
-        def loss_batch(self, P):  # +inf on 90 % of the box: a hostile, mostly blown-up model
-            loss = super().loss_batch(P)
-            return np.where(np.atleast_2d(P)[:, 1] > 0.1, np.inf, loss)
-
-    result = fitting.run(MostlyInfinite(), name, 300, seed=2)
+    # +inf on 90 % of the box: a hostile, mostly blown-up model
+    mostly_infinite = SphereProblem(blow_up=lambda P: (P[:, 0] > 0.9) | (P[:, 1] > 0.1))
+    result = fitting.run(mostly_infinite, name, 300, seed=2)
     assert result.nfev <= 300
     assert not np.isnan(result.mse)
 

@@ -7,21 +7,9 @@ import numpy as np
 from bwbench.errors import BudgetExhausted
 from bwbench.objective import Objective
 from bwbench.optimizers import firefly, random_search
+from fakes import SphereProblem
 
 DIM = 14
-CENTRE = np.linspace(0.2, 0.8, DIM)
-
-
-class SphereProblem:
-    dim = DIM
-    param_names = tuple(f"p{i}" for i in range(DIM))
-    info: dict = {}
-
-    def from_unit(self, U):
-        return np.asarray(U, dtype=float)
-
-    def loss_batch(self, P):
-        return ((P - CENTRE) ** 2).sum(axis=1)
 
 
 class SpyObjective(Objective):

@@ -9,33 +9,16 @@ import numpy as np
 import pytest
 
 from bwbench import fitting
+from fakes import SphereProblem
 
 BACKENDS = ["pso", "anneal", "nlopt-bobyqa", "nlopt-sbplx", "nlopt-neldermead", "cmaes", "de", "emcee"]
 BUDGET = 600
 
 
-class ShiftedSphere:
+def ShiftedSphere():
     """6-D sphere centred at 0.3, blowing up (+inf) where u₀ < 0.2, next to the minimum, so that
     local searches too run into it; counts evaluations."""
-
-    dim = 6
-    param_names = tuple(f"p{i}" for i in range(6))
-    info: dict = {}
-    n_data = 100
-
-    def __init__(self):
-        self.evaluated = 0
-        self.blew_up = 0
-
-    def from_unit(self, U):
-        return np.asarray(U, dtype=float)
-
-    def loss_batch(self, P):
-        P = np.atleast_2d(P)
-        self.evaluated += len(P)
-        blown = P[:, 0] < 0.2
-        self.blew_up += int(blown.sum())
-        return np.where(blown, np.inf, np.sum((P - 0.3) ** 2, axis=1))
+    return SphereProblem(dim=6, centre=0.3, blow_up=lambda P: P[:, 0] < 0.2)
 
 
 @pytest.fixture(scope="module")
@@ -75,15 +58,16 @@ def test_same_seed_gives_identical_results(name):
 
 
 def test_emcee_returns_its_chain():
-    result = fitting.run(ShiftedSphere(), "emcee", BUDGET, seed=3)
+    problem = ShiftedSphere()
+    result = fitting.run(problem, "emcee", BUDGET, seed=3)
     extras = result.extras
-    n_walkers = 2 * ShiftedSphere.dim + 2
-    assert extras["n_walkers"] == n_walkers and extras["n_data"] == ShiftedSphere.n_data
-    assert extras["chain"].shape == (extras["n_steps"], n_walkers, ShiftedSphere.dim)
+    n_walkers = 2 * problem.dim + 2
+    assert extras["n_walkers"] == n_walkers and extras["n_data"] == problem.n_data
+    assert extras["chain"].shape == (extras["n_steps"], n_walkers, problem.dim)
     assert extras["n_steps"] >= BUDGET // n_walkers  # proposals outside the box cost nothing
     assert extras["log_prob"].shape == (extras["n_steps"], n_walkers)
     assert np.all((extras["chain"] >= 0) & (extras["chain"] <= 1))
     assert 0 < extras["acceptance_fraction"] < 1
-    assert extras["autocorr_time"].shape == (ShiftedSphere.dim,)
+    assert extras["autocorr_time"].shape == (problem.dim,)
     # The point estimate is the objective's best: no chain state can be better.
-    assert np.max(extras["log_prob"]) <= -0.5 * ShiftedSphere.n_data * np.log(result.mse)
+    assert np.max(extras["log_prob"]) <= -0.5 * problem.n_data * np.log(result.mse)

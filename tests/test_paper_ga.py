@@ -10,27 +10,9 @@ from bwbench.errors import BudgetExhausted
 from bwbench.objective import Objective
 from bwbench.optimizers import paper_ga, random_search
 from bwbench.optimizers.paper_ga import crossover, mutate, survivors, tournament
+from fakes import SphereProblem
 
 DIM = 14
-CENTRE = np.linspace(0.2, 0.8, DIM)
-
-
-class SphereProblem:
-    """A cheap stand-in for the Bouc-Wen problem: identity map, sphere loss, counts its calls."""
-
-    dim = DIM
-    param_names = tuple(f"p{i}" for i in range(DIM))
-    info: dict = {}
-
-    def __init__(self):
-        self.call_sizes = []
-
-    def from_unit(self, U):
-        return np.asarray(U, dtype=float)
-
-    def loss_batch(self, P):
-        self.call_sizes.append(len(P))
-        return ((P - CENTRE) ** 2).sum(axis=1)
 
 
 def _pop(n=100, seed=0):
