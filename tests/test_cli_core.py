@@ -62,3 +62,15 @@ def test_non_numeric_parameter_is_refused(tmp_path, capsys, truth_json):
     bad.write_text(json.dumps(values))
     assert main(["evaluate", "--params", str(bad), "--specimen", str(SPECIMEN)]) == 2
     assert "'n+' must be a finite number" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flag", ["--out", "--plot"])
+def test_fit_refuses_an_output_folder_that_does_not_exist_before_fitting(tmp_path, capsys, flag):
+    paths = {"--out": str(tmp_path / "r.json"), "--plot": str(tmp_path / "r.png")}
+    paths[flag] = str(tmp_path / "missing" / "x")
+    argv = ["fit", str(SPECIMEN), "--optimizer", "random", "--budget", "10", "--out", paths["--out"],
+            "--plot", paths["--plot"]]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "does not exist" in err
+    assert not (tmp_path / "r.json").exists()

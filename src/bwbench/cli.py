@@ -38,6 +38,18 @@ def _problem(args):
     return SwitchedBoucWenProblem(read_specimen(args.specimen), args.state, args.excitation)
 
 
+def _check_writable(*paths) -> None:
+    """Refuse an output path whose folder does not exist before any work is done, not after."""
+    from pathlib import Path
+
+    for path in paths:
+        if path is None:
+            continue
+        folder = Path(path).resolve().parent
+        if not folder.is_dir():
+            raise UserError(f"cannot write {path}: folder {folder} does not exist")
+
+
 def _fit_metrics(mse: float, n: int) -> dict:
     return {"mse": mse, "f_err": -mse, "rmse_N": math.sqrt(mse) if math.isfinite(mse) else math.inf, "n": n}
 
@@ -45,6 +57,7 @@ def _fit_metrics(mse: float, n: int) -> dict:
 def _cmd_simulate(args) -> int:
     from bwbench.parameters import read_json
 
+    _check_writable(args.out)
     params = read_json(args.params)
     problem = _problem(args)
     force = problem.simulate(params)
@@ -106,6 +119,7 @@ def _cmd_fit(args) -> int:
 
     if args.budget < 1:
         raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
+    _check_writable(args.out, args.plot)
     problem = _problem(args)
     options = dict(_parse_option(o) for o in args.option)
     result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
@@ -196,6 +210,9 @@ def main(argv=None) -> int:
         return args.func(args)
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
+        return 2
+    except OSError as err:  # a disk full or a permission refused while writing: still one line
+        print(f"error: {err.filename or ''}: {err.strerror or err}", file=sys.stderr)
         return 2
 
 
