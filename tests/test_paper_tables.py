@@ -109,3 +109,11 @@ def test_mechanical_properties_tables_2_to_4():
     assert list(m[m.table == 2].stress_5pct_MPa) == [0.108, 0.132, 0.187, 0.227, 0.262]
     assert list(m[m.table == 3].stress_5pct_MPa) == [0.11, 0.15, 0.2, 0.26, 0.32]
     assert list(m[m.table == 4].stress_5pct_MPa) == [0.109, 0.133, 0.165, 0.203, 0.247]
+
+
+def test_code_bounds_are_the_transcribed_table5():
+    from bwbench.parameters import LOWER, UPPER
+
+    bounds = pd.read_csv(Path(__file__).resolve().parents[1] / "data" / "paper" / "table5_bounds.csv")
+    np.testing.assert_array_equal(bounds.lower.to_numpy(), LOWER)
+    np.testing.assert_array_equal(bounds.upper.to_numpy(), UPPER)
