@@ -168,3 +168,20 @@ def test_load_refuses_missing_and_foreign_files(tmp_path):
         conn.execute("CREATE TABLE t (x)")
     with pytest.raises(UserError, match="other.sqlite.*not a bwbench study"):
         results_db.load_study(other)
+
+
+def test_one_specimen_backends_are_compared_as_independent_samples():
+    mse = {"a": [1.0, 2.0, 3.0, 4.0, 5.0], "b": [10.0, 11.0, 12.0, 13.0, 14.0], "c": [1.5, 2.5, 3.5, 4.5, np.inf]}
+    runs = pd.DataFrame([{"specimen": "s", "optimizer": o, "replicate": r, "status": "ok", "mse": v}
+                         for o, values in mse.items() for r, v in enumerate(values)])
+    runs.loc[(runs["optimizer"] == "c") & (runs["replicate"] == 4), "status"] = "error"
+    kw = statistics.kruskal_wallis(runs)
+    assert kw.n_groups == 3 and kw.pvalue < 0.05
+    mw = statistics.mann_whitney_vs(runs, "a").set_index("b")
+    assert list(mw.index) == ["b", "c"]
+    # every run of a beats every run of b: the exact test's smallest p, 2 / C(10, 5)
+    assert mw.loc["b", "p"] == pytest.approx(2 / 252) == mw.loc["b", "min_p"]
+    assert mw.loc["b", "p_superiority"] == 1.0 and mw.loc["b", "median_diff"] < 0
+    assert mw.loc["b", "p_holm"] == pytest.approx(2 * 2 / 252)  # Holm: smallest p times 2 comparisons
+    assert mw.loc["c", "p_superiority"] == pytest.approx(0.6)  # a failed run counts as the worst
+    assert mw.loc["b", "better"] == "a" and not mw.loc["c", "significant"]

@@ -4,6 +4,7 @@ or a Dask cluster, failed runs recorded, bad configurations refused with one lin
 from __future__ import annotations
 
 import io
+import json
 import os
 import shutil
 import signal
@@ -250,3 +251,25 @@ budget = 50
 def test_workers_must_be_positive(tmp_path, capsys):
     assert run_cli(["--config", str(write_config(tmp_path / "w.toml")), "--workers", "0"]) == 2
     assert capsys.readouterr().err.strip() == "error: --workers must be at least 1, got 0"
+
+
+def test_a_database_from_before_the_generic_columns_resumes_and_reads(tmp_path):
+    from bwbench import results_db
+
+    config = load_study_config(write_config(tmp_path / "old.toml", budget=50, seeds=1, optimizers="random = {}",
+                                            underpressures="[0.01, 0.05]"))
+    db = tmp_path / "old.sqlite"
+    run_study(config, db, workers=1, log=io.StringIO())
+    with closing(sqlite3.connect(db)) as conn:  # make it look like an old database, one run short
+        for column in ("problem", "params_json", "metrics_json"):
+            conn.execute(f"ALTER TABLE runs DROP COLUMN {column}")
+        conn.execute("DELETE FROM runs WHERE specimen = 'pom-mt24u01_0.05MPa_r1'")
+        conn.commit()
+    old = results_db.load_study(db)
+    assert (old.runs["problem"] == "switched-bouc-wen").all() and old.problem == "switched-bouc-wen"
+    assert run_study(config, db, workers=1, log=io.StringIO()).recorded == 1
+    with closing(sqlite3.connect(db)) as conn:
+        got = conn.execute(f"SELECT specimen, problem, params_json FROM runs {KEY_ORDER}").fetchall()
+    assert got[0][1:] == (None, None)
+    assert got[1][1] == "switched-bouc-wen" and set(json.loads(got[1][2])) == set(PARAM_NAMES)
+    assert len(results_db.load_study(db).runs) == 2

@@ -145,10 +145,12 @@ def _evaluation_grid(max_nfev: float, points: int = 120) -> np.ndarray:
     return np.unique(np.round(np.geomspace(1, max(max_nfev, 2), points)).astype(int))
 
 
-def convergence(study, out_dir, specimens=None, max_specimens: int = 4) -> Path:
+def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=None) -> Path:
     """Best-so-far MSE against evaluations (the paper's Fig 16, every backend): median line and
-    interquartile band across seeds. First panel: all specimens pooled, MSE relative to each
-    specimen's best known; then one panel per specimen (absolute MSE, N²)."""
+    interquartile band across seeds. First panel (when there are several specimens): all
+    specimens pooled, MSE relative to each specimen's best known; then one panel per specimen
+    (absolute MSE, in ``study.loss_unit``). ``floors``: {specimen: (MSE, label)} drawn as a dashed
+    line on that specimen's panel (e.g. the truth's MSE, the noise floor)."""
     _theme()
     ranking = study.ranking
     best = statistics.best_known(study.runs)
@@ -158,13 +160,16 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4) -> Path:
     grid = _evaluation_grid(budget)
     traces = {k: g for k, g in study.traces[study.traces["kind"] == "ranking"].groupby(
         ["specimen", "optimizer", "replicate"])}
-    panels = [("all specimens (pooled)", None)] + [(s, s) for s in specimens]
+    panels = [("all specimens (pooled)", None)] if len(specimens) > 1 else []
+    panels += [(s, s) for s in specimens]
     ncols = 2 if len(panels) in (2, 4) else min(3, len(panels))
     nrows = -(-len(panels) // ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(6.0 * ncols, 4.0 * nrows + 0.9), squeeze=False)
+    # one panel: wide enough for the title and a legend of many backends
+    fig, axes = plt.subplots(nrows, ncols, figsize=(max(6.0 * ncols, 12.0), 4.0 * nrows + 0.9), squeeze=False)
     rows = []
     for ax, (title, specimen) in zip(axes.flat, panels):
         counts = set()
+        shown = []  # medians and lower quartiles: they set the y range, the bands do not
         for optimizer in study.optimizers:
             curves = []
             for (s, o, r), g in traces.items():
@@ -180,6 +185,7 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4) -> Path:
                 warnings.simplefilter("ignore", RuntimeWarning)
                 q25, median, q75 = np.nanpercentile(curves, [25, 50, 75], axis=0)
             ax.plot(grid, median, color=colours[optimizer], lw=1.6, label=optimizer)
+            shown += [median, q25]
             ax.fill_between(grid, q25, q75, color=colours[optimizer], alpha=0.18, lw=0)
             rows.append(pd.DataFrame({"panel": title, "optimizer": optimizer, "nfev": grid, "median": median,
                                       "q25": q25, "q75": q75, "runs": len(curves),
@@ -187,11 +193,27 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4) -> Path:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("evaluations")
-        ax.set_ylabel("best-so-far MSE / best known (–)" if specimen is None else "best-so-far MSE (N²)")
+        if specimen is not None and specimen in (floors or {}):
+            value, label = floors[specimen]
+            ax.axhline(value, color="black", lw=1.0, ls="--", label=label)
+            shown.append(np.array([value]))
+        values = np.concatenate(shown) if shown else np.array([])
+        values = values[np.isfinite(values) & (values > 0)]
+        if values.size:
+            # A run's first points can be astronomically bad (a near-runaway parameter set): let the
+            # upper quartile band run off the top rather than squash every median line flat.
+            ax.set_ylim(values.min() / 2, values.max() * 5)
+        ax.set_ylabel("best-so-far MSE / best known (–)" if specimen is None else
+                      f"best-so-far MSE ({study.loss_unit})")
         ax.set_title(title + (f" ({counts.pop()} runs per backend)" if len(counts) == 1 else ""), fontsize=10)
     for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
-    handles, labels = axes.flat[0].get_legend_handles_labels()
+    handles, labels = {}, {}
+    for ax in axes.flat[:len(panels)]:  # union over panels: a floor line is on one panel only
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(label, h)
+    labels = list(handles)
+    handles = list(handles.values())
     fig.legend(handles, labels, loc="upper center", ncol=min(len(labels), 6), bbox_to_anchor=(0.5, 0.96),
                frameon=False)
     fig.suptitle("Convergence: median (line) and interquartile range (band) across seeds of the best-so-far MSE",
@@ -255,7 +277,7 @@ def waterfall(study, out_dir) -> Path:
     frame = frame.sort_values(["optimizer", "ratio"], kind="stable")
     frame["rank"] = frame.groupby("optimizer").cumcount() + 1
     colours = palette(study)
-    fig, ax = plt.subplots(figsize=(8.5, 5.0))
+    fig, ax = plt.subplots(figsize=(10.5, 5.0))
     for optimizer in study.optimizers:
         g = frame[frame["optimizer"] == optimizer]
         shown = g[np.isfinite(g["ratio"])]
@@ -264,11 +286,12 @@ def waterfall(study, out_dir) -> Path:
         ax.plot(shown["rank"], shown["ratio"], "-o", ms=4, lw=0.8, color=colours[optimizer], label=label)
     ax.set_yscale("log")
     ax.set_xlabel("run, sorted by final MSE (within each backend)")
+    ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     ax.set_ylabel("final MSE / best known for its specimen (–)")
     ax.axhline(1.0 + statistics.TOLERANCES[-1], color="0.3", lw=0.8, ls="--",
                label=f"{1.0 + statistics.TOLERANCES[-1]:g} × best known (success at 10 %)")
     ax.set_title("Waterfall: final MSE of every ranking run", fontsize=11)
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))  # outside: never over the data
     return _save(fig, out_dir, "waterfall", frame, _synthetic(study, study.specimens))
 
 
@@ -314,7 +337,7 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
         ax.set_xlim(-0.6, len(PARAM_NAMES) - 0.4)
         ax.set_ylim(-0.04, 1.04)
         ax.set_ylabel("(value − lower) / (upper − lower) (–)")
-        ax.set_title(f"{specimen}: best known MSE {best[specimen]:.4g} N²", fontsize=10)
+        ax.set_title(f"{specimen}: best known MSE {best[specimen]:.4g} {study.loss_unit}", fontsize=10)
         ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
         for j in range(len(PARAM_NAMES) - 1):
             ax.axvline(j + 0.5, color="0.85", lw=0.8)

@@ -27,6 +27,7 @@ from bwbench import figures, identifiability, results_db, statistics, synthetic
 from bwbench.errors import UserError
 from bwbench.model import PARAM_NAMES
 from bwbench.parameters import LABELS, LOWER, UPPER
+from bwbench.study_config import BENCHMARK_PROBLEM
 
 ALPHA = statistics.ALPHA
 BASELINE = "random"  # the backend "significantly worse than" disqualifies
@@ -249,7 +250,7 @@ class Document:
 
 
 _CSS = """
-body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; max-width: 1250px;
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; max-width: 1500px;
        margin: 1.5em auto; padding: 0 1em; color: #222; line-height: 1.45; }
 h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
 h2 { border-bottom: 1px solid #bbb; padding-bottom: .15em; margin-top: 2em; }
@@ -289,14 +290,8 @@ def _featured_specimens(study, k: int = 3) -> list[str]:
     return list(dict.fromkeys(posterior + study.specimens))[:k]
 
 
-def _section_setup(doc, study, synthetic_data: bool):
-    s = study.settings
-    doc.h(2, "What was compared")
-    doc.p(f"Study **{study.name}** (database `{study.path.name}`, bwbench {study.meta.get('bwbench_version', '?')}, "
-          f"created {study.meta.get('created_utc', '?')}). Every backend had the same budget of "
-          f"**{s.get('budget', '?')} evaluations** per run (one evaluation = one simulation of one parameter vector), "
-          f"{s.get('seeds', '?')} seeds per (specimen, backend), study seed {s.get('seed', '?')}; model state "
-          f"convention **{s.get('state', '?')}**, excitation **{s.get('excitation', '?')}**.")
+def backends_table(study) -> pd.DataFrame:
+    """One row per ranking backend: its family and the options it ran with."""
     try:
         from bwbench import registry
 
@@ -309,7 +304,18 @@ def _section_setup(doc, study, synthetic_data: bool):
         family = getattr(backends.get(name), "family", "–")
         rows.append({"backend": name, "family": family,
                      "options": ", ".join(f"{k}={json.dumps(v)}" for k, v in options.items()) or "defaults"})
-    doc.table(pd.DataFrame(rows), "Backends and their options (as run)")
+    return pd.DataFrame(rows)
+
+
+def _section_setup(doc, study, synthetic_data: bool):
+    s = study.settings
+    doc.h(2, "What was compared")
+    doc.p(f"Study **{study.name}** (database `{study.path.name}`, bwbench {study.meta.get('bwbench_version', '?')}, "
+          f"created {study.meta.get('created_utc', '?')}). Every backend had the same budget of "
+          f"**{s.get('budget', '?')} evaluations** per run (one evaluation = one simulation of one parameter vector), "
+          f"{s.get('seeds', '?')} seeds per (specimen, backend), study seed {s.get('seed', '?')}; model state "
+          f"convention **{s.get('state', '?')}**, excitation **{s.get('excitation', '?')}**.")
+    doc.table(backends_table(study), "Backends and their options (as run)")
     post = study.config.get("posterior")
     if post:
         doc.p(f"Posterior sampling (not part of the ranking): {post.get('optimizer')} on "
@@ -351,12 +357,15 @@ def _section_ranking(doc, study, table, fr, wilcoxon, rec):
         "ERT 1 % (evals)": table["ert_1%"].map(_evals),
         "ERT 10 % (evals)": table["ert_10%"].map(_evals),
         "mean Friedman rank": table["mean_rank"].map(lambda x: _g(x, 3)),
+        "median wall time (s)": table["median_wall_s"].map(lambda x: _g(x, 2)),
     })
     doc.table(shown, f"Ranking runs at a budget of {budget} evaluations, best mean rank first")
     doc.p("Success at τ: the run's best MSE came within (1 + τ) × the best known MSE of its specimen (the lowest "
           "MSE of any run in this database, ranking or posterior). ERT (expected running time, COCO definition) = "
           "evaluations spent by all runs (evaluations to target for the successful ones, all their evaluations for "
-          "the others) / number of successful runs, pooled over specimens; ∞ = no run succeeded.")
+          "the others) / number of successful runs, pooled over specimens; ∞ = no run succeeded. Wall time is "
+          "per run on one core; it is not part of the ranking (the budget is), but equal evaluations do not "
+          "cost equal time: the model needs more substeps in the stiff corners of the box (n < 1).")
     if np.isfinite(fr.pvalue):
         doc.p(f"Friedman test over {fr.n_blocks} specimens (blocks) and {len(table)} backends (treatments), value = "
               f"median final MSE across seeds: χ² = {fr.statistic:.3g}, **p = {_p(fr.pvalue)}**.")
@@ -593,6 +602,8 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
                  profile_grid: int = 7, log=None) -> Path:
     """Write report.md, report.html, the figures and their CSVs into ``out``; return report.html's path.
 
+    A ``bouc-wen-benchmark`` study gets the benchmark report (``bwbench.benchmark_report``).
+
     ``profile_params``: profile likelihoods of that many parameters (the widest free ranges) on the
     first featured specimen (0: none; they cost about a second per grid point).
     Raises ``UserError`` for a missing or non-study database, or one without ranking runs.
@@ -605,6 +616,10 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
         raise UserError(f"{db}: the study has no ranking runs yet: nothing to report")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    if study.problem == BENCHMARK_PROBLEM:
+        from bwbench import benchmark_report
+
+        return benchmark_report.build_report(study, out, log=log)
     synthetic_data = any(synthetic.is_synthetic(study.specimen_path(s)) for s in study.specimens)
     doc = Document(out)
 
@@ -652,7 +667,8 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--db", required=True, help="study database (SQLite, written by bwbench compare)")
     parser.add_argument("--out", required=True, help="output folder, e.g. reports/NAME")
-    parser.add_argument("--data", help="folder with the specimen CSVs and manifest.json (default: the study's)")
+    parser.add_argument("--data", help="folder with the specimen CSVs and manifest.json, or the Bouc-Wen benchmark "
+                                       "folder (default: the study's)")
     parser.add_argument("--profiles", type=int, default=2,
                         help="profile likelihoods of this many parameters on the first specimen (default 2; 0 = none)")
 

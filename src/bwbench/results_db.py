@@ -2,7 +2,8 @@
 
 The schema is the runner's contract: tables ``study``, ``runs``, ``timings``, ``traces`` and
 ``chains``. Reading never writes: the file is opened read-only, so a report can be made while
-the study is still running.
+the study is still running. Databases from before the generic ``runs`` columns (``problem``,
+``params_json``, ``metrics_json``) read as switched-model studies with those columns filled in.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import pandas as pd
 from bwbench.errors import UserError
 from bwbench.model import PARAM_NAMES
 from bwbench.parameters import LOWER, UPPER
+from bwbench.study_config import BENCHMARK_PROBLEM, DEFAULT_PROBLEM
 from bwbench.synthetic import MANIFEST, REPO
 
 REQUIRED_TABLES = ("study", "runs", "traces")
@@ -46,12 +48,13 @@ class Chain:
     def walkers(self) -> int:
         return int(self.samples.shape[1])
 
-    def physical(self, burn: int = 0, walkers=None) -> np.ndarray:
-        """Samples after ``burn`` steps, flattened to (n, 14), in physical units; ``walkers``: an
-        optional boolean mask of the walkers to keep."""
+    def physical(self, burn: int = 0, walkers=None, from_unit=None) -> np.ndarray:
+        """Samples after ``burn`` steps, flattened to (n, d), in physical units; ``walkers``: an
+        optional boolean mask of the walkers to keep; ``from_unit``: the problem's mapping from
+        unit coordinates (default: the switched model's linear Table 5 box)."""
         kept = self.samples[burn:] if walkers is None else self.samples[burn:, np.asarray(walkers, bool)]
         flat = kept.reshape(-1, self.samples.shape[2])
-        return LOWER + flat * (UPPER - LOWER)
+        return LOWER + flat * (UPPER - LOWER) if from_unit is None else from_unit(flat)
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +78,16 @@ class Study:
     def settings(self) -> dict:
         """The config's [study] table: name, seed, budget, seeds, state, excitation, data."""
         return self.config.get("study", {})
+
+    @property
+    def problem(self) -> str:
+        """``switched-bouc-wen`` (also for databases older than the key) or ``bouc-wen-benchmark``."""
+        return self.settings.get("problem", DEFAULT_PROBLEM)
+
+    @property
+    def loss_unit(self) -> str:
+        """Unit of the MSE: N² (force residual) or m² (the benchmark's displacement residual)."""
+        return "m²" if self.problem == BENCHMARK_PROBLEM else "N²"
 
     @property
     def ranking(self) -> pd.DataFrame:
@@ -140,7 +153,23 @@ def read_runs(conn) -> pd.DataFrame:
     for column in ("nfev", "mse", "f_err", "rmse_N", "budget", "underpressure_MPa", *PARAM_NAMES):
         runs[column] = pd.to_numeric(runs[column], errors="coerce").astype(float)
     runs["replicate"] = runs["replicate"].astype(int)
-    return runs
+    if "problem" not in runs:  # written before the generic columns: a switched-model study
+        runs["problem"] = DEFAULT_PROBLEM
+        runs["params_json"] = runs["metrics_json"] = None
+    runs["problem"] = runs["problem"].fillna(DEFAULT_PROBLEM)
+    return _expand_json(runs)
+
+
+def _expand_json(runs: pd.DataFrame) -> pd.DataFrame:
+    """Add the parameters (``params_json``) and metrics (``metrics_json``) that are not columns yet
+    as float columns (NaN where absent or null): e.g. ``m`` … ``nu`` and ``test_multisine_erms_m``."""
+    new = {}
+    for column in ("params_json", "metrics_json"):
+        parsed = [json.loads(t) if isinstance(t, str) and t else {} for t in runs[column]]
+        names = [n for n in dict.fromkeys(k for d in parsed for k in d) if n not in runs and n not in new]
+        for name in names:
+            new[name] = [np.nan if d.get(name) is None else float(d[name]) for d in parsed]
+    return pd.concat([runs, pd.DataFrame(new, index=runs.index)], axis=1) if new else runs
 
 
 def read_traces(conn) -> pd.DataFrame:
@@ -170,8 +199,10 @@ def load_study(path, data_dir=None) -> Study:
     """Read a whole study database.
 
     ``data_dir``: where the specimen CSVs and manifest are; default the config's ``study.data``,
-    relative to the bwbench checkout. Raises ``UserError`` for a missing file or one that is not
-    a study database.
+    relative to the bwbench checkout. For a ``bouc-wen-benchmark`` study: the benchmark folder;
+    default the ``data_dir`` the runner last recorded, if it still exists, else
+    ``boucwen_benchmark.default_data_dir()``. Raises ``UserError`` for a missing file or one that
+    is not a study database.
     """
     path = Path(path)
     with closing(_connect(path)) as conn:
@@ -180,7 +211,12 @@ def load_study(path, data_dir=None) -> Study:
             runs, traces, chains = read_runs(conn), read_traces(conn), read_chains(conn)
         except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError) as err:
             raise UserError(f"{path}: unreadable study database: {err}") from None
-    if data_dir is None:
+    if data_dir is None and config.get("study", {}).get("problem") == BENCHMARK_PROBLEM:
+        from bwbench.boucwen_benchmark import default_data_dir
+
+        recorded = meta.get("data_dir")
+        data_dir = Path(recorded) if recorded and Path(recorded).is_dir() else default_data_dir()
+    elif data_dir is None:
         data = Path(config.get("study", {}).get("data", "data/specimens"))
         data_dir = data if data.is_absolute() else REPO / data
     return Study(path=path, meta=meta, config=config, runs=runs, traces=traces, chains=chains,

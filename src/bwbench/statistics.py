@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+import scipy.special
 import scipy.stats
 
 TOLERANCES = (0.01, 0.10)  # success at 1 % and 10 % above the best known MSE
@@ -205,7 +206,10 @@ def ranking_table(runs: pd.DataFrame, traces: pd.DataFrame, order=None) -> tuple
         rmse = np.sqrt(final[mask])
         row = {"optimizer": optimizer, "runs": int(mask.sum()),
                "errors": int((ranking.loc[mask, "status"] != "ok").sum()),
-               "median_rmse_N": float(np.median(rmse)), "best_rmse_N": float(np.min(rmse))}
+               "median_rmse_N": float(np.median(rmse)), "best_rmse_N": float(np.min(rmse)),
+               # Equal evaluations are not equal time: a backend that explores stiff corners of
+               # the box (where the model needs many substeps) costs more per evaluation.
+               "median_wall_s": float(ranking.loc[mask, "wall_s"].median()) if "wall_s" in ranking else np.nan}
         for tau in TOLERANCES:
             s = se[(se["optimizer"] == optimizer) & (se["tau"] == tau)].iloc[0]
             row[f"success_{tau:.0%}"] = s["success_rate"]
@@ -272,3 +276,74 @@ def chain_diagnostics(samples: np.ndarray, acceptance_fraction: float | None = N
     return {"steps": steps, "walkers": walkers, "dim": dim, "acceptance_fraction": float(acceptance_fraction),
             "tau": [float(t) for t in tau], "tau_max": tau_max, "ess": float(ess), "stuck": stuck,
             "warnings": warnings}
+
+
+# ------------------------------------------------- one specimen: backends as independent samples
+
+def log_final_mse(runs: pd.DataFrame) -> pd.Series:
+    """log10 final MSE per run; failed runs one decade above the worst finished run (rank-based
+    tests only see them as worst)."""
+    logged = np.log10(final_mse(runs).astype(float))
+    finite = logged[np.isfinite(logged)]
+    worst = (finite.max() if len(finite) else 0.0) + 1.0
+    return logged.where(np.isfinite(logged), worst)
+
+
+@dataclass(frozen=True)
+class KruskalWallis:
+    statistic: float
+    pvalue: float  # nan when not applicable (see note)
+    n_groups: int
+    note: str
+
+
+def kruskal_wallis(runs: pd.DataFrame) -> KruskalWallis:
+    """Kruskal–Wallis H test of "every backend's final MSE has the same distribution", the runs
+    of each backend (its seeds) an independent sample: the omnibus test for one specimen, where
+    there are no blocks for Friedman's test."""
+    values = log_final_mse(runs)
+    groups = [values[runs["optimizer"] == o].to_numpy() for o in dict.fromkeys(runs["optimizer"])]
+    groups = [g for g in groups if len(g)]
+    if len(groups) < 2 or sum(len(g) for g in groups) <= len(groups):
+        return KruskalWallis(np.nan, np.nan, len(groups), "Kruskal–Wallis test not applicable: needs ≥ 2 backends "
+                             "with more runs than backends")
+    if np.ptp(np.concatenate(groups)) == 0:
+        return KruskalWallis(0.0, 1.0, len(groups), "every run has the same final MSE")
+    stat, p = scipy.stats.kruskal(*groups)
+    return KruskalWallis(float(stat), float(p), len(groups), "")
+
+
+def mann_whitney_vs(runs: pd.DataFrame, reference: str, alpha: float = ALPHA) -> pd.DataFrame:
+    """Two-sided Mann–Whitney U test of each backend against ``reference`` on log10 final MSE,
+    the seeds of each backend an independent sample; Holm-corrected over these comparisons.
+
+    Columns: a (= reference), b, n_a, n_b, median_diff (log10 MSE a − b; < 0: a better),
+    p_superiority (probability that a run of a beats a run of b, ties half), statistic (U of a),
+    p, p_holm, significant (p_holm < alpha), better (a, b or ""), min_p (the smallest two-sided p
+    the exact test can give with these sample sizes: with 5 seeds each, 2/252 ≈ 0.008).
+    """
+    values = log_final_mse(runs)
+    a = values[runs["optimizer"] == reference].to_numpy()
+    rows = []
+    for other in dict.fromkeys(runs["optimizer"]):
+        if other == reference:
+            continue
+        b = values[runs["optimizer"] == other].to_numpy()
+        row = {"a": reference, "b": other, "n_a": len(a), "n_b": len(b), "median_diff": np.nan,
+               "p_superiority": np.nan, "statistic": np.nan, "p": np.nan,
+               "min_p": 2.0 / scipy.special.comb(len(a) + len(b), len(a)) if len(a) and len(b) else np.nan}
+        if len(a) and len(b):
+            row["median_diff"] = float(np.median(a) - np.median(b))
+            row["p_superiority"] = float(np.mean((a[:, None] < b[None, :]) + 0.5 * (a[:, None] == b[None, :])))
+            if np.ptp(np.concatenate([a, b])) == 0:
+                row["p"] = 1.0  # identical results: no evidence of a difference
+            else:
+                res = scipy.stats.mannwhitneyu(a, b, alternative="two-sided")
+                row["statistic"], row["p"] = float(res.statistic), float(res.pvalue)
+        rows.append(row)
+    columns = ["a", "b", "n_a", "n_b", "median_diff", "p_superiority", "statistic", "p", "min_p"]
+    out = pd.DataFrame(rows, columns=columns)
+    out["p_holm"] = holm(out["p"].to_numpy()) if len(out) else []
+    out["significant"] = out["p_holm"] < alpha
+    out["better"] = np.where(~out["significant"], "", np.where(out["median_diff"] < 0, out["a"], out["b"]))
+    return out

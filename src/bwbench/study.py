@@ -12,10 +12,19 @@ succeeded and those that raised), so a killed study loses at most the runs that 
 Database schema (the report reads it; names are a contract):
 
 - ``study(key, value)``: ``name``, ``config_json``, ``config_hash``, ``created_utc``, ``bwbench_version``.
+- ``study`` also holds ``data_dir`` for a ``bouc-wen-benchmark`` study: the benchmark folder of
+  the latest run (where ``bwbench report`` looks first); it is not part of the configuration.
 - ``runs``: one row per finished run, keyed by (kind, specimen, optimizer, replicate); no wall
-  time, so rows are identical whoever ran them and when.
+  time, so rows are identical whoever ran them and when. Columns for any problem: ``problem``,
+  ``params_json`` (the physical parameters by name) and ``metrics_json`` (the problem's own
+  metrics of the best point: ``{}`` for the switched model; for the benchmark
+  ``test_multisine_erms_m``, ``test_sinesweep_erms_m`` and ``train_rmse_m``, null where the
+  model blows up; NULL for a run that raised). The 14 switched-model parameter columns, ``state``,
+  ``excitation``, ``material``, ``underpressure_MPa``, ``repeat`` and ``rmse_N`` are NULL for the
+  benchmark (its MSE is in m²). Databases written before these three columns existed get them
+  (NULL) when a study is resumed.
 - ``timings``: wall time (s), worker (``host:pid``) and finish time (UTC) of each run.
-- ``traces``: the best-so-far improvements (evaluation count, MSE in N²) of each run.
+- ``traces``: the best-so-far improvements (evaluation count, MSE in the problem's unit²) of each run.
 - ``chains``: MCMC chains (float64, unit coordinates, shape (steps, walkers, dim)) of runs that
   return one (emcee).
 """
@@ -43,12 +52,20 @@ import numpy as np
 from bwbench import __version__
 from bwbench.errors import UserError
 from bwbench.model import PARAM_NAMES
-from bwbench.study_config import StudyConfig, canonical_json, describe_differences, load_study_config
+from bwbench.study_config import (
+    BENCHMARK_PROBLEM,
+    DEFAULT_PROBLEM,
+    StudyConfig,
+    canonical_json,
+    describe_differences,
+    load_study_config,
+)
 
+GENERIC_COLUMNS = ("problem", "params_json", "metrics_json")  # usable by any problem
 RUN_COLUMNS = (
     "kind", "specimen", "optimizer", "replicate", "seed_entropy", "status", "error", "budget",
     "nfev", "mse", "f_err", "rmse_N", "success", "message", "state", "excitation", "material",
-    "underpressure_MPa", "repeat", "options_json", *PARAM_NAMES,
+    "underpressure_MPa", "repeat", "options_json", *PARAM_NAMES, *GENERIC_COLUMNS,
 )
 _KEY_SQL = "kind TEXT, specimen TEXT, optimizer TEXT, replicate INTEGER"
 _PK_SQL = "PRIMARY KEY (kind, specimen, optimizer, replicate)"
@@ -59,6 +76,7 @@ CREATE TABLE IF NOT EXISTS runs (
     mse REAL, f_err REAL, rmse_N REAL, success INTEGER, message TEXT, state TEXT, excitation TEXT,
     material TEXT, underpressure_MPa REAL, repeat INTEGER, options_json TEXT,
     {", ".join(f'"{name}" REAL' for name in PARAM_NAMES)},
+    problem TEXT, params_json TEXT, metrics_json TEXT,
     {_PK_SQL});
 CREATE TABLE IF NOT EXISTS timings ({_KEY_SQL}, wall_s REAL, worker TEXT, finished_utc TEXT, {_PK_SQL});
 CREATE TABLE IF NOT EXISTS traces ({_KEY_SQL}, nfev INTEGER, mse REAL);
@@ -85,9 +103,10 @@ class Task:
     excitation: str
     budget: int
     options: dict  # resolved (defaults merged)
-    material: str
-    underpressure_MPa: float
-    repeat: int
+    material: str | None
+    underpressure_MPa: float | None
+    repeat: int | None
+    problem: str = DEFAULT_PROBLEM  # for the benchmark, ``path`` is its data folder
 
     @property
     def key(self) -> tuple:
@@ -106,7 +125,8 @@ def plan_tasks(config: StudyConfig) -> list[Task]:
     replicate, so a study stopped early has every backend on the same specimens."""
     def task(kind, entry, optimizer, replicate, budget, options):
         return Task(kind, entry.name, optimizer, replicate, config.seed, entry.path, config.state,
-                    config.excitation, budget, options, entry.material, entry.underpressure_MPa, entry.repeat)
+                    config.excitation, budget, options, entry.material, entry.underpressure_MPa, entry.repeat,
+                    config.problem)
 
     tasks = []
     p = config.posterior
@@ -128,37 +148,75 @@ def run_task(task: Task) -> dict:
     import numba
 
     from bwbench import fitting
-    from bwbench.problem import SwitchedBoucWenProblem
-    from bwbench.specimen import read_specimen
 
     row = dict.fromkeys(RUN_COLUMNS)
     row.update(kind=task.kind, specimen=task.specimen, optimizer=task.optimizer, replicate=task.replicate,
                seed_entropy=str(task.entropy), budget=task.budget, state=task.state,
                excitation=task.excitation, material=task.material,
                underpressure_MPa=task.underpressure_MPa, repeat=task.repeat,
-               options_json=canonical_json(task.options), success=0)
+               options_json=canonical_json(task.options), success=0, problem=task.problem)
     trace, chain = [], None
     # One numba thread per worker: the workers already fill the cores.
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
     started = time.perf_counter()
     try:
-        problem = SwitchedBoucWenProblem(read_specimen(task.path), task.state, task.excitation)
+        problem = make_problem(task)
         seed = task_seed(task.entropy, task.kind, task.specimen, task.optimizer, task.replicate)
         result = fitting.run(problem, task.optimizer, task.budget, seed, task.options)
         chain = _chain_columns(result.extras)
+        metrics = problem_metrics(task.problem, problem, result)
     except Exception as err:  # a failed run is a result: record it, keep the study going
         row.update(status="error", error=" ".join(f"{type(err).__name__}: {err}".split()))
     else:
         row.update(status="ok", nfev=result.nfev, mse=result.mse, f_err=result.f_err,
-                   rmse_N=result.rmse_N, success=int(result.success), message=result.message)
-        row.update({name: result.params.get(name) for name in PARAM_NAMES})
+                   success=int(result.success), message=result.message,
+                   params_json=canonical_json({k: _json_number(v) for k, v in result.params.items()}),
+                   metrics_json=canonical_json(metrics))
+        if task.problem == DEFAULT_PROBLEM:
+            row["rmse_N"] = result.rmse_N
+            row.update({name: result.params.get(name) for name in PARAM_NAMES})
         trace = list(zip(result.trace_nfev, result.trace_mse, strict=True))
     finally:
         wall = time.perf_counter() - started
         numba.set_num_threads(threads)
     timing = {"wall_s": wall, "worker": f"{socket.gethostname()}:{os.getpid()}", "finished_utc": _utc_now()}
     return {"key": task.key, "row": row, "timing": timing, "trace": trace, "chain": chain}
+
+
+def make_problem(task: Task):
+    """The problem object of a task (what ``Objective`` wraps)."""
+    if task.problem == BENCHMARK_PROBLEM:
+        from bwbench.boucwen_benchmark import BoucWenBenchmarkProblem
+
+        return BoucWenBenchmarkProblem(task.path)
+    from bwbench.problem import SwitchedBoucWenProblem
+    from bwbench.specimen import read_specimen
+
+    return SwitchedBoucWenProblem(read_specimen(task.path), task.state, task.excitation)
+
+
+def problem_metrics(problem_name: str, problem, result) -> dict:
+    """The problem-specific metrics of a run's best point (``metrics_json``); None = not finite.
+
+    Benchmark: the e_RMS (m) of the best point on ``test_multisine`` and ``test_sinesweep`` and
+    the training RMSE (m); the test files are used here only, never by the optimiser.
+    """
+    if problem_name != BENCHMARK_PROBLEM:
+        return {}
+    from bwbench.boucwen_benchmark import TEST_SETS
+
+    params = np.array([result.params[name] for name in problem.param_names])
+    metrics = {"train_rmse_m": _json_number(result.rmse_N)}  # sqrt(MSE): metres for this problem
+    for which in TEST_SETS:
+        error = problem.test_error(params, which) if np.all(np.isfinite(params)) else math.inf
+        metrics[f"{which}_erms_m"] = _json_number(error)
+    return metrics
+
+
+def _json_number(x):
+    x = float(x)
+    return x if math.isfinite(x) else None  # JSON has no inf/NaN: null = not finite
 
 
 def _chain_columns(extras: dict) -> dict | None:
@@ -204,6 +262,7 @@ def open_database(path, config: StudyConfig) -> sqlite3.Connection:
             raise UserError(f"{path}: not a bwbench study database (no 'study' table); choose another --db")
         if "study" in tables:
             _check_same_study(conn, path, config)
+            _add_generic_columns(conn)
         else:
             for statement in SCHEMA.split(";"):
                 if statement.strip():
@@ -213,6 +272,9 @@ def open_database(path, config: StudyConfig) -> sqlite3.Connection:
                 ("config_hash", config.config_hash), ("created_utc", _utc_now()),
                 ("bwbench_version", __version__),
             ])
+        if config.problem == BENCHMARK_PROBLEM:  # where the data are now: for the report, not the hash
+            conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_dir', ?)",
+                         (str(Path(config.data_dir).resolve()),))
         conn.execute("COMMIT")
     except sqlite3.DatabaseError as err:
         conn.close()
@@ -221,6 +283,14 @@ def open_database(path, config: StudyConfig) -> sqlite3.Connection:
         conn.close()
         raise
     return conn
+
+
+def _add_generic_columns(conn) -> None:
+    """Give a database from before the generic columns existed those columns (NULL in old rows)."""
+    present = {r[1] for r in conn.execute("PRAGMA table_info(runs)")}
+    for column in GENERIC_COLUMNS:
+        if column not in present:
+            conn.execute(f"ALTER TABLE runs ADD COLUMN {column} TEXT")
 
 
 def _check_same_study(conn, path, config: StudyConfig) -> None:
@@ -445,24 +515,36 @@ def export_csv(db, path) -> None:
 
 
 def summary_table(db) -> str:
-    """Per backend (ranking runs only): median and best RMSE (N), success rate, median evaluations,
-    errors; best median RMSE first."""
+    """Per backend (ranking runs only): median and best RMSE (N, or m for the benchmark), success
+    rate, median evaluations, errors; for the benchmark also the median test_multisine e_RMS and
+    the number of runs below the 1e-5 m target. Best median RMSE first."""
     runs = read_runs(db)
     runs = runs[runs["kind"] == "ranking"]
     if runs.empty:
         return "no ranking runs recorded"
-    header = ("optimizer", "runs", "median RMSE (N)", "best RMSE (N)", "success", "median nfev", "errors")
+    benchmark = "problem" in runs and (runs["problem"] == BENCHMARK_PROBLEM).any()
+    unit, number = ("m", "{:.2e}") if benchmark else ("N", "{:.3f}")
+    header = ("optimizer", "runs", f"median RMSE ({unit})", f"best RMSE ({unit})", "success", "median nfev", "errors")
+    if benchmark:
+        header += ("median test e_RMS (m)", f"test < {TARGET_ERMS_M:g} m")
     stats = []
     for optimizer, group in runs.groupby("optimizer", sort=False):
-        ok = group[(group["status"] == "ok") & np.isfinite(group["rmse_N"].astype(float))]
-        rmse = ok["rmse_N"].astype(float)
+        mse = group["mse"].astype(float)
+        ok = group[(group["status"] == "ok") & np.isfinite(mse)]
+        rmse = np.sqrt(ok["mse"].astype(float))
+        extra = ()
+        if benchmark:
+            test = _metric(group, "test_multisine_erms_m")
+            extra = ("-" if not np.isfinite(test).any() else f"{np.nanmedian(test):.2e}",
+                     f"{int((test < TARGET_ERMS_M).sum())}/{len(group)}")
         stats.append((rmse.median() if len(ok) else math.inf, optimizer, len(group), rmse.min() if len(ok) else None,
                       len(ok) / len(group), ok["nfev"].median() if len(ok) else None,
-                      int((group["status"] == "error").sum())))
+                      int((group["status"] == "error").sum()), extra))
     stats.sort(key=lambda r: (r[0], r[1]))
-    lines = [(optimizer, str(n), "-" if best is None else f"{median:.3f}", "-" if best is None else f"{best:.3f}",
-              f"{success:.0%}", "-" if nfev is None else f"{nfev:.0f}", str(n_errors))
-             for median, optimizer, n, best, success, nfev, n_errors in stats]
+    lines = [(optimizer, str(n), "-" if best is None else number.format(median),
+              "-" if best is None else number.format(best), f"{success:.0%}", "-" if nfev is None else f"{nfev:.0f}",
+              str(n_errors), *extra)
+             for median, optimizer, n, best, success, nfev, n_errors, extra in stats]
     widths = [max(len(r[i]) for r in [header, *lines]) for i in range(len(header))]
 
     def fmt(cells):  # first column left-aligned, numbers right-aligned
@@ -470,6 +552,20 @@ def summary_table(db) -> str:
         return "  ".join(padded)
 
     return "\n".join([fmt(header), *map(fmt, lines)])
+
+
+TARGET_ERMS_M = 1e-5  # the benchmark's target: below the best published black-box e_RMS (1.2e-5 m)
+
+
+def _metric(runs, name: str) -> np.ndarray:
+    """One metric of ``metrics_json`` per run (NaN where absent or not finite)."""
+    def value(text):
+        if not isinstance(text, str):
+            return math.nan
+        x = json.loads(text).get(name)
+        return math.nan if x is None else float(x)
+
+    return np.array([value(t) for t in runs["metrics_json"]], dtype=float)
 
 
 # ------------------------------------------------------------------------------------ entry point
@@ -480,6 +576,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, help="local worker processes (default: all cores; 1 = in-process)")
     parser.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT) instead of local workers")
     parser.add_argument("--csv", help="also write the runs (with timings) as a CSV file")
+    parser.add_argument("--data", help="data folder, replacing the configuration's [study] data (relative to the "
+                                       "current directory); for bouc-wen-benchmark the folder of its three CSVs")
 
 
 def main(args) -> int:
@@ -491,7 +589,7 @@ def main(args) -> int:
     """
     if args.workers is not None and args.scheduler:
         raise UserError("--workers and --scheduler exclude each other: a cluster brings its own workers")
-    config = load_study_config(args.config)
+    config = load_study_config(args.config, data=getattr(args, "data", None))
     db = Path(args.db) if args.db else config.default_db
     try:
         outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)

@@ -10,6 +10,7 @@ Format (``studies/quick.toml`` is a worked example)::
     state = "shared"          # or "split"
     excitation = "measured"   # or "sine"
     data = "data/specimens"   # folder with manifest.json
+    problem = "switched-bouc-wen"   # the default; or "bouc-wen-benchmark" (see below)
 
     [specimens]               # manifest filters, each a value or a list; omitted key = all
     material = ["POM MT24u01"]
@@ -29,7 +30,24 @@ Format (``studies/quick.toml`` is a worked example)::
 
 Relative paths (``data``, and the default database) are relative to the repository root: the
 parent of the ``studies/`` folder holding the configuration, or, for a configuration kept
-anywhere else, the bwbench checkout itself.
+anywhere else, the bwbench checkout itself. ``--data PATH`` on the command line (relative to the
+current directory) replaces ``[study] data``.
+
+Problems (``[study] problem``):
+
+- ``"switched-bouc-wen"`` (default): the paper's 14-parameter switched model fitted to the
+  specimens of ``data`` (a folder with manifest.json) selected by ``[specimens]``. ``state`` and
+  ``excitation`` choose the model variant. ``data`` is part of the configuration hash as written
+  (the folder defines the specimens). With ``problem`` absent the hash is the one of earlier
+  versions: ``problem`` enters the canonical JSON only when it is not the default.
+- ``"bouc-wen-benchmark"``: the Noël–Schoukens benchmark (``bwbench.boucwen_benchmark``), one
+  "specimen", ``train_multisine``. ``data`` is the benchmark folder (default
+  ``boucwen_benchmark.default_data_dir()``, i.e. ``../shared/benchmarks/bouc-wen`` beside the
+  repository). ``[specimens]``, ``state`` and ``excitation`` do not apply to it and are refused
+  (not ignored: a setting that silently does nothing would be read as part of the result).
+  ``[posterior] specimens`` may be omitted (it can only be ``["train_multisine"]``). The hash
+  holds the SHA-256 of the three benchmark files, not their folder: the same data moved
+  elsewhere (or reached through ``--data``) resume the same study, changed data are refused.
 
 Every mistake raises ``UserError`` naming the file and the key, e.g.
 ``studies/x.toml: [study] budget must be a positive integer``.
@@ -53,7 +71,17 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-STUDY_KEYS = ("name", "seed", "budget", "seeds", "state", "excitation", "data")
+STUDY_KEYS = ("name", "seed", "budget", "seeds", "state", "excitation", "data", "problem")
+DEFAULT_PROBLEM = "switched-bouc-wen"
+BENCHMARK_PROBLEM = "bouc-wen-benchmark"
+PROBLEMS = (DEFAULT_PROBLEM, BENCHMARK_PROBLEM)
+BENCHMARK_SPECIMEN = "train_multisine"
+BENCHMARK_FILES = ("train_multisine.csv", "test_multisine.csv", "test_sinesweep.csv")
+# Keys that make no sense for the benchmark: refused there, with the reason.
+_NOT_FOR_BENCHMARK = {
+    "state": "it has a single hysteretic variable",
+    "excitation": "its input is the measured force, not a displacement",
+}
 FILTER_KEYS = ("material", "table", "underpressure_MPa", "repeat")
 POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
 EXCITATIONS = ("measured", "sine")
@@ -97,6 +125,9 @@ class StudyConfig:
     specimens: tuple  # of SpecimenEntry, manifest order
     optimizers: dict  # name -> resolved options, in file order
     posterior: PosteriorConfig | None
+    problem: str = DEFAULT_PROBLEM
+    data_dir: Path | None = None  # the resolved data folder (after --data)
+    data_sha256: str | None = None  # bouc-wen-benchmark: digest of its three files
 
     @property
     def default_db(self) -> Path:
@@ -109,9 +140,25 @@ class StudyConfig:
             p = self.posterior
             posterior = {"specimens": [s.name for s in p.specimens], "optimizer": p.optimizer,
                          "budget": p.budget, "seeds": p.seeds, "options": p.options}
+        if self.problem == BENCHMARK_PROBLEM:
+            from bwbench import boucwen_benchmark as bm
+
+            return {
+                "study": {"name": self.name, "seed": self.seed, "budget": self.budget, "seeds": self.seeds,
+                          "problem": self.problem, "data_sha256": self.data_sha256,
+                          # the problem's fixed settings: a code change to them is a different study
+                          "settings": {"train_period": bm.TRAIN_PERIODS, "steps_per_sample": bm.STEPS_PER_SAMPLE,
+                                       "warmup_samples": bm.WARMUP_SAMPLES}},
+                "specimens": {"files": [s.name for s in self.specimens]},
+                "optimizers": self.optimizers,
+                "posterior": posterior,
+            }
+        study = {"name": self.name, "seed": self.seed, "budget": self.budget, "seeds": self.seeds,
+                 "state": self.state, "excitation": self.excitation, "data": self.data}
+        if self.problem != DEFAULT_PROBLEM:  # absent for the default: old hashes stay valid
+            study["problem"] = self.problem
         return {
-            "study": {"name": self.name, "seed": self.seed, "budget": self.budget, "seeds": self.seeds,
-                      "state": self.state, "excitation": self.excitation, "data": self.data},
+            "study": study,
             "specimens": {"filters": {k: list(v) for k, v in self.filters.items()},
                           "files": [s.name for s in self.specimens]},
             "optimizers": self.optimizers,
@@ -136,8 +183,12 @@ def repository_root(config_path) -> Path:
     return folder.parent if folder.name == "studies" else REPO
 
 
-def load_study_config(path) -> StudyConfig:
-    """Read, validate and resolve a study TOML; raise ``UserError`` naming the file and key."""
+def load_study_config(path, data=None) -> StudyConfig:
+    """Read, validate and resolve a study TOML; raise ``UserError`` naming the file and key.
+
+    ``data``: the command line's ``--data`` (relative to the current directory), replacing the
+    file's ``[study] data``.
+    """
     where = str(path)
     try:
         with open(path, "rb") as fh:
@@ -172,14 +223,31 @@ def load_study_config(path) -> StudyConfig:
     seed = _integer(fail, "[study] seed", study["seed"], minimum=0, what="a non-negative integer")
     budget = _integer(fail, "[study] budget", study["budget"])
     seeds = _integer(fail, "[study] seeds", study["seeds"])
+    problem = _choice(fail, "[study] problem", study.get("problem", DEFAULT_PROBLEM), PROBLEMS)
+    root = repository_root(path)
+
+    optimizers_table = document["optimizers"]
+    if not optimizers_table:
+        fail("[optimizers] names no backend")
+    for name_ in optimizers_table:
+        _check_backend(fail, "[optimizers]", name_)
+    optimizers = {name_: _resolve_options(fail, f"[optimizers] {name_}", name_, options)
+                  for name_, options in optimizers_table.items()}
+    common = {"path": where, "root": root, "name": name, "seed": seed, "budget": budget, "seeds": seeds,
+              "optimizers": optimizers, "problem": problem}
+    if problem == BENCHMARK_PROBLEM:
+        return _benchmark_config(fail, document, study, data, common)
+
     state = _choice(fail, "[study] state", study.get("state", "shared"), model.STATES)
     excitation = _choice(fail, "[study] excitation", study.get("excitation", "measured"), EXCITATIONS)
-    data = study.get("data", "data/specimens")
-    if not isinstance(data, str) or not data:
-        fail("[study] data must be a folder path (a string)")
-
-    root = repository_root(path)
-    data_dir = Path(data) if Path(data).is_absolute() else root / data
+    if data is None:
+        data = study.get("data", "data/specimens")
+        if not isinstance(data, str) or not data:
+            fail("[study] data must be a folder path (a string)")
+        data_dir = Path(data) if Path(data).is_absolute() else root / data
+    else:
+        data_dir = Path(data).resolve()
+        data = str(data_dir)
     manifest = _read_manifest(fail, data_dir)
 
     filters_table = document.get("specimens", {})
@@ -189,24 +257,70 @@ def load_study_config(path) -> StudyConfig:
     filters = {key: _filter_values(fail, key, value) for key, value in filters_table.items()}
     selected = _select(fail, manifest, filters)
 
-    optimizers_table = document["optimizers"]
-    if not optimizers_table:
-        fail("[optimizers] names no backend")
-    for name_ in optimizers_table:
-        _check_backend(fail, "[optimizers]", name_)
-    optimizers = {name_: _resolve_options(fail, f"[optimizers] {name_}", name_, options)
-                  for name_, options in optimizers_table.items()}
-
     posterior = None
     if "posterior" in document:
         posterior = _posterior(fail, document["posterior"], manifest, data_dir)
 
     return StudyConfig(
-        path=where, root=root, name=name, seed=seed, budget=budget, seeds=seeds, state=state,
-        excitation=excitation, data=data, filters=filters,
-        specimens=tuple(_entry(fail, row, data_dir) for row in selected), optimizers=optimizers,
-        posterior=posterior,
+        **common, state=state, excitation=excitation, data=data, filters=filters,
+        specimens=tuple(_entry(fail, row, data_dir) for row in selected), posterior=posterior,
+        data_dir=data_dir,
     )
+
+
+def _benchmark_config(fail, document, study, data, common) -> StudyConfig:
+    """The ``bouc-wen-benchmark`` part of ``load_study_config``."""
+    from bwbench import boucwen_benchmark
+
+    for key, why in _NOT_FOR_BENCHMARK.items():
+        if key in study:
+            fail(f"[study] {key} does not apply to problem {BENCHMARK_PROBLEM!r} ({why}): remove it")
+    if "specimens" in document:
+        fail(f"[specimens] does not apply to problem {BENCHMARK_PROBLEM!r} (its one specimen is "
+             f"{BENCHMARK_SPECIMEN}): remove the table")
+    if data is not None:
+        data_dir = Path(data).resolve()
+        written = str(data)
+    elif "data" in study:
+        written = study["data"]
+        if not isinstance(written, str) or not written:
+            fail("[study] data must be a folder path (a string)")
+        data_dir = Path(written) if Path(written).is_absolute() else common["root"] / written
+    else:
+        data_dir = boucwen_benchmark.default_data_dir()
+        written = str(data_dir)
+    missing = [f for f in BENCHMARK_FILES if not (data_dir / f).is_file()]
+    if missing:
+        fail(f"[study] data: the Bouc-Wen benchmark files are not in {data_dir} (missing {', '.join(missing)}); "
+             "point to the folder with [study] data = \"PATH\" or --data PATH")
+    entry = SpecimenEntry(name=BENCHMARK_SPECIMEN, path=str(data_dir), material=None, underpressure_MPa=None,
+                          repeat=None)
+
+    posterior = None
+    if "posterior" in document:
+        table = document["posterior"]
+        if not isinstance(table, dict):
+            fail("[posterior] must be a table")
+        names = table.get("specimens", [BENCHMARK_SPECIMEN])
+        if names != [BENCHMARK_SPECIMEN]:
+            fail(f"[posterior] specimens: problem {BENCHMARK_PROBLEM!r} has one specimen, "
+                 f"[\"{BENCHMARK_SPECIMEN}\"] (or omit the key)")
+        manifest = [{"file": f"{BENCHMARK_SPECIMEN}.csv"}]
+        posterior = _posterior(fail, {**table, "specimens": names}, manifest, data_dir, lambda *_: entry)
+
+    return StudyConfig(
+        **common, state=None, excitation=None, data=written, filters={}, specimens=(entry,),
+        posterior=posterior, data_dir=data_dir, data_sha256=data_digest(data_dir, BENCHMARK_FILES),
+    )
+
+
+def data_digest(folder: Path, files) -> str:
+    """SHA-256 over the named files' bytes, in order: what the data are, wherever they are."""
+    digest = hashlib.sha256()
+    for name in files:
+        digest.update(name.encode("utf-8") + b"\0")
+        digest.update((folder / name).read_bytes())
+    return digest.hexdigest()
 
 
 def _refuse_unknown(fail, table, values, known) -> None:
@@ -301,7 +415,7 @@ def _resolve_options(fail, label, optimizer, options) -> dict:
         fail(f"{label}: options must be plain numbers, strings, booleans or lists of them")
 
 
-def _posterior(fail, table, manifest, data_dir) -> PosteriorConfig:
+def _posterior(fail, table, manifest, data_dir, make_entry=None) -> PosteriorConfig:
     if not isinstance(table, dict):
         fail("[posterior] must be a table")
     _refuse_unknown(fail, "posterior", table, POSTERIOR_KEYS)
@@ -321,8 +435,9 @@ def _posterior(fail, table, manifest, data_dir) -> PosteriorConfig:
     if not isinstance(optimizer, str):
         fail("[posterior] optimizer must be a backend name")
     _check_backend(fail, "[posterior] optimizer", optimizer)
+    make_entry = make_entry or _entry
     return PosteriorConfig(
-        specimens=tuple(_entry(fail, by_stem[stem], data_dir) for stem in names),
+        specimens=tuple(make_entry(fail, by_stem[stem], data_dir) for stem in names),
         optimizer=optimizer,
         budget=_integer(fail, "[posterior] budget", table["budget"]),
         seeds=_integer(fail, "[posterior] seeds", table.get("seeds", 1)),
