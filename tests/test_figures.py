@@ -68,8 +68,19 @@ def test_convergence_has_a_median_and_band_per_backend(study, out):
 
 def test_best_so_far_is_the_last_improvement_at_or_before_n():
     values = figures.best_so_far([1, 10, 100], [9.0, 5.0, 1.0], [0, 1, 9, 10, 99, 1000])
-    assert np.isnan(values[0])
+    assert np.isposinf(values[0])  # nothing found yet
     assert values[1:].tolist() == [9.0, 9.0, 5.0, 5.0, 1.0]
+
+
+def test_a_median_of_best_so_far_curves_never_rises():
+    # Two runs find their first finite loss late and high: they must not pull the median up.
+    early = [([1, 50], [4.0, 1.0])] * 3
+    late = [([30], [100.0])] * 2
+    grid = np.arange(1, 61)
+    curves = np.array([figures.best_so_far(n, m, grid) for n, m in early + late])
+    median = np.percentile(curves, 50, axis=0, method="inverted_cdf")
+    assert np.all(np.diff(median) <= 0)
+    assert median[0] == 4.0 and median[-1] == 1.0
 
 
 def test_loops_show_the_best_run_of_each_backend(study, out):

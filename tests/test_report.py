@@ -75,16 +75,20 @@ def _pairs(rows):
 
 def test_recommend_applies_the_rule():
     table = _table([("x", 1.2, 2.0, 0.8, 900.0), ("y", 1.9, 2.1, 0.6, 1200.0), ("z", 3.0, 9.0, 0.2, 5e4),
-                    ("w", 3.9, 30.0, 0.1, 9e4), ("random", 5.0, 50.0, 0.0, np.inf)])
+                    ("v", 3.5, 12.0, 0.0, np.inf), ("w", 3.9, 30.0, 0.1, 9e4), ("random", 5.0, 50.0, 0.0, np.inf)])
     pairs = _pairs([("x", "y", -0.1, 0.40), ("x", "z", -0.9, 0.01), ("x", "w", -1.0, 0.01),
+                    ("x", "v", -0.8, 0.01), ("v", "random", -1.0, 0.01),
                     ("x", "random", -2.0, 0.01), ("w", "random", 0.3, 0.02), ("z", "random", -1.0, 0.01)])
     fr = statistics.Friedman(10.0, 0.01, pd.Series(dtype=float), 6, "")
     rec = report.recommend(table, pairs, fr, 1000)
     assert rec["best"] == "x"
     assert [n for n, _ in rec["tied"]] == ["y"]
     assert [n for n, _ in rec["worse"]] == ["z"]
-    assert dict(rec["avoid"]).keys() == {"w", "random"}
+    assert rec["short"] == ["v"]  # never within 10 %, yet better than random: short, not "avoid"
+    assert dict(rec["avoid"]).keys() == {"w"}  # random is the baseline, not a candidate
     assert "significantly worse than random" in dict(rec["avoid"])["w"]
+    assert "Short at this budget (no run came within 10 % of the best known MSE): v." in rec["text"]
+    assert "Random search, the baseline, ends at a median RMSE of 50 N." in rec["text"]
     assert rec["text"].startswith("For this problem at a budget of 1,000 evaluations use **x**")
     assert "**y** is as good within noise (Holm-corrected Wilcoxon p = 0.4)" in rec["text"]
 

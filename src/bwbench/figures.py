@@ -9,7 +9,6 @@ specimens carry the SYNTHETIC mark.
 from __future__ import annotations
 
 import re
-import warnings
 from pathlib import Path
 
 import matplotlib
@@ -135,10 +134,11 @@ def hysteresis_loops(study, out_dir, specimen: str) -> Path:
 # --------------------------------------------------------------------------------- convergence
 
 def best_so_far(trace_nfev, trace_mse, grid) -> np.ndarray:
-    """The step function of a best-so-far trace at evaluation counts ``grid`` (NaN before the first)."""
+    """The step function of a best-so-far trace at evaluation counts ``grid``: +inf before the
+    run's first finite loss (it has found nothing yet; leaving it out would let a median rise)."""
     idx = np.searchsorted(np.asarray(trace_nfev), grid, side="right") - 1
     values = np.asarray(trace_mse, dtype=float)[np.maximum(idx, 0)]
-    return np.where(idx >= 0, values, np.nan)
+    return np.where(idx >= 0, values, np.inf)
 
 
 def _evaluation_grid(max_nfev: float, points: int = 120) -> np.ndarray:
@@ -181,9 +181,9 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
                 continue
             curves = np.array(curves)
             counts.add(len(curves))
-            with warnings.catch_warnings():  # all-NaN columns before a run's first evaluation
-                warnings.simplefilter("ignore", RuntimeWarning)
-                q25, median, q75 = np.nanpercentile(curves, [25, 50, 75], axis=0)
+            # Order statistics, not interpolation: a quartile between a finite value and +inf is
+            # +inf (not drawn), where interpolating would give inf − inf = NaN.
+            q25, median, q75 = np.percentile(curves, [25, 50, 75], axis=0, method="inverted_cdf")
             ax.plot(grid, median, color=colours[optimizer], lw=1.6, label=optimizer)
             shown += [median, q25]
             ax.fill_between(grid, q25, q75, color=colours[optimizer], alpha=0.18, lw=0)
