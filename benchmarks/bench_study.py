@@ -1,8 +1,8 @@
 """Study throughput: runs/s and evaluations/s with 1 and 2 local workers on the same small study.
 
-    python benchmarks/bench_study.py [--runs-per-specimen 8] [--budget 4100] [--workers 1 2]
+    python benchmarks/bench_study.py [--runs-per-specimen 16] [--budget 4100] [--workers 1 2]
 
-The study is 2 specimens × N seeds of ``random`` (default 16 runs of 4,100 evaluations), run by
+The study is 2 specimens × N seeds of ``random`` (default 32 runs of 4,100 evaluations), run by
 the study's executor (``bwbench.study.execute_tasks``; no database). End to end includes starting
 the worker processes (spawned: each imports numpy, scipy, numba and every backend); with 1 worker
 the runs go in-process, with no start-up. Steady state leaves the start-up out.
@@ -59,7 +59,7 @@ def measure(tasks, workers: int) -> tuple[float, float, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs-per-specimen", type=int, default=8)
+    parser.add_argument("--runs-per-specimen", type=int, default=16)  # 32 runs: a study, not mostly worker start-up
     parser.add_argument("--budget", type=int, default=4100)
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     args = parser.parse_args()
