@@ -7,6 +7,7 @@ it never shows a traceback.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import sys
@@ -140,7 +141,18 @@ def _add_model_options(p) -> None:
                    help="measured: the specimen's own displacement (default); sine: the paper's fit")
 
 
-def build_parser() -> argparse.ArgumentParser:
+# Commands whose modules pull in matplotlib, seaborn and scipy.stats (~1 s): their options are
+# added only when that command is the one being run, so `bwbench data check` does not pay for them.
+# name -> (module, function to call, help)
+_HEAVY_COMMANDS = {
+    "compare": ("bwbench.study", "main", "run or resume a study: specimens × backends × seeds"),
+    "report": ("bwbench.report", "cli_main", "figures, statistics and recommendation of a study"),
+    "identifiability": ("bwbench.identifiability", "cli_main", "which parameters a specimen cannot pin down"),
+}
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The full parser; a heavy command's options are only added when ``command`` names it."""
     parser = argparse.ArgumentParser(prog="bwbench", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
 
@@ -181,19 +193,12 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
     fit.set_defaults(func=_cmd_fit)
 
-    from bwbench import identifiability, report, study
-
-    compare = sub.add_parser("compare", help="run or resume a study: specimens × backends × seeds")
-    study.add_arguments(compare)
-    compare.set_defaults(func=study.main)
-
-    report_cmd = sub.add_parser("report", help="figures, statistics and recommendation of a study")
-    report.add_arguments(report_cmd)
-    report_cmd.set_defaults(func=report.cli_main)
-
-    ident = sub.add_parser("identifiability", help="which parameters a specimen cannot pin down")
-    identifiability.add_arguments(ident)
-    ident.set_defaults(func=identifiability.cli_main)
+    for name, (module_name, function, help_text) in _HEAVY_COMMANDS.items():
+        command_parser = sub.add_parser(name, help=help_text)
+        if name == command:
+            module = importlib.import_module(module_name)
+            module.add_arguments(command_parser)
+            command_parser.set_defaults(func=getattr(module, function))
     return parser
 
 
@@ -204,8 +209,9 @@ def _default_specimen_dir():
 
 
 def main(argv=None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    command = next((a for a in argv if not a.startswith("-")), None)
+    args = build_parser(command).parse_args(argv)
     try:
         return args.func(args)
     except UserError as err:
