@@ -21,7 +21,7 @@ from bwbench.errors import UserError
 from bwbench.model import PARAM_NAMES
 from bwbench.parameters import LOWER, UPPER
 from bwbench.study_config import BENCHMARK_PROBLEM, DEFAULT_PROBLEM
-from bwbench.synthetic import MANIFEST, REPO
+from bwbench.synthetic import REPO, load_manifest
 
 REQUIRED_TABLES = ("study", "runs", "traces")
 KEY = ["kind", "specimen", "optimizer", "replicate"]
@@ -110,10 +110,7 @@ class Study:
 
     def manifest(self) -> dict | None:
         """The data folder's manifest.json (generation settings, truth), or None if there is none."""
-        path = self.data_dir / MANIFEST
-        if not path.is_file():
-            return None
-        return json.loads(path.read_text(encoding="utf-8"))
+        return load_manifest(self.data_dir)
 
 
 def _connect(path: Path) -> sqlite3.Connection:

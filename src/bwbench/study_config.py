@@ -64,7 +64,7 @@ from pathlib import Path
 
 from bwbench import model, registry
 from bwbench.errors import UserError
-from bwbench.synthetic import MANIFEST, REPO
+from bwbench.synthetic import MANIFEST, REPO, load_manifest
 
 try:
     import tomllib
@@ -343,14 +343,13 @@ def _choice(fail, label, value, choices) -> str:
 
 
 def _read_manifest(fail, data_dir: Path) -> list[dict]:
-    path = data_dir / MANIFEST
     try:
-        document = json.loads(path.read_text(encoding="utf-8"))
+        document = load_manifest(data_dir)
+        if document is None:
+            fail(f"[study] data: no {MANIFEST} in {data_dir}")
         return list(document["specimens"])
-    except FileNotFoundError:
-        fail(f"[study] data: no {MANIFEST} in {data_dir}")
     except (OSError, ValueError, KeyError, TypeError) as err:
-        fail(f"[study] data: cannot read {path}: {err}")
+        fail(f"[study] data: cannot read {data_dir / MANIFEST}: {err}")
 
 
 def _filter_values(fail, key, value) -> tuple:

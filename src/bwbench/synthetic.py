@@ -178,7 +178,8 @@ def generate(out_dir=SPECIMEN_DIR, settings: Settings = Settings(), paper=PAPER_
     return written
 
 
-def _load_manifest(directory) -> dict | None:
+def load_manifest(directory) -> dict | None:
+    """The manifest.json of a data folder as a dict, or None when the folder has none."""
     path = Path(directory) / MANIFEST
     if not path.exists():
         return None
@@ -189,7 +190,7 @@ def read_manifest(directory=SPECIMEN_DIR):
     """The manifest as a pandas DataFrame: one row per specimen file, truth parameters as columns."""
     import pandas as pd
 
-    document = _load_manifest(directory)
+    document = load_manifest(directory)
     if document is None:
         raise FileNotFoundError(Path(directory) / MANIFEST)
     rows = [{**{k: v for k, v in e.items() if k != "truth"}, **e["truth"]} for e in document["specimens"]]
@@ -199,7 +200,7 @@ def read_manifest(directory=SPECIMEN_DIR):
 def manifest_entry(specimen_path) -> dict | None:
     """The manifest entry of a specimen file, when it sits next to a manifest; else None."""
     path = Path(specimen_path)
-    document = _load_manifest(path.parent)
+    document = load_manifest(path.parent)
     if document is None:
         return None
     for entry in document["specimens"]:
