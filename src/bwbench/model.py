@@ -307,5 +307,4 @@ def mse_batch(P, t, x, v, a, f_meas, state: str = "shared") -> np.ndarray:
     # One-point optimisers call this row by row: waking numba's thread pool would cost more
     # than the simulation, so small batches run on the calling thread.
     kernel = _mse_serial if P.shape[0] < 4 or numba.get_num_threads() == 1 else _mse_parallel
-    with np.errstate(all="ignore"):
-        return kernel(P, t, x, v, a, f_meas, split)
+    return kernel(P, t, x, v, a, f_meas, split)  # IEEE semantics inside (error_model="numpy")

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
-
-from bwbench.model import PARAM_NAMES
+from dataclasses import dataclass, field
 
 
 @dataclass(frozen=True)
@@ -66,5 +64,3 @@ class Result:
             json.dump(self.to_json_dict(), fh, indent=2, default=float)
             fh.write("\n")
 
-
-__all__ = ["Result", "PARAM_NAMES", "asdict"]
