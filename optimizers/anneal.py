@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import dual_annealing
 
+from bwbench.optimizers._finite_penalty import WorstFinitePenalty
 from bwbench.registry import register
 
 
@@ -41,15 +42,10 @@ from bwbench.registry import register
 )
 def minimize(objective, *, rng, maxiter=1000, no_local_search=False):
     d = objective.dim
-    worst_finite = -np.inf
+    penalty = WorstFinitePenalty(before_any_finite=np.inf)
 
     def loss(u):
-        nonlocal worst_finite
-        value = objective(u)
-        if np.isfinite(value):
-            worst_finite = max(worst_finite, value)
-            return value
-        return 10.0 * worst_finite if np.isfinite(worst_finite) else np.inf
+        return penalty(objective(u))
 
     while True:  # until the objective raises BudgetExhausted
         dual_annealing(

@@ -34,6 +34,7 @@ import nlopt
 import numpy as np
 
 from bwbench.errors import BudgetExhausted
+from bwbench.optimizers._finite_penalty import WorstFinitePenalty
 from bwbench.registry import register
 
 _DEFAULTS = {"xtol_rel": 1e-6, "ftol_rel": 1e-8, "maxeval": 0}
@@ -41,22 +42,14 @@ _DEFAULTS = {"xtol_rel": 1e-6, "ftol_rel": 1e-8, "maxeval": 0}
 
 def _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxeval):
     d = objective.dim
-    worst_finite = -np.inf
+    penalty = WorstFinitePenalty(before_any_finite=1e300)
     opt = None
 
-    def penalty():
-        return 10.0 * worst_finite if np.isfinite(worst_finite) else 1e300
-
     def loss(u, grad):  # grad is empty: derivative-free algorithms only
-        nonlocal worst_finite
         if objective.exhausted:  # stop NLopt ourselves: an exception through it can get lost
             opt.force_stop()
-            return penalty()
-        value = objective(u)
-        if np.isfinite(value):
-            worst_finite = max(worst_finite, value)
-            return value
-        return penalty()
+            return penalty.value
+        return penalty(objective(u))
 
     while True:
         opt = nlopt.opt(algorithm, d)
