@@ -9,7 +9,9 @@ added here, so 0 is the floor. Run: `.venv/bin/python benchmarks/bench_different
 
 import numpy as np
 
-from bwbench import excitation, model, synthetic
+from bwbench.models import excitation
+from bwbench.models import switched_bouc_wen as model
+from bwbench.data import synthetic
 
 SETTINGS = synthetic.Settings()
 CHOICES = [(5, 2), (7, 2), (7, 3), (9, 3), (9, 4), (11, 4)]

@@ -16,10 +16,10 @@ import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from bwbench.objective import Objective
-from bwbench.parameters import LOWER, UPPER
-from bwbench.problem import SwitchedBoucWenProblem
-from bwbench.specimen import read_specimen
+from bwbench.optimize.objective import Objective
+from bwbench.data.parameters import LOWER, UPPER
+from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.data.specimen import read_specimen
 
 SPECIMEN = Path(__file__).resolve().parents[1] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 

@@ -18,9 +18,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from bwbench.study import execute_tasks, plan_tasks
-from bwbench.study_config import load_study_config
-from bwbench.synthetic import SPECIMEN_DIR
+from bwbench.study.runner import execute_tasks, plan_tasks
+from bwbench.study.config import load_study_config
+from bwbench.data.synthetic import SPECIMEN_DIR
 
 CONFIG = """
 [study]

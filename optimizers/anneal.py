@@ -29,8 +29,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import dual_annealing
 
-from bwbench.optimizers._finite_penalty import WorstFinitePenalty
-from bwbench.registry import register
+from bwbench.optimize.finite_penalty import WorstFinitePenalty
+from bwbench.optimize.registry import register
 
 
 @register(

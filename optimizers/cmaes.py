@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bwbench.registry import register
+from bwbench.optimize.registry import register
 
 
 @register(

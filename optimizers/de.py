@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from bwbench.registry import register
+from bwbench.optimize.registry import register
 
 
 @register(

@@ -38,7 +38,7 @@ from __future__ import annotations
 import emcee
 import numpy as np
 
-from bwbench.registry import register
+from bwbench.optimize.registry import register
 
 
 @register(

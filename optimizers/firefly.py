@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bwbench.registry import register
+from bwbench.optimize.registry import register
 
 
 def attractiveness(U, beta0, gamma) -> np.ndarray:

@@ -34,8 +34,8 @@ import nlopt
 import numpy as np
 
 from bwbench.errors import BudgetExhausted
-from bwbench.optimizers._finite_penalty import WorstFinitePenalty
-from bwbench.registry import register
+from bwbench.optimize.finite_penalty import WorstFinitePenalty
+from bwbench.optimize.registry import register
 
 _DEFAULTS = {"xtol_rel": 1e-6, "ftol_rel": 1e-8, "maxeval": 0}
 

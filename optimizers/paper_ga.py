@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bwbench.registry import register
+from bwbench.optimize.registry import register
 
 
 def tournament(rng, pop, loss) -> np.ndarray:

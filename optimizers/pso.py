@@ -44,7 +44,7 @@ import threading
 
 import numpy as np
 
-from bwbench.registry import register
+from bwbench.optimize.registry import register
 
 _GLOBAL_RNG_LOCK = threading.Lock()
 

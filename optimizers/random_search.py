@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from bwbench.registry import register
+from bwbench.optimize.registry import register
 
 
 @register(

@@ -1,6 +1,6 @@
 """A small, realistic study database written without running any optimiser.
 
-The schema is the contract of ``bwbench.study`` (written out here on purpose, so the analysis
+The schema is the contract of ``bwbench.study.runner`` (written out here on purpose, so the analysis
 tests do not depend on the runner). The numbers are synthetic but consistent: every run's
 parameters are drawn around the specimen's truth (closer for the "good" backends), and its MSE
 is the model's real MSE at those parameters, so the fitted loops and the identifiability analysis
@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench import synthetic
-from bwbench.model import PARAM_NAMES
-from bwbench.parameters import LOWER, UPPER
-from bwbench.problem import SwitchedBoucWenProblem
-from bwbench.specimen import read_specimen
+from bwbench.data import synthetic
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.data.parameters import LOWER, UPPER
+from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.data.specimen import read_specimen
 
 DATA_DIR = synthetic.SPECIMEN_DIR
 SPECIMENS = ("pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1")

@@ -11,9 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench import fitting, registry
-from bwbench.problem import SwitchedBoucWenProblem
-from bwbench.specimen import read_specimen
+from bwbench.optimize import fitting
+from bwbench.optimize import registry
+from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.data.specimen import read_specimen
 
 SPECIMEN = Path(__file__).resolve().parents[1] / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
 SEEDS = range(5)

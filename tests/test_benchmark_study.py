@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench import report
-from bwbench.boucwen_benchmark import PARAM_NAMES, default_data_dir
+from bwbench.report import build as report
+from bwbench.problems.noel_schoukens.problem import PARAM_NAMES, default_data_dir
 from bwbench.errors import UserError
-from bwbench.study_config import BENCHMARK_FILES, load_study_config
+from bwbench.study.config import BENCHMARK_FILES, load_study_config
 
 REPO = Path(__file__).resolve().parents[1]
 RUN_COMPARE = REPO / "studies" / "run_compare.py"

@@ -5,22 +5,22 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench import fitting
-from bwbench.boucwen_benchmark import (
+from bwbench.optimize import fitting
+from bwbench.problems.noel_schoukens.problem import (
     LOWER,
     NOISE_RMS_M,
     PARAM_NAMES,
     TRUE_PARAMS,
     UPPER,
     BoucWenBenchmarkProblem,
-    box_from_unit,
-    box_to_unit,
+    from_unit,
+    to_unit,
     default_data_dir,
     identifiable_combinations,
     read_benchmark_csv,
 )
 from bwbench.errors import InputFileError
-from bwbench.objective import Objective
+from bwbench.optimize.objective import Objective
 
 DATA_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "benchmarks" / "bouc-wen"
 needs_data = pytest.mark.skipif(
@@ -91,14 +91,14 @@ def test_absurd_parameters_give_inf_never_nan(problem):
 
 
 def test_unit_mapping_is_log_for_positive_parameters_and_round_trips():
-    np.testing.assert_allclose(box_from_unit(np.zeros(8)), LOWER)
-    np.testing.assert_allclose(box_from_unit(np.ones(8)), UPPER)
+    np.testing.assert_allclose(from_unit(np.zeros(8)), LOWER)
+    np.testing.assert_allclose(from_unit(np.ones(8)), UPPER)
     # Log-scaled: the centre of a decade-each-side range is the truth itself.
-    np.testing.assert_allclose(box_from_unit(np.full(8, 0.5))[:6], TRUE_PARAMS[:6])
-    np.testing.assert_allclose(box_from_unit(np.full(8, 0.5))[6:], (LOWER[6:] + UPPER[6:]) / 2)
+    np.testing.assert_allclose(from_unit(np.full(8, 0.5))[:6], TRUE_PARAMS[:6])
+    np.testing.assert_allclose(from_unit(np.full(8, 0.5))[6:], (LOWER[6:] + UPPER[6:]) / 2)
     u = np.random.default_rng(1).random((5, 8))
-    np.testing.assert_allclose(box_to_unit(box_from_unit(u)), u, atol=1e-12)
-    truth_u = box_to_unit(TRUE_PARAMS)
+    np.testing.assert_allclose(to_unit(from_unit(u)), u, atol=1e-12)
+    truth_u = to_unit(TRUE_PARAMS)
     assert np.all((truth_u > 0) & (truth_u < 1))
     assert np.all(LOWER[:6] * 10 <= TRUE_PARAMS[:6] + 1e-12)
     assert np.all(UPPER[:6] / 10 >= TRUE_PARAMS[:6] - 1e-12)

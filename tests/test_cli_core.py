@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bwbench import synthetic
+from bwbench.data import synthetic
 from bwbench.cli import main
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "specimens"

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from bwbench import excitation
+from bwbench.models import excitation
 
 
 def test_fit_sine_recovers_a_noisy_sine():

@@ -5,8 +5,10 @@ import pandas as pd
 import pytest
 from study_fixture import make_study_db
 
-from bwbench import figures, results_db, statistics
-from bwbench.model import PARAM_NAMES
+from bwbench.report import figures
+from bwbench.study import results as results_db
+from bwbench.analysis import statistics
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
 
 MISS = ("pom-mt24u01_0.01MPa_r1", "cmaes", 0)
 

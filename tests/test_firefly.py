@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from bwbench.errors import BudgetExhausted
-from bwbench.objective import Objective
+from bwbench.optimize.objective import Objective
 from bwbench.optimizers import firefly, random_search
 from fakes import SphereProblem
 

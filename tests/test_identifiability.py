@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from scipy.linalg import subspace_angles
 
-from bwbench import identifiability, synthetic
+from bwbench.analysis import identifiability
+from bwbench.data import synthetic
 from bwbench.errors import UserError
 
 T = np.linspace(0.0, 3.0, 60)

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bwbench.errors import BudgetExhausted
-from bwbench.objective import Objective
+from bwbench.optimize.objective import Objective
 
 
 class CountingSphere:

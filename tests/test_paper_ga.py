@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bwbench.errors import BudgetExhausted
-from bwbench.objective import Objective
+from bwbench.optimize.objective import Objective
 from bwbench.optimizers import paper_ga, random_search
 from bwbench.optimizers.paper_ga import crossover, mutate, survivors, tournament
 from fakes import SphereProblem

@@ -9,7 +9,9 @@ import pandas as pd
 import pytest
 from study_fixture import SCHEMA, make_study_db
 
-from bwbench import report, results_db, statistics
+from bwbench.report import build as report
+from bwbench.study import results as results_db
+from bwbench.analysis import statistics
 from bwbench.errors import UserError
 
 
@@ -113,7 +115,7 @@ def test_cli_refuses_a_missing_database(tmp_path):
 
 
 def test_fixture_schema_is_the_runners_contract():
-    study = pytest.importorskip("bwbench.study")
+    study = pytest.importorskip("bwbench.study.runner")
 
     def columns(schema):
         with sqlite3.connect(":memory:") as conn:
@@ -125,8 +127,8 @@ def test_fixture_schema_is_the_runners_contract():
 
 
 def test_reads_a_database_written_by_the_runner(tmp_path):
-    study = pytest.importorskip("bwbench.study")
-    from bwbench.study_config import load_study_config
+    study = pytest.importorskip("bwbench.study.runner")
+    from bwbench.study.config import load_study_config
 
     toml = tmp_path / "tiny.toml"
     toml.write_text("""

@@ -8,7 +8,7 @@ import pytest
 
 from bwbench.cli import main
 from bwbench.errors import InputFileError
-from bwbench.specimen import MIN_SAMPLES, Specimen, read_specimen
+from bwbench.data.specimen import MIN_SAMPLES, Specimen, read_specimen
 
 HEADER = "time_s,displacement_mm,force_N"
 N = 50

@@ -8,7 +8,8 @@ import pytest
 import scipy.stats
 from study_fixture import make_study_db
 
-from bwbench import results_db, statistics
+from bwbench.study import results as results_db
+from bwbench.analysis import statistics
 from bwbench.errors import UserError
 
 

@@ -18,11 +18,11 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from bwbench import registry
+from bwbench.optimize import registry
 from bwbench.errors import UserError
-from bwbench.model import PARAM_NAMES
-from bwbench.study import export_csv, plan_tasks, run_cli, run_study, task_seed
-from bwbench.study_config import load_study_config
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.study.runner import export_csv, plan_tasks, run_cli, run_study, task_seed
+from bwbench.study.config import load_study_config
 
 REPO = Path(__file__).resolve().parents[1]
 RUN_COMPARE = REPO / "studies" / "run_compare.py"
@@ -254,7 +254,7 @@ def test_workers_must_be_positive(tmp_path, capsys):
 
 
 def test_a_database_from_before_the_generic_columns_resumes_and_reads(tmp_path):
-    from bwbench import results_db
+    from bwbench.study import results as results_db
 
     config = load_study_config(write_config(tmp_path / "old.toml", budget=50, seeds=1, optimizers="random = {}",
                                             underpressures="[0.01, 0.05]"))

@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench import synthetic
+from bwbench.data import synthetic
 from bwbench.cli import main
-from bwbench.problem import SwitchedBoucWenProblem
-from bwbench.specimen import read_specimen
+from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.data.specimen import read_specimen
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "specimens"
 

@@ -18,7 +18,7 @@ from bwbench.errors import UserError
 
 
 def _cmd_data_check(args) -> int:
-    from bwbench.specimen import read_specimen
+    from bwbench.data.specimen import read_specimen
 
     status = 0
     for path in args.files:
@@ -33,8 +33,8 @@ def _cmd_data_check(args) -> int:
 
 
 def _problem(args):
-    from bwbench.problem import SwitchedBoucWenProblem
-    from bwbench.specimen import read_specimen
+    from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+    from bwbench.data.specimen import read_specimen
 
     return SwitchedBoucWenProblem(read_specimen(args.specimen), args.state, args.excitation)
 
@@ -56,7 +56,7 @@ def _fit_metrics(mse: float, n: int) -> dict:
 
 
 def _cmd_simulate(args) -> int:
-    from bwbench.parameters import read_json
+    from bwbench.data.parameters import read_json
 
     _check_writable(args.out)
     params = read_json(args.params)
@@ -74,7 +74,7 @@ def _cmd_simulate(args) -> int:
 
 
 def _cmd_evaluate(args) -> int:
-    from bwbench.parameters import read_json
+    from bwbench.data.parameters import read_json
 
     params = read_json(args.params)
     problem = _problem(args)
@@ -85,7 +85,7 @@ def _cmd_evaluate(args) -> int:
 
 
 def _cmd_data_generate(args) -> int:
-    from bwbench import synthetic
+    from bwbench.data import synthetic
 
     written = synthetic.generate(args.out)
     print(f"wrote {len(written) - 1} specimens and {synthetic.MANIFEST} to {args.out}")
@@ -93,7 +93,7 @@ def _cmd_data_generate(args) -> int:
 
 
 def _cmd_optimizers(args) -> int:
-    from bwbench import registry
+    from bwbench.optimize import registry
 
     backends = registry.available()
     width = max(len(name) for name in backends)
@@ -116,7 +116,8 @@ def _parse_option(text: str):
 
 
 def _cmd_fit(args) -> int:
-    from bwbench import fitting, synthetic
+    from bwbench.optimize import fitting
+    from bwbench.data import synthetic
 
     if args.budget < 1:
         raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
@@ -126,7 +127,7 @@ def _cmd_fit(args) -> int:
     result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
     result.write_json(args.out)
     if args.plot:
-        from bwbench.plots import plot_fit
+        from bwbench.problems.switched_vpp.figures import plot_fit
 
         plot_fit(problem, result, args.plot, synthetic=synthetic.is_synthetic(args.specimen))
     print(f"{args.optimizer}: MSE {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE {result.rmse_N:.3g} N) "
@@ -145,9 +146,9 @@ def _add_model_options(p) -> None:
 # added only when that command is the one being run, so `bwbench data check` does not pay for them.
 # name -> (module, function to call, help)
 _HEAVY_COMMANDS = {
-    "compare": ("bwbench.study", "main", "run or resume a study: specimens × backends × seeds"),
-    "report": ("bwbench.report", "cli_main", "figures, statistics and recommendation of a study"),
-    "identifiability": ("bwbench.identifiability", "cli_main", "which parameters a specimen cannot pin down"),
+    "compare": ("bwbench.study.runner", "main", "run or resume a study: specimens × backends × seeds"),
+    "report": ("bwbench.report.build", "cli_main", "figures, statistics and recommendation of a study"),
+    "identifiability": ("bwbench.analysis.identifiability", "cli_main", "which parameters a specimen cannot pin down"),
 }
 
 
@@ -203,7 +204,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 
 def _default_specimen_dir():
-    from bwbench.synthetic import SPECIMEN_DIR
+    from bwbench.data.synthetic import SPECIMEN_DIR
 
     return SPECIMEN_DIR
 

@@ -1,6 +1,6 @@
 """A test-only optimiser plugin, found through the entry-point group ``bwbench.optimizers``."""
 
-from bwbench.registry import register
+from bwbench.optimize.registry import register
 
 
 @register("test-plugin-coordinate", family="plugin", description="coordinate search, from a plugin",

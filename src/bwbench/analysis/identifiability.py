@@ -253,10 +253,10 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
     ``profile_widest`` parameters with the widest free ranges.
     Raises ``UserError`` for parameters outside Table 5 or a model that blows up there.
     """
-    from bwbench.model import PARAM_NAMES
-    from bwbench.parameters import LABELS
-    from bwbench.problem import SwitchedBoucWenProblem
-    from bwbench.specimen import read_specimen
+    from bwbench.models.switched_bouc_wen import PARAM_NAMES
+    from bwbench.data.parameters import LABELS
+    from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+    from bwbench.data.specimen import read_specimen
 
     problem = SwitchedBoucWenProblem(read_specimen(specimen_path), state, excitation)
     params = np.asarray(params, dtype=float)
@@ -314,7 +314,7 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
 
 def format_text(result: dict) -> str:
     """The plain-text report of ``analyse`` (what ``bwbench identifiability`` prints)."""
-    from bwbench.parameters import LABELS
+    from bwbench.data.parameters import LABELS
 
     names = result["names"]
     lines = [
@@ -376,7 +376,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def cli_main(args) -> int:
     """``bwbench identifiability S.csv --params P.json [--json]``; raises ``UserError`` for bad input."""
-    from bwbench.parameters import read_json
+    from bwbench.data.parameters import read_json
 
     if args.grid < 2:
         raise UserError(f"--grid must be at least 2, got {args.grid}")

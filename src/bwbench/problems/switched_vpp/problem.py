@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bwbench import excitation as excitation_mod
-from bwbench import model
-from bwbench.parameters import LOWER, UPPER
-from bwbench.specimen import Specimen
+from bwbench.models import excitation as excitation_mod
+from bwbench.models import switched_bouc_wen as model
+from bwbench.data.parameters import LOWER, UPPER
+from bwbench.data.specimen import Specimen
 
 
 @dataclass

@@ -19,10 +19,11 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import seaborn as sns  # noqa: E402
 
-from bwbench import statistics, synthetic  # noqa: E402
-from bwbench.model import PARAM_NAMES  # noqa: E402
-from bwbench.parameters import LABELS, LOWER, UNITS, UPPER  # noqa: E402
-from bwbench.plots import mark_synthetic  # noqa: E402
+from bwbench.analysis import statistics  # noqa: E402
+from bwbench.data import synthetic  # noqa: E402
+from bwbench.models.switched_bouc_wen import PARAM_NAMES  # noqa: E402
+from bwbench.data.parameters import LABELS, LOWER, UNITS, UPPER  # noqa: E402
+from bwbench.problems.switched_vpp.figures import mark_synthetic  # noqa: E402
 
 DPI = 110
 ECDF_TAUS = (1.0, 0.1, 0.01)
@@ -80,8 +81,8 @@ def _ok(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def _problem(study, specimen):
-    from bwbench.problem import SwitchedBoucWenProblem
-    from bwbench.specimen import read_specimen
+    from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+    from bwbench.data.specimen import read_specimen
 
     s = study.settings
     return SwitchedBoucWenProblem(read_specimen(study.specimen_path(specimen)), s.get("state", "shared"),
@@ -357,7 +358,7 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
     densities of the ``pairs`` most correlated pairs; each backend's best fit on the specimen
     (coloured ▼ / ◆) and the truth (black ×) overlaid. ``burn`` steps are dropped (default half),
     and so are stuck walkers (``statistics.stuck_walkers``)."""
-    from bwbench.identifiability import posterior_correlation, strongest_pairs
+    from bwbench.analysis.identifiability import posterior_correlation, strongest_pairs
 
     _theme()
     burn = chain.steps // 2 if burn is None else burn

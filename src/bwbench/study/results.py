@@ -1,4 +1,4 @@
-"""Read a study database (written by ``bwbench.study``) into tidy pandas tables and numpy chains.
+"""Read a study database (written by ``bwbench.study.runner``) into tidy pandas tables and numpy chains.
 
 The schema is the runner's contract: tables ``study``, ``runs``, ``timings``, ``traces`` and
 ``chains``. Reading never writes: the file is opened read-only, so a report can be made while
@@ -18,10 +18,10 @@ import numpy as np
 import pandas as pd
 
 from bwbench.errors import UserError
-from bwbench.model import PARAM_NAMES
-from bwbench.parameters import LOWER, UPPER
-from bwbench.study_config import BENCHMARK_PROBLEM, DEFAULT_PROBLEM
-from bwbench.synthetic import REPO, load_manifest
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.data.parameters import LOWER, UPPER
+from bwbench.study.config import BENCHMARK_PROBLEM, DEFAULT_PROBLEM
+from bwbench.data.synthetic import REPO, load_manifest
 
 REQUIRED_TABLES = ("study", "runs", "traces")
 KEY = ["kind", "specimen", "optimizer", "replicate"]
@@ -209,7 +209,7 @@ def load_study(path, data_dir=None) -> Study:
         except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError) as err:
             raise UserError(f"{path}: unreadable study database: {err}") from None
     if data_dir is None and config.get("study", {}).get("problem") == BENCHMARK_PROBLEM:
-        from bwbench.boucwen_benchmark import default_data_dir
+        from bwbench.problems.noel_schoukens.problem import default_data_dir
 
         recorded = meta.get("data_dir")
         data_dir = Path(recorded) if recorded and Path(recorded).is_dir() else default_data_dir()

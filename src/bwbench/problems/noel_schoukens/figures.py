@@ -1,6 +1,6 @@
 """Figures of a Bouc-Wen benchmark study (``problem = "bouc-wen-benchmark"``).
 
-The convergence, ECDF and waterfall figures are ``bwbench.figures``' own; these two are the
+The convergence, ECDF and waterfall figures are ``bwbench.report.figures``' own; these two are the
 benchmark's: the best fit against the ``test_multisine`` output, and the identified parameters
 scaled to the search box with the truth marked. Each returns the PNG's path and writes the CSV
 behind it beside it (same name). The data are the public benchmark: no SYNTHETIC mark.
@@ -14,9 +14,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from bwbench import boucwen_benchmark as bm
-from bwbench import statistics
-from bwbench.figures import SPREAD_TOLERANCE, _ok, _save, _theme, palette
+from bwbench.problems.box import box_to_unit
+from bwbench.problems.noel_schoukens import problem as bm
+from bwbench.analysis import statistics
+from bwbench.report.figures import SPREAD_TOLERANCE, _ok, _save, _theme, palette
 
 LABELS = {"m": "m", "c": "c", "k": "k", "alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "nu": "ν",
           "beta_gamma": "βγ", "beta_delta": "βδ"}
@@ -34,10 +35,10 @@ def unit_values(P) -> np.ndarray:
     """(n, 10): the 8 parameters and βγ, βδ of each row of P (physical units, shape (n, 8)),
     scaled to the search box (log10 for the log-scaled ones)."""
     P = np.atleast_2d(np.asarray(P, dtype=float))
-    columns = [bm.box_to_unit(P)]
+    columns = [bm.to_unit(P)]
     for product, (lo, hi, log) in COMBINATIONS.items():
         value = P[:, 4] * (P[:, 5] if product == "beta_gamma" else P[:, 6])
-        columns.append(bm.box_to_unit(value[:, None], np.array([lo]), np.array([hi]), np.array([log])))
+        columns.append(box_to_unit(value[:, None], np.array([lo]), np.array([hi]), np.array([log])))
     return np.hstack(columns)
 
 

@@ -6,10 +6,10 @@ import time
 
 import numpy as np
 
-from bwbench import registry
+from bwbench.optimize import registry
 from bwbench.errors import BudgetExhausted, UserError
-from bwbench.objective import Objective
-from bwbench.result import Result
+from bwbench.optimize.objective import Objective
+from bwbench.optimize.result import Result
 
 
 def run(problem, optimizer: str, budget: int, seed, options: dict | None = None) -> Result:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from bwbench.errors import InputFileError
-from bwbench.model import PARAM_NAMES
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
 
 # Paper Table 5. ξ₋ is printed "−23 to −575"; stored as lower −575, upper −23 (DESIGN.md §2).
 TABLE5 = {

@@ -3,7 +3,7 @@
 A backend is one function ``minimize(objective, *, rng, **options) -> dict | None`` registered
 by name with the ``register`` decorator. It calls ``objective(u)`` or ``objective.batch(U)`` in
 unit coordinates until it is done or the objective raises ``BudgetExhausted``; the bookkeeping
-(best point, trace, counts, timing) lives in the objective and in ``bwbench.fitting``, so a
+(best point, trace, counts, timing) lives in the objective and in ``bwbench.optimize.fitting``, so a
 backend knows nothing of Bouc-Wen and nothing of budgets. It may return a dict of extras
 (e.g. an MCMC chain) to keep with the result; the key ``message`` becomes the result's message.
 

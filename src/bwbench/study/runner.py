@@ -51,8 +51,8 @@ import numpy as np
 
 from bwbench import __version__
 from bwbench.errors import UserError
-from bwbench.model import PARAM_NAMES
-from bwbench.study_config import (
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.study.config import (
     BENCHMARK_PROBLEM,
     DEFAULT_PROBLEM,
     StudyConfig,
@@ -147,7 +147,7 @@ def run_task(task: Task) -> dict:
     """
     import numba
 
-    from bwbench import fitting
+    from bwbench.optimize import fitting
 
     row = dict.fromkeys(RUN_COLUMNS)
     row.update(kind=task.kind, specimen=task.specimen, optimizer=task.optimizer, replicate=task.replicate,
@@ -187,11 +187,11 @@ def run_task(task: Task) -> dict:
 def make_problem(task: Task):
     """The problem object of a task (what ``Objective`` wraps)."""
     if task.problem == BENCHMARK_PROBLEM:
-        from bwbench.boucwen_benchmark import BoucWenBenchmarkProblem
+        from bwbench.problems.noel_schoukens.problem import BoucWenBenchmarkProblem
 
         return BoucWenBenchmarkProblem(task.path)
-    from bwbench.problem import SwitchedBoucWenProblem
-    from bwbench.specimen import read_specimen
+    from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+    from bwbench.data.specimen import read_specimen
 
     return SwitchedBoucWenProblem(read_specimen(task.path), task.state, task.excitation)
 
@@ -204,7 +204,7 @@ def problem_metrics(problem_name: str, problem, result) -> dict:
     """
     if problem_name != BENCHMARK_PROBLEM:
         return {}
-    from bwbench.boucwen_benchmark import TEST_SETS
+    from bwbench.problems.noel_schoukens.problem import TEST_SETS
 
     params = np.array([result.params[name] for name in problem.param_names])
     metrics = {"train_rmse_m": _json_number(result.rmse_N)}  # sqrt(MSE): metres for this problem

@@ -22,11 +22,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bwbench import benchmark_figures, figures, identifiability, statistics
-from bwbench import boucwen_benchmark as bm
+from bwbench.problems.noel_schoukens import figures as benchmark_figures
+from bwbench.report import figures
+from bwbench.analysis import identifiability
+from bwbench.analysis import statistics
+from bwbench.problems.noel_schoukens import problem as bm
 from bwbench.errors import InputFileError, UserError
-from bwbench.report import Document, _evals, _g, _join, _p, _pct, backends_table
-from bwbench.study_config import BENCHMARK_FILES, data_digest
+from bwbench.report.build import Document, _evals, _g, _join, _p, _pct, backends_table
+from bwbench.study.config import BENCHMARK_FILES, data_digest
 
 SOURCE = ("J.P. Noël and M. Schoukens, “Hysteretic benchmark with a dynamic nonlinearity”, Workshop on Nonlinear "
           "System Identification Benchmarks, Brussels, 2016; data and description at www.nonlinearbenchmark.org")
@@ -261,7 +264,7 @@ def _section_results(doc, study, results, truth, best_backend, ties):
     doc.p(f"For scale: the test output has a standard deviation of 6.7e-04 m; the true parameters leave "
           f"{_e(truth['test_multisine'])} m on test_multisine through this simulator (RK4 at 2.25 kHz without the "
           f"data's decimation filter; the README's RK4 at 15 kHz gives 2e-07 m) and {_e(truth['test_sinesweep'])} m "
-          "on test_sinesweep, a floor set by how that file was made (see `bwbench.boucwen_benchmark`). A grey-box "
+          "on test_sinesweep, a floor set by how that file was made (see `bwbench.problems.noel_schoukens.problem`). A grey-box "
           "fit that knows the model structure is expected to beat black-box models, which must learn it: the "
           "published figures say what the data allow, they are not a like-for-like ranking of methods.")
 
@@ -413,14 +416,14 @@ def _section_posterior(doc, study):
     chains = [c for c in study.chains if c.kind == "posterior"]
     if not chains:
         return
-    from bwbench.identifiability import posterior_correlation, strongest_pairs
+    from bwbench.analysis.identifiability import posterior_correlation, strongest_pairs
 
     doc.h(2, "Posterior sampling")
     for chain in chains:
         d = statistics.chain_diagnostics(chain.samples, chain.acceptance_fraction, chain.log_prob)
         burn = chain.steps // 2
         stuck = statistics.stuck_walkers(chain.samples, chain.log_prob, burn)
-        samples = chain.physical(burn, ~stuck, from_unit=bm.box_from_unit)
+        samples = chain.physical(burn, ~stuck, from_unit=bm.from_unit)
         pairs = strongest_pairs(posterior_correlation(samples, list(NAMES)), 4)
         doc.table(pd.DataFrame([{
             "backend": chain.optimizer, "steps": d["steps"], "walkers": d["walkers"],

@@ -1,23 +1,16 @@
-"""The Noël–Schoukens Bouc-Wen benchmark (2016): a second problem whose answer is known.
+"""The force-driven classic Bouc-Wen system of the Noël–Schoukens benchmark, compiled with numba.
 
 Force-driven classic Bouc-Wen system (SI units; input force u in N, output displacement y in m)::
 
     m·ÿ + c·ẏ + k·y + z = u
     ż = α·ẏ − β·(γ·|ẏ|·|z|^(ν−1)·z + δ·ẏ·|z|^ν)
 
-with the true parameters ``TRUE_PARAMS`` (m = 2 kg, c = 10 N·s/m, k = α = 5·10⁴ N/m, β = 10³ m⁻¹,
+(benchmark truth: m = 2 kg, c = 10 N·s/m, k = α = 5·10⁴ N/m, β = 10³ m⁻¹,
 γ = 0.8, δ = −1.1, ν = 1). ``|z|^(ν−1)·z`` is computed as ``sign(z)·|z|^ν`` (finite at z = 0 for
-ν < 1). The problem has the interface of ``SwitchedBoucWenProblem``, so ``Objective``, every
-optimiser backend and ``fitting.run`` use it unchanged. The data are read from a folder the user
-gives (default ``../shared/benchmarks/bouc-wen`` beside the repository root); they are never
-copied into the project.
 
-Loss
-    MSE (m²) between the simulated periodic steady state and ONE period of ``train_multisine.csv``
-    (default: period 5, the last; period 1 holds the start-up transient from rest). The measured
-    y carries band-limited noise of 7.4·10⁻⁶ m RMS, so at the truth the loss is ≈ 5.5·10⁻¹¹ m².
-    ``test_error`` gives the benchmark's e_RMS (m) on ``test_multisine`` (steady state) and on
-    ``test_sinesweep`` (153,000 samples, from rest).
+Parameter vectors are ordered as ``PARAM_NAMES`` (physical units). Parameter sets whose state
+becomes non-finite (runaway, or a fixed step too long for a very stiff set) give +inf: never NaN,
+never an exception.
 
 Simulation
     The input is upsampled band-limited to the half-steps of a fixed-step classical RK4: the
@@ -71,141 +64,26 @@ Warm-up
     2048 samples (a quarter period, 2.73 s) leaves nothing near the truth and ≤ 1e-6 m in the
     corners of the box, where the residual itself is ~1e-3 m. It costs 25 % of an evaluation.
 
-Search box (``LOWER``, ``UPPER``)
-    Every positive parameter spans a factor of 10 each side of the truth and is log-scaled
-    (unit coordinate ↦ log10 linearly, ``from_unit``/``to_unit``): m ∈ [0.2, 20] kg,
-    c ∈ [1, 100] N·s/m, k ∈ [5e3, 5e5] N/m, α ∈ [5e3, 5e5] N/m, β ∈ [1e2, 1e4] m⁻¹,
-    γ ∈ [0.08, 8]. Physically: with m and k+α a decade apart the first resonance
-    √((k+α)/m)/2π ranges over 2.5–250 Hz, i.e. across and beyond the 5–150 Hz band of the
-    excitation. δ is linear in [−3, 3] (sign free: the truth −1.1 is inside) and ν linear in
-    [0.5, 3] (the truth 1 inside). For ν far above 3, |z|^ν with z ~ 30–50 N (z ≈ α·y) grows
-    beyond 10⁵ and the z equation becomes so stiff (rate β·γ·ν·|ẏ|·|z|^(ν−1)) that it runs away
-    or overflows; below 0.5, |z|^ν is sharply non-Lipschitz at z = 0. At the truth
-    β(γ+δ) = −300 < 0, so the usual constraint β(γ+δ) > 0 is NOT imposed: it would exclude the
-    truth. About 29 % of uniform points in the box give +inf: true runaways (β(γ+δ) < 0 with
-    ν > 1 makes |z| blow up in finite time) and sets too stiff for 64 substeps (mostly ν ≳ 2.5,
-    small m). Simulated at 18 kHz, the latter have RMS residuals ≥ 4.7e-4 m, 60× the noise: no
-    optimum hides there.
-
-Identifiability
-    β appears only in the products β·γ and β·δ, so (β·s, γ/s, δ/s) gives exactly the same
-    output for every s > 0: β, γ and δ are not separately identifiable, only βγ and βδ are.
-    ``identifiable_combinations`` reports them. A fit's β, γ, δ should be compared with the
-    truth through these products, never one by one.
-
-Parameter sets whose state becomes non-finite (runaway, or a fixed step too long for a very
-stiff set) get loss +inf: never NaN, never an exception.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 from scipy import signal as sps
 
-from bwbench.errors import InputFileError
-
 PARAM_NAMES = ("m", "c", "k", "alpha", "beta", "gamma", "delta", "nu")
 N_PARAMS = len(PARAM_NAMES)
-TRUE_PARAMS = np.array([2.0, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1, 1.0])
-LOWER = np.array([0.2, 1.0, 5e3, 5e3, 1e2, 0.08, -3.0, 0.5])
-UPPER = np.array([20.0, 100.0, 5e5, 5e5, 1e4, 8.0, 3.0, 3.0])
-LOG_SCALED = np.array([True, True, True, True, True, True, False, False])
-
 SAMPLE_RATE_HZ = 750.0
-PERIOD_SAMPLES = 8192
-TRAIN_PERIODS = 5
-NOISE_RMS_M = 7.4e-6  # the README's residual of the truth on train_multisine
 STEPS_PER_SAMPLE = 3  # RK4 at 2.25 kHz: see the module docstring
 WARMUP_SAMPLES = 2048  # a quarter period: see the module docstring
-COLUMNS = ("time_s", "force_N", "displacement_m")
-TEST_SETS = ("test_multisine", "test_sinesweep")
-_PERIODIC = {"train_multisine": True, "test_multisine": True, "test_sinesweep": False}
-# Time stamps are printed with 8 decimals: allow that rounding, refuse any other sample rate.
-_TIME_TOLERANCE_S = 2e-6
 # RK4 is stable for h·λ up to 2.78 on the negative real axis; 1.5 keeps a margin. Past
 # _MAX_SUBSTEPS substeps a set is left to run away (+inf): it would cost unbounded time.
 _STIFF_LIMIT = 1.5
 _MAX_SUBSTEPS = 64
-
-
-def default_data_dir() -> Path:
-    """``../shared/benchmarks/bouc-wen`` seen from the repository root."""
-    return Path(__file__).resolve().parents[2].parent / "shared" / "benchmarks" / "bouc-wen"
-
-
-# ---------------------------------------------------------------------------------------------
-# Data files
-
-
-@dataclass(frozen=True, eq=False)  # eq=False: comparing ndarray fields would raise
-class BenchmarkRecord:
-    """One benchmark file: time (s), force u (N) and displacement y (m), all the same length."""
-
-    path: str
-    name: str
-    t: np.ndarray
-    u: np.ndarray
-    y: np.ndarray
-
-    @property
-    def n_samples(self) -> int:
-        return int(self.t.size)
-
-
-def read_benchmark_csv(path) -> BenchmarkRecord:
-    """Read a ``time_s,force_N,displacement_m`` file sampled at 750 Hz.
-
-    Raises ``InputFileError(path, line, problem)`` for a missing or unreadable file (line None),
-    a wrong header, a row that is not three finite numbers, time not increasing by 1/750 s.
-    """
-    path = str(path)
-    try:
-        with open(path, encoding="utf-8-sig") as fh:
-            text = fh.read()
-    except FileNotFoundError:
-        raise InputFileError(path, None, "no such file") from None
-    except IsADirectoryError:
-        raise InputFileError(path, None, "is a directory, not a file") from None
-    except UnicodeDecodeError:
-        raise InputFileError(path, None, "not UTF-8 text") from None
-    except OSError as err:
-        raise InputFileError(path, None, f"cannot read file: {err.strerror or err}") from None
-    lines = text.split("\n")
-    header = [name.strip() for name in lines[0].strip().split(",")]
-    if tuple(header) != COLUMNS:
-        raise InputFileError(path, 1, f"header must be {','.join(COLUMNS)}, found {lines[0].strip()[:60]!r}")
-    values = []
-    for line_no, line in enumerate(lines[1:], start=2):
-        if not line.strip():
-            continue
-        cells = line.split(",")
-        if len(cells) != len(COLUMNS):
-            raise InputFileError(path, line_no, f"{len(cells)} cells on this row, expected {len(COLUMNS)}")
-        try:
-            row = [float(cell) for cell in cells]
-        except ValueError:
-            raise InputFileError(path, line_no, f"not a number in {line.strip()[:60]!r}") from None
-        if not all(math.isfinite(v) for v in row):
-            raise InputFileError(path, line_no, f"value is not finite in {line.strip()[:60]!r}")
-        if values:
-            dt = row[0] - values[-1][0]
-            if abs(dt - 1.0 / SAMPLE_RATE_HZ) > _TIME_TOLERANCE_S:
-                raise InputFileError(
-                    path, line_no, f"time step {dt:.8g} s, expected 1/{SAMPLE_RATE_HZ:g} s (uniform 750 Hz)"
-                )
-        values.append(row)
-    if len(values) < 2:
-        raise InputFileError(path, None, "fewer than two data rows")
-    data = np.array(values, dtype=np.float64)
-    t, u, y = (np.ascontiguousarray(data[:, j]) for j in range(3))
-    for arr in (t, u, y):
-        arr.flags.writeable = False
-    return BenchmarkRecord(path=path, name=Path(path).stem, t=t, u=u, y=y)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -427,29 +305,6 @@ def _as_params(params) -> np.ndarray:
     return p
 
 
-def box_from_unit(U, lower=LOWER, upper=UPPER, log_scaled=LOG_SCALED) -> np.ndarray:
-    """Unit coordinates (shape (..., 8)) → physical units; log-scaled entries linear in log10."""
-    lo, hi = _box_span(lower, upper, log_scaled)
-    x = lo + np.asarray(U, dtype=float) * (hi - lo)
-    return np.where(log_scaled, 10.0 ** x, x)
-
-
-def box_to_unit(P, lower=LOWER, upper=UPPER, log_scaled=LOG_SCALED) -> np.ndarray:
-    """Physical units → unit coordinates; the inverse of ``box_from_unit``."""
-    lo, hi = _box_span(lower, upper, log_scaled)
-    P = np.asarray(P, dtype=float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        x = np.where(log_scaled, np.log10(np.where(log_scaled, P, 1.0)), P)
-    return (x - lo) / (hi - lo)
-
-
-def _box_span(lower, upper, log_scaled):
-    lower = np.asarray(lower, dtype=float)
-    upper = np.asarray(upper, dtype=float)
-    lo = np.where(log_scaled, np.log10(np.where(log_scaled, lower, 1.0)), lower)
-    hi = np.where(log_scaled, np.log10(np.where(log_scaled, upper, 1.0)), upper)
-    return lo, hi
-
 
 def identifiable_combinations(params) -> dict:
     """What the data determine: m, c, k, α, ν and the products βγ, βδ (β, γ, δ alone are not).
@@ -464,116 +319,3 @@ def identifiable_combinations(params) -> dict:
         "beta_gamma_plus_delta": beta * (gamma + delta), "beta_gamma_minus_delta": beta * (gamma - delta),
     }
 
-
-# ---------------------------------------------------------------------------------------------
-# The problem
-
-
-@dataclass
-class BoucWenBenchmarkProblem:
-    """Fit the 8 Bouc-Wen parameters to one period of ``train_multisine`` (loss: MSE in m²).
-
-    ``data_dir`` holds the benchmark's CSV files (default ``default_data_dir()``); files are read
-    when the problem is made (InputFileError if one is missing or malformed), the test files
-    only when ``test_error`` first needs them. ``train_period`` (1–5) is the compared period.
-    """
-
-    data_dir: str | Path | None = None
-    train_period: int = TRAIN_PERIODS
-    steps_per_sample: int = STEPS_PER_SAMPLE
-    warmup_samples: int = WARMUP_SAMPLES
-    param_names: tuple = PARAM_NAMES
-    lower: np.ndarray = field(default_factory=lambda: LOWER.copy())
-    upper: np.ndarray = field(default_factory=lambda: UPPER.copy())
-    log_scaled: np.ndarray = field(default_factory=lambda: LOG_SCALED.copy())
-
-    def __post_init__(self):
-        self.data_dir = Path(self.data_dir) if self.data_dir is not None else default_data_dir()
-        if not 1 <= int(self.train_period) <= TRAIN_PERIODS:
-            raise ValueError(f"train_period must be 1..{TRAIN_PERIODS}, got {self.train_period}")
-        if np.any(self.log_scaled & (self.lower <= 0)):
-            raise ValueError("log-scaled parameters need a positive lower bound")
-        self.train = read_benchmark_csv(self.data_dir / "train_multisine.csv")
-        u_period = _one_period(self.train, TRAIN_PERIODS)
-        start = (int(self.train_period) - 1) * PERIOD_SAMPLES
-        self.y_period = np.ascontiguousarray(self.train.y[start:start + PERIOD_SAMPLES])
-        self.input = upsample_periodic(u_period, self.steps_per_sample, self.warmup_samples)
-        self._tests: dict = {}
-
-    @property
-    def name(self) -> str:
-        return "train_multisine"
-
-    @property
-    def dim(self) -> int:
-        return len(self.param_names)
-
-    @property
-    def n_data(self) -> int:
-        """Number of displacement samples the loss averages over (one period)."""
-        return int(self.y_period.size)
-
-    @property
-    def info(self) -> dict:
-        return {
-            "problem": "bouc-wen-benchmark", "specimen": "train_multisine",
-            "train_period": int(self.train_period), "integration_rate_hz": SAMPLE_RATE_HZ * self.steps_per_sample,
-            "warmup_samples": int(self.warmup_samples),
-        }
-
-    def from_unit(self, U) -> np.ndarray:
-        """Unit coordinates → physical units; log-scaled parameters map linearly in log10."""
-        return box_from_unit(U, self.lower, self.upper, self.log_scaled)
-
-    def to_unit(self, P) -> np.ndarray:
-        """Physical units → unit coordinates (NaN for a non-positive log-scaled value)."""
-        return box_to_unit(P, self.lower, self.upper, self.log_scaled)
-
-    def simulate(self, params) -> np.ndarray:
-        """Steady-state y (m) over the compared training period; +inf everywhere on blow-up."""
-        return simulate(params, self.input)
-
-    def loss_batch(self, P) -> np.ndarray:
-        """MSE (m²) of each row of P (physical units, shape (m, 8)); +inf where it blows up."""
-        return mse_batch(P, self.input, self.y_period)
-
-    def simulate_test(self, params, which: str = "test_multisine") -> np.ndarray:
-        """Model y (m) on a test file's sample times: steady state (multisine) or from rest (sweep)."""
-        record, inp = self._test(which)
-        return simulate(params, inp)
-
-    def test_error(self, params, which: str = "test_multisine") -> float:
-        """The benchmark's e_RMS = sqrt(mean((y_model − y_test)²)) in m; inf on blow-up."""
-        record, inp = self._test(which)
-        y_model = simulate(params, inp)
-        with np.errstate(all="ignore"):
-            e = float(np.sqrt(np.mean((y_model - record.y) ** 2)))
-        return e if math.isfinite(e) else math.inf
-
-    def _test(self, which: str):
-        if which not in TEST_SETS:
-            raise ValueError(f"which must be one of {TEST_SETS}, got {which!r}")
-        if which not in self._tests:
-            record = read_benchmark_csv(self.data_dir / f"{which}.csv")
-            if _PERIODIC[which]:
-                inp = upsample_periodic(_one_period(record, 1), self.steps_per_sample, self.warmup_samples)
-            else:
-                inp = upsample_from_rest(record.u, self.steps_per_sample)
-            self._tests[which] = (record, inp)
-        return self._tests[which]
-
-
-def _one_period(record: BenchmarkRecord, n_periods: int) -> np.ndarray:
-    """The input's period, after checking the file holds ``n_periods`` identical periods."""
-    if record.n_samples != n_periods * PERIOD_SAMPLES:
-        raise InputFileError(
-            record.path, None,
-            f"{record.n_samples} samples, expected {n_periods} period(s) of {PERIOD_SAMPLES} ({n_periods * PERIOD_SAMPLES})",
-        )
-    periods = record.u.reshape(n_periods, PERIOD_SAMPLES)
-    worst = float(np.max(np.abs(periods - periods[0]))) if n_periods > 1 else 0.0
-    if worst > 1e-9 * max(1.0, float(np.max(np.abs(periods[0])))):
-        bad = int(np.argmax(np.max(np.abs(periods - periods[0]), axis=0) == worst))
-        row = int(np.argmax(np.abs(periods[:, bad] - periods[0, bad]))) * PERIOD_SAMPLES + bad
-        raise InputFileError(record.path, row + 2, f"force is not periodic with {PERIOD_SAMPLES} samples")
-    return np.ascontiguousarray(periods[0])

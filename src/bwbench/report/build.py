@@ -23,11 +23,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bwbench import figures, identifiability, results_db, statistics, synthetic
+from bwbench.report import figures
+from bwbench.analysis import identifiability
+from bwbench.study import results as results_db
+from bwbench.analysis import statistics
+from bwbench.data import synthetic
 from bwbench.errors import UserError
-from bwbench.model import PARAM_NAMES
-from bwbench.parameters import LABELS, LOWER, UPPER
-from bwbench.study_config import BENCHMARK_PROBLEM
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.data.parameters import LABELS, LOWER, UPPER
+from bwbench.study.config import BENCHMARK_PROBLEM
 
 ALPHA = statistics.ALPHA
 BASELINE = "random"  # the backend "significantly worse than" disqualifies
@@ -301,7 +305,7 @@ def _featured_specimens(study, k: int = 3) -> list[str]:
 def backends_table(study) -> pd.DataFrame:
     """One row per ranking backend: its family and the options it ran with."""
     try:
-        from bwbench import registry
+        from bwbench.optimize import registry
 
         backends = registry.available()
     except Exception:  # the report must not depend on every plug-in importing
@@ -544,7 +548,7 @@ def _section_posterior(doc, study, log):
     chains = [c for c in study.chains if c.kind == "posterior"]
     if not chains:
         return []
-    from bwbench.identifiability import posterior_correlation, strongest_pairs
+    from bwbench.analysis.identifiability import posterior_correlation, strongest_pairs
 
     doc.h(2, "Posterior sampling (emcee)")
     diags = []
@@ -610,7 +614,7 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
                  profile_grid: int = 7, log=None) -> Path:
     """Write report.md, report.html, the figures and their CSVs into ``out``; return report.html's path.
 
-    A ``bouc-wen-benchmark`` study gets the benchmark report (``bwbench.benchmark_report``).
+    A ``bouc-wen-benchmark`` study gets the benchmark report (``bwbench.problems.noel_schoukens.report``).
 
     ``profile_params``: profile likelihoods of that many parameters (the widest free ranges) on the
     first featured specimen (0: none; they cost about a second per grid point).
@@ -625,7 +629,7 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if study.problem == BENCHMARK_PROBLEM:
-        from bwbench import benchmark_report
+        from bwbench.problems.noel_schoukens import report as benchmark_report
 
         return benchmark_report.build_report(study, out, log=log)
     synthetic_data = any(synthetic.is_synthetic(study.specimen_path(s)) for s in study.specimens)

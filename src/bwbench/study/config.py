@@ -40,7 +40,7 @@ Problems (``[study] problem``):
   ``excitation`` choose the model variant. ``data`` is part of the configuration hash as written
   (the folder defines the specimens). With ``problem`` absent the hash is the one of earlier
   versions: ``problem`` enters the canonical JSON only when it is not the default.
-- ``"bouc-wen-benchmark"``: the Noël–Schoukens benchmark (``bwbench.boucwen_benchmark``), one
+- ``"bouc-wen-benchmark"``: the Noël–Schoukens benchmark (``bwbench.problems.noel_schoukens.problem``), one
   "specimen", ``train_multisine``. ``data`` is the benchmark folder (default
   ``boucwen_benchmark.default_data_dir()``, i.e. ``../shared/benchmarks/bouc-wen`` beside the
   repository). ``[specimens]``, ``state`` and ``excitation`` do not apply to it and are refused
@@ -62,9 +62,10 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from bwbench import model, registry
+from bwbench.models import switched_bouc_wen as model
+from bwbench.optimize import registry
 from bwbench.errors import UserError
-from bwbench.synthetic import MANIFEST, REPO, load_manifest
+from bwbench.data.synthetic import MANIFEST, REPO, load_manifest
 
 try:
     import tomllib
@@ -141,7 +142,7 @@ class StudyConfig:
             posterior = {"specimens": [s.name for s in p.specimens], "optimizer": p.optimizer,
                          "budget": p.budget, "seeds": p.seeds, "options": p.options}
         if self.problem == BENCHMARK_PROBLEM:
-            from bwbench import boucwen_benchmark as bm
+            from bwbench.problems.noel_schoukens import problem as bm
 
             return {
                 "study": {"name": self.name, "seed": self.seed, "budget": self.budget, "seeds": self.seeds,
@@ -270,7 +271,7 @@ def load_study_config(path, data=None) -> StudyConfig:
 
 def _benchmark_config(fail, document, study, data, common) -> StudyConfig:
     """The ``bouc-wen-benchmark`` part of ``load_study_config``."""
-    from bwbench import boucwen_benchmark
+    from bwbench.problems.noel_schoukens import problem as boucwen_benchmark
 
     for key, why in _NOT_FOR_BENCHMARK.items():
         if key in study:

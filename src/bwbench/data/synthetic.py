@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench import model
+from bwbench.models import switched_bouc_wen as model
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 PAPER_PARAMETERS = REPO / "data" / "paper" / "identified_parameters.csv"
 SPECIMEN_DIR = REPO / "data" / "specimens"
 MANIFEST = "manifest.json"  # JSON, so that `bwbench data check data/specimens/*.csv` sees only specimens
