@@ -18,7 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from bwbench.study.runner import execute_tasks, plan_tasks
+from bwbench.study.execute import execute_tasks
+from bwbench.study.tasks import plan_tasks
 from bwbench.study.config import load_study_config
 from bwbench.data.synthetic import SPECIMEN_DIR
 

@@ -1,6 +1,6 @@
 """A small, realistic study database written without running any optimiser.
 
-The schema is the contract of ``bwbench.study.runner`` (written out here on purpose, so the analysis
+The schema is the contract of ``bwbench.study.store`` (written out here on purpose, so the analysis
 tests do not depend on the runner). The numbers are synthetic but consistent: every run's
 parameters are drawn around the specimen's truth (closer for the "good" backends), and its MSE
 is the model's real MSE at those parameters, so the fitted loops and the identifiability analysis
@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bwbench.data import manifest as manifest_mod
 from bwbench.data import synthetic
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.data.parameters import LOWER, UPPER
@@ -105,7 +106,7 @@ def make_study_db(
     """
     path = Path(path)
     rng = np.random.default_rng(seed)
-    manifest = {e["file"]: e for e in json.loads((DATA_DIR / synthetic.MANIFEST).read_text())["specimens"]}
+    manifest = {e["file"]: e for e in json.loads((DATA_DIR / manifest_mod.MANIFEST).read_text())["specimens"]}
     config = {
         "study": {"name": "fixture", "seed": seed, "budget": budget, "seeds": replicates, "state": "shared",
                   "excitation": "measured", "data": "data/specimens"},
@@ -139,7 +140,7 @@ def make_study_db(
 
     for specimen in specimens:
         problem = SwitchedBoucWenProblem(read_specimen(DATA_DIR / f"{specimen}.csv"))
-        u_truth = problem.to_unit(synthetic.truth_params(DATA_DIR / f"{specimen}.csv"))
+        u_truth = problem.to_unit(manifest_mod.truth_params(DATA_DIR / f"{specimen}.csv"))
         for replicate in range(replicates):
             for optimizer, spread in optimizers.items():
                 key = (specimen, optimizer, replicate)

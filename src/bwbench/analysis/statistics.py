@@ -172,6 +172,9 @@ def pairwise_wilcoxon(runs: pd.DataFrame, alpha: float = ALPHA) -> pd.DataFrame:
             row["statistic"], row["p"] = float(res.statistic), float(res.pvalue)
         rows.append(row)
     out = pd.DataFrame(rows, columns=["a", "b", "n_pairs", "median_diff", "wins_a", "wins_b", "statistic", "p"])
+    out["n_a"] = out["n_b"] = out["n_pairs"]
+    # The exact two-sided signed-rank test cannot go below 2/2^n with n pairs.
+    out["min_p"] = np.minimum(1.0, 2.0 / 2.0 ** out["n_pairs"].astype(float))
     out["p_holm"] = holm(out["p"].to_numpy()) if len(out) else []
     out["significant"] = out["p_holm"] < alpha
     out["better"] = np.where(~out["significant"], "", np.where(out["median_diff"] < 0, out["a"], out["b"]))
@@ -347,3 +350,66 @@ def mann_whitney_vs(runs: pd.DataFrame, reference: str, alpha: float = ALPHA) ->
     out["significant"] = out["p_holm"] < alpha
     out["better"] = np.where(~out["significant"], "", np.where(out["median_diff"] < 0, out["a"], out["b"]))
     return out
+
+
+def pairwise_mann_whitney(runs: pd.DataFrame, alpha: float = ALPHA) -> pd.DataFrame:
+    """Two-sided Mann–Whitney U test for every pair of backends on log10 final MSE, the seeds of
+    each backend an independent sample (one specimen: there is nothing to pair), Holm-corrected over
+    all pairs. Columns as ``pairwise_wilcoxon`` (``wins_a`` = pairs of runs a beats), plus
+    ``p_superiority`` (probability that a run of a beats a run of b, ties half)."""
+    names = list(dict.fromkeys(runs["optimizer"]))
+    frames = [mann_whitney_vs(runs[runs["optimizer"].isin([a, *names[i + 1:]])], a, alpha)
+              for i, a in enumerate(names[:-1])]
+    out = pd.concat(frames, ignore_index=True) if frames else mann_whitney_vs(runs.iloc[:0], "", alpha)
+    values = log_final_mse(runs)
+    wins = []
+    for r in out.itertuples():
+        a = values[runs["optimizer"] == r.a].to_numpy()
+        b = values[runs["optimizer"] == r.b].to_numpy()
+        wins.append((int((a[:, None] < b[None, :]).sum()), int((a[:, None] > b[None, :]).sum())))
+    out["wins_a"] = [w[0] for w in wins]
+    out["wins_b"] = [w[1] for w in wins]
+    out["p_holm"] = holm(out["p"].to_numpy()) if len(out) else []
+    out["significant"] = out["p_holm"] < alpha
+    out["better"] = np.where(~out["significant"], "", np.where(out["median_diff"] < 0, out["a"], out["b"]))
+    return out
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The tests a study's design allows, and their results."""
+
+    omnibus_name: str
+    omnibus_design: str
+    omnibus: object  # Friedman or KruskalWallis
+    pairwise_name: str
+    pairwise_note: str
+    pairwise: pd.DataFrame
+    power_note: str
+
+
+def compare_backends(runs: pd.DataFrame) -> Comparison:
+    """Friedman over specimens and paired Wilcoxon tests when there are ≥ 2 specimens; with one,
+    Kruskal–Wallis and unpaired Mann–Whitney tests (the seeds of two backends share nothing, so they
+    cannot be blocks)."""
+    ranking = runs[runs["kind"] == "ranking"]
+    n_specimens = ranking["specimen"].nunique()
+    if n_specimens >= 2:
+        fr = friedman(median_table(ranking))
+        return Comparison(
+            "Friedman test", f"{fr.n_blocks} specimens (blocks) and {ranking['optimizer'].nunique()} backends "
+            "(treatments), value = median final loss across seeds", fr,
+            "Wilcoxon signed-rank tests on the paired (specimen, seed) runs",
+            "Pairing: seed r of one backend with seed r of another on the same specimen (the seeds are "
+            "independent, so the pairing only removes the specimen effect).",
+            pairwise_wilcoxon(ranking),
+            f"the Friedman test has {n_specimens} blocks{' and little power' if n_specimens < 6 else ''}; the "
+            "pairwise Wilcoxon tests pair seed r of one backend with seed r of another on the same specimen.")
+    kw = kruskal_wallis(ranking)
+    return Comparison(
+        "Kruskal–Wallis test", f"{kw.n_groups} backends, the seeds of each an independent sample", kw,
+        "Mann–Whitney U tests (the seeds of each backend an independent sample)",
+        "With one specimen there are no blocks: seed r of one backend shares nothing with seed r of another.",
+        pairwise_mann_whitney(ranking),
+        "one specimen, so there is no Friedman test; backends are compared as independent samples of their "
+        "seeds, which needs many seeds for power.")

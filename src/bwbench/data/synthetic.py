@@ -28,12 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
+from bwbench.data.manifest import MANIFEST
 from bwbench.models import switched_bouc_wen as model
 
 REPO = Path(__file__).resolve().parents[3]
 PAPER_PARAMETERS = REPO / "data" / "paper" / "identified_parameters.csv"
 SPECIMEN_DIR = REPO / "data" / "specimens"
-MANIFEST = "manifest.json"  # JSON, so that `bwbench data check data/specimens/*.csv` sees only specimens
 SYNTHETIC_NOTE = "synthetic data generated from the paper's Tables 6–8 (raw curves not public)"
 
 
@@ -176,46 +176,3 @@ def generate(out_dir=SPECIMEN_DIR, settings: Settings = Settings(), paper=PAPER_
     (out_dir / MANIFEST).write_text(json.dumps(document, indent=1) + "\n", encoding="utf-8")
     written.append(out_dir / MANIFEST)
     return written
-
-
-def load_manifest(directory) -> dict | None:
-    """The manifest.json of a data folder as a dict, or None when the folder has none."""
-    path = Path(directory) / MANIFEST
-    if not path.exists():
-        return None
-    return json.loads(path.read_text(encoding="utf-8"))
-
-
-def read_manifest(directory=SPECIMEN_DIR):
-    """The manifest as a pandas DataFrame: one row per specimen file, truth parameters as columns."""
-    import pandas as pd
-
-    document = load_manifest(directory)
-    if document is None:
-        raise FileNotFoundError(Path(directory) / MANIFEST)
-    rows = [{**{k: v for k, v in e.items() if k != "truth"}, **e["truth"]} for e in document["specimens"]]
-    return pd.DataFrame(rows)
-
-
-def manifest_entry(specimen_path) -> dict | None:
-    """The manifest entry of a specimen file, when it sits next to a manifest; else None."""
-    path = Path(specimen_path)
-    document = load_manifest(path.parent)
-    if document is None:
-        return None
-    for entry in document["specimens"]:
-        if entry["file"] == path.name:
-            return entry
-    return None
-
-
-def is_synthetic(specimen_path) -> bool:
-    entry = manifest_entry(specimen_path)
-    return bool(entry and entry.get("synthetic"))
-
-
-def truth_params(specimen_path) -> np.ndarray | None:
-    entry = manifest_entry(specimen_path)
-    if entry is None:
-        return None
-    return np.array([entry["truth"][name] for name in model.PARAM_NAMES])

@@ -1,55 +1,30 @@
-"""Study configurations (TOML): which specimens, which backends, how many seeds, one budget.
+"""Study configurations (TOML): which problem and specimens, which backends, how many seeds, one budget.
 
-Format (``studies/quick.toml`` is a worked example)::
+Generic format (``studies/quick.toml`` is a worked example)::
 
     [study]
     name = "quick"            # default database: reports/<name>/study.sqlite
     seed = 20261121           # study seed (non-negative integer)
     budget = 4100             # evaluations, identical for every backend
     seeds = 5                 # replicates per (specimen, backend)
-    state = "shared"          # or "split"
-    excitation = "measured"   # or "sine"
-    data = "data/specimens"   # folder with manifest.json
-    problem = "switched-bouc-wen"   # the default; or "bouc-wen-benchmark" (see below)
+    problem = "switched-bouc-wen"   # the default; see `bwbench.problems`
+    # ... the problem's own keys (e.g. state, excitation, data)
 
-    [specimens]               # manifest filters, each a value or a list; omitted key = all
-    material = ["POM MT24u01"]
-    underpressure_MPa = [0.01, 0.09]
-    repeat = [1]
-
+    [specimens]               # the problem's own table: which data sets
     [optimizers]              # every backend with its options (empty table = defaults)
     random = {}
     pso = { n_particles = 40 }
 
     [posterior]               # optional: long MCMC runs, kept out of the ranking
-    specimens = ["pom-mt24u01_0.01MPa_r1"]   # file stems
+    specimens = ["pom-mt24u01_0.01MPa_r1"]   # names (file stems); may be omitted with one specimen
     optimizer = "emcee"
     budget = 40000
     seeds = 1
     options = {}
 
-Relative paths (``data``, and the default database) are relative to the repository root: the
-parent of the ``studies/`` folder holding the configuration, or, for a configuration kept
-anywhere else, the bwbench checkout itself. ``--data PATH`` on the command line (relative to the
-current directory) replaces ``[study] data``.
-
-Problems (``[study] problem``):
-
-- ``"switched-bouc-wen"`` (default): the paper's 14-parameter switched model fitted to the
-  specimens of ``data`` (a folder with manifest.json) selected by ``[specimens]``. ``state`` and
-  ``excitation`` choose the model variant. ``data`` is part of the configuration hash as written
-  (the folder defines the specimens). With ``problem`` absent the hash is the one of earlier
-  versions: ``problem`` enters the canonical JSON only when it is not the default.
-- ``"bouc-wen-benchmark"``: the Noël–Schoukens benchmark (``bwbench.problems.noel_schoukens.problem``), one
-  "specimen", ``train_multisine``. ``data`` is the benchmark folder (default
-  ``boucwen_benchmark.default_data_dir()``, i.e. ``../shared/benchmarks/bouc-wen`` beside the
-  repository). ``[specimens]``, ``state`` and ``excitation`` do not apply to it and are refused
-  (not ignored: a setting that silently does nothing would be read as part of the result).
-  ``[posterior] specimens`` may be omitted (it can only be ``["train_multisine"]``). The hash
-  holds the SHA-256 of the three benchmark files, not their folder: the same data moved
-  elsewhere (or reached through ``--data``) resume the same study, changed data are refused.
-
-Every mistake raises ``UserError`` naming the file and the key, e.g.
+The problem's keys and tables are read by its ``ProblemType.configure``
+(``bwbench.problems.switched_vpp.study``, ``bwbench.problems.noel_schoukens.study``). Every mistake
+raises ``UserError`` naming the file and the key, e.g.
 ``studies/x.toml: [study] budget must be a positive integer``.
 """
 
@@ -57,47 +32,23 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from bwbench.models import switched_bouc_wen as model
-from bwbench.optimize import registry
+from bwbench import problems
 from bwbench.errors import UserError
-from bwbench.data.synthetic import MANIFEST, REPO, load_manifest
+from bwbench.optimize import registry
+from bwbench.problems.base import ProblemSetup
 
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-STUDY_KEYS = ("name", "seed", "budget", "seeds", "state", "excitation", "data", "problem")
-DEFAULT_PROBLEM = "switched-bouc-wen"
-BENCHMARK_PROBLEM = "bouc-wen-benchmark"
-PROBLEMS = (DEFAULT_PROBLEM, BENCHMARK_PROBLEM)
-BENCHMARK_SPECIMEN = "train_multisine"
-BENCHMARK_FILES = ("train_multisine.csv", "test_multisine.csv", "test_sinesweep.csv")
-# Keys that make no sense for the benchmark: refused there, with the reason.
-_NOT_FOR_BENCHMARK = {
-    "state": "it has a single hysteretic variable",
-    "excitation": "its input is the measured force, not a displacement",
-}
-FILTER_KEYS = ("material", "table", "underpressure_MPa", "repeat")
+GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem")
 POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
-EXCITATIONS = ("measured", "sine")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
-
-
-@dataclass(frozen=True)
-class SpecimenEntry:
-    """One specimen of a study: its file stem (the ``specimen`` of every run) and manifest facts."""
-
-    name: str
-    path: str
-    material: str
-    underpressure_MPa: float
-    repeat: int
 
 
 @dataclass(frozen=True)
@@ -119,16 +70,19 @@ class StudyConfig:
     seed: int
     budget: int
     seeds: int
-    state: str
-    excitation: str
-    data: str  # as written in the file
-    filters: dict  # manifest column -> tuple of accepted values
-    specimens: tuple  # of SpecimenEntry, manifest order
+    problem: str
+    setup: ProblemSetup
     optimizers: dict  # name -> resolved options, in file order
     posterior: PosteriorConfig | None
-    problem: str = DEFAULT_PROBLEM
-    data_dir: Path | None = None  # the resolved data folder (after --data)
-    data_sha256: str | None = None  # bouc-wen-benchmark: digest of its three files
+
+    @property
+    def specimens(self) -> tuple:
+        return self.setup.specimens
+
+    @property
+    def settings(self) -> dict:
+        """The problem's settings, as every worker gets them."""
+        return self.setup.settings
 
     @property
     def default_db(self) -> Path:
@@ -141,30 +95,10 @@ class StudyConfig:
             p = self.posterior
             posterior = {"specimens": [s.name for s in p.specimens], "optimizer": p.optimizer,
                          "budget": p.budget, "seeds": p.seeds, "options": p.options}
-        if self.problem == BENCHMARK_PROBLEM:
-            from bwbench.problems.noel_schoukens import problem as bm
-
-            return {
-                "study": {"name": self.name, "seed": self.seed, "budget": self.budget, "seeds": self.seeds,
-                          "problem": self.problem, "data_sha256": self.data_sha256,
-                          # the problem's fixed settings: a code change to them is a different study
-                          "settings": {"train_period": bm.TRAIN_PERIODS, "steps_per_sample": bm.STEPS_PER_SAMPLE,
-                                       "warmup_samples": bm.WARMUP_SAMPLES}},
-                "specimens": {"files": [s.name for s in self.specimens]},
-                "optimizers": self.optimizers,
-                "posterior": posterior,
-            }
         study = {"name": self.name, "seed": self.seed, "budget": self.budget, "seeds": self.seeds,
-                 "state": self.state, "excitation": self.excitation, "data": self.data}
-        if self.problem != DEFAULT_PROBLEM:  # absent for the default: old hashes stay valid
-            study["problem"] = self.problem
-        return {
-            "study": study,
-            "specimens": {"filters": {k: list(v) for k, v in self.filters.items()},
-                          "files": [s.name for s in self.specimens]},
-            "optimizers": self.optimizers,
-            "posterior": posterior,
-        }
+                 **self.setup.study_json}
+        return {"study": study, "specimens": self.setup.specimens_json, "optimizers": self.optimizers,
+                "posterior": posterior}
 
     def canonical_json(self) -> str:
         return canonical_json(self.to_json_dict())
@@ -180,20 +114,17 @@ def canonical_json(value) -> str:
 
 
 def repository_root(config_path) -> Path:
+    from bwbench.data.synthetic import REPO
+
     folder = Path(config_path).resolve().parent
     return folder.parent if folder.name == "studies" else REPO
 
 
-def load_study_config(path, data=None) -> StudyConfig:
-    """Read, validate and resolve a study TOML; raise ``UserError`` naming the file and key.
-
-    ``data``: the command line's ``--data`` (relative to the current directory), replacing the
-    file's ``[study] data``.
-    """
+def read_toml(path) -> dict:
     where = str(path)
     try:
         with open(path, "rb") as fh:
-            document = tomllib.load(fh)
+            return tomllib.load(fh)
     except FileNotFoundError:
         raise UserError(f"{where}: no such file") from None
     except IsADirectoryError:
@@ -203,17 +134,40 @@ def load_study_config(path, data=None) -> StudyConfig:
     except (OSError, UnicodeDecodeError) as err:
         raise UserError(f"{where}: cannot read file: {err}") from None
 
+
+def load_study_config(path, data=None) -> StudyConfig:
+    """Read, validate and resolve a study TOML; raise ``UserError`` naming the file and key.
+
+    ``data``: the command line's ``--data`` (relative to the current directory), replacing the
+    problem's data location.
+    """
+    where = str(path)
+    document = read_toml(path)
+
     def fail(message):
         raise UserError(f"{where}: {message}")
 
-    unknown = set(document) - {"study", "specimens", "optimizers", "posterior"}
-    if unknown:
-        fail(f"unknown table [{sorted(unknown)[0]}] (expected [study], [specimens], [optimizers], [posterior])")
-    for table in ("study", "optimizers"):
-        if not isinstance(document.get(table), dict):
-            fail(f"missing table [{table}]")
+    if not isinstance(document.get("study"), dict):
+        fail("missing table [study]")
     study = document["study"]
-    _refuse_unknown(fail, "study", study, STUDY_KEYS)
+    problem_name = study.get("problem", problems.DEFAULT)
+    if not isinstance(problem_name, str) or problem_name not in problems.names():
+        fail(f"[study] problem must be one of {', '.join(repr(n) for n in problems.names())}, got {problem_name!r}")
+    problem_type = problems.get(problem_name)
+    for key, why in problem_type.not_applicable.items():
+        if key in study or key in document:
+            what = f"[{key}]" if key in document else f"[study] {key}"
+            fail(f"{what} does not apply to problem {problem_name!r} ({why}): remove it")
+    known_tables = ("study", "optimizers", "posterior", *problem_type.tables)
+    unknown = [t for t in document if t not in known_tables]
+    if unknown:
+        fail(f"unknown table [{unknown[0]}] (expected {', '.join(f'[{t}]' for t in known_tables)})")
+    if not isinstance(document.get("optimizers"), dict):
+        fail("missing table [optimizers]")
+    known_keys = (*GENERIC_STUDY_KEYS, *problem_type.study_keys)
+    unknown = [k for k in study if k not in known_keys]
+    if unknown:
+        fail(f"[study] unknown key {unknown[0]!r} (known: {', '.join(known_keys)})")
     for key in ("name", "seed", "budget", "seeds"):
         if key not in study:
             fail(f"[study] {key} is required")
@@ -221,177 +175,38 @@ def load_study_config(path, data=None) -> StudyConfig:
     name = study["name"]
     if not isinstance(name, str) or not _NAME.fullmatch(name):
         fail("[study] name must be a non-empty string of letters, digits, '.', '_' or '-' (it names a folder)")
-    seed = _integer(fail, "[study] seed", study["seed"], minimum=0, what="a non-negative integer")
-    budget = _integer(fail, "[study] budget", study["budget"])
-    seeds = _integer(fail, "[study] seeds", study["seeds"])
-    problem = _choice(fail, "[study] problem", study.get("problem", DEFAULT_PROBLEM), PROBLEMS)
+    seed = integer(fail, "[study] seed", study["seed"], minimum=0, what="a non-negative integer")
+    budget = integer(fail, "[study] budget", study["budget"])
+    seeds = integer(fail, "[study] seeds", study["seeds"])
     root = repository_root(path)
 
     optimizers_table = document["optimizers"]
     if not optimizers_table:
         fail("[optimizers] names no backend")
-    for name_ in optimizers_table:
-        _check_backend(fail, "[optimizers]", name_)
-    optimizers = {name_: _resolve_options(fail, f"[optimizers] {name_}", name_, options)
-                  for name_, options in optimizers_table.items()}
-    common = {"path": where, "root": root, "name": name, "seed": seed, "budget": budget, "seeds": seeds,
-              "optimizers": optimizers, "problem": problem}
-    if problem == BENCHMARK_PROBLEM:
-        return _benchmark_config(fail, document, study, data, common)
+    for backend in optimizers_table:
+        _check_backend(fail, "[optimizers]", backend)
+    optimizers = {backend: _resolve_options(fail, f"[optimizers] {backend}", backend, options)
+                  for backend, options in optimizers_table.items()}
 
-    state = _choice(fail, "[study] state", study.get("state", "shared"), model.STATES)
-    excitation = _choice(fail, "[study] excitation", study.get("excitation", "measured"), EXCITATIONS)
-    if data is None:
-        data = study.get("data", "data/specimens")
-        if not isinstance(data, str) or not data:
-            fail("[study] data must be a folder path (a string)")
-        data_dir = Path(data) if Path(data).is_absolute() else root / data
-    else:
-        data_dir = Path(data).resolve()
-        data = str(data_dir)
-    manifest = _read_manifest(fail, data_dir)
-
-    filters_table = document.get("specimens", {})
-    if not isinstance(filters_table, dict):
-        fail("[specimens] must be a table of manifest filters")
-    _refuse_unknown(fail, "specimens", filters_table, FILTER_KEYS)
-    filters = {key: _filter_values(fail, key, value) for key, value in filters_table.items()}
-    selected = _select(fail, manifest, filters)
-
+    setup = problem_type.configure(fail, study, document, root, data)
     posterior = None
     if "posterior" in document:
-        posterior = _posterior(fail, document["posterior"], manifest, data_dir)
-
-    return StudyConfig(
-        **common, state=state, excitation=excitation, data=data, filters=filters,
-        specimens=tuple(_entry(fail, row, data_dir) for row in selected), posterior=posterior,
-        data_dir=data_dir,
-    )
+        posterior = _posterior(fail, document["posterior"], setup)
+    return StudyConfig(path=where, root=root, name=name, seed=seed, budget=budget, seeds=seeds,
+                       problem=problem_name, setup=setup, optimizers=optimizers, posterior=posterior)
 
 
-def _benchmark_config(fail, document, study, data, common) -> StudyConfig:
-    """The ``bouc-wen-benchmark`` part of ``load_study_config``."""
-    from bwbench.problems.noel_schoukens import problem as boucwen_benchmark
-
-    for key, why in _NOT_FOR_BENCHMARK.items():
-        if key in study:
-            fail(f"[study] {key} does not apply to problem {BENCHMARK_PROBLEM!r} ({why}): remove it")
-    if "specimens" in document:
-        fail(f"[specimens] does not apply to problem {BENCHMARK_PROBLEM!r} (its one specimen is "
-             f"{BENCHMARK_SPECIMEN}): remove the table")
-    if data is not None:
-        data_dir = Path(data).resolve()
-        written = str(data)
-    elif "data" in study:
-        written = study["data"]
-        if not isinstance(written, str) or not written:
-            fail("[study] data must be a folder path (a string)")
-        data_dir = Path(written) if Path(written).is_absolute() else common["root"] / written
-    else:
-        data_dir = boucwen_benchmark.default_data_dir()
-        written = str(data_dir)
-    missing = [f for f in BENCHMARK_FILES if not (data_dir / f).is_file()]
-    if missing:
-        fail(f"[study] data: the Bouc-Wen benchmark files are not in {data_dir} (missing {', '.join(missing)}); "
-             "point to the folder with [study] data = \"PATH\" or --data PATH")
-    entry = SpecimenEntry(name=BENCHMARK_SPECIMEN, path=str(data_dir), material=None, underpressure_MPa=None,
-                          repeat=None)
-
-    posterior = None
-    if "posterior" in document:
-        table = document["posterior"]
-        if not isinstance(table, dict):
-            fail("[posterior] must be a table")
-        names = table.get("specimens", [BENCHMARK_SPECIMEN])
-        if names != [BENCHMARK_SPECIMEN]:
-            fail(f"[posterior] specimens: problem {BENCHMARK_PROBLEM!r} has one specimen, "
-                 f"[\"{BENCHMARK_SPECIMEN}\"] (or omit the key)")
-        manifest = [{"file": f"{BENCHMARK_SPECIMEN}.csv"}]
-        posterior = _posterior(fail, {**table, "specimens": names}, manifest, data_dir, lambda *_: entry)
-
-    return StudyConfig(
-        **common, state=None, excitation=None, data=written, filters={}, specimens=(entry,),
-        posterior=posterior, data_dir=data_dir, data_sha256=data_digest(data_dir, BENCHMARK_FILES),
-    )
-
-
-def data_digest(folder: Path, files) -> str:
-    """SHA-256 over the named files' bytes, in order: what the data are, wherever they are."""
-    digest = hashlib.sha256()
-    for name in files:
-        digest.update(name.encode("utf-8") + b"\0")
-        digest.update((folder / name).read_bytes())
-    return digest.hexdigest()
-
-
-def _refuse_unknown(fail, table, values, known) -> None:
-    unknown = [k for k in values if k not in known]
-    if unknown:
-        fail(f"[{table}] unknown key {unknown[0]!r} (known: {', '.join(known)})")
-
-
-def _integer(fail, label, value, minimum=1, what="a positive integer") -> int:
+def integer(fail, label, value, minimum=1, what="a positive integer") -> int:
     # bool is an int subclass: `budget = true` must not read as 1.
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
         fail(f"{label} must be {what}")
     return int(value)
 
 
-def _choice(fail, label, value, choices) -> str:
+def choice(fail, label, value, choices) -> str:
     if value not in choices:
         fail(f"{label} must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
     return value
-
-
-def _read_manifest(fail, data_dir: Path) -> list[dict]:
-    try:
-        document = load_manifest(data_dir)
-        if document is None:
-            fail(f"[study] data: no {MANIFEST} in {data_dir}")
-        return list(document["specimens"])
-    except (OSError, ValueError, KeyError, TypeError) as err:
-        fail(f"[study] data: cannot read {data_dir / MANIFEST}: {err}")
-
-
-def _filter_values(fail, key, value) -> tuple:
-    values = value if isinstance(value, list) else [value]
-    if not values:
-        fail(f"[specimens] {key} is an empty list: it would select nothing (omit the key for all)")
-    numeric = key in ("table", "underpressure_MPa", "repeat")
-    for v in values:
-        ok = (isinstance(v, (int, float)) and not isinstance(v, bool)) if numeric else isinstance(v, str)
-        if not ok:
-            fail(f"[specimens] {key} must be {'numbers' if numeric else 'strings'}, got {v!r}")
-    return tuple(values)
-
-
-def _matches(key, manifest_value, wanted) -> bool:
-    if key == "underpressure_MPa":
-        return math.isclose(float(manifest_value), float(wanted), rel_tol=0.0, abs_tol=1e-9)
-    return manifest_value == wanted
-
-
-def _select(fail, manifest, filters) -> list[dict]:
-    for key, values in filters.items():
-        present = sorted({row[key] for row in manifest}, key=str)
-        for wanted in values:
-            if not any(_matches(key, row[key], wanted) for row in manifest):
-                fail(f"[specimens] {key}: no specimen has {wanted!r} (the manifest has "
-                     f"{', '.join(str(p) for p in present)})")
-    selected = [row for row in manifest
-                if all(any(_matches(k, row[k], w) for w in values) for k, values in filters.items())]
-    if not selected:
-        fail("[specimens] the filters together select no specimen")
-    return selected
-
-
-def _entry(fail, row, data_dir: Path) -> SpecimenEntry:
-    if not (data_dir / row["file"]).is_file():
-        fail(f"[study] data: {row['file']} is in {data_dir / MANIFEST} but not in the folder")
-    return SpecimenEntry(
-        name=Path(row["file"]).stem, path=str(data_dir / row["file"]), material=row["material"],
-        underpressure_MPa=float(row["underpressure_MPa"]), repeat=int(row["repeat"]),
-    )
 
 
 def _check_backend(fail, label, optimizer) -> None:
@@ -415,32 +230,39 @@ def _resolve_options(fail, label, optimizer, options) -> dict:
         fail(f"{label}: options must be plain numbers, strings, booleans or lists of them")
 
 
-def _posterior(fail, table, manifest, data_dir, make_entry=None) -> PosteriorConfig:
+def _posterior(fail, table, setup: ProblemSetup) -> PosteriorConfig:
     if not isinstance(table, dict):
         fail("[posterior] must be a table")
-    _refuse_unknown(fail, "posterior", table, POSTERIOR_KEYS)
-    for key in ("specimens", "budget"):
-        if key not in table:
-            fail(f"[posterior] {key} is required")
-    names = table["specimens"]
+    unknown = [k for k in table if k not in POSTERIOR_KEYS]
+    if unknown:
+        fail(f"[posterior] unknown key {unknown[0]!r} (known: {', '.join(POSTERIOR_KEYS)})")
+    if "budget" not in table:
+        fail("[posterior] budget is required")
+    available = setup.available
+    only = list(available) if len(available) == 1 else None
+    if "specimens" not in table and only is None:
+        fail("[posterior] specimens is required")
+    names = table.get("specimens", only)
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
-        fail("[posterior] specimens must be a non-empty list of file stems")
-    by_stem = {Path(row["file"]).stem: row for row in manifest}
+        fail("[posterior] specimens must be a non-empty list of specimen names (file stems)")
+    if only is not None and names != only:
+        fail(f"[posterior] specimens: this study has one specimen, [\"{only[0]}\"] (or omit the key)")
     for stem in names:
-        if stem not in by_stem:
-            fail(f"[posterior] specimens: no specimen {stem!r} in the manifest")
+        if stem not in available:
+            fail(f"[posterior] specimens: no specimen {stem!r} in this study's data")
+        if not Path(available[stem].path).exists():
+            fail(f"[posterior] specimens: {stem}: {available[stem].path} does not exist")
     if len(set(names)) != len(names):
         fail("[posterior] specimens lists a specimen twice")
     optimizer = table.get("optimizer", "emcee")
     if not isinstance(optimizer, str):
         fail("[posterior] optimizer must be a backend name")
     _check_backend(fail, "[posterior] optimizer", optimizer)
-    make_entry = make_entry or _entry
     return PosteriorConfig(
-        specimens=tuple(make_entry(fail, by_stem[stem], data_dir) for stem in names),
+        specimens=tuple(available[stem] for stem in names),
         optimizer=optimizer,
-        budget=_integer(fail, "[posterior] budget", table["budget"]),
-        seeds=_integer(fail, "[posterior] seeds", table.get("seeds", 1)),
+        budget=integer(fail, "[posterior] budget", table["budget"]),
+        seeds=integer(fail, "[posterior] seeds", table.get("seeds", 1)),
         options=_resolve_options(fail, "[posterior] options", optimizer, table.get("options", {})),
     )
 

@@ -1,4 +1,4 @@
-"""Read a study database (written by ``bwbench.study.runner``) into tidy pandas tables and numpy chains.
+"""Read a study database (written by ``bwbench.study.store``) into tidy pandas tables and numpy chains.
 
 The schema is the runner's contract: tables ``study``, ``runs``, ``timings``, ``traces`` and
 ``chains``. Reading never writes: the file is opened read-only, so a report can be made while
@@ -8,6 +8,7 @@ the study is still running. Databases from before the generic ``runs`` columns (
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sqlite3
 from contextlib import closing
@@ -20,8 +21,8 @@ import pandas as pd
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.data.parameters import LOWER, UPPER
-from bwbench.study.config import BENCHMARK_PROBLEM, DEFAULT_PROBLEM
-from bwbench.data.synthetic import REPO, load_manifest
+from bwbench import problems
+from bwbench.data.manifest import load_manifest
 
 REQUIRED_TABLES = ("study", "runs", "traces")
 KEY = ["kind", "specimen", "optimizer", "replicate"]
@@ -81,13 +82,17 @@ class Study:
 
     @property
     def problem(self) -> str:
-        """``switched-bouc-wen`` (also for databases older than the key) or ``bouc-wen-benchmark``."""
-        return self.settings.get("problem", DEFAULT_PROBLEM)
+        """The problem type's name (``switched-bouc-wen`` also for databases older than the key)."""
+        return self.settings.get("problem", problems.DEFAULT)
+
+    @property
+    def problem_type(self):
+        return problems.get(self.problem)
 
     @property
     def loss_unit(self) -> str:
-        """Unit of the MSE: N² (force residual) or m² (the benchmark's displacement residual)."""
-        return "m²" if self.problem == BENCHMARK_PROBLEM else "N²"
+        """Unit of the loss, e.g. N² (force residual) or m² (a displacement residual)."""
+        return self.problem_type.loss_unit
 
     @property
     def ranking(self) -> pd.DataFrame:
@@ -151,9 +156,9 @@ def read_runs(conn) -> pd.DataFrame:
         runs[column] = pd.to_numeric(runs[column], errors="coerce").astype(float)
     runs["replicate"] = runs["replicate"].astype(int)
     if "problem" not in runs:  # written before the generic columns: a switched-model study
-        runs["problem"] = DEFAULT_PROBLEM
+        runs["problem"] = problems.DEFAULT
         runs["params_json"] = runs["metrics_json"] = None
-    runs["problem"] = runs["problem"].fillna(DEFAULT_PROBLEM)
+    runs["problem"] = runs["problem"].fillna(problems.DEFAULT)
     return _expand_json(runs)
 
 
@@ -195,11 +200,9 @@ def read_chains(conn) -> tuple:
 def load_study(path, data_dir=None) -> Study:
     """Read a whole study database.
 
-    ``data_dir``: where the specimen CSVs and manifest are; default the config's ``study.data``,
-    relative to the bwbench checkout. For a ``bouc-wen-benchmark`` study: the benchmark folder;
-    default the ``data_dir`` the runner last recorded, if it still exists, else
-    ``boucwen_benchmark.default_data_dir()``. Raises ``UserError`` for a missing file or one that
-    is not a study database.
+    ``data_dir``: where the study's data files are (the user's ``--data``); by default the problem
+    type decides (``ProblemType.data_dir``: the folder the runner last recorded, if it still exists).
+    Raises ``UserError`` for a missing file or one that is not a study database.
     """
     path = Path(path)
     with closing(_connect(path)) as conn:
@@ -208,13 +211,17 @@ def load_study(path, data_dir=None) -> Study:
             runs, traces, chains = read_runs(conn), read_traces(conn), read_chains(conn)
         except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError) as err:
             raise UserError(f"{path}: unreadable study database: {err}") from None
-    if data_dir is None and config.get("study", {}).get("problem") == BENCHMARK_PROBLEM:
-        from bwbench.problems.noel_schoukens.problem import default_data_dir
+    study = Study(path=path, meta=meta, config=config, runs=runs, traces=traces, chains=chains, data_dir=Path("."))
+    folder = study.problem_type.data_dir(study, data_dir)
+    return dataclasses.replace(study, data_dir=Path(folder) if folder is not None else Path("."))
 
-        recorded = meta.get("data_dir")
-        data_dir = Path(recorded) if recorded and Path(recorded).is_dir() else default_data_dir()
-    elif data_dir is None:
-        data = Path(config.get("study", {}).get("data", "data/specimens"))
-        data_dir = data if data.is_absolute() else REPO / data
-    return Study(path=path, meta=meta, config=config, runs=runs, traces=traces, chains=chains,
-                 data_dir=Path(data_dir))
+
+def metric(runs: pd.DataFrame, name: str) -> np.ndarray:
+    """One metric of ``metrics_json`` per run (NaN where absent or not finite)."""
+    def value(text):
+        if not isinstance(text, str):
+            return np.nan
+        x = json.loads(text).get(name)
+        return np.nan if x is None else float(x)
+
+    return np.array([value(t) for t in runs["metrics_json"]], dtype=float)

@@ -17,7 +17,9 @@ import pandas as pd
 from bwbench.problems.box import box_to_unit
 from bwbench.problems.noel_schoukens import problem as bm
 from bwbench.analysis import statistics
-from bwbench.report.figures import SPREAD_TOLERANCE, _ok, _save, _theme, palette
+from bwbench.report.figures import finished, palette, save, theme
+
+SPREAD_TOLERANCE = 0.10  # parameter spread: runs within 10 % of the best known training MSE
 
 LABELS = {"m": "m", "c": "c", "k": "k", "alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "nu": "ν",
           "beta_gamma": "βγ", "beta_delta": "βδ"}
@@ -46,7 +48,7 @@ def test_fit(study, out_dir, problem, params, label: str, window_s=(2.0, 2.4)) -
     """The best fit against ``test_multisine`` over a short window: output (mm) on top, the error
     y_model − y_test (µm) of the fit and of the true parameters below. e_RMS over the whole file
     in the legends."""
-    _theme()
+    theme()
     record = bm.read_benchmark_csv(Path(problem.data_dir) / "test_multisine.csv")
     y_fit = problem.simulate_test(params, "test_multisine")
     y_truth = problem.simulate_test(bm.TRUE_PARAMS, "test_multisine")
@@ -72,17 +74,17 @@ def test_fit(study, out_dir, problem, params, label: str, window_s=(2.0, 2.4)) -
     fig.suptitle(f"Best fit vs the benchmark's test_multisine output, {window_s[0]:g}–{window_s[1]:g} s of the "
                  f"{record.t[-1] - record.t[0] + 1 / bm.SAMPLE_RATE_HZ:.2f} s period", fontsize=11)
     frame = pd.DataFrame({"time_s": record.t, "y_test_m": record.y, "y_fit_m": y_fit, "y_truth_m": y_truth})
-    return _save(fig, out_dir, "test_multisine_fit", frame, False)
+    return save(fig, out_dir, "test_multisine_fit", frame, False)
 
 
 def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE) -> Path:
     """The 8 parameters and the products βγ, βδ of every ranking run whose training MSE is
     within ``tolerance`` of the best known, scaled to the search box; the truth as black ×.
     β, γ and δ may scatter along their exact invariance while βγ and βδ stay on the truth."""
-    _theme()
+    theme()
     specimen = study.specimens[0]
     best = statistics.best_known(study.runs)[specimen]
-    runs = _ok(study.ranking)
+    runs = finished(study.ranking)
     good = runs[runs["mse"] <= best * (1 + tolerance)]
     total = runs.groupby("optimizer").size()
     colours = palette(study)
@@ -122,4 +124,4 @@ def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE) -> Pat
     fig.suptitle(f"Identified parameters of every ranking run with training MSE ≤ {1 + tolerance:g} × the best known "
                  f"({best:.3g} m²), scaled to the search box", fontsize=11)
     frame = pd.DataFrame(rows, columns=["optimizer", "replicate", "mse_m2", "parameter", "unit_value"])
-    return _save(fig, out_dir, "spread", frame, False)
+    return save(fig, out_dir, "spread", frame, False)

@@ -1,19 +1,12 @@
-"""Local identifiability on toy models with known invariances, then on the Bouc-Wen model."""
-
-import argparse
-import json
-from pathlib import Path
+"""Local identifiability on toy models with known invariances."""
 
 import numpy as np
 import pytest
 from scipy.linalg import subspace_angles
 
 from bwbench.analysis import identifiability
-from bwbench.data import synthetic
-from bwbench.errors import UserError
 
 T = np.linspace(0.0, 3.0, 60)
-SPECIMEN = Path(__file__).resolve().parents[1] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 
 
 def one_invariance(u):
@@ -99,40 +92,3 @@ def test_posterior_correlation_and_strongest_pairs():
     corr = identifiability.posterior_correlation(x, ["p", "q", "r"])
     (a, b, r), *_ = identifiability.strongest_pairs(corr, 2)
     assert (a, b) == ("p", "r") and r < -0.99
-
-
-def test_analyse_bouc_wen_at_the_truth_is_json_ready():
-    result = identifiability.analyse(SPECIMEN, synthetic.truth_params(SPECIMEN))
-    json.dumps(result, allow_nan=False)
-    s = np.array(result["singular_values"])
-    assert np.all(np.diff(s) <= 0) and len(s) == 14
-    assert result["relative_singular_values"][0] == 1.0
-    assert 1.0 < result["mse"] < 20.0  # the synthetic noise floor
-    assert set(result["poorly_determined"]) <= set(result["names"])
-    assert len(result["weakest"]) == 3 and all("·" in w["text"] for w in result["weakest"])
-    text = identifiability.format_text(result)
-    assert "condition number" in text and "weakest directions" in text
-
-
-def _cli(args):
-    parser = argparse.ArgumentParser()
-    identifiability.add_arguments(parser)
-    return identifiability.cli_main(parser.parse_args(args))
-
-
-def test_cli_prints_text_and_json(tmp_path, capsys):
-    params = tmp_path / "p.json"
-    params.write_text(json.dumps(synthetic.manifest_entry(SPECIMEN)["truth"]))
-    assert _cli([str(SPECIMEN), "--params", str(params), "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert out["specimen"] == SPECIMEN.stem and len(out["weakest"]) == 3
-    assert _cli([str(SPECIMEN), "--params", str(params)]) == 0
-    assert "singular values" in capsys.readouterr().out
-
-
-def test_cli_refuses_parameters_outside_table5(tmp_path):
-    truth = dict(synthetic.manifest_entry(SPECIMEN)["truth"], **{"A+": 1.0})
-    params = tmp_path / "p.json"
-    params.write_text(json.dumps(truth))
-    with pytest.raises(UserError, match="A\\+"):
-        _cli([str(SPECIMEN), "--params", str(params)])

@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 from study_fixture import make_study_db
 
+from bwbench.problems.switched_vpp import figures as switched_figures
 from bwbench.report import figures
 from bwbench.study import results as results_db
 from bwbench.analysis import statistics
@@ -87,7 +88,7 @@ def test_a_median_of_best_so_far_curves_never_rises():
 
 def test_loops_show_the_best_run_of_each_backend(study, out):
     specimen = study.specimens[0]
-    frame = _read(figures.hysteresis_loops(study, out, specimen))
+    frame = _read(switched_figures.hysteresis_loops(study, out, specimen))
     runs = study.runs[study.runs["specimen"] == specimen]
     best = runs.loc[runs.groupby("optimizer")["mse"].idxmin()]
     shown = frame.drop_duplicates("optimizer").set_index("optimizer")["replicate"].to_dict()
@@ -98,12 +99,12 @@ def test_loops_show_the_best_run_of_each_backend(study, out):
 
 
 def test_spread_holds_only_runs_within_tolerance_and_the_truth(study, out):
-    frame = _read(figures.parameter_spread(study, out))
+    frame = _read(switched_figures.parameter_spread(study, out))
     best = statistics.best_known(study.runs)
     runs = frame[frame["optimizer"] != "truth"]
-    assert np.all(runs["mse"] <= runs["specimen"].map(best) * (1 + figures.SPREAD_TOLERANCE))
+    assert np.all(runs["mse"] <= runs["specimen"].map(best) * (1 + switched_figures.SPREAD_TOLERANCE))
     ok = study.ranking[study.ranking["status"] == "ok"]
-    expected = ok[ok["mse"] <= ok["specimen"].map(best) * (1 + figures.SPREAD_TOLERANCE)]
+    expected = ok[ok["mse"] <= ok["specimen"].map(best) * (1 + switched_figures.SPREAD_TOLERANCE)]
     assert len(runs) == 14 * len(expected)
     truth = frame[frame["optimizer"] == "truth"]
     assert len(truth) == 14 * len(study.specimens)
@@ -112,7 +113,7 @@ def test_spread_holds_only_runs_within_tolerance_and_the_truth(study, out):
 
 def test_posterior_csv_has_samples_best_fits_and_truth(study, out):
     (chain,) = study.chains
-    frame = _read(figures.posterior(study, out, chain))
+    frame = _read(switched_figures.posterior(study, out, chain))
     assert list(frame.columns) == ["source", "optimizer", *PARAM_NAMES]
     assert set(frame["source"]) == {"posterior", "best fit", "truth"}
     assert (frame["source"] == "posterior").sum() <= 4000
@@ -121,7 +122,7 @@ def test_posterior_csv_has_samples_best_fits_and_truth(study, out):
 
 def test_parameters_against_underpressure(study, out):
     material = study.ranking["material"].iloc[0]
-    frame = _read(figures.parameters_vs_underpressure(study, out, "cmaes", material))
+    frame = _read(switched_figures.parameters_vs_underpressure(study, out, "cmaes", material))
     runs = frame[frame["source"] == "cmaes"]
     assert len(runs) == 14 * 8  # 2 specimens × 4 seeds × 14 parameters
     assert sorted(frame["underpressure_MPa"].unique()) == [0.01, 0.09]
@@ -132,5 +133,5 @@ def test_profiles_figure(out):
     analysis = {"specimen": "toy", "mse": 1.0, "noise_rmse_N": 1.0, "n_data": 100, "params": {"wn-": 10.0},
                 "profiles": {"wn-": [{"value": v, "unit": 0.0, "mse": 1.0 + (v - 10) ** 2, "evaluations": 5}
                                      for v in (2.0, 10.0, 20.0, 40.0)]}}
-    frame = _read(figures.profiles(analysis, out))
+    frame = _read(switched_figures.profiles(analysis, out))
     assert len(frame) == 4 and frame["threshold_mse"].iloc[0] == pytest.approx(1.0 + 1.96**2 / 100, rel=1e-5)

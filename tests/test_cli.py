@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bwbench.data import synthetic
+from bwbench.data import manifest
 from bwbench.cli import main
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "specimens"
@@ -17,7 +17,7 @@ SPECIMEN = DATA / "pom-mt24u01_0.01MPa_r1.csv"
 @pytest.fixture
 def truth_json(tmp_path):
     path = tmp_path / "truth.json"
-    truth = synthetic.manifest_entry(SPECIMEN)["truth"]
+    truth = manifest.manifest_entry(SPECIMEN)["truth"]
     path.write_text(json.dumps(truth))
     return path
 

@@ -14,7 +14,7 @@ from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 from bwbench.data.specimen import read_specimen
 from fakes import SphereProblem
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 BACKENDS = sorted(registry.available())
 EXPECTED = {"paper-ga", "pso", "anneal", "firefly", "nlopt-bobyqa", "nlopt-sbplx", "nlopt-neldermead",

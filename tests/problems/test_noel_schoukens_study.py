@@ -15,11 +15,13 @@ import numpy as np
 import pytest
 
 from bwbench.report import build as report
-from bwbench.problems.noel_schoukens.problem import PARAM_NAMES, default_data_dir
+from bwbench.problems.noel_schoukens.data import FILES as BENCHMARK_FILES
+from bwbench.problems.noel_schoukens.data import default_data_dir
+from bwbench.problems.noel_schoukens.problem import PARAM_NAMES
 from bwbench.errors import UserError
-from bwbench.study.config import BENCHMARK_FILES, load_study_config
+from bwbench.study.config import load_study_config
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 RUN_COMPARE = REPO / "studies" / "run_compare.py"
 DATA_DIR = default_data_dir()
 needs_data = pytest.mark.skipif(

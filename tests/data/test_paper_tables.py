@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-PAPER = Path(__file__).resolve().parents[1] / "data" / "paper"
+PAPER = Path(__file__).resolve().parents[2] / "data" / "paper"
 NAMES = "A+ n+ alpha+ beta+ gamma+ xi+ wn+ A- n- alpha- beta- gamma- xi- wn-".split()
 MATERIALS = {6: "POM MT24u01", 7: "POM C9021", 8: "PC/ABS C12HF"}
 PRESSURES = [0.01, 0.03, 0.05, 0.07, 0.09]
@@ -114,6 +114,6 @@ def test_mechanical_properties_tables_2_to_4():
 def test_code_bounds_are_the_transcribed_table5():
     from bwbench.data.parameters import LOWER, UPPER
 
-    bounds = pd.read_csv(Path(__file__).resolve().parents[1] / "data" / "paper" / "table5_bounds.csv")
+    bounds = pd.read_csv(Path(__file__).resolve().parents[2] / "data" / "paper" / "table5_bounds.csv")
     np.testing.assert_array_equal(bounds.lower.to_numpy(), LOWER)
     np.testing.assert_array_equal(bounds.upper.to_numpy(), UPPER)

@@ -21,10 +21,12 @@ import pytest
 from bwbench.optimize import registry
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.study.runner import export_csv, plan_tasks, run_cli, run_study, task_seed
+from bwbench.study.commands import export_csv, run_cli
+from bwbench.study.execute import run_study
+from bwbench.study.tasks import plan_tasks, task_seed
 from bwbench.study.config import load_study_config
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 RUN_COMPARE = REPO / "studies" / "run_compare.py"
 DATA = REPO / "data" / "specimens"
 KEY_ORDER = "ORDER BY kind, specimen, optimizer, replicate"

@@ -16,7 +16,7 @@ from bwbench.optimize import registry
 from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 from bwbench.data.specimen import read_specimen
 
-SPECIMEN = Path(__file__).resolve().parents[1] / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
+SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
 SEEDS = range(5)
 
 

@@ -7,12 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bwbench.data import manifest as manifest_mod
 from bwbench.data import synthetic
 from bwbench.cli import main
 from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 from bwbench.data.specimen import read_specimen
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "specimens"
+DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 
 
 def test_generate_reproduces_the_committed_files_byte_for_byte(tmp_path):
@@ -25,13 +26,13 @@ def test_generate_reproduces_the_committed_files_byte_for_byte(tmp_path):
 
 
 def test_dataset_layout_and_labels():
-    manifest = synthetic.read_manifest(DATA)
+    manifest = manifest_mod.read_manifest(DATA)
     assert len(manifest) == 45
     assert set(manifest.material) == {"POM MT24u01", "POM C9021", "PC/ABS C12HF"}
     assert sorted(set(manifest.underpressure_MPa)) == [0.01, 0.03, 0.05, 0.07, 0.09]
     assert set(manifest.repeat) == {1, 2, 3}
     assert manifest.synthetic.all()
-    document = json.loads((DATA / synthetic.MANIFEST).read_text())
+    document = json.loads((DATA / manifest_mod.MANIFEST).read_text())
     assert "synthetic" in document["note"]
     spec = read_specimen(DATA / manifest.file[0])
     assert 1900 <= spec.n_samples <= 2100
@@ -39,7 +40,7 @@ def test_dataset_layout_and_labels():
 
 
 def test_repeats_differ_by_at_most_7_percent_in_peak_force():
-    manifest = synthetic.read_manifest(DATA)
+    manifest = manifest_mod.read_manifest(DATA)
     peaks = []
     for _, row in manifest.iterrows():
         peaks.append(np.max(np.abs(read_specimen(DATA / row.file).f)))
@@ -52,11 +53,11 @@ def test_repeats_differ_by_at_most_7_percent_in_peak_force():
 def test_truth_parameters_fit_their_specimen_to_near_the_noise_floor():
     # Load-cell noise is 1 N (1 N² MSE); the measured-excitation differentiator adds a few N² at
     # the reversals. The sine approximation of the paper is two to four orders worse.
-    manifest = synthetic.read_manifest(DATA)
+    manifest = manifest_mod.read_manifest(DATA)
     measured, sine = [], []
     for file in manifest.file[::4]:
         spec = read_specimen(DATA / file)
-        truth = synthetic.truth_params(DATA / file)
+        truth = manifest_mod.truth_params(DATA / file)
         measured.append(SwitchedBoucWenProblem(spec).loss_batch(truth[None])[0])
         sine.append(SwitchedBoucWenProblem(spec, excitation="sine").loss_batch(truth[None])[0])
     assert np.median(measured) < 20.0 and max(measured) < 100.0

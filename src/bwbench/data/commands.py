@@ -1,0 +1,44 @@
+"""``bwbench data check`` and ``bwbench data generate``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from bwbench.errors import UserError
+
+
+def check(args) -> int:
+    """Exit 0 if every file is a valid specimen CSV, else 2 with one error line per bad file."""
+    from bwbench.data.specimen import read_specimen
+
+    status = 0
+    for path in args.files:
+        try:
+            spec = read_specimen(path)
+        except UserError as err:
+            print(f"error: {err}", file=sys.stderr)
+            status = 2
+        else:
+            print(f"ok: {path}: {spec.n_samples} samples, {spec.duration_s:.1f} s")
+    return status
+
+
+def generate(args) -> int:
+    from bwbench.data import manifest, synthetic
+
+    written = synthetic.generate(args.out)
+    print(f"wrote {len(written) - 1} specimens and {manifest.MANIFEST} to {args.out}")
+    return 0
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from bwbench.data.synthetic import SPECIMEN_DIR
+
+    sub = parser.add_subparsers(dest="data_command", required=True)
+    p = sub.add_parser("check", help="validate specimen CSV files")
+    p.add_argument("files", nargs="+", help="specimen CSV files")
+    p.set_defaults(func=check)
+    p = sub.add_parser("generate", help="rebuild the synthetic dataset, byte-identical")
+    p.add_argument("--out", default=str(SPECIMEN_DIR), help="output folder")
+    p.set_defaults(func=generate)

@@ -1,0 +1,58 @@
+"""A data folder's optional ``manifest.json``: facts about each specimen file (material, underpressure,
+repeat, whether it is synthetic and, if so, its truth parameters). No command needs one; the report uses
+it when present.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from bwbench.models import switched_bouc_wen as model
+
+MANIFEST = "manifest.json"  # JSON, so that `bwbench data check data/specimens/*.csv` sees only specimens
+
+
+def load_manifest(directory) -> dict | None:
+    """The manifest.json of a data folder as a dict, or None when the folder has none."""
+    path = Path(directory) / MANIFEST
+    if not path.exists():
+        return None
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def read_manifest(directory):
+    """The manifest as a pandas DataFrame: one row per specimen file, truth parameters as columns."""
+    import pandas as pd
+
+    document = load_manifest(directory)
+    if document is None:
+        raise FileNotFoundError(Path(directory) / MANIFEST)
+    rows = [{**{k: v for k, v in e.items() if k != "truth"}, **e["truth"]} for e in document["specimens"]]
+    return pd.DataFrame(rows)
+
+
+def manifest_entry(specimen_path) -> dict | None:
+    """The manifest entry of a specimen file, when it sits next to a manifest; else None."""
+    path = Path(specimen_path)
+    document = load_manifest(path.parent)
+    if document is None:
+        return None
+    for entry in document["specimens"]:
+        if entry["file"] == path.name:
+            return entry
+    return None
+
+
+def is_synthetic(specimen_path) -> bool:
+    entry = manifest_entry(specimen_path)
+    return bool(entry and entry.get("synthetic"))
+
+
+def truth_params(specimen_path) -> np.ndarray | None:
+    entry = manifest_entry(specimen_path)
+    if entry is None:
+        return None
+    return np.array([entry["truth"][name] for name in model.PARAM_NAMES])

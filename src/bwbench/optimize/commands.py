@@ -1,0 +1,82 @@
+"""``bwbench optimizers`` (the registered backends) and ``bwbench fit`` (one specimen, one backend)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from bwbench.errors import UserError
+
+
+def check_writable(*paths) -> None:
+    """Refuse an output path whose folder does not exist before any work is done, not after."""
+    for path in paths:
+        if path is None:
+            continue
+        folder = Path(path).resolve().parent
+        if not folder.is_dir():
+            raise UserError(f"cannot write {path}: folder {folder} does not exist")
+
+
+def list_backends(args) -> int:
+    from bwbench.optimize import registry
+
+    backends = registry.available()
+    width = max(len(name) for name in backends)
+    for backend in backends.values():
+        defaults = ", ".join(f"{k}={v}" for k, v in backend.defaults.items()) or "-"
+        print(f"{backend.name:<{width}}  {backend.family:<12}  {backend.description}")
+        print(f"{'':<{width}}  {'':<12}  defaults: {defaults}")
+    return 0
+
+
+def parse_option(text: str):
+    """``key=value`` from the command line; the value is read as JSON when it parses (3, 0.5, true)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise UserError(f"--option takes KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value
+
+
+def fit(args) -> int:
+    from bwbench.data import manifest
+    from bwbench.optimize import fitting
+    from bwbench.problems.switched_vpp.commands import problem_from_args
+
+    if args.budget < 1:
+        raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
+    check_writable(args.out, args.plot)
+    problem = problem_from_args(args)
+    options = dict(parse_option(o) for o in args.option)
+    result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
+    result.write_json(args.out)
+    if args.plot:
+        from bwbench.problems.switched_vpp.figures import plot_fit
+
+        plot_fit(problem, result, args.plot, synthetic=manifest.is_synthetic(args.specimen))
+    print(f"{args.optimizer}: MSE {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE {result.rmse_N:.3g} N) "
+          f"in {result.nfev} evaluations, {result.wall_s:.2f} s -> {args.out}")
+    return 0
+
+
+def add_list_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.set_defaults(func=list_backends)
+
+
+def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
+    from bwbench.problems.switched_vpp.commands import add_model_options
+
+    parser.add_argument("specimen", help="specimen CSV")
+    parser.add_argument("--optimizer", required=True, help="backend name (see `bwbench optimizers`)")
+    parser.add_argument("--budget", type=int, default=4100, help="evaluations (default 4100, the paper's GA)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                        help="backend option, repeatable (see `bwbench optimizers`)")
+    add_model_options(parser)
+    parser.add_argument("--out", required=True, help="result JSON")
+    parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
+    parser.set_defaults(func=fit)

@@ -1,0 +1,56 @@
+"""How the report writes numbers: significant figures, p-values, percentages, evaluation counts."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def number(x, digits: int = 4) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "–"
+    if isinstance(x, float) and math.isinf(x):
+        return "∞"
+    return f"{x:.{digits}g}"
+
+
+def unit_of(setting: str) -> str:
+    """Unit of a generator setting, from its name's suffix (amplitude_mm, speed_mm_per_min, ...)."""
+    for suffix, unit in (("_mm_per_min", "mm/min"), ("_mm", "mm"), ("_hz", "Hz"), ("_s", "s"), ("_n", "N")):
+        if setting.lower().endswith(suffix):
+            return unit
+    return ""
+
+
+def join(items) -> str:
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
+def evals_text(x) -> str:
+    """An evaluation count (ERT): whole numbers with thousands separators, ∞ for never."""
+    if x is None or np.isnan(x):
+        return "–"
+    return "∞" if np.isinf(x) else f"{x:,.0f}"
+
+
+def percent(x) -> str:
+    return "–" if x is None or not np.isfinite(x) else f"{x:.0%}"
+
+
+def p_text(x) -> str:
+    if x is None or not np.isfinite(x):
+        return "–"
+    return f"{x:.2g}" if x >= 1e-3 else f"{x:.1e}"
+
+
+def spread_text(values) -> str:
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    if values.size == 0:
+        return "–"
+    if values.size == 1:
+        return number(values[0])
+    return f"{number(np.median(values))} [{number(values.min(), 3)}, {number(values.max(), 3)}]"
+

@@ -1,0 +1,127 @@
+"""``bwbench compare`` (and ``python studies/run_compare.py``): run or resume a study, print the ranking."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sqlite3
+import sys
+from contextlib import closing
+from pathlib import Path
+
+import numpy as np
+
+from bwbench import problems
+from bwbench.errors import UserError
+from bwbench.study.config import load_study_config
+from bwbench.study.execute import run_study
+
+
+def read_runs(db):
+    """The ``runs`` table joined with ``timings`` as a DataFrame, ordered by key."""
+    import pandas as pd
+
+    path = Path(db)
+    if not path.is_file():
+        raise UserError(f"{path}: no such study database")
+    with closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as conn:
+        return pd.read_sql(
+            "SELECT runs.*, timings.wall_s, timings.worker, timings.finished_utc FROM runs "
+            "LEFT JOIN timings USING (kind, specimen, optimizer, replicate) "
+            "ORDER BY kind, specimen, optimizer, replicate", conn)
+
+
+def export_csv(db, path) -> None:
+    """Write the tidy table of ``read_runs`` as CSV (one row per run)."""
+    read_runs(db).to_csv(path, index=False)
+
+
+def summary_table(db, problem_type=None) -> str:
+    """Per backend (ranking runs only): median and best RMSE (in the problem's residual unit), success
+    rate, median evaluations, errors, and the problem's own summary columns. Best median RMSE first."""
+    runs = read_runs(db)
+    runs = runs[runs["kind"] == "ranking"]
+    if runs.empty:
+        return "no ranking runs recorded"
+    if problem_type is None:
+        problem_type = problems.get(str(runs["problem"].dropna().iloc[0]) if runs["problem"].notna().any()
+                                    else problems.DEFAULT)
+    unit = problem_type.residual_unit
+    number = "{:.3g}" if unit != "N" else "{:.3f}"
+    stats = []
+    for optimizer, group in runs.groupby("optimizer", sort=False):
+        mse = group["mse"].astype(float)
+        ok = group[(group["status"] == "ok") & np.isfinite(mse)]
+        rmse = np.sqrt(ok["mse"].astype(float))
+        stats.append((rmse.median() if len(ok) else math.inf, optimizer, {
+            "runs": str(len(group)),
+            f"median RMSE ({unit})": number.format(rmse.median()) if len(ok) else "-",
+            f"best RMSE ({unit})": number.format(rmse.min()) if len(ok) else "-",
+            "success": f"{len(ok) / len(group):.0%}",
+            "median nfev": f"{ok['nfev'].median():.0f}" if len(ok) else "-",
+            "errors": str(int((group["status"] == "error").sum())),
+            **problem_type.summary_columns(group)}))
+    stats.sort(key=lambda r: (r[0], r[1]))
+    header = ("optimizer", *stats[0][2])
+    lines = [(optimizer, *cells.values()) for _, optimizer, cells in stats]
+    widths = [max(len(r[i]) for r in [header, *lines]) for i in range(len(header))]
+
+    def fmt(cells):  # first column left-aligned, numbers right-aligned
+        padded = (c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True)))
+        return "  ".join(padded)
+
+    return "\n".join([fmt(header), *map(fmt, lines)])
+
+
+# ------------------------------------------------------------------------------------ entry point
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--config", required=True, help="study TOML (e.g. studies/quick.toml)")
+    parser.add_argument("--db", help="SQLite database (default: reports/<name>/study.sqlite under the repository)")
+    parser.add_argument("--workers", type=int, help="local worker processes (default: all cores; 1 = in-process)")
+    parser.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT) instead of local workers")
+    parser.add_argument("--csv", help="also write the runs (with timings) as a CSV file")
+    parser.add_argument("--data", help="data folder, replacing the configuration's [study] data (relative to the "
+                                       "current directory); for bouc-wen-benchmark the folder of its three CSVs")
+    parser.set_defaults(func=main)
+
+
+def main(args) -> int:
+    """``bwbench compare``: run (or resume) a study, print the ranking, optionally export CSV.
+
+    Exit status 0 when every run is recorded (including runs that raised: status "error"),
+    1 when some runs were lost to a dead worker (run again to retry them), 130 on Ctrl-C.
+    Raises ``UserError`` for a bad configuration or option.
+    """
+    if args.workers is not None and args.scheduler:
+        raise UserError("--workers and --scheduler exclude each other: a cluster brings its own workers")
+    config = load_study_config(args.config, data=getattr(args, "data", None))
+    db = Path(args.db) if args.db else config.default_db
+    try:
+        outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)
+    except KeyboardInterrupt:
+        print(f"interrupted: finished runs are in {db}; run the same command again to resume", file=sys.stderr)
+        return 130
+    print(f"\nstudy {config.name}: {outcome.already + outcome.recorded}/{outcome.total} runs in {db}")
+    print(summary_table(db, problems.get(config.problem)))
+    if args.csv:
+        export_csv(db, args.csv)
+        print(f"wrote {args.csv}")
+    if outcome.lost:
+        key, why = outcome.lost[0]
+        print(f"error: {len(outcome.lost)} run(s) lost to a failed worker (first: {'/'.join(map(str, key))}: "
+              f"{why}); run the same command again to retry them", file=sys.stderr)
+        return 1
+    return 0
+
+
+def run_cli(argv=None, prog: str | None = None) -> int:
+    """Parse ``argv`` and run ``main``; a ``UserError`` becomes one line ``error: ...`` and status 2."""
+    parser = argparse.ArgumentParser(prog=prog, description=main.__doc__.splitlines()[0])
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    try:
+        return main(args)
+    except UserError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2

@@ -1,0 +1,147 @@
+"""The runs of a study: one ``Task`` per (kind, specimen, optimizer, replicate), and running one.
+
+Every task has its own seed,
+``SeedSequence(study seed, spawn_key=(crc32(kind), crc32(specimen), crc32(optimizer), replicate))``,
+so a run's result depends neither on the number of workers nor on which other runs the study has.
+A task names its problem type (``bwbench.problems``) and carries the problem's settings; the worker
+asks that type to build the problem and to say what to store besides the loss.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import time
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from bwbench import problems
+from bwbench.problems.base import SpecimenEntry
+from bwbench.study.config import StudyConfig, canonical_json
+from bwbench.study.store import RUN_COLUMNS, utc_now
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run: everything a worker needs, picklable, no reference to the configuration file."""
+
+    kind: str  # "ranking" or "posterior"
+    optimizer: str
+    replicate: int  # 0-based
+    entropy: int  # the study seed
+    budget: int
+    options: dict  # resolved (defaults merged)
+    problem: str  # problem type name
+    settings: dict  # the problem type's settings
+    entry: SpecimenEntry
+
+    @property
+    def specimen(self) -> str:
+        return self.entry.name
+
+    @property
+    def key(self) -> tuple:
+        return (self.kind, self.specimen, self.optimizer, self.replicate)
+
+
+def task_seed(entropy: int, kind: str, specimen: str, optimizer: str, replicate: int) -> np.random.SeedSequence:
+    """The seed of one run: a function of the study seed and the run's key only."""
+    spawn_key = (zlib.crc32(kind.encode()), zlib.crc32(specimen.encode()),
+                 zlib.crc32(optimizer.encode()), int(replicate))
+    return np.random.SeedSequence(entropy=entropy, spawn_key=spawn_key)
+
+
+def plan_tasks(config: StudyConfig) -> list[Task]:
+    """Every run of the study: posterior runs first (the longest), then the ranking, replicate by
+    replicate, so a study stopped early has every backend on the same specimens."""
+    def task(kind, entry, optimizer, replicate, budget, options):
+        return Task(kind, optimizer, replicate, config.seed, budget, options, config.problem, config.settings, entry)
+
+    tasks = []
+    p = config.posterior
+    if p is not None:
+        tasks += [task("posterior", entry, p.optimizer, r, p.budget, p.options)
+                  for r in range(p.seeds) for entry in p.specimens]
+    tasks += [task("ranking", entry, optimizer, r, config.budget, options)
+              for r in range(config.seeds) for entry in config.specimens
+              for optimizer, options in config.optimizers.items()]
+    return tasks
+
+
+def run_task(task: Task) -> dict:
+    """Run one task; never raises for a failed run (status "error" with a one-line message).
+
+    Returns a plain dict: ``key``, ``row`` (the ``runs`` columns), ``timing``, ``trace``
+    (list of (nfev, mse)) and ``chain`` (None, or the ``chains`` columns).
+    """
+    import numba
+
+    from bwbench.optimize import fitting
+
+    row = dict.fromkeys(RUN_COLUMNS)
+    row.update(kind=task.kind, specimen=task.specimen, optimizer=task.optimizer, replicate=task.replicate,
+               seed_entropy=str(task.entropy), budget=task.budget, options_json=canonical_json(task.options),
+               success=0, problem=task.problem)
+    problem_type = problems.get(task.problem)
+    _fill(row, problem_type.record_columns(task.settings, task.entry, None))
+    trace, chain = [], None
+    # One numba thread per worker: the workers already fill the cores.
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    started = time.perf_counter()
+    try:
+        problem = problem_type.make_problem(task.settings, task.entry)
+        seed = task_seed(task.entropy, task.kind, task.specimen, task.optimizer, task.replicate)
+        result = fitting.run(problem, task.optimizer, task.budget, seed, task.options)
+        chain = _chain_columns(result.extras)
+        metrics = problem_type.run_metrics(problem, result)
+        columns = problem_type.record_columns(task.settings, task.entry, result)
+    except Exception as err:  # a failed run is a result: record it, keep the study going
+        row.update(status="error", error=" ".join(f"{type(err).__name__}: {err}".split()))
+    else:
+        _fill(row, columns)
+        row.update(status="ok", nfev=result.nfev, mse=result.mse, f_err=result.f_err,
+                   success=int(result.success), message=result.message,
+                   params_json=canonical_json({k: json_number(v) for k, v in result.params.items()}),
+                   metrics_json=canonical_json(metrics))
+        trace = list(zip(result.trace_nfev, result.trace_mse, strict=True))
+    finally:
+        wall = time.perf_counter() - started
+        numba.set_num_threads(threads)
+    timing = {"wall_s": wall, "worker": f"{socket.gethostname()}:{os.getpid()}", "finished_utc": utc_now()}
+    return {"key": task.key, "row": row, "timing": timing, "trace": trace, "chain": chain}
+
+
+def _fill(row: dict, columns: dict) -> None:
+    # The store has a fixed set of columns: a problem's names without a column live in params_json.
+    row.update({k: v for k, v in columns.items() if k in row and row[k] is None})
+
+
+def json_number(x):
+    x = float(x)
+    return x if math.isfinite(x) else None  # JSON has no inf/NaN: null = not finite
+
+
+def _chain_columns(extras: dict) -> dict | None:
+    if extras.get("chain") is None:
+        return None
+    import json
+
+    chain = np.ascontiguousarray(extras["chain"], dtype=np.float64)
+    if chain.ndim != 3:
+        raise ValueError(f"backend returned a chain of shape {chain.shape}, expected (steps, walkers, dim)")
+    log_prob = extras.get("log_prob")
+    acceptance = extras.get("acceptance_fraction")
+    autocorr = extras.get("autocorr", extras.get("autocorr_time"))
+    if autocorr is not None:
+        autocorr = [float(a) if math.isfinite(a) else None for a in np.atleast_1d(np.asarray(autocorr, float))]
+    steps, walkers, dim = chain.shape
+    return {
+        "steps": steps, "walkers": walkers, "dim": dim, "chain": chain.tobytes(),
+        "log_prob": None if log_prob is None else np.ascontiguousarray(log_prob, dtype=np.float64).tobytes(),
+        "acceptance_fraction": None if acceptance is None else float(np.mean(acceptance)),
+        "autocorr_json": None if autocorr is None else json.dumps(autocorr),
+    }

@@ -1,0 +1,51 @@
+"""``bwbench identifiability``: the switched model's 14 parameters at the truth of a synthetic specimen."""
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bwbench.data import manifest
+from bwbench.errors import UserError
+from bwbench.problems.switched_vpp import identifiability
+
+SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
+
+
+def test_analyse_bouc_wen_at_the_truth_is_json_ready():
+    result = identifiability.analyse(SPECIMEN, manifest.truth_params(SPECIMEN))
+    json.dumps(result, allow_nan=False)
+    s = np.array(result["singular_values"])
+    assert np.all(np.diff(s) <= 0) and len(s) == 14
+    assert result["relative_singular_values"][0] == 1.0
+    assert 1.0 < result["mse"] < 20.0  # the synthetic noise floor
+    assert set(result["poorly_determined"]) <= set(result["names"])
+    assert len(result["weakest"]) == 3 and all("·" in w["text"] for w in result["weakest"])
+    text = identifiability.format_text(result)
+    assert "condition number" in text and "weakest directions" in text
+
+
+def _cli(args):
+    parser = argparse.ArgumentParser()
+    identifiability.add_arguments(parser)
+    return identifiability.cli_main(parser.parse_args(args))
+
+
+def test_cli_prints_text_and_json(tmp_path, capsys):
+    params = tmp_path / "p.json"
+    params.write_text(json.dumps(manifest.manifest_entry(SPECIMEN)["truth"]))
+    assert _cli([str(SPECIMEN), "--params", str(params), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["specimen"] == SPECIMEN.stem and len(out["weakest"]) == 3
+    assert _cli([str(SPECIMEN), "--params", str(params)]) == 0
+    assert "singular values" in capsys.readouterr().out
+
+
+def test_cli_refuses_parameters_outside_table5(tmp_path):
+    truth = dict(manifest.manifest_entry(SPECIMEN)["truth"], **{"A+": 1.0})
+    params = tmp_path / "p.json"
+    params.write_text(json.dumps(truth))
+    with pytest.raises(UserError, match="A\\+"):
+        _cli([str(SPECIMEN), "--params", str(params)])
