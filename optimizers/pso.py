@@ -23,11 +23,9 @@ though not on every seed.
 
 Two pieces of global state need containing:
 - pyswarms draws every random number from numpy's legacy global generator (``np.random.uniform``
-  in the swarm initialisation and the velocity update). We save that state, set it from ``rng``,
-  and restore it afterwards (``_global_rng_from``), so the run is repeatable and the caller's
-  global state is untouched. A lock serialises pso runs within a process, since two threads
-  sharing the global generator would interleave draws; code outside this module that draws
-  from ``np.random`` in another thread during a pso run would still disturb it.
+  in the swarm initialisation and the velocity update). ``bwbench.optimize.global_rng.seeded_global_rng``
+  sets that state from ``rng`` and restores it afterwards, so the run is repeatable and the caller's
+  global state is untouched.
 - every pyswarms ``Reporter`` (created at import and in each optimiser, topology and handler
   constructor) calls ``logging.config.dictConfig`` with a default that installs INFO handlers on
   the root logger and creates ``./report.log``. ``_logging_config_frozen`` makes ``dictConfig`` a
@@ -40,27 +38,11 @@ from __future__ import annotations
 import contextlib
 import logging.config
 import sys
-import threading
 
 import numpy as np
 
+from bwbench.optimize.global_rng import seeded_global_rng
 from bwbench.optimize.registry import register
-
-_GLOBAL_RNG_LOCK = threading.Lock()
-
-
-@contextlib.contextmanager
-def _global_rng_from(rng):
-    """Seed numpy's legacy global generator from ``rng`` for the duration; restore it after."""
-    with _GLOBAL_RNG_LOCK:
-        saved = np.random.get_state()
-        # A full MT19937 state seeded through SeedSequence, not a 32-bit np.random.seed.
-        np.random.set_state(np.random.RandomState(np.random.MT19937(rng.integers(2**63))).get_state())
-        try:
-            yield
-        finally:
-            np.random.set_state(saved)
-
 
 @contextlib.contextmanager
 def _logging_config_frozen():
@@ -81,7 +63,7 @@ def _logging_config_frozen():
 )
 def minimize(objective, *, rng, n_particles=40, c1=1.49618, c2=1.49618, w=0.7298):
     d = objective.dim
-    with _global_rng_from(rng):
+    with seeded_global_rng(rng):
         with _logging_config_frozen():
             # Imported here, not at the top: importing pyswarms configures logging.
             from pyswarms.single import GlobalBestPSO

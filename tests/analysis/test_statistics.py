@@ -9,7 +9,7 @@ import scipy.stats
 from study_fixture import make_study_db
 
 from bwbench.study import results as results_db
-from bwbench.analysis import statistics
+from bwbench.analysis import mcmc, statistics
 from bwbench.errors import UserError
 
 
@@ -130,9 +130,9 @@ def test_chain_diagnostics_warn_on_a_short_chain_only():
             x[s] = phi * x[s - 1] + rng.normal(size=(20, 3))
         return x
 
-    short = statistics.chain_diagnostics(ar_chain(100, 0.95), 0.3)
+    short = mcmc.chain_diagnostics(ar_chain(100, 0.95), 0.3)
     assert short["tau_max"] > 2 and any("shorter than 50·τ" in w for w in short["warnings"])
-    long = statistics.chain_diagnostics(ar_chain(3000, 0.3), 0.3)
+    long = mcmc.chain_diagnostics(ar_chain(3000, 0.3), 0.3)
     assert long["warnings"] == []
     assert long["ess"] == pytest.approx(3000 * 20 / long["tau_max"])
 
@@ -142,9 +142,9 @@ def test_stuck_walker_is_found_from_log_prob():
     samples = rng.normal(size=(200, 10, 2))
     log_prob = -0.5 * (samples**2).sum(axis=2)
     log_prob[:, 3] -= 1000.0
-    mask = statistics.stuck_walkers(samples, log_prob)
+    mask = mcmc.stuck_walkers(samples, log_prob)
     assert mask.tolist() == [i == 3 for i in range(10)]
-    d = statistics.chain_diagnostics(samples, 0.3, log_prob)
+    d = mcmc.chain_diagnostics(samples, 0.3, log_prob)
     assert d["stuck"] == 1 and any("stuck" in w for w in d["warnings"])
 
 

@@ -275,3 +275,27 @@ def test_a_database_from_before_the_generic_columns_resumes_and_reads(tmp_path):
     assert got[0][1:] == (None, None)
     assert got[1][1] == "switched-bouc-wen" and set(json.loads(got[1][2])) == set(PARAM_NAMES)
     assert len(results_db.load_study(db).runs) == 2
+
+
+def test_a_worker_runs_each_task_on_one_thread(monkeypatch, tmp_path):
+    """numba and every BLAS/OpenMP pool are limited to one thread inside a run, and restored after."""
+    import numba
+    from threadpoolctl import threadpool_info
+
+    seen = {}
+
+    def minimize(objective, *, rng):
+        seen["numba"] = numba.get_num_threads()
+        seen["pools"] = [pool["num_threads"] for pool in threadpool_info()]
+        objective.batch(rng.random((3, objective.dim)))
+
+    registry.available()
+    monkeypatch.setitem(registry._REGISTRY, "test-threads",
+                        registry.Backend("test-threads", "test", "records its threads", minimize, {}))
+    config = load_study_config(write_config(tmp_path / "t.toml", budget=3, seeds=1, optimizers="test-threads = {}",
+                                            underpressures="[0.01]"))
+    before = [pool["num_threads"] for pool in threadpool_info()]
+    outcome = run_study(config, tmp_path / "t.sqlite", workers=1, log=io.StringIO())
+    assert outcome.complete and outcome.errors == 0
+    assert seen["numba"] == 1 and seen["pools"] and set(seen["pools"]) == {1}
+    assert set(pool["num_threads"] for pool in threadpool_info()) == set(before)  # restored (pools may be added)

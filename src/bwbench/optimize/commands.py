@@ -4,19 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
+from bwbench.data.output_paths import check_writable
 from bwbench.errors import UserError
-
-
-def check_writable(*paths) -> None:
-    """Refuse an output path whose folder does not exist before any work is done, not after."""
-    for path in paths:
-        if path is None:
-            continue
-        folder = Path(path).resolve().parent
-        if not folder.is_dir():
-            raise UserError(f"cannot write {path}: folder {folder} does not exist")
 
 
 def list_backends(args) -> int:
@@ -26,8 +16,9 @@ def list_backends(args) -> int:
     width = max(len(name) for name in backends)
     for backend in backends.values():
         defaults = ", ".join(f"{k}={v}" for k, v in backend.defaults.items()) or "-"
-        print(f"{backend.name:<{width}}  {backend.family:<12}  {backend.description}")
-        print(f"{'':<{width}}  {'':<12}  defaults: {defaults}")
+        asks = "populations per call" if backend.batched else "one point per call"
+        print(f"{backend.name:<{width}}  {backend.family:<18}  {backend.description}")
+        print(f"{'':<{width}}  {'':<18}  asks for {asks}; defaults: {defaults}")
     return 0
 
 

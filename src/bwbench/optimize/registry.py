@@ -1,24 +1,64 @@
-"""The registry of optimiser backends.
+"""The registry of optimiser backends, and the contract a backend keeps.
 
-A backend is one function ``minimize(objective, *, rng, **options) -> dict | None`` registered
-by name with the ``register`` decorator. It calls ``objective(u)`` or ``objective.batch(U)`` in
-unit coordinates until it is done or the objective raises ``BudgetExhausted``; the bookkeeping
-(best point, trace, counts, timing) lives in the objective and in ``bwbench.optimize.fitting``, so a
-backend knows nothing of Bouc-Wen and nothing of budgets. It may return a dict of extras
-(e.g. an MCMC chain) to keep with the result; the key ``message`` becomes the result's message.
+Writing a backend (built in, or in another package)
+---------------------------------------------------
+A backend is one function registered by name::
 
-Built-in backends live in ``bwbench.optimizers``; other packages plug in their own through the
+    from bwbench.optimize.registry import register
+
+    @register("my-search", family="local", description="what it does, in one line",
+              defaults={"step": 0.25}, batched=False)
+    def minimize(objective, *, rng, step=0.25):
+        ...
+        return {"message": "why it stopped"}          # optional extras
+
+- **Coordinates.** The backend sees only the unit box u ∈ [0, 1]^d (``objective.dim``); the problem
+  maps it to physical units. Points outside the box are clipped (and counted).
+- **Evaluations.** ``objective(u)`` gives the loss of one point (a float), ``objective.batch(U)`` the
+  losses of the rows of U, shape (m, d), in one call — use it for populations: a batch is simulated
+  in parallel. Declare ``batched=True`` if the backend asks for whole populations at a time, False if
+  it asks for one point per call (``bwbench optimizers`` and the report show it: it explains wall-time
+  differences at equal evaluation budgets). A loss may be +inf (the model blew up); never NaN.
+- **The budget** belongs to the objective, never to the library: asking for evaluation number
+  budget + 1 raises ``bwbench.errors.BudgetExhausted`` (a batch larger than what is left is cut, its
+  cut rows read +inf, and the next call raises). Letting that exception propagate out of
+  ``minimize`` is the normal way to stop: ``bwbench.optimize.fitting.run`` catches it. A library
+  that breaks when its objective raises (NLopt can lose the exception; nevergrad's NgIohTuned fails
+  when asked one point past its budget; emcee prints a traceback) must instead check
+  ``objective.exhausted`` (or ``objective.remaining``) before asking, and stop by itself.
+- **Randomness.** Every draw comes from ``rng`` (a ``numpy.random.Generator`` made from the run's
+  seed): the same seed must give a bit-identical run. A library that draws from numpy's global
+  generator runs inside ``bwbench.optimize.global_rng.seeded_global_rng(rng)``.
+- **+inf.** A library that mishandles +inf (finite differences, quadratic models) gets
+  ``bwbench.optimize.finite_penalty.WorstFinitePenalty`` applied to the losses.
+- **What is kept.** The best point, its loss and the best-so-far trace are recorded by the objective
+  itself. The returned dict's ``message`` becomes the result's message (default: "budget
+  exhausted" when BudgetExhausted stopped it); scalar extras go into the result JSON, and a
+  ``chain`` (steps, walkers, d), with ``log_prob`` and ``acceptance_fraction``, is stored by a study
+  in its ``chains`` table (MCMC backends).
+- **Options** are keyword arguments with the defaults given to ``register``; a study stores them
+  with every run, so they must be plain JSON values.
+
+``bwbench.testing.check_backend(name)`` runs the contract's checks (exact budget at several budgets,
+same seed same run, +inf survived); ``examples/plugin/`` is a complete, installable plugin package.
+
+Registration
+------------
+Built-in backends live in ``bwbench.optimizers``; other packages plug in theirs through the
 entry-point group ``bwbench.optimizers`` (each entry point names a module to import, whose
-``register`` calls add its backends).
+``register`` calls add its backends). A second backend of an existing name is refused.
 """
 
 from __future__ import annotations
 
 import importlib
 import pkgutil
+import threading
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Callable
+
+from bwbench.errors import UserError
 
 ENTRY_POINT_GROUP = "bwbench.optimizers"
 
@@ -30,11 +70,14 @@ class Backend:
     description: str
     minimize: Callable
     defaults: dict = field(default_factory=dict)
-    # Draws many points per call to objective.batch (population/ensemble methods).
+    # Asks for whole populations per objective.batch call (True) or one point per call (False).
     batched: bool = True
 
 
 _REGISTRY: dict[str, Backend] = {}
+# One lock for loading and registering: a Dask worker runs tasks in threads, and a thread must not
+# see the registry half-loaded (it would record "unknown optimiser 'pso'" as the run's result).
+_LOCK = threading.RLock()
 _loaded = False
 
 
@@ -42,9 +85,10 @@ def register(name: str, *, family: str, description: str, defaults: dict | None 
     """Decorator: register ``minimize`` under ``name``; a second backend of the same name is refused."""
 
     def decorate(minimize: Callable) -> Callable:
-        if name in _REGISTRY and _REGISTRY[name].minimize is not minimize:
-            raise ValueError(f"an optimiser named {name!r} is already registered")
-        _REGISTRY[name] = Backend(name, family, description, minimize, dict(defaults or {}), batched)
+        with _LOCK:
+            if name in _REGISTRY and _REGISTRY[name].minimize is not minimize:
+                raise ValueError(f"an optimiser named {name!r} is already registered")
+            _REGISTRY[name] = Backend(name, family, description, minimize, dict(defaults or {}), bool(batched))
         return minimize
 
     return decorate
@@ -52,27 +96,27 @@ def register(name: str, *, family: str, description: str, defaults: dict | None 
 
 def _load() -> None:
     global _loaded
-    if _loaded:
-        return
-    _loaded = True
-    import bwbench.optimizers as builtin
+    with _LOCK:
+        if _loaded:
+            return
+        import bwbench.optimizers as builtin
 
-    for module in pkgutil.iter_modules(builtin.__path__):
-        importlib.import_module(f"{builtin.__name__}.{module.name}")
-    for ep in entry_points(group=ENTRY_POINT_GROUP):
-        ep.load()
+        for module in pkgutil.iter_modules(builtin.__path__):
+            importlib.import_module(f"{builtin.__name__}.{module.name}")
+        for ep in entry_points(group=ENTRY_POINT_GROUP):
+            ep.load()
+        _loaded = True
 
 
 def available() -> dict[str, Backend]:
     """Every registered backend, built-in and plugged in, by name (sorted)."""
     _load()
-    return dict(sorted(_REGISTRY.items()))
+    with _LOCK:
+        return dict(sorted(_REGISTRY.items()))
 
 
 def get(name: str) -> Backend:
     backends = available()
     if name not in backends:
-        from bwbench.errors import UserError
-
         raise UserError(f"unknown optimiser {name!r}; available: {', '.join(backends)}")
     return backends[name]

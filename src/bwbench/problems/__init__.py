@@ -1,8 +1,8 @@
-"""Problems as plug-ins: each registers a ``ProblemType`` under the name a study TOML gives.
+"""Problems as plug-ins: a ``ProblemType`` under the name a study TOML gives.
 
-The built-in ones are imported only when asked for (``get``), so a command that needs one problem
-does not pay for the other's imports. Another module (a test, a package) adds its own with
-``register``.
+The built-in ones are modules with a ``PROBLEM_TYPE``, imported only when asked for (``get``), so a
+command that needs one problem does not pay for the other's imports (and they need not import this
+registry). Another module (a test, a package) adds its own with ``register``.
 """
 
 from __future__ import annotations
@@ -30,8 +30,7 @@ def register(problem_type: ProblemType) -> ProblemType:
         present = _REGISTERED.get(problem_type.name)
         if present is not None and type(present) is not type(problem_type):
             raise ValueError(f"a problem named {problem_type.name!r} is already registered")
-        _REGISTERED[problem_type.name] = problem_type
-    return problem_type
+        return _REGISTERED.setdefault(problem_type.name, problem_type)
 
 
 def names() -> list[str]:
@@ -47,6 +46,4 @@ def get(name: str) -> ProblemType:
         return found
     if name not in _BUILTIN:
         raise UserError(f"unknown problem {name!r}; known: {', '.join(names())}")
-    importlib.import_module(_BUILTIN[name])  # its module registers it
-    with _LOCK:
-        return _REGISTERED[name]
+    return register(importlib.import_module(_BUILTIN[name]).PROBLEM_TYPE)

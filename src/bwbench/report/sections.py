@@ -27,8 +27,9 @@ def backends_table(study) -> pd.DataFrame:
     rows = []
     for name in study.optimizers:
         options = study.config.get("optimizers", {}).get(name, {})
-        family = getattr(backends.get(name), "family", "–")
-        rows.append({"backend": name, "family": family,
+        backend = backends.get(name)
+        rows.append({"backend": name, "family": getattr(backend, "family", "–"),
+                     "evaluates": "–" if backend is None else ("populations" if backend.batched else "one point per call"),
                      "options": ", ".join(f"{k}={json.dumps(v)}" for k, v in options.items()) or "defaults",
                      "median wall time per run (s)": number(wall.get(name), 3),
                      "median evaluations": evals_text(nfev.get(name))})

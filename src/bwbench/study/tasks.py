@@ -78,6 +78,7 @@ def run_task(task: Task) -> dict:
     (list of (nfev, mse)) and ``chain`` (None, or the ``chains`` columns).
     """
     import numba
+    from threadpoolctl import threadpool_limits
 
     from bwbench.optimize import fitting
 
@@ -88,9 +89,12 @@ def run_task(task: Task) -> dict:
     problem_type = problems.get(task.problem)
     _fill(row, problem_type.record_columns(task.settings, task.entry, None))
     trace, chain = [], None
-    # One numba thread per worker: the workers already fill the cores.
+    # One thread per worker, numba's and BLAS/OpenMP's alike: the workers already fill the cores, a
+    # BLAS-heavy backend's result must not depend on the thread count, and the wall time recorded is
+    # then one core's.
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
+    limits = threadpool_limits(limits=1)
     started = time.perf_counter()
     try:
         problem = problem_type.make_problem(task.settings, task.entry)
@@ -110,6 +114,7 @@ def run_task(task: Task) -> dict:
         trace = list(zip(result.trace_nfev, result.trace_mse, strict=True))
     finally:
         wall = time.perf_counter() - started
+        limits.restore_original_limits()
         numba.set_num_threads(threads)
     timing = {"wall_s": wall, "worker": f"{socket.gethostname()}:{os.getpid()}", "finished_utc": utc_now()}
     return {"key": task.key, "row": row, "timing": timing, "trace": trace, "chain": chain}

@@ -14,7 +14,7 @@ from bwbench.data.identity import files_sha256
 from bwbench.errors import InputFileError, UserError
 from bwbench.problems.noel_schoukens import data as bench_data
 from bwbench.problems.noel_schoukens import problem as bm
-from bwbench.problems.noel_schoukens.study import TARGET_ERMS_M
+from bwbench.problems.noel_schoukens.problem import TARGET_ERMS_M
 
 TIE_TOLERANCE = 0.01  # medians of training MSE within 1 %: a tie in practice
 NAMES = bm.PARAM_NAMES

@@ -59,6 +59,7 @@ UPPER = np.array([20.0, 100.0, 5e5, 5e5, 1e4, 8.0, 3.0, 3.0])
 LOG_SCALED = np.array([True, True, True, True, True, True, False, False])
 NOISE_RMS_M = 7.4e-6  # the README's residual of the truth on train_multisine
 TEST_SETS = ("test_multisine", "test_sinesweep")
+TARGET_ERMS_M = 1e-5  # below the best published black-box e_RMS on test_multisine (1.2e-5 m)
 _PERIODIC = {"train_multisine": True, "test_multisine": True, "test_sinesweep": False}
 
 

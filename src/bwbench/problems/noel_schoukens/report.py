@@ -16,14 +16,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bwbench.analysis import identifiability, statistics
+from bwbench.analysis import identifiability, mcmc, statistics
 from bwbench.problems.noel_schoukens import figures as benchmark_figures
 from bwbench.problems.noel_schoukens import problem as bm
 from bwbench.problems.noel_schoukens.analysis import (
     JACOBIAN_STEP, TIE_TOLERANCE, analyse_identifiability, finished, backend_results, load_problem, practical_ties,
     truth_figures,
 )
-from bwbench.problems.noel_schoukens.study import TARGET_ERMS_M
+from bwbench.problems.noel_schoukens.problem import TARGET_ERMS_M
 from bwbench.report.format import evals_text, join, number, p_text
 
 SOURCE = ("J.P. Noël and M. Schoukens, “Hysteretic benchmark with a dynamic nonlinearity”, Workshop on Nonlinear "
@@ -235,9 +235,9 @@ def _section_posterior(doc, study):
 
     doc.h(2, "Posterior sampling")
     for chain in chains:
-        d = statistics.chain_diagnostics(chain.samples, chain.acceptance_fraction, chain.log_prob)
+        d = mcmc.chain_diagnostics(chain.samples, chain.acceptance_fraction, chain.log_prob)
         burn = chain.steps // 2
-        stuck = statistics.stuck_walkers(chain.samples, chain.log_prob, burn)
+        stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
         samples = chain.physical(burn, ~stuck, from_unit=bm.from_unit)
         pairs = strongest_pairs(posterior_correlation(samples, list(NAMES)), 4)
         doc.table(pd.DataFrame([{

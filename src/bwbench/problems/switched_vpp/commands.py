@@ -29,7 +29,7 @@ def simulate(args) -> int:
     import pandas as pd
 
     from bwbench.data.parameters import read_json
-    from bwbench.optimize.commands import check_writable
+    from bwbench.data.output_paths import check_writable
 
     check_writable(args.out)
     params = read_json(args.params)

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 import seaborn as sns
 
-from bwbench.analysis import statistics
+from bwbench.analysis import mcmc, statistics
 from bwbench.data import manifest
 from bwbench.data.parameters import LABELS, LOWER, UNITS, UPPER
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
@@ -172,12 +172,12 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
     """emcee posterior of one chain: the 14 marginals (row '+', row '−') and the pairwise
     densities of the ``pairs`` most correlated pairs; each backend's best fit on the specimen
     (coloured ▼ / ◆) and the truth (black ×) overlaid. ``burn`` steps are dropped (default half),
-    and so are stuck walkers (``statistics.stuck_walkers``)."""
+    and so are stuck walkers (``mcmc.stuck_walkers``)."""
     from bwbench.analysis.identifiability import posterior_correlation, strongest_pairs
 
     theme()
     burn = chain.steps // 2 if burn is None else burn
-    stuck = statistics.stuck_walkers(chain.samples, chain.log_prob, burn)
+    stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
     samples = chain.physical(burn, ~stuck)
     corr = posterior_correlation(samples, list(PARAM_NAMES))
     top = strongest_pairs(corr, pairs)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bwbench.analysis import statistics
+from bwbench.analysis import mcmc, statistics
 from bwbench.analysis.identifiability import POOR_SE
 from bwbench.data import manifest
 from bwbench.data.parameters import LABELS, LOWER, UPPER
@@ -254,11 +254,11 @@ def _section_posterior(report):
     doc.h(2, "Posterior sampling (emcee)")
     diags = []
     for chain in chains:
-        d = statistics.chain_diagnostics(chain.samples, chain.acceptance_fraction, chain.log_prob)
+        d = mcmc.chain_diagnostics(chain.samples, chain.acceptance_fraction, chain.log_prob)
         diags.append((chain, d))
         png = figures.posterior(study, doc.out_dir, chain)
         burn = chain.steps // 2
-        stuck = statistics.stuck_walkers(chain.samples, chain.log_prob, burn)
+        stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
         corr = posterior_correlation(chain.physical(burn, ~stuck), list(PARAM_NAMES))
         pairs = strongest_pairs(corr, 4)
         doc.h(3, chain.specimen)

@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench import problems
 from bwbench.data import manifest as manifest_mod
 from bwbench.models import switched_bouc_wen as model
 from bwbench.models.excitation import EXCITATIONS
@@ -184,4 +183,4 @@ def _entry(row, data_dir: Path) -> SpecimenEntry:
     )
 
 
-problems.register(SwitchedVPP())
+PROBLEM_TYPE = SwitchedVPP()

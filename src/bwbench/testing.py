@@ -1,0 +1,100 @@
+"""The contract every optimiser backend keeps, as checks a plugin package can run on its own backends.
+
+    from bwbench.testing import check_backend
+
+    def test_my_backend_keeps_the_contract():
+        check_backend("my-backend")            # raises AssertionError naming what broke
+
+Each check runs the backend through ``bwbench.optimize.fitting.run`` on ``SphereProblem``, a cheap
+14-D stand-in for a model (a shifted sphere in unit coordinates with a region of +inf, the "blow-up"
+of a real model), which counts every evaluation itself, independently of the ``Objective``:
+
+- ``check_exact_budget``: never one evaluation over the budget, and the whole budget spent unless
+  the backend says why it stopped early — at ``BUDGETS`` (some backends change algorithm above
+  1,000 evaluations, so both sides are checked);
+- ``check_same_seed``: the same seed gives a bit-identical run, another seed a different one;
+- ``check_infinite_loss``: a problem that is +inf on 90 % of the box is survived (no exception, no
+  NaN result).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bwbench.optimize import fitting
+
+BUDGETS = (1, 57, 600, 1500)
+
+
+class SphereProblem:
+    """A counting shifted sphere: identity map from the unit box, optional region of +inf."""
+
+    def __init__(self, dim=14, centre=None, blow_up=None, n_data=100):
+        self.dim = dim
+        self.param_names = tuple(f"p{i}" for i in range(dim))
+        self.lower = np.zeros(dim)
+        self.upper = np.ones(dim)
+        self.info: dict = {}
+        self.n_data = n_data
+        self.centre = np.linspace(0.2, 0.8, dim) if centre is None else np.broadcast_to(centre, (dim,))
+        self.blow_up = blow_up  # P -> bool mask of rows that blow up, or None
+        self.evaluated = 0
+        self.blew_up = 0
+        self.call_sizes: list[int] = []
+
+    def from_unit(self, U):
+        return np.asarray(U, dtype=float)
+
+    def to_unit(self, P):
+        return np.asarray(P, dtype=float)
+
+    def loss_batch(self, P):
+        P = np.atleast_2d(P)
+        self.evaluated += len(P)
+        self.call_sizes.append(len(P))
+        loss = np.sum((P - self.centre) ** 2, axis=1)
+        if self.blow_up is None:
+            return loss
+        blown = self.blow_up(P)
+        self.blew_up += int(blown.sum())
+        return np.where(blown, np.inf, loss)
+
+
+def counting_problem() -> SphereProblem:
+    """14-D shifted sphere that blows up (+inf) where u₀ > 0.9."""
+    return SphereProblem(blow_up=lambda P: P[:, 0] > 0.9)
+
+
+def check_exact_budget(name: str, budgets=BUDGETS, options: dict | None = None) -> None:
+    for budget in budgets:
+        problem = counting_problem()
+        result = fitting.run(problem, name, budget, seed=11, options=options)
+        assert problem.evaluated == result.nfev, (
+            f"{name}: the problem counted {problem.evaluated} evaluations, the objective {result.nfev}")
+        assert result.nfev <= budget, f"{name}: {result.nfev} evaluations on a budget of {budget}"
+        stopped_early = result.message != "budget exhausted"
+        assert result.nfev == budget or stopped_early, (
+            f"{name}: stopped after {result.nfev} of {budget} evaluations without saying why")
+
+
+def check_same_seed(name: str, budget: int = 400, options: dict | None = None) -> None:
+    runs = [fitting.run(counting_problem(), name, budget, seed=s, options=options) for s in (5, 5, 6)]
+    assert runs[0].trace_mse == runs[1].trace_mse and runs[0].trace_nfev == runs[1].trace_nfev, (
+        f"{name}: the same seed gave different runs")
+    assert runs[0].params == runs[1].params and runs[0].nfev == runs[1].nfev, f"{name}: same seed, other result"
+    assert runs[0].trace_mse != runs[2].trace_mse, f"{name}: seeds 5 and 6 gave the same run"
+
+
+def check_infinite_loss(name: str, budget: int = 300, options: dict | None = None) -> None:
+    # +inf on 90 % of the box: a hostile, mostly blown-up model
+    mostly_infinite = SphereProblem(blow_up=lambda P: (P[:, 0] > 0.9) | (P[:, 1] > 0.1))
+    result = fitting.run(mostly_infinite, name, budget, seed=2, options=options)
+    assert result.nfev <= budget, f"{name}: {result.nfev} evaluations on a budget of {budget}"
+    assert not np.isnan(result.mse), f"{name}: NaN best loss on a problem that is +inf on 90 % of the box"
+
+
+def check_backend(name: str, options: dict | None = None) -> None:
+    """Every check above, for the registered backend ``name`` (with ``options``, default its defaults)."""
+    check_exact_budget(name, options=options)
+    check_same_seed(name, options=options)
+    check_infinite_loss(name, options=options)
