@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench import mr_damper
+from bwbench.data import mr_damper
 from bwbench.specimen import read_specimen
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "specimens"
+DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 
 
 def one_cycle(n_per_cycle, *arrays):
