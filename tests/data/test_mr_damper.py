@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bwbench.data import mr_damper
-from bwbench.specimen import read_specimen
+from bwbench.data.specimen import read_specimen
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 
