@@ -19,7 +19,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest
 
 compare: $(STAMP)
-	$(BIN)/bwbench compare --config studies/quick.toml
+	$(BIN)/bwbench compare --config studies/quick.toml --db reports/quick/study.sqlite
 	$(BIN)/bwbench report --db reports/quick/study.sqlite --out reports/quick
 
 clean:

@@ -28,9 +28,14 @@ needs_data = pytest.mark.skipif(
     not all((DATA_DIR / f).is_file() for f in BENCHMARK_FILES),
     reason=f"Bouc-Wen benchmark data not found at {DATA_DIR} (../shared/benchmarks/bouc-wen beside the repository)",
 )
-# config_hash of studies/quick.toml recorded before the `problem` key existed (issue 6): adding the
-# key must not change the hash of a configuration without it (resume of existing databases).
-QUICK_HASH = "2c64d188614f5002156f321678ee319b67f9d8a1a7854c21e4d386faf18f53f0"
+# The configuration of studies/quick.toml as databases written before specimens were identified by
+# their bytes store it (issue 6's format): such a database must still resume (migrated on open).
+QUICK_LEGACY = {
+    "study": {"name": "quick", "seed": 20261121, "budget": 4100, "seeds": 5, "state": "shared",
+              "excitation": "measured", "data": "data/specimens"},
+    "specimens": {"filters": {"material": ["POM MT24u01"], "underpressure_MPa": [0.01, 0.05, 0.09], "repeat": [1]},
+                  "files": ["pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.05MPa_r1", "pom-mt24u01_0.09MPa_r1"]},
+}
 
 
 def write_benchmark_config(path: Path, body: str = "", optimizers: str = "random = {}\ncmaes = {}") -> Path:
@@ -190,16 +195,22 @@ def test_missing_data_folder_is_one_line_saying_where_and_how(tmp_path):
     assert not (tmp_path / "x.sqlite").exists()
 
 
-def test_the_switched_model_hash_is_unchanged():
+def test_a_database_of_the_old_format_still_resumes_the_same_study():
+    from bwbench.study.store import extension_conflicts
+
     config = load_study_config(REPO / "studies" / "quick.toml")
-    assert config.problem == "switched-bouc-wen"
-    assert config.config_hash == QUICK_HASH
-    assert "problem" not in config.to_json_dict()["study"]
+    assert config.problem == "switched-bouc-wen" and "problem" not in config.to_json_dict()["study"]
+    new = config.to_json_dict()
+    legacy = {**QUICK_LEGACY, "optimizers": new["optimizers"], "posterior": {
+        k: v for k, v in new["posterior"].items() if k != "sha256"}}
+    assert extension_conflicts(legacy, new) == []
+    fewer = {**legacy, "study": {**legacy["study"], "budget": 4000}}
+    assert extension_conflicts(fewer, new) == ["study.budget: 4000 -> 4100"]
 
 
 def test_naming_the_default_problem_keeps_the_hash(tmp_path):
     text = (REPO / "studies" / "quick.toml").read_text(encoding="utf-8").replace(
-        'data = "data/specimens"', f'data = "{(REPO / "data" / "specimens").as_posix()}"')
+        'data = "../data/specimens"', f'data = "{(REPO / "data" / "specimens").as_posix()}"')
     implicit, explicit = tmp_path / "implicit.toml", tmp_path / "explicit.toml"
     implicit.write_text(text, encoding="utf-8")
     explicit.write_text(text.replace("[study]\n", '[study]\nproblem = "switched-bouc-wen"\n', 1), encoding="utf-8")

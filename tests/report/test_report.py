@@ -3,6 +3,7 @@
 import argparse
 import re
 import sqlite3
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -131,20 +132,22 @@ def test_reads_a_database_written_by_the_runner(tmp_path):
     from bwbench.study.config import load_study_config
 
     toml = tmp_path / "tiny.toml"
-    toml.write_text("""
+    data = (Path(__file__).resolve().parents[2] / "data" / "specimens").as_posix()
+    toml.write_text(f"""
 [study]
 name = "tiny"
 seed = 3
 budget = 60
 seeds = 2
+data = "{data}"
 [specimens]
 material = ["POM MT24u01"]
 underpressure_MPa = [0.01, 0.09]
 repeat = [1]
 [optimizers]
-random = {}
-de = {}
-cmaes = {}
+random = {{}}
+de = {{}}
+cmaes = {{}}
 [posterior]
 specimens = ["pom-mt24u01_0.01MPa_r1"]
 budget = 300

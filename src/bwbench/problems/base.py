@@ -77,7 +77,8 @@ class ProblemSetup:
     ``specimens_json``: the problem's part of the study's identity (its ``[study]`` keys and its
     ``[specimens]`` table as resolved), compared when a study is resumed. ``specimens``: the
     ranking specimens in order; ``available``: every specimen a ``[posterior]`` may name, by name.
-    ``data_location``: where the data are now (recorded for the report; not part of the identity).
+    ``data_location``: where the data are now, a folder or {specimen name: file} (recorded for the
+    report; not part of the identity).
     """
 
     settings: dict
@@ -85,7 +86,7 @@ class ProblemSetup:
     specimens_json: dict
     specimens: tuple
     available: dict
-    data_location: str | None = None
+    data_location: str | dict | None = None
 
 
 class ProblemType:
@@ -103,6 +104,10 @@ class ProblemType:
 
     def configure(self, fail, study: dict, document: dict, base_dir: Path, data_override=None) -> ProblemSetup:
         raise NotImplementedError
+
+    def setup_from_files(self, fail, files, base_dir: Path, **settings) -> ProblemSetup:
+        """A setup over the data files ``files`` (paths or globs) with no TOML: ``compare --specimens``."""
+        fail(f"problem {self.name!r} does not read specimen files given on the command line")
 
     def make_problem(self, settings: dict, entry: SpecimenEntry):
         raise NotImplementedError
@@ -150,3 +155,18 @@ class ProblemType:
     def limits(self, report) -> list[str]:
         """Problem-specific items for the report's "Limits of this study" list."""
         return []
+
+
+# Checks for ``configure`` implementations: ``fail`` raises a UserError naming the file.
+
+def integer(fail, label, value, minimum=1, what="a positive integer") -> int:
+    # bool is an int subclass: `budget = true` must not read as 1.
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        fail(f"{label} must be {what}")
+    return int(value)
+
+
+def choice(fail, label, value, choices) -> str:
+    if value not in choices:
+        fail(f"{label} must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
+    return value

@@ -13,7 +13,7 @@ import numpy as np
 
 from bwbench import problems
 from bwbench.errors import UserError
-from bwbench.study.config import load_study_config
+from bwbench.study.config import config_from_arguments, load_study_config
 from bwbench.study.execute import run_study
 
 
@@ -76,8 +76,21 @@ def summary_table(db, problem_type=None) -> str:
 # ------------------------------------------------------------------------------------ entry point
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--config", required=True, help="study TOML (e.g. studies/quick.toml)")
-    parser.add_argument("--db", help="SQLite database (default: reports/<name>/study.sqlite under the repository)")
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--config", help="study TOML (e.g. studies/quick.toml)")
+    source.add_argument("--specimens", nargs="+", metavar="FILE",
+                        help="your own specimen CSVs (paths or quoted globs): a study without a TOML")
+    own = parser.add_argument_group("with --specimens")
+    own.add_argument("--optimizers", help="backends, comma-separated (e.g. cmaes,de,random)")
+    own.add_argument("--seeds", type=int, default=5, help="replicates per (specimen, backend) (default 5)")
+    own.add_argument("--budget", type=int, default=4100, help="evaluations per run (default 4100)")
+    own.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
+    own.add_argument("--name", default="study", help="study name (default 'study': database ./study.sqlite)")
+    own.add_argument("--state", default="shared", help="hysteretic state convention: shared (default) or split")
+    own.add_argument("--excitation", default="measured", help="measured (default) or sine")
+    own.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
+    parser.add_argument("--db", help="SQLite database (default: <name>.sqlite next to the TOML, or in the current "
+                                     "folder with --specimens)")
     parser.add_argument("--workers", type=int, help="local worker processes (default: all cores; 1 = in-process)")
     parser.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT) instead of local workers")
     parser.add_argument("--csv", help="also write the runs (with timings) as a CSV file")
@@ -95,7 +108,7 @@ def main(args) -> int:
     """
     if args.workers is not None and args.scheduler:
         raise UserError("--workers and --scheduler exclude each other: a cluster brings its own workers")
-    config = load_study_config(args.config, data=getattr(args, "data", None))
+    config = study_config(args)
     db = Path(args.db) if args.db else config.default_db
     try:
         outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)
@@ -113,6 +126,28 @@ def main(args) -> int:
               f"{why}); run the same command again to retry them", file=sys.stderr)
         return 1
     return 0
+
+
+def study_config(args):
+    """The study of ``--config`` or of ``--specimens`` (validated; ``UserError`` for any mistake)."""
+    if args.config is not None:
+        own = [flag for flag, value in (("--optimizers", args.optimizers), ("--bounds", args.bounds))
+               if value is not None]
+        if own:
+            raise UserError(f"{own[0]} goes with --specimens; with --config the TOML says it")
+        return load_study_config(args.config, data=getattr(args, "data", None))
+    if args.optimizers is None:
+        raise UserError("--specimens needs --optimizers NAME,NAME (see `bwbench optimizers`)")
+    if getattr(args, "data", None) is not None:
+        raise UserError("--data goes with --config; with --specimens the files are given")
+    bounds = None
+    if args.bounds is not None:
+        from bwbench.data import bounds as bounds_mod
+        from bwbench.models.switched_bouc_wen import PARAM_NAMES
+
+        bounds = bounds_mod.read_json(args.bounds, PARAM_NAMES)
+    return config_from_arguments(args.specimens, args.optimizers, args.seeds, args.budget, name=args.name,
+                                 seed=args.seed, state=args.state, excitation=args.excitation, bounds=bounds)
 
 
 def run_cli(argv=None, prog: str | None = None) -> int:

@@ -39,7 +39,7 @@ from pathlib import Path
 from bwbench import problems
 from bwbench.errors import UserError
 from bwbench.optimize import registry
-from bwbench.problems.base import ProblemSetup
+from bwbench.problems.base import ProblemSetup, integer
 
 try:
     import tomllib
@@ -64,8 +64,8 @@ class PosteriorConfig:
 class StudyConfig:
     """A validated, resolved study: specimens listed, options merged with the backends' defaults."""
 
-    path: str  # the configuration file, as the user named it
-    root: Path  # what relative paths are relative to
+    path: str  # the configuration file, as the user named it ("--specimens" for a study without one)
+    root: Path  # what relative paths are relative to: the TOML's folder (or the current one)
     name: str
     seed: int
     budget: int
@@ -86,7 +86,8 @@ class StudyConfig:
 
     @property
     def default_db(self) -> Path:
-        return self.root / "reports" / self.name / "study.sqlite"
+        """Next to the TOML (or in the current folder), never inside the installed package."""
+        return self.root / f"{self.name}.sqlite"
 
     def to_json_dict(self) -> dict:
         """What defines the study's results (not where files are): compared on resume."""
@@ -95,6 +96,9 @@ class StudyConfig:
             p = self.posterior
             posterior = {"specimens": [s.name for s in p.specimens], "optimizer": p.optimizer,
                          "budget": p.budget, "seeds": p.seeds, "options": p.options}
+            digests = {s.name: s.meta["sha256"] for s in p.specimens if "sha256" in s.meta}
+            if digests:  # the data the posterior reads are part of the identity too
+                posterior["sha256"] = digests
         study = {"name": self.name, "seed": self.seed, "budget": self.budget, "seeds": self.seeds,
                  **self.setup.study_json}
         return {"study": study, "specimens": self.setup.specimens_json, "optimizers": self.optimizers,
@@ -111,13 +115,6 @@ class StudyConfig:
 def canonical_json(value) -> str:
     """Sorted keys, no spaces: equal configurations give equal text (and hash)."""
     return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
-
-
-def repository_root(config_path) -> Path:
-    from bwbench.data.synthetic import REPO
-
-    folder = Path(config_path).resolve().parent
-    return folder.parent if folder.name == "studies" else REPO
 
 
 def read_toml(path) -> dict:
@@ -138,8 +135,8 @@ def read_toml(path) -> dict:
 def load_study_config(path, data=None) -> StudyConfig:
     """Read, validate and resolve a study TOML; raise ``UserError`` naming the file and key.
 
-    ``data``: the command line's ``--data`` (relative to the current directory), replacing the
-    problem's data location.
+    Relative paths in it resolve against its own folder. ``data``: the command line's ``--data``
+    (relative to the current directory), replacing the problem's data location.
     """
     where = str(path)
     document = read_toml(path)
@@ -178,7 +175,7 @@ def load_study_config(path, data=None) -> StudyConfig:
     seed = integer(fail, "[study] seed", study["seed"], minimum=0, what="a non-negative integer")
     budget = integer(fail, "[study] budget", study["budget"])
     seeds = integer(fail, "[study] seeds", study["seeds"])
-    root = repository_root(path)
+    root = Path(path).resolve().parent
 
     optimizers_table = document["optimizers"]
     if not optimizers_table:
@@ -194,19 +191,6 @@ def load_study_config(path, data=None) -> StudyConfig:
         posterior = _posterior(fail, document["posterior"], setup)
     return StudyConfig(path=where, root=root, name=name, seed=seed, budget=budget, seeds=seeds,
                        problem=problem_name, setup=setup, optimizers=optimizers, posterior=posterior)
-
-
-def integer(fail, label, value, minimum=1, what="a positive integer") -> int:
-    # bool is an int subclass: `budget = true` must not read as 1.
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        fail(f"{label} must be {what}")
-    return int(value)
-
-
-def choice(fail, label, value, choices) -> str:
-    if value not in choices:
-        fail(f"{label} must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
-    return value
 
 
 def _check_backend(fail, label, optimizer) -> None:
@@ -282,3 +266,30 @@ def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
             a, b = canonical_json(old[key]), canonical_json(new[key])
             out.append(f"{label}: {a} -> {b}" if len(a) + len(b) <= 80 else f"{label} changed")
     return out
+
+
+def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *, name: str = "study", seed: int = 0,
+                          state: str = "shared", excitation: str = "measured", bounds=None) -> StudyConfig:
+    """A study of the switched model over the files ``specimens`` (paths or globs, relative to the
+    current folder) with no TOML and no manifest: ``bwbench compare --specimens ...``."""
+    def fail(message):
+        raise UserError(message)
+
+    if not _NAME.fullmatch(name):
+        fail("--name must be letters, digits, '.', '_' or '-' (it names the database)")
+    integer(fail, "--seeds", seeds)
+    integer(fail, "--budget", budget)
+    integer(fail, "--seed", seed, minimum=0, what="a non-negative integer")
+    names = [o.strip() for o in optimizers.split(",") if o.strip()]
+    if not names:
+        fail("--optimizers names no backend (e.g. --optimizers cmaes,random)")
+    if len(set(names)) != len(names):
+        fail("--optimizers names a backend twice")
+    for backend in names:
+        _check_backend(fail, "--optimizers", backend)
+    resolved = {backend: _resolve_options(fail, f"--optimizers {backend}", backend, {}) for backend in names}
+    root = Path.cwd()
+    setup = problems.get(problems.DEFAULT).setup_from_files(fail, list(specimens), root, state=state,
+                                                             excitation=excitation, bounds=bounds)
+    return StudyConfig(path="--specimens", root=root, name=name, seed=seed, budget=budget, seeds=seeds,
+                       problem=problems.DEFAULT, setup=setup, optimizers=resolved, posterior=None)

@@ -70,6 +70,7 @@ class Study:
     traces: pd.DataFrame
     chains: tuple  # of Chain
     data_dir: Path
+    paths: dict = dataclasses.field(default_factory=dict)  # specimen -> file, where the runner last found it
 
     @property
     def name(self) -> str:
@@ -111,11 +112,14 @@ class Study:
         return list(dict.fromkeys(self.ranking["specimen"])) or list(dict.fromkeys(self.runs["specimen"]))
 
     def specimen_path(self, specimen: str) -> Path:
+        if specimen in self.paths:
+            return Path(self.paths[specimen])
         return self.data_dir / f"{specimen}.csv"
 
     def manifest(self) -> dict | None:
-        """The data folder's manifest.json (generation settings, truth), or None if there is none."""
-        return load_manifest(self.data_dir)
+        """The manifest.json beside the specimens (generation settings, truth), or None if there is none."""
+        folder = self.specimen_path(self.specimens[0]).parent if self.specimens else self.data_dir
+        return load_manifest(folder)
 
 
 def _connect(path: Path) -> sqlite3.Connection:
@@ -211,7 +215,12 @@ def load_study(path, data_dir=None) -> Study:
             runs, traces, chains = read_runs(conn), read_traces(conn), read_chains(conn)
         except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError) as err:
             raise UserError(f"{path}: unreadable study database: {err}") from None
-    study = Study(path=path, meta=meta, config=config, runs=runs, traces=traces, chains=chains, data_dir=Path("."))
+    paths = {}
+    if data_dir is None:  # the files where the runner last found them, while they are still there
+        recorded = json.loads(meta.get("data_paths") or "{}")
+        paths = {name: Path(p) for name, p in recorded.items() if Path(p).is_file()}
+    study = Study(path=path, meta=meta, config=config, runs=runs, traces=traces, chains=chains, data_dir=Path("."),
+                  paths=paths)
     folder = study.problem_type.data_dir(study, data_dir)
     return dataclasses.replace(study, data_dir=Path(folder) if folder is not None else Path("."))
 

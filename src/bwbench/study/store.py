@@ -3,8 +3,8 @@
 Schema (the report reads it; names are a contract):
 
 - ``study(key, value)``: ``name``, ``config_json``, ``config_hash``, ``created_utc``, ``bwbench_version``,
-  and ``data_dir``: where the data of the latest run were (where ``bwbench report`` looks first); it
-  is not part of the configuration.
+  and where the data of the latest run were (where ``bwbench report`` looks first; not part of the
+  configuration): ``data_paths`` (JSON, specimen name -> file) or ``data_dir`` (a folder).
 - ``runs``: one row per finished run, keyed by (kind, specimen, optimizer, replicate); no wall
   time, so rows are identical whoever ran them and when. Columns for any problem: ``problem``,
   ``params_json`` (the parameters by name) and ``metrics_json`` (the problem's own metrics of the
@@ -89,9 +89,12 @@ def open_database(path, config: StudyConfig) -> sqlite3.Connection:
                 ("config_hash", config.config_hash), ("created_utc", utc_now()),
                 ("bwbench_version", __version__),
             ])
-        if config.setup.data_location:  # where the data are now: for the report, not the identity
-            conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_dir', ?)",
-                         (config.setup.data_location,))
+        location = config.setup.data_location  # where the data are now: for the report, not the identity
+        if isinstance(location, dict):
+            conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)",
+                         (json.dumps(location, sort_keys=True),))
+        elif location:
+            conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_dir', ?)", (location,))
         conn.execute("COMMIT")
     except sqlite3.DatabaseError as err:
         conn.close()
@@ -111,21 +114,66 @@ def _add_generic_columns(conn) -> None:
 
 
 def _check_same_study(conn, path, config: StudyConfig) -> None:
+    """The configuration must be the stored one, or extend it (more seeds, backends or specimens, the
+    same settings for what both have): then the stored one is replaced and only the new runs run."""
     stored = dict(conn.execute("SELECT key, value FROM study"))
     if stored.get("config_hash") == config.config_hash:
         if stored.get("bwbench_version") != __version__:
             print(f"note: {path} was started with bwbench {stored.get('bwbench_version')}, "
                   f"this is {__version__}", file=sys.stderr)
         return
+    new = config.to_json_dict()
     try:
-        changes = describe_differences(json.loads(stored["config_json"]), config.to_json_dict())
-    except (KeyError, TypeError, ValueError):
+        old = json.loads(stored["config_json"])
+        changes = extension_conflicts(old, new)
+    except (KeyError, TypeError, ValueError, AttributeError):
         changes = ["the stored configuration is unreadable"]
-    shown = "; ".join(changes[:4]) + (f"; and {len(changes) - 4} more" if len(changes) > 4 else "")
-    raise UserError(
-        f"{config.path} differs from the study in {path} ({shown}): pass --db with another path "
-        f"to keep both, or delete {path} to start over"
-    )
+    if changes:
+        shown = "; ".join(changes[:4]) + (f"; and {len(changes) - 4} more" if len(changes) > 4 else "")
+        raise UserError(
+            f"{config.path} differs from the study in {path} ({shown}): pass --db with another path "
+            f"to keep both, or delete {path} to start over"
+        )
+    conn.executemany("INSERT OR REPLACE INTO study (key, value) VALUES (?, ?)",
+                     [("config_json", config.canonical_json()), ("config_hash", config.config_hash)])
+    print(f"note: {config.path} extends the study in {path}: its finished runs are kept, only the new ones run",
+          file=sys.stderr)
+
+
+def extension_conflicts(old: dict, new: dict) -> list[str]:
+    """Why ``new`` (a ``StudyConfig.to_json_dict()``) cannot continue the study ``old``: [] when it
+    has the same settings and every specimen, backend and seed of ``old``, perhaps more.
+
+    A configuration stored before specimens were identified by their bytes (``specimens`` held
+    ``files`` and manifest ``filters``, ``[study] data`` a path) is compared by specimen names.
+    """
+    legacy = "files" in old.get("specimens", {})
+    old_study, new_study = dict(old.get("study", {})), dict(new.get("study", {}))
+    old_seeds, new_seeds = old_study.pop("seeds", None), new_study.pop("seeds", None)
+    if legacy:
+        old_study.pop("data", None)
+    out = describe_differences(old_study, new_study, "study.")
+    if new_seeds is None or old_seeds is None or new_seeds < old_seeds:
+        out.append(f"study.seeds: {old_seeds} -> {new_seeds} (fewer seeds than already run)")
+    old_specimens, new_specimens = old.get("specimens", {}), new.get("specimens", {})
+    if legacy:
+        missing = [s for s in old_specimens.get("files", []) if s not in new_specimens]
+    else:
+        missing = [s for s in old_specimens if s not in new_specimens]
+        out += [f"specimen {s}: its data changed (SHA-256 differs)" for s in old_specimens
+                if s in new_specimens and old_specimens[s] != new_specimens[s]]
+    out += [f"specimen {s} removed" for s in missing]
+    for name, options in old.get("optimizers", {}).items():
+        if name not in new.get("optimizers", {}):
+            out.append(f"optimizers.{name} removed")
+        elif new["optimizers"][name] != options:
+            out += describe_differences(options, new["optimizers"][name], f"optimizers.{name}.")
+    old_posterior, new_posterior = old.get("posterior"), new.get("posterior")
+    if old_posterior is not None and new_posterior is not None and "sha256" not in old_posterior:
+        new_posterior = {k: v for k, v in new_posterior.items() if k != "sha256"}  # stored before data hashes
+    if old_posterior is not None and old_posterior != new_posterior:
+        out += describe_differences({"posterior": old_posterior}, {"posterior": new_posterior})
+    return out
 
 
 def finished_keys(conn) -> set:

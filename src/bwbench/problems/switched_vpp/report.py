@@ -41,18 +41,39 @@ def data_section(report) -> None:
         doc.p(f"Generator: {document.get('generator', '?')}. Note: {document.get('note', '')}. Settings:")
         doc.table(pd.DataFrame([{"setting": k, "value": v, "unit": unit_of(k)} for k, v in settings.items()]),
                   "Generation settings (manifest.json; noise values are 1σ)")
-    elif not synthetic_data:
+    elif document is None:
+        doc.p("No manifest.json beside the specimens: no material, underpressure or true parameters are known, "
+              "and the data are treated as measured.")
+    else:
         doc.p("The specimens are not marked synthetic in their manifest: treated as measured data.")
     entries = {Path(e["file"]).stem: e for e in (document or {}).get("specimens", [])}
     rows = []
     for specimen in study.specimens:
         e = entries.get(specimen, {})
+        row = {"specimen": specimen, **_describe_file(study.specimen_path(specimen))}
+        if e:
+            row.update({"material": e.get("material", "–"), "underpressure (MPa)": e.get("underpressure_MPa", "–"),
+                        "repeat": e.get("repeat", "–")})
         truth_mse = report.problem_type.noise_floor(study, specimen)
-        rows.append({"specimen": specimen, "material": e.get("material", "–"),
-                     "underpressure (MPa)": e.get("underpressure_MPa", "–"), "repeat": e.get("repeat", "–"),
-                     "peak force (N)": e.get("peak_force_N", "–"),
-                     "MSE of the truth (N²)": number(truth_mse) if truth_mse is not None else "–"})
-    doc.table(pd.DataFrame(rows), "Specimens of the ranking (the truth's MSE is the noise floor a perfect fit reaches)")
+        if truth_mse is not None:
+            row["MSE of the truth (N²)"] = number(truth_mse)
+        rows.append(row)
+    doc.table(pd.DataFrame(rows).fillna("–"), "Specimens of the ranking, as read from their files"
+              + (" (the truth's MSE is the noise floor a perfect fit reaches)" if synthetic_data else ""))
+
+
+def _describe_file(path) -> dict:
+    """What a specimen file holds: samples, sampling rate, amplitude and peak force."""
+    from bwbench.data.specimen import read_specimen
+
+    try:
+        s = read_specimen(path)
+    except UserError:
+        return {"samples": "file not found"}
+    rate = (s.n_samples - 1) / s.duration_s
+    return {"samples": f"{s.n_samples:,}", "sampling (Hz)": number(rate, 3), "duration (s)": number(s.duration_s, 4),
+            "displacement range (mm)": f"{number(float(s.x.min()), 3)} … {number(float(s.x.max()), 3)}",
+            "peak |force| (N)": number(float(abs(s.f).max()), 3)}
 
 
 
@@ -103,7 +124,7 @@ def _section_tables(report):
     doc.p(f"For each specimen: the best run of any backend (F_err = −MSE, N², the paper's eq 6), the spread of the "
           f"best backend ({best_backend}) across its seeds as median [min, max], and, for synthetic specimens, the "
           f"truth with its own F_err.")
-    ranking = study.ranking
+    ranking = study.ranking.assign(material=study.ranking["material"].fillna("Specimens"))  # no manifest: one group
     ok = ranking[(ranking["status"] == "ok") & np.isfinite(ranking["mse"])]
     best = ok.loc[ok.groupby("specimen")["mse"].idxmin()].set_index("specimen")
     for material, group in ranking.groupby("material", sort=False):
@@ -112,7 +133,10 @@ def _section_tables(report):
             rows = []
             for specimen in specimens:
                 first = group[group["specimen"] == specimen].iloc[0]
-                label = f"{first['underpressure_MPa']:g} MPa r{int(first['repeat'])}"
+                label = (specimen if np.isnan(first["underpressure_MPa"]) else
+                         f"{first['underpressure_MPa']:g} MPa r{int(first['repeat'])}")
+                if specimen not in best.index:  # no run finished on it
+                    continue
                 b = best.loc[specimen]
                 rows.append({"specimen": label, "row": f"best: {b['optimizer']} seed {int(b['replicate'])}",
                              "F_err (N²)": number(-b["mse"], 5), **{LABELS[n]: number(b[n]) for n in names}})

@@ -1,26 +1,33 @@
 """The switched Bouc-Wen specimen fit as a study problem (``problem = "switched-bouc-wen"``, the default).
 
-Its ``[study]`` keys and ``[specimens]`` table::
+Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` tables::
 
     [study]
     state = "shared"          # or "split"
     excitation = "measured"   # or "sine"
-    data = "data/specimens"   # folder with manifest.json
+    data = "../data/specimens"   # only with manifest filters: a folder with manifest.json
 
-    [specimens]               # manifest filters, each a value or a list; omitted key = all
+    [specimens]               # either files (no manifest needed) ...
+    files = ["tests/run1.csv", "more/*.csv"]
+                              # ... or manifest filters, each a value or a list; omitted key = all
     material = ["POM MT24u01"]
     underpressure_MPa = [0.01, 0.09]
     repeat = [1]
 
-Relative paths (``data``, and the default database) are relative to the repository root: the parent
-of the ``studies/`` folder holding the configuration, or, for a configuration kept anywhere else, the
-bwbench checkout itself. ``--data PATH`` on the command line (relative to the current directory)
-replaces ``[study] data``. ``data`` is part of the study's identity as written (the folder defines
-the specimens).
+    [bounds]                  # optional: the search box, name = [lower, upper]; default Table 5
+    "xi-" = [-800.0, -10.0]
+
+Relative paths resolve against the TOML's own folder (``--data PATH`` on the command line, relative
+to the current folder, replaces ``[study] data``). A ``manifest.json`` next to the files is
+optional: when present, its facts (material, underpressure, repeat, truth of synthetic specimens)
+are used by the report. The study's identity holds every specimen's name and the SHA-256 of its
+bytes, not its path: the same files reached by another path are the same study; a file edited at
+the same path is refused.
 """
 
 from __future__ import annotations
 
+import glob
 import math
 from pathlib import Path
 
@@ -29,7 +36,7 @@ import numpy as np
 from bwbench.data import manifest as manifest_mod
 from bwbench.models import switched_bouc_wen as model
 from bwbench.models.excitation import EXCITATIONS
-from bwbench.problems.base import ProblemSetup, ProblemType, SpecimenEntry
+from bwbench.problems.base import ProblemSetup, ProblemType, SpecimenEntry, choice
 
 FILTER_KEYS = ("material", "table", "underpressure_MPa", "repeat")
 
@@ -40,49 +47,61 @@ class SwitchedVPP(ProblemType):
     loss_unit = "N²"
     residual_unit = "N"
     study_keys = ("state", "excitation", "data")
-    tables = ("specimens",)
+    tables = ("specimens", "bounds")
 
     # ------------------------------------------------------------------------ configuration
     def configure(self, fail, study, document, base_dir, data_override=None) -> ProblemSetup:
-        from bwbench.study.config import choice
-
         state = choice(fail, "[study] state", study.get("state", "shared"), model.STATES)
         excitation = choice(fail, "[study] excitation", study.get("excitation", "measured"), EXCITATIONS)
-        if data_override is None:
-            data = study.get("data", "data/specimens")
-            if not isinstance(data, str) or not data:
-                fail("[study] data must be a folder path (a string)")
-            data_dir = Path(data) if Path(data).is_absolute() else base_dir / data
+        table = document.get("specimens", {})
+        if not isinstance(table, dict):
+            fail("[specimens] must be a table: files = [...] or manifest filters")
+        if "files" in table:
+            if "data" in study or any(k in table for k in FILTER_KEYS):
+                fail("[specimens] files lists the specimens itself: remove [study] data and the manifest filters")
+            if data_override is not None:
+                fail("--data does not apply to a study that lists its files ([specimens] files)")
+            entries = specimens_from_files(fail, table["files"], base_dir, "[specimens] files")
+            available = {e.name: e for e in entries}
         else:
-            data_dir = Path(data_override).resolve()
-            data = str(data_dir)
-        manifest = _read_manifest(fail, data_dir)
-        filters_table = document.get("specimens", {})
-        if not isinstance(filters_table, dict):
-            fail("[specimens] must be a table of manifest filters")
-        unknown = [k for k in filters_table if k not in FILTER_KEYS]
-        if unknown:
-            fail(f"[specimens] unknown key {unknown[0]!r} (known: {', '.join(FILTER_KEYS)})")
-        filters = {key: _filter_values(fail, key, value) for key, value in filters_table.items()}
-        selected = [_entry(row, data_dir) for row in _select(fail, manifest, filters)]
-        for entry in selected:
-            if not Path(entry.path).is_file():
-                fail(f"[study] data: {Path(entry.path).name} is in {data_dir / manifest_mod.MANIFEST} "
-                     "but not in the folder")
+            entries, available = _from_manifest(fail, study, table, base_dir, data_override)
+        bounds = {}
+        if "bounds" in document:
+            from bwbench.data.bounds import validate
+            from bwbench.errors import InputFileError
+
+            try:
+                bounds = validate(document["bounds"], model.PARAM_NAMES, "[bounds]")
+            except InputFileError as err:
+                fail(err.problem if err.problem.startswith("[") else f"[bounds] {err.problem}")
+        return self.setup(state, excitation, entries, available, bounds)
+
+    def setup_from_files(self, fail, files, base_dir, state="shared", excitation="measured", bounds=None):
+        choice(fail, "--state", state, model.STATES)
+        choice(fail, "--excitation", excitation, EXCITATIONS)
+        return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"), bounds=bounds)
+
+    def setup(self, state, excitation, entries, available=None, bounds=None) -> ProblemSetup:
+        """The ``ProblemSetup`` of these specimens (``SpecimenEntry`` with ``meta["sha256"]``)."""
+        bounds = {k: list(v) for k, v in (bounds or {}).items()}
+        settings = {"state": state, "excitation": excitation, **({"bounds": bounds} if bounds else {})}
         return ProblemSetup(
-            settings={"state": state, "excitation": excitation},
-            study_json={"state": state, "excitation": excitation, "data": data},
-            specimens_json={"filters": {k: list(v) for k, v in filters.items()},
-                            "files": [s.name for s in selected]},
-            specimens=tuple(selected),
-            available={Path(row["file"]).stem: _entry(row, data_dir) for row in manifest}, data_location=str(data_dir.resolve()),
+            settings=settings, study_json=dict(settings),
+            specimens_json={e.name: e.meta["sha256"] for e in entries},
+            specimens=tuple(entries), available=available or {e.name: e for e in entries},
+            data_location={e.name: str(Path(e.path).resolve()) for e in entries},
         )
 
     def make_problem(self, settings, entry):
+        from bwbench.data import bounds as bounds_mod
         from bwbench.data.specimen import read_specimen
         from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 
-        return SwitchedBoucWenProblem(read_specimen(entry.path), settings["state"], settings["excitation"])
+        problem = SwitchedBoucWenProblem(read_specimen(entry.path), settings["state"], settings["excitation"])
+        if settings.get("bounds"):
+            problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names,
+                                                            settings["bounds"])
+        return problem
 
     def record_columns(self, settings, entry, result=None) -> dict:
         columns = {"state": settings.get("state"), "excitation": settings.get("excitation"), **entry.meta}
@@ -97,6 +116,8 @@ class SwitchedVPP(ProblemType):
         recorded = study.meta.get("data_dir")
         if recorded and Path(recorded).is_dir():
             return Path(recorded)
+        if study.paths:
+            return Path(next(iter(study.paths.values()))).parent
         from bwbench.data.synthetic import REPO
 
         data = Path(study.settings.get("data", "data/specimens"))
@@ -131,6 +152,81 @@ class SwitchedVPP(ProblemType):
         from bwbench.problems.switched_vpp import report as sections
 
         return sections.limits(report)
+
+
+def specimens_from_files(fail, patterns, base_dir: Path, label: str) -> list[SpecimenEntry]:
+    """Specimen files named by paths or globs (relative to ``base_dir``), read and checked now, so a
+    bad file stops the study before any run; names (file stems) must be unique."""
+    if isinstance(patterns, str):
+        patterns = [patterns]
+    if not isinstance(patterns, list) or not patterns or not all(isinstance(p, str) and p for p in patterns):
+        fail(f"{label} must be a non-empty list of file paths or globs")
+    paths = []
+    for pattern in patterns:
+        full = Path(pattern).expanduser()
+        full = full if full.is_absolute() else base_dir / full
+        if glob.has_magic(str(full)):
+            found = sorted(Path(p) for p in glob.glob(str(full)) if Path(p).is_file())
+            if not found:
+                fail(f"{label}: {pattern!r} matches no file (relative to {base_dir})")
+        elif not full.exists():
+            fail(f"{label}: {pattern}: no such file (relative to {base_dir})")
+        else:
+            found = [full]
+        paths += [p for p in found if p.resolve() not in {q.resolve() for q in paths}]
+    return [_entry(fail, path, manifest_mod.manifest_entry(path) or {}) for path in _unique_stems(fail, paths, label)]
+
+
+def _unique_stems(fail, paths, label) -> list[Path]:
+    seen = {}
+    for path in paths:
+        if path.stem in seen:
+            fail(f"{label}: two specimens are named {path.stem!r} ({seen[path.stem]} and {path}): "
+                 "names (file stems) must be unique in a study")
+        seen[path.stem] = path
+    return paths
+
+
+def _entry(fail, path: Path, row: dict) -> SpecimenEntry:
+    from bwbench.data.identity import files_sha256
+    from bwbench.data.specimen import read_specimen
+    from bwbench.errors import UserError
+
+    try:
+        read_specimen(path)
+    except UserError as err:
+        fail(f"specimen {err}")
+    meta = {key: row[key] for key in ("material", "underpressure_MPa", "repeat") if key in row}
+    return SpecimenEntry(name=path.stem, path=str(path), meta={**meta, "sha256": files_sha256([path], [""])})
+
+
+def _from_manifest(fail, study, filters_table, base_dir, data_override):
+    if data_override is None:
+        if "data" not in study:
+            fail("no specimens: list them with [specimens] files = [...], or give [study] data = \"FOLDER\" "
+                 "(with a manifest.json) and manifest filters")
+        data = study["data"]
+        if not isinstance(data, str) or not data:
+            fail("[study] data must be a folder path (a string)")
+        data_dir = Path(data).expanduser()
+        data_dir = data_dir if data_dir.is_absolute() else base_dir / data_dir
+    else:
+        data_dir = Path(data_override).resolve()
+    manifest = _read_manifest(fail, data_dir)
+    unknown = [k for k in filters_table if k not in FILTER_KEYS]
+    if unknown:
+        fail(f"[specimens] unknown key {unknown[0]!r} (known: files, {', '.join(FILTER_KEYS)})")
+    filters = {key: _filter_values(fail, key, value) for key, value in filters_table.items()}
+    selected = {row["file"] for row in _select(fail, manifest, filters)}
+    available = {}  # a [posterior] may name any specimen of the manifest
+    for row in manifest:
+        if not (data_dir / row["file"]).is_file():
+            if row["file"] in selected:
+                fail(f"[study] data: {row['file']} is in {data_dir / manifest_mod.MANIFEST} but not in the folder")
+            continue
+        available[Path(row["file"]).stem] = _entry(fail, data_dir / row["file"], row)
+    entries = [available[Path(row["file"]).stem] for row in manifest if row["file"] in selected]
+    return entries, available
 
 
 def _read_manifest(fail, data_dir: Path) -> list[dict]:
@@ -173,14 +269,6 @@ def _select(fail, manifest, filters) -> list[dict]:
     if not selected:
         fail("[specimens] the filters together select no specimen")
     return selected
-
-
-def _entry(row, data_dir: Path) -> SpecimenEntry:
-    return SpecimenEntry(
-        name=Path(row["file"]).stem, path=str(data_dir / row["file"]),
-        meta={"material": row["material"], "underpressure_MPa": float(row["underpressure_MPa"]),
-              "repeat": int(row["repeat"])},
-    )
 
 
 PROBLEM_TYPE = SwitchedVPP()
