@@ -31,7 +31,7 @@ the interval where every ωn_b² > 0; split: one independent search per branch. 
 has no paper equivalent: ``to_paper`` then returns params None and the reason.
 
 Bounds (``scaled_bounds``), amplitude a = ½·ptp(x): x_y log-uniform in [1e-3, 1e2]·a (the
-paper's Tables 6–8 reach x_y₊ = 21.6·a; below 1e-3·a w is a sign function, above 1e2·a nearly
+paper's Tables 6–8 reach x_y₊ ≈ 22·a; below 1e-3·a w is a sign function, above 1e2·a nearly
 linear in x in split state); n log-uniform in [0.2, 10.75] (Table 5's union); η in [−2, 1]:
 η ≤ 1 (γ ≥ 0) is needed, else unloading from saturation runs away (η·|w|^n > 1 at |w| = 1), and
 η < −1 (β < 0 < β + γ) is stable and means unloading from saturation up to 3× stiffer than at
@@ -102,7 +102,7 @@ def hysteretic_state_batch(H, t, x, v, state: str = "shared") -> np.ndarray:
 # --- end of ADAPTER --------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Bounds:
     """Search box of the hysteretic parameters; ``log`` flags log-uniform ones. Physical units."""
 
@@ -195,12 +195,14 @@ def _gauge_search(paper_of_log_s, index, lo, hi, center):
     width = (UPPER - LOWER)[index]
 
     def dist(log_s):
-        u = (paper_of_log_s(np.atleast_1d(log_s))[..., index] - LOWER[index]) / width
-        d = np.sum((u - 0.5) ** 2, axis=-1)
+        with np.errstate(over="ignore", invalid="ignore"):
+            u = (paper_of_log_s(np.atleast_1d(log_s))[..., index] - LOWER[index]) / width
+            d = np.sum((u - 0.5) ** 2, axis=-1)
         return np.where(np.isfinite(d), d, np.inf)
 
-    lo = max(lo, center - GAUGE_HALF_WIDTH)
-    hi = min(hi, center + GAUGE_HALF_WIDTH)
+    # Search a window of ±GAUGE_HALF_WIDTH around the centre guess, moved inside (lo, hi).
+    start = min(max(center - GAUGE_HALF_WIDTH, lo), hi - 2 * GAUGE_HALF_WIDTH)
+    lo, hi = max(lo, start), min(hi, start + 2 * GAUGE_HALF_WIDTH)
     margin = 1e-9 * max(1.0, abs(lo), abs(hi))
     grid = np.linspace(lo + margin, hi - margin, 501)
     d = dist(grid)
@@ -211,7 +213,7 @@ def _gauge_search(paper_of_log_s, index, lo, hi, center):
     return float(res.x) if res.fun <= d[j] else float(grid[j])
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PaperMap:
     """Result of ``to_paper``: the 14-vector (None when inexpressible), why, and the gauge used."""
 
@@ -299,7 +301,8 @@ class IdentifiableModel:
     def trajectories(self, theta) -> np.ndarray:
         """w (m, L) for theta rows (m, d); +inf rows on blow-up."""
         s = self.signal
-        return hysteretic_state_batch(kernel_hysteretic(theta, self.state), s.t, s.x, s.v, self.state)
+        H = kernel_hysteretic(theta, self.state)
+        return hysteretic_state_batch(H, s.t, s.x, s.v, self.state)  # → model.hysteretic_state_batch
 
     def solve(self, theta, residual: bool = False) -> LinearSolution:
         """Linear coefficients, MSE (N²) and optionally residuals for theta rows (m, d)."""

@@ -130,7 +130,7 @@ def inertia_check(signal, f, offsets: bool = True, m_ref: float = M_REF, kappa: 
     return InertiaCheck(bool(excited), bool(separable), reason, m_ref * n_c * rms, m_ref * n_o * rms, sigma)
 
 
-@dataclass
+@dataclass(eq=False)  # eq=False: comparing ndarray fields would raise
 class LinearSolution:
     """Per-row results of the linear solve for a batch of m trajectories on L samples.
 
@@ -170,7 +170,7 @@ class LinearSolution:
             None if self.residual is None else self.residual[s])
 
 
-@dataclass
+@dataclass(eq=False)  # eq=False: comparing ndarray fields would raise
 class LinearDesign:
     """Everything of the linear solve that does not depend on w, for one excitation and force.
 
