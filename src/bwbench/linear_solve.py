@@ -1,0 +1,391 @@
+"""The linear part of the identifiable formulation: one least-squares solve per z trajectory.
+
+Given the dimensionless hysteretic trajectory w (see ``formulation``), the force is, per branch b
+(b = '+' where ẋ ≥ 0, '−' where ẋ < 0; DESIGN.md §8)
+
+    F = m·ẍ + c_b·ẋ + k_b·x + h_b·w + f_b
+
+Units: m in N·s²/mm, c in N·s/mm, k in N/mm, h in N (w has no unit), f in N. The design matrix is
+X = [G | W]: G holds the columns that do not depend on w (ẍ when m is fitted, and per branch the
+masked ẋ, x, 1), W the masked w (one column per branch). G = Q·R_G is factorised once (pivoted
+QR on unit-norm columns, so dependent columns are found and dropped) and r0 = y − Q·Qᵀy kept; per
+trajectory only W is orthogonalised against Q (Gram-Schmidt with one re-orthogonalisation, in a
+numba kernel of 2–3 passes over the row), then X = [Q | Q_w]·[[R_G, QᵀW], [0, R_w]]: O(L·q) per
+row instead of a fresh O(L·p²) factorisation. log|XᵀX| = 2·Σ log|R_ii| of that factor.
+
+Inertia rule (``inertia_check``), data only. σ̂ = robust force noise from 4th differences of F
+(polynomial trends of degree < 4 cancel; Var Δ⁴ε = 70·σ²). With m_ref = 1 N·s²/mm (the paper's
+implicit m, the value m is fixed at when not fitted):
+
+- excited   ⇔ m_ref·‖ẍ_c‖ ≥ κ·σ̂, ẍ_c = ẍ minus what the offsets absorb: the inertia force of the
+  reference mass stands out of the noise over the record (κ = 10);
+- separable ⇔ m_ref·‖ẍ⊥‖ ≥ κ·σ̂ and ‖ẍ⊥‖ ≥ 10⁻³·‖ẍ_c‖, ẍ⊥ = ẍ orthogonal to the other fixed
+  columns: the data pin m to ±m_ref/κ and the design is not near-singular. A pure sine has
+  ẍ = −ω²x, so m is confounded with k_b however large the inertia force is.
+
+m is fitted only when both hold; otherwise fixed at m_ref, and k_b absorbs any (m − m_ref)·ω².
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from math import comb
+
+import numba
+import numpy as np
+import scipy.linalg
+
+LINEAR_NAMES = ("m", "c+", "k+", "h+", "f+", "c-", "k-", "h-", "f-")
+LINEAR_UNITS = {"m": "N·s²/mm", "c+": "N·s/mm", "k+": "N/mm", "h+": "N", "f+": "N",
+                "c-": "N·s/mm", "k-": "N/mm", "h-": "N", "f-": "N"}
+M_REF = 1.0  # N·s²/mm: the paper's F = ẍ + ... in the specimens' units
+KAPPA = 10.0  # signal/noise (as norms over the record) needed to call a column excited
+COLLINEAR = 1e-3  # ‖ẍ⊥‖/‖ẍ_c‖ below this: condition number > 1000, m and k_b not separable
+RANK_TOL = 1e-9  # a unit-norm column this close to the span of the others is dependent
+
+
+def force_noise(f) -> float:
+    """Robust estimate of the force noise σ (N) from the 4th differences of the record.
+
+    Median absolute deviation (×1.4826) of Δ⁴F over √70; reversals, where F jumps, are outliers
+    the median ignores. Floored at 1e-12·max|F| so a noise-free record gives a tiny positive σ.
+    """
+    f = np.asarray(f, dtype=float)
+    d = np.diff(f, 4)
+    mad = 1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(comb(8, 4))
+    return float(max(mad, 1e-12 * np.max(np.abs(f)), np.finfo(float).tiny))
+
+
+@dataclass(frozen=True)
+class InertiaCheck:
+    """Whether the data excite the inertia term; forces are rms over the record (N)."""
+
+    excited: bool
+    separable: bool
+    reason: str
+    inertia_rms_N: float  # m_ref·ẍ_c
+    orthogonal_rms_N: float  # m_ref·ẍ⊥
+    noise_N: float  # σ̂
+
+    @property
+    def fit(self) -> bool:
+        return self.excited and self.separable
+
+
+def _branch_masks(v):
+    plus = np.asarray(v) >= 0.0
+    return {"+": plus, "-": ~plus}
+
+
+def _fixed_columns(signal, masks, offsets):
+    """Names and columns (L,) of the w-independent per-branch columns of present branches."""
+    names, cols = [], []
+    for b, mask in masks.items():
+        if not mask.any():
+            continue
+        names += [f"c{b}", f"k{b}"]
+        cols += [np.where(mask, signal.v, 0.0), np.where(mask, signal.x, 0.0)]
+        if offsets:
+            names.append(f"f{b}")
+            cols.append(mask.astype(float))
+    return names, cols
+
+
+def _pivoted_qr(cols):
+    """Pivoted QR of the columns scaled to unit norm: Q (L, r), R (r, r) with G[:, perm[:r]]·diag(1/scale)
+    = Q·R, perm, scale; r = numerical rank (RANK_TOL)."""
+    G = np.column_stack(cols)
+    scale = np.linalg.norm(G, axis=0)
+    scale[scale == 0] = 1.0
+    Q, R, perm = scipy.linalg.qr(G / scale, mode="economic", pivoting=True)
+    rank = int(np.sum(np.abs(np.diag(R)) > RANK_TOL * max(abs(R[0, 0]), 1e-300)))
+    return Q[:, :rank], R[:rank, :rank], perm, rank, scale
+
+
+def inertia_check(signal, f, offsets: bool = True, m_ref: float = M_REF, kappa: float = KAPPA) -> InertiaCheck:
+    """Apply the inertia rule of the module docstring to an excitation (t, x, v, a) and force f (N)."""
+    masks = _branch_masks(signal.v)
+    sigma = force_noise(f)
+    L = len(signal.a)
+    base = [m.astype(float) for m in masks.values() if m.any()] if offsets else []
+    a = np.asarray(signal.a, dtype=float)
+    a_c = a - (Q := _pivoted_qr(base)[0]) @ (Q.T @ a) if base else a.copy()
+    Q = _pivoted_qr(_fixed_columns(signal, masks, offsets)[1])[0]
+    a_o = a - Q @ (Q.T @ a)
+    a_o -= Q @ (Q.T @ a_o)  # second pass: ẍ⊥ may be 1e-6 of ẍ (a sine)
+    n_c, n_o = np.linalg.norm(a_c), np.linalg.norm(a_o)
+    excited = m_ref * n_c >= kappa * sigma
+    separable = m_ref * n_o >= kappa * sigma and n_o >= COLLINEAR * n_c
+    rms = 1.0 / np.sqrt(L)
+    head = (f"inertia force at m = {m_ref:g} N·s²/mm: {m_ref * n_c * rms:.3g} N rms, "
+            f"{m_ref * n_o * rms:.3g} N rms outside span(ẋ, x, 1 per branch); force noise {sigma:.3g} N")
+    if not excited:
+        reason = f"inertia not excited ({head}): m fixed at {m_ref:g}"
+    elif not separable:
+        reason = (f"inertia excited but not separable from the stiffness ({head}; "
+                  f"ẍ⊥/ẍ = {n_o / max(n_c, 1e-300):.2g}, as for a sine where ẍ = −ω²x): "
+                  f"m fixed at {m_ref:g}, k absorbs (m − {m_ref:g})·ω²")
+    else:
+        reason = f"inertia excited and separable ({head}): m fitted"
+    return InertiaCheck(bool(excited), bool(separable), reason, m_ref * n_c * rms, m_ref * n_o * rms, sigma)
+
+
+@dataclass(eq=False)  # eq=False: comparing ndarray fields would raise
+class LinearSolution:
+    """Per-row results of the linear solve for a batch of m trajectories on L samples.
+
+    ``coef`` (m, 9) follows ``LINEAR_NAMES``; fixed coefficients carry their fixed value, those of
+    a branch without samples NaN. ``mse`` (m,) N²; ``residual`` (m, L) F_model − F_measured (N),
+    only when asked for. Rows with a non-finite trajectory have mse = +inf, coef NaN.
+    The Gaussian-posterior quantities (unbounded flat prior on the p free coefficients, in the
+    order ``free_names``): ``coef_ls`` (m, p), ``rss_ls`` (m,) N², ``R`` (m, p, p) with
+    XᵀX = RᵀR, ``logdet`` (m,) = log|XᵀX|; ``full_rank`` False where a w-column lies in the
+    span of the others (then that h is set to 0 and logdet = −inf). They differ from
+    ``coef``/``mse`` only where the bound m ≥ mass_min is active (``bound_active``).
+    """
+
+    mse: np.ndarray
+    coef: np.ndarray
+    coef_ls: np.ndarray
+    rss_ls: np.ndarray
+    R: np.ndarray
+    logdet: np.ndarray
+    full_rank: np.ndarray
+    bound_active: np.ndarray
+    free_names: tuple
+    free_index: np.ndarray
+    n_data: int
+    residual: np.ndarray | None = None
+
+    @property
+    def n_free(self) -> int:
+        return len(self.free_names)
+
+    def row(self, i: int) -> "LinearSolution":
+        """The results of row i as a one-row solution."""
+        s = slice(i, i + 1)
+        return LinearSolution(
+            self.mse[s], self.coef[s], self.coef_ls[s], self.rss_ls[s], self.R[s], self.logdet[s],
+            self.full_rank[s], self.bound_active[s], self.free_names, self.free_index, self.n_data,
+            None if self.residual is None else self.residual[s])
+
+
+@dataclass(eq=False)  # eq=False: comparing ndarray fields would raise
+class LinearDesign:
+    """Everything of the linear solve that does not depend on w, for one excitation and force.
+
+    ``signal``: excitation with t (s), x (mm), v (mm/s), a (mm/s²), each (L,); ``f``: measured
+    force (N), (L,). ``fix_mass``: "auto" (the inertia rule decides), None (fitted) or a value
+    (N·s²/mm). ``offsets``: fit f₊ and f₋ (else they are 0, as in the paper). ``mass_min``: lower
+    bound on a fitted m (None: unbounded). ``notes`` says what was fixed or dropped and why.
+    """
+
+    signal: object
+    f: np.ndarray
+    fix_mass: object = "auto"
+    offsets: bool = True
+    mass_min: float | None = 0.0
+    m_ref: float = M_REF
+    notes: list = field(default_factory=list)
+
+    def __post_init__(self):
+        s = self.signal
+        self.f = np.asarray(self.f, dtype=float)
+        self.L = len(self.f)
+        self.masks = _branch_masks(s.v)
+        for b, mask in self.masks.items():
+            if not mask.any():
+                self.notes.append(f"branch {b} has no samples: c{b} k{b} h{b} f{b} dropped (NaN)")
+        self.inertia = inertia_check(s, self.f, self.offsets, self.m_ref)
+        if isinstance(self.fix_mass, str):
+            if self.fix_mass != "auto":
+                raise ValueError(f"fix_mass must be 'auto', None or a number, got {self.fix_mass!r}")
+            self.mass = None if self.inertia.fit else self.m_ref
+            self.notes.append(self.inertia.reason)
+        else:
+            self.mass = None if self.fix_mass is None else float(self.fix_mass)
+            self.notes.append("m fitted (fix_mass=None)" if self.mass is None else f"m fixed at {self.mass:g} by the caller")
+        names, cols = _fixed_columns(s, self.masks, self.offsets)
+        if self.mass is None:
+            names, cols = ["m"] + names, [np.asarray(s.a, dtype=float)] + cols
+            self.y = self.f.copy()
+        else:
+            self.y = self.f - self.mass * np.asarray(s.a, dtype=float)
+        self._factor(names, cols)
+        self.w_names = tuple(f"h{b}" for b, mask in self.masks.items() if mask.any())
+        self.free_names = tuple(self.g_names) + self.w_names
+        self.free_index = np.array([LINEAR_NAMES.index(n) for n in self.free_names])
+        self._bound_design = None
+        # For each sample, the index of its w-column (its branch among the present ones).
+        self._col = np.zeros(self.L, dtype=np.int64)
+        if len(self.w_names) == 2:
+            self._col[self.masks["-"]] = 1
+
+    def _factor(self, names, cols):
+        Q, R, perm, rank, scale = _pivoted_qr(cols)
+        for j in perm[rank:]:
+            self.notes.append(f"{names[j]} not separable from the other columns on these data: set to 0")
+        keep = perm[:rank]
+        self.g_names = [names[j] for j in keep]
+        self.Q = np.ascontiguousarray(Q)
+        self.RG = R * scale[keep]  # G[:, keep] = Q·RG
+        self.Qty = self.Q.T @ self.y
+        r0 = self.y - self.Q @ self.Qty
+        self.r0 = r0 - self.Q @ (self.Q.T @ r0)
+
+    def solve(self, Z, residual: bool = False) -> LinearSolution:
+        """Solve the linear coefficients for each row of Z (m, L), w trajectories (+inf rows: blow-up)."""
+        Z = np.atleast_2d(np.asarray(Z, dtype=float))
+        good = np.all(np.isfinite(Z), axis=1)
+        Zg = np.where(good[:, None], Z, 0.0)
+        m, q, nw = len(Z), self.Q.shape[1], len(self.w_names)
+        fit_res = np.full((m, self.L), -np.inf) if residual else np.empty((0, self.L))
+        C, Rw, qwy, h, rss, full = _w_solve(Zg, good, self._col, self.Q, self.r0, nw, residual, fit_res)
+        g = scipy.linalg.solve_triangular(self.RG, (self.Qty[None, :] - np.einsum("mqk,mk->mq", C, h)).T).T
+        p = q + nw
+        R = np.zeros((m, p, p))
+        R[:, :q, :q] = self.RG
+        R[:, :q, q:] = C
+        R[:, q:, q:] = Rw
+        diag = np.abs(np.diagonal(R, axis1=1, axis2=2))
+        with np.errstate(divide="ignore"):
+            logdet = np.where(full, 2.0 * np.sum(np.log(diag), axis=1), -np.inf)
+        beta = np.concatenate([g, h], axis=1)
+        coef = np.full((m, len(LINEAR_NAMES)), np.nan)
+        for b, mask in self.masks.items():  # fixed and dropped coefficients of present branches
+            if mask.any():
+                coef[:, [LINEAR_NAMES.index(f"{n}{b}") for n in "ckhf"]] = 0.0
+        coef[:, 0] = self.mass if self.mass is not None else 0.0
+        coef[:, self.free_index] = beta
+        coef[~good] = np.nan
+        rss = np.where(good, rss, np.inf)
+        out = LinearSolution(rss / self.L, coef, np.where(good[:, None], beta, np.nan), rss, R, logdet,
+                             full, np.zeros(m, bool), self.free_names, self.free_index, self.L,
+                             -fit_res if residual else None)
+        if self.mass is None and self.mass_min is not None:
+            self._apply_mass_bound(out, Z, residual)
+        return out
+
+    def _apply_mass_bound(self, out, Z, residual):
+        """Rows with m < mass_min: the constrained optimum of a convex quadratic with one violated
+        bound lies on that bound, so re-solve them with m fixed at mass_min."""
+        bad = out.coef[:, 0] < self.mass_min
+        if not bad.any():
+            return
+        if self._bound_design is None:
+            self._bound_design = LinearDesign(self.signal, self.f, self.mass_min, self.offsets, None, self.m_ref)
+        sub = self._bound_design.solve(Z[bad], residual)
+        out.mse[bad], out.coef[bad], out.bound_active[bad] = sub.mse, sub.coef, True
+        if residual:
+            out.residual[bad] = sub.residual
+
+
+@numba.njit(cache=True, parallel=True, error_model="numpy")
+def _w_solve(Z, good, col, Q, r0, nw, want_residual, residual):
+    """The per-trajectory part of the solve, two or three passes over each row of Z (m, L).
+
+    Pass 1: c1 = QᵀW and ‖W‖² (W: the nw masked w-columns). Pass 2: W̃ = W − Q·c1 on the fly,
+    accumulating W̃ᵀW̃, c2 = QᵀW̃ (re-orthogonalisation: W̃' = W̃ − Q·c2 has W̃'ᵀW̃' = W̃ᵀW̃ − c2ᵀc2
+    and W̃'ᵀr0 = W̃ᵀr0 since Qᵀr0 = 0) and W̃ᵀr0. Then a Cholesky factor Rw of the small Gram
+    matrix, qwy = Rw⁻ᵀ·W̃'ᵀr0, h = Rw⁻¹·qwy and RSS = ‖r0‖² − ‖qwy‖². Pass 3, only when that
+    subtraction would lose more than 4 digits or residuals are wanted: the residual explicitly.
+    A w-column within 1e-10 of the span of the others gets h = 0 and ``full`` False.
+    """
+    m, L = Z.shape
+    q = Q.shape[1]
+    C = np.zeros((m, q, nw))
+    Rw = np.zeros((m, nw, nw))
+    qwy = np.zeros((m, nw))
+    h = np.zeros((m, nw))
+    rss = np.full(m, np.inf)
+    full = np.zeros(m, dtype=np.bool_)
+    r0_2 = 0.0
+    for l in range(L):
+        r0_2 += r0[l] * r0[l]
+    for i in numba.prange(m):
+        if not good[i]:
+            continue
+        c1 = np.zeros((nw, q))
+        norm2 = np.zeros(nw)
+        for l in range(L):
+            k, z = col[l], Z[i, l]
+            norm2[k] += z * z
+            for j in range(q):
+                c1[k, j] += z * Q[l, j]
+        G = np.zeros((nw, nw))
+        c2 = np.zeros((nw, q))
+        b = np.zeros(nw)
+        t = np.zeros(nw)
+        for l in range(L):
+            for k in range(nw):
+                s = Z[i, l] if col[l] == k else 0.0
+                for j in range(q):
+                    s -= Q[l, j] * c1[k, j]
+                t[k] = s
+                b[k] += s * r0[l]
+                for j in range(q):
+                    c2[k, j] += s * Q[l, j]
+            for k in range(nw):
+                for k2 in range(k, nw):
+                    G[k, k2] += t[k] * t[k2]
+        for k in range(nw):
+            for k2 in range(k, nw):
+                for j in range(q):
+                    G[k, k2] -= c2[k, j] * c2[k2, j]
+            for j in range(q):
+                C[i, j, k] = c1[k, j] + c2[k, j]
+        # Cholesky of the (at most 2×2) Gram matrix; a dependent column is dropped (h = 0).
+        ok = True
+        for k in range(nw):
+            d = G[k, k]
+            for k0 in range(k):
+                d -= Rw[i, k0, k] * Rw[i, k0, k]
+            if d > 1e-20 * norm2[k] and d > 0.0:
+                Rw[i, k, k] = np.sqrt(d)
+                for k2 in range(k + 1, nw):
+                    e = G[k, k2]
+                    for k0 in range(k):
+                        e -= Rw[i, k0, k] * Rw[i, k0, k2]
+                    Rw[i, k, k2] = e / Rw[i, k, k]
+                e = b[k]
+                for k0 in range(k):
+                    e -= Rw[i, k0, k] * qwy[i, k0]
+                qwy[i, k] = e / Rw[i, k, k]
+            else:
+                ok = False
+                Rw[i, k, k] = 1.0
+                for k2 in range(k + 1, nw):
+                    Rw[i, k, k2] = 0.0
+        for k in range(nw - 1, -1, -1):
+            e = qwy[i, k]
+            for k2 in range(k + 1, nw):
+                e -= Rw[i, k, k2] * h[i, k2]
+            h[i, k] = e / Rw[i, k, k]
+        full[i] = ok
+        r = r0_2
+        for k in range(nw):
+            r -= qwy[i, k] * qwy[i, k]
+        if want_residual or r < 1e-4 * r0_2:
+            ceff = np.zeros(q)  # Σ_k h_k·(c1_k + c2_k): the Q-part of the fitted w-columns
+            for k in range(nw):
+                for j in range(q):
+                    ceff[j] += h[i, k] * C[i, j, k]
+            r = 0.0
+            for l in range(L):
+                e = r0[l] - h[i, col[l]] * Z[i, l]
+                for j in range(q):
+                    e += Q[l, j] * ceff[j]
+                r += e * e
+                if want_residual:
+                    residual[i, l] = e
+        rss[i] = r
+    return C, Rw, qwy, h, rss, full
+
+
+def _back_substitute(R, b):
+    """Solve R x = b for a batch of small upper-triangular R (m, k, k), b (m, k)."""
+    k = b.shape[1]
+    x = np.zeros_like(b)
+    for i in range(k - 1, -1, -1):
+        x[:, i] = (b[:, i] - np.einsum("mj,mj->m", R[:, i, i + 1:], x[:, i + 1:])) / R[:, i, i]
+    return x
