@@ -27,7 +27,7 @@ import numpy as np
 from scipy.linalg import solve_triangular
 from scipy.special import gammaln
 
-from bwbench.linear_solve import LINEAR_NAMES, LinearSolution
+from bwbench.problems.switched_vpp.linear_solve import LINEAR_NAMES, LinearSolution
 
 
 def log_marginal(sol: LinearSolution, sigma: float | None = None) -> np.ndarray:

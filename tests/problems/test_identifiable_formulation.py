@@ -7,20 +7,22 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from bwbench import excitation, model, synthetic
-from bwbench import formulation as fm
-from bwbench import linear_solve as ls
-from bwbench import marginal as mg
-from bwbench.specimen import read_specimen
+from bwbench.data import manifest
+from bwbench.models import excitation
+from bwbench.models import switched_bouc_wen as model
+from bwbench.problems.switched_vpp import identifiable as fm
+from bwbench.problems.switched_vpp import linear_solve as ls
+from bwbench.problems.switched_vpp import marginal as mg
+from bwbench.data.specimen import read_specimen
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "specimens"
+DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 SPECIMENS = ["pom-mt24u01_0.01MPa_r1", "pom-c9021_0.03MPa_r2", "pc-abs-c12hf_0.07MPa_r3"]
 
 
 def load(name):
     """Measured excitation, measured force and truth parameters of a synthetic specimen."""
     sp = read_specimen(DATA / f"{name}.csv")
-    return excitation.measured(sp.t, sp.x), sp.f, synthetic.truth_params(DATA / f"{name}.csv")
+    return excitation.measured(sp.t, sp.x), sp.f, manifest.truth_params(DATA / f"{name}.csv")
 
 
 def paper_force(p, e, state):
@@ -117,7 +119,7 @@ def test_the_gauge_rule_picks_the_table5_centre_among_equivalent_vectors():
     _, _, p = load("pom-mt24u01_0.01MPa_r1")
     theta, linear = fm.from_paper(p)
     chosen = fm.to_paper(theta, linear).params
-    from bwbench.parameters import LOWER, UPPER
+    from bwbench.data.parameters import LOWER, UPPER
 
     def dist(q):
         return np.sum(((q - LOWER) / (UPPER - LOWER) - 0.5) ** 2)

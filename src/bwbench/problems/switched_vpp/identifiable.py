@@ -46,9 +46,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from bwbench import model
-from bwbench.linear_solve import LINEAR_NAMES, LinearDesign, LinearSolution
-from bwbench.parameters import LOWER, UPPER
+from bwbench.models import switched_bouc_wen as model
+from bwbench.problems.switched_vpp.linear_solve import LINEAR_NAMES, LinearDesign, LinearSolution
+from bwbench.data.parameters import LOWER, UPPER
 
 HYSTERETIC_NAMES = {
     "shared": ("xy+", "n+", "eta+", "xy-", "n-", "eta-", "rho"),
