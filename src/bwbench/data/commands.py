@@ -9,7 +9,9 @@ from bwbench.errors import UserError
 
 
 def check(args) -> int:
-    """Exit 0 if every file is a valid specimen CSV, else 2 with one error line per bad file."""
+    """Exit 0 if every file is a valid specimen CSV, else 2 with one error line per bad file; valid
+    files that are probably not what their header promises get warnings (exit status still 0)."""
+    from bwbench.data import manifest, plausibility
     from bwbench.data.specimen import read_specimen
 
     status = 0
@@ -20,7 +22,12 @@ def check(args) -> int:
             print(f"error: {err}", file=sys.stderr)
             status = 2
         else:
-            print(f"ok: {path}: {spec.n_samples} samples, {spec.duration_s:.1f} s")
+            rate = (spec.n_samples - 1) / spec.duration_s
+            print(f"ok: {path}: {spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s, displacement "
+                  f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N")
+            for text in plausibility.warnings(spec, synthetic=manifest.is_synthetic(path)):
+                print(text if text.startswith("note:") else f"warning: {path}: {text}",
+                      file=sys.stdout if text.startswith("note:") else sys.stderr)
     return status
 
 

@@ -12,8 +12,9 @@ Format::
   No other columns.
 - If the header contains ``;`` the file is a European spreadsheet export: cells are separated by
   ``;`` and a decimal comma (``1,25``) is read as a decimal point.
-- One row per sample, at least ``MIN_SAMPLES`` rows, time strictly increasing, every value finite,
-  and the displacement must actually move. Blank lines are ignored.
+- One row per sample, at least ``MIN_SAMPLES`` rows, time strictly increasing and uniformly
+  sampled (steps within ``SAMPLING_TOLERANCE`` of the median step), every value finite, and the
+  displacement must actually move. Blank lines are ignored.
 
 Every malformed file raises ``InputFileError(path, line, problem)`` with the 1-based line of the
 first offending line (line 1 = header). A file that cannot be opened has no line (``line=None``).
@@ -34,6 +35,11 @@ from bwbench.errors import InputFileError
 
 COLUMNS = ("time_s", "displacement_mm", "force_N")
 MIN_SAMPLES = 20
+# Steps may differ from the median by this fraction (timestamps printed with a few decimals); more is a
+# gap or a change of rate. Refused rather than resampled: the velocity and acceleration the model is
+# driven by come from a Savitzky-Golay filter on an even grid, and resampling silently would change
+# the data the loss is computed on.
+SAMPLING_TOLERANCE = 0.01
 # Below this the test did not move: no hysteresis loop to fit, and velocities are pure noise.
 MIN_DISPLACEMENT_RANGE_MM = 1e-6
 
@@ -233,6 +239,16 @@ def _check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
         )
     if t.size < MIN_SAMPLES:
         raise InputFileError(path, line_of(t.size - 1), f"too few samples: {t.size}, need at least {MIN_SAMPLES}")
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    uneven = np.flatnonzero(np.abs(dt - step) > SAMPLING_TOLERANCE * step)
+    if uneven.size:
+        i = int(uneven[0]) + 1
+        raise InputFileError(
+            path, line_of(i),
+            f"time step {dt[i - 1]:.6g} s here, but the file is sampled every {step:.6g} s: bwbench needs "
+            "uniformly sampled data (resample it first, e.g. numpy.interp onto an even time grid)",
+        )
     span = float(x.max() - x.min())
     if span < MIN_DISPLACEMENT_RANGE_MM:
         raise InputFileError(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from bwbench.data.output_paths import check_writable
+from bwbench.data.output_paths import check_outputs
 from bwbench.errors import UserError
 
 
@@ -34,17 +34,27 @@ def parse_option(text: str):
 
 
 def fit(args) -> int:
+    """Exit 0 with the result JSON (and plot); 1 when no evaluation gave a finite loss (the JSON is
+    still written, with null for what is not finite); 2 for a mistake in the input."""
+    import math
+    import sys
+
     from bwbench.data import manifest
     from bwbench.optimize import fitting
     from bwbench.problems.switched_vpp.commands import problem_from_args
 
     if args.budget < 1:
         raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
-    check_writable(args.out, args.plot)
+    check_outputs({"--out": args.out, "--plot": args.plot}, [args.specimen, getattr(args, "bounds", None)])
     problem = problem_from_args(args)
     options = dict(parse_option(o) for o in args.option)
     result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
     result.write_json(args.out)
+    if not math.isfinite(result.mse):
+        print(f"error: {args.specimen}: none of the {result.nfev} evaluations gave a finite force: the model blows "
+              "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
+              f"{args.out} written with null values", file=sys.stderr)
+        return 1
     if args.plot:
         from bwbench.problems.switched_vpp.figures import plot_fit
 
@@ -68,6 +78,8 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                         help="backend option, repeatable (see `bwbench optimizers`)")
     add_model_options(parser)
+    parser.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper] "
+                                                             "(names left out keep the default range)")
     parser.add_argument("--out", required=True, help="result JSON")
     parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
     parser.set_defaults(func=fit)

@@ -60,7 +60,26 @@ class Result:
         return out
 
     def write_json(self, path) -> None:
+        """The result as strict JSON: a value that is not finite (a fit that never found a finite
+        loss) is written as null, never as NaN or Infinity."""
         with open(path, "w", encoding="utf-8") as fh:
-            json.dump(self.to_json_dict(), fh, indent=2, default=float)
+            json.dump(finite_or_null(self.to_json_dict()), fh, indent=2, allow_nan=False)
             fh.write("\n")
+
+
+def finite_or_null(value):
+    """``value`` with every non-finite float (recursively, numpy scalars included) replaced by None."""
+    if isinstance(value, dict):
+        return {k: finite_or_null(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite_or_null(v) for v in value]
+    if isinstance(value, (bool, str)) or value is None:
+        return value
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return value
+    if not math.isfinite(number):
+        return None
+    return int(value) if isinstance(value, int) else number
 

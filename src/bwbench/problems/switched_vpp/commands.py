@@ -6,6 +6,8 @@ import argparse
 import json
 import math
 
+from bwbench.optimize.result import finite_or_null
+
 
 def add_model_options(p) -> None:
     p.add_argument("--state", choices=["shared", "split"], default="shared",
@@ -15,10 +17,16 @@ def add_model_options(p) -> None:
 
 
 def problem_from_args(args):
+    """The problem of ``args.specimen`` with the command's state, excitation and ``--bounds``."""
+    from bwbench.data import bounds as bounds_mod
     from bwbench.data.specimen import read_specimen
     from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 
-    return SwitchedBoucWenProblem(read_specimen(args.specimen), args.state, args.excitation)
+    problem = SwitchedBoucWenProblem(read_specimen(args.specimen), args.state, args.excitation)
+    if getattr(args, "bounds", None):
+        box = bounds_mod.read_json(args.bounds, problem.param_names)
+        problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
+    return problem
 
 
 def fit_metrics(mse: float, n: int) -> dict:
@@ -29,9 +37,9 @@ def simulate(args) -> int:
     import pandas as pd
 
     from bwbench.data.parameters import read_json
-    from bwbench.data.output_paths import check_writable
+    from bwbench.data.output_paths import check_outputs
 
-    check_writable(args.out)
+    check_outputs({"--out": args.out}, [args.specimen, args.params])
     params = read_json(args.params)
     problem = problem_from_args(args)
     force = problem.simulate(params)
@@ -42,8 +50,8 @@ def simulate(args) -> int:
     })
     frame.to_csv(args.out, index=False, float_format="%.6g")
     mse = float(problem.loss_batch(params[None, :])[0])
-    print(json.dumps({"out": str(args.out), **fit_metrics(mse, len(force))}))
-    return 0
+    print(json.dumps(finite_or_null({"out": str(args.out), **fit_metrics(mse, len(force))})))
+    return _not_finite(args, mse)
 
 
 def evaluate(args) -> int:
@@ -52,8 +60,19 @@ def evaluate(args) -> int:
     params = read_json(args.params)
     problem = problem_from_args(args)
     mse = float(problem.loss_batch(params[None, :])[0])
-    print(json.dumps({**fit_metrics(mse, problem.specimen.n_samples), **problem.info}, indent=2))
-    return 0
+    print(json.dumps(finite_or_null({**fit_metrics(mse, problem.specimen.n_samples), **problem.info}), indent=2))
+    return _not_finite(args, mse)
+
+
+def _not_finite(args, mse: float) -> int:
+    """1 with one line when these parameters blow the model up on this specimen, else 0."""
+    if math.isfinite(mse):
+        return 0
+    import sys
+
+    print(f"error: {args.specimen}: the model blows up with the parameters of {args.params} (force not finite); "
+          "the JSON above says null", file=sys.stderr)
+    return 1
 
 
 def add_simulate_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,0 +1,64 @@
+"""``bwbench fit``, ``evaluate`` and ``simulate`` refuse outputs they cannot or must not write before
+any work is done, and a fit that finds nothing finite exits non-zero with strict JSON."""
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from bwbench.cli import main
+
+SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
+# β + γ < 0 with n ≥ 4.5: |z| runs away on loading, in both branches, everywhere in this box
+RUNAWAY = {"n+": [9.0, 10.75], "n-": [4.5, 5.0], "gamma+": [-7.5, -7.0], "beta+": [0.1, 0.2],
+           "gamma-": [-5.0, -4.5], "beta-": [0.001, 0.002]}
+
+
+@pytest.fixture
+def folder(tmp_path, monkeypatch):
+    shutil.copy(SPECIMEN, tmp_path / "s.csv")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def one_error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: "), err
+    return err[0]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--out", "s.csv"], "--out s.csv is an input of this command"),
+    (["--out", "r.json", "--plot", "./s.csv"], "--plot s.csv is an input of this command"),
+    (["--out", "r.json", "--plot", "fit.txt"], "--plot fit.txt: the figure format comes from the extension"),
+    (["--out", "fit.png", "--plot", "./fit.png"], "two outputs name the same file"),
+    (["--out", "/proc/bwbench-test.json"], "cannot write /proc/bwbench-test.json"),
+    (["--out", "no/such/folder/r.json"], "folder"),
+    (["--out", "."], "it is a folder"),
+])
+def test_bad_outputs_are_refused_before_the_fit(folder, capsys, args, message):
+    before = sorted(p.name for p in folder.iterdir())
+    assert main(["fit", "s.csv", "--optimizer", "random", "--budget", "20", *args]) == 2
+    assert message in one_error_line(capsys)
+    assert sorted(p.name for p in folder.iterdir()) == before  # nothing written, the input untouched
+    assert (folder / "s.csv").read_bytes() == SPECIMEN.read_bytes()
+
+
+def test_a_fit_that_finds_nothing_finite_exits_1_with_strict_json(folder, capsys):
+    (folder / "box.json").write_text(json.dumps(RUNAWAY))
+    assert main(["fit", "s.csv", "--optimizer", "random", "--budget", "30", "--bounds", "box.json",
+                 "--out", "r.json", "--plot", "r.png"]) == 1
+    assert "none of the 30 evaluations gave a finite force" in one_error_line(capsys)
+    result = json.loads((folder / "r.json").read_text(), parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
+    assert result["mse"] is None and result["rmse_N"] is None and result["params"]["A+"] is None
+    assert result["nfev"] == 30 and not (folder / "r.png").exists()
+
+
+def test_evaluate_of_a_blowing_up_set_prints_null_and_exits_1(folder, capsys):
+    truth = json.loads((SPECIMEN.parent / "manifest.json").read_text())["specimens"][0]["truth"]
+    runaway = {"beta+": 0.1, "gamma+": -7.5, "n+": 10.0, "beta-": 0.001, "gamma-": -5.0, "n-": 5.0}
+    (folder / "p.json").write_text(json.dumps({**truth, **runaway}))
+    assert main(["evaluate", "--params", "p.json", "--specimen", "s.csv"]) == 1
+    out = capsys.readouterr()
+    assert json.loads(out.out)["mse"] is None and "the model blows up" in out.err
