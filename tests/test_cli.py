@@ -67,7 +67,7 @@ def test_non_numeric_parameter_is_refused(tmp_path, capsys, truth_json):
 @pytest.mark.parametrize("flag", ["--out", "--plot"])
 def test_fit_refuses_an_output_folder_that_does_not_exist_before_fitting(tmp_path, capsys, flag):
     paths = {"--out": str(tmp_path / "r.json"), "--plot": str(tmp_path / "r.png")}
-    paths[flag] = str(tmp_path / "missing" / "x")
+    paths[flag] = str(tmp_path / "missing" / "x.png")
     argv = ["fit", str(SPECIMEN), "--optimizer", "random", "--budget", "10", "--out", paths["--out"],
             "--plot", paths["--plot"]]
     assert main(argv) == 2
