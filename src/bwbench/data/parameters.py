@@ -32,12 +32,12 @@ def to_dict(params) -> dict[str, float]:
     return {name: float(value) for name, value in zip(PARAM_NAMES, params)}
 
 
-def from_dict(values: dict, source: str = "parameters") -> np.ndarray:
-    missing = [name for name in PARAM_NAMES if name not in values]
+def from_dict(values: dict, source: str = "parameters", names=PARAM_NAMES) -> np.ndarray:
+    missing = [name for name in names if name not in values]
     if missing:
         raise InputFileError(source, None, f"missing parameter(s): {', '.join(missing)}")
     out = []
-    for name in PARAM_NAMES:
+    for name in names:
         value = values[name]
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise InputFileError(source, None, f"parameter {name!r} must be a finite number, got {value!r}")
@@ -45,8 +45,9 @@ def from_dict(values: dict, source: str = "parameters") -> np.ndarray:
     return np.array(out)
 
 
-def read_json(path) -> np.ndarray:
-    """A parameters JSON: an object with the 14 names (or a fit result with a ``params`` object)."""
+def read_json(path, names=PARAM_NAMES) -> np.ndarray:
+    """A parameters JSON: an object with the ``names`` (default the paper's 14), or a fit result with
+    a ``params`` object; values in the order of ``names``."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -59,8 +60,21 @@ def read_json(path) -> np.ndarray:
     if isinstance(data, dict) and isinstance(data.get("params"), dict):
         data = data["params"]
     if not isinstance(data, dict):
-        raise InputFileError(path, 1, "expected a JSON object with the 14 parameter names")
-    return from_dict(data, str(path))
+        raise InputFileError(path, 1, "expected a JSON object with the parameter names")
+    return from_dict(data, str(path), names)
+
+
+def read_for(path, problem) -> np.ndarray:
+    """The parameters of ``path`` in ``problem``'s coordinates: its own names, or the paper's 14
+    mapped into the identifiable formulation when that is the problem's."""
+    try:
+        return read_json(path, problem.param_names)
+    except InputFileError:
+        if getattr(problem, "formulation", "paper") != "identifiable":
+            raise
+    from bwbench.problems.switched_vpp.identifiable import from_paper
+
+    return from_paper(read_json(path), problem.state)[0]
 
 
 def write_json(path, params) -> None:

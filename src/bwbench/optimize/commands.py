@@ -61,6 +61,8 @@ def fit(args) -> int:
         plot_fit(problem, result, args.plot, synthetic=manifest.is_synthetic(args.specimen))
     print(f"{args.optimizer}: MSE {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE {result.rmse_N:.3g} N) "
           f"in {result.nfev} evaluations, {result.wall_s:.2f} s -> {args.out}")
+    for note in getattr(problem, "notes", []):
+        print(f"  linear solve: {note}")
     return 0
 
 

@@ -37,6 +37,8 @@ def run(problem, optimizer: str, budget: int, seed, options: dict | None = None)
     wall = time.perf_counter() - started
     if objective.best_u is None:
         params = {name: float("nan") for name in problem.param_names}
+    elif hasattr(problem, "parameters"):  # a problem may report more than its search coordinates
+        params = problem.parameters(objective.best_params)
     else:
         params = {name: float(v) for name, v in zip(problem.param_names, objective.best_params)}
     seed_value = seed if not isinstance(seed, np.random.SeedSequence) else int(seed.generate_state(1)[0])

@@ -87,6 +87,9 @@ class ProblemSetup:
     specimens: tuple
     available: dict
     data_location: str | dict | None = None
+    # Variants of the problem compared side by side, (label, settings) each; () = one, ``settings``.
+    # Every backend runs on every variant; a run is labelled "backend [label]".
+    variants: tuple = ()
 
 
 class ProblemType:

@@ -88,6 +88,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     own.add_argument("--name", default="study", help="study name (default 'study': database ./study.sqlite)")
     own.add_argument("--state", default="shared", help="hysteretic state convention: shared (default) or split")
     own.add_argument("--excitation", default="measured", help="measured (default) or sine")
+    own.add_argument("--formulation", default="paper",
+                     help="paper (default), identifiable, or paper,identifiable to compare both side by side")
     own.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
     parser.add_argument("--db", help="SQLite database (default: <name>.sqlite next to the TOML, or in the current "
                                      "folder with --specimens)")
@@ -143,11 +145,12 @@ def study_config(args):
     bounds = None
     if args.bounds is not None:
         from bwbench.data import bounds as bounds_mod
-        from bwbench.models.switched_bouc_wen import PARAM_NAMES
+        from bwbench.problems.switched_vpp.study import bound_names
 
-        bounds = bounds_mod.read_json(args.bounds, PARAM_NAMES)
+        bounds = bounds_mod.read_json(args.bounds, bound_names(args.formulation.split(","), args.state))
     return config_from_arguments(args.specimens, args.optimizers, args.seeds, args.budget, name=args.name,
-                                 seed=args.seed, state=args.state, excitation=args.excitation, bounds=bounds)
+                                 seed=args.seed, state=args.state, excitation=args.excitation, bounds=bounds,
+                                 formulation=args.formulation)
 
 
 def run_cli(argv=None, prog: str | None = None) -> int:

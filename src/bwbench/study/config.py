@@ -269,7 +269,8 @@ def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
 
 
 def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *, name: str = "study", seed: int = 0,
-                          state: str = "shared", excitation: str = "measured", bounds=None) -> StudyConfig:
+                          state: str = "shared", excitation: str = "measured", bounds=None,
+                          formulation: str = "paper") -> StudyConfig:
     """A study of the switched model over the files ``specimens`` (paths or globs, relative to the
     current folder) with no TOML and no manifest: ``bwbench compare --specimens ...``."""
     def fail(message):
@@ -290,6 +291,7 @@ def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *
     resolved = {backend: _resolve_options(fail, f"--optimizers {backend}", backend, {}) for backend in names}
     root = Path.cwd()
     setup = problems.get(problems.DEFAULT).setup_from_files(fail, list(specimens), root, state=state,
-                                                             excitation=excitation, bounds=bounds)
+                                                             excitation=excitation, bounds=bounds,
+                                                             formulation=formulation)
     return StudyConfig(path="--specimens", root=root, name=name, seed=seed, budget=budget, seeds=seeds,
                        problem=problems.DEFAULT, setup=setup, optimizers=resolved, posterior=None)

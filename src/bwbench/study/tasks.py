@@ -29,14 +29,19 @@ class Task:
     """One run: everything a worker needs, picklable, no reference to the configuration file."""
 
     kind: str  # "ranking" or "posterior"
-    optimizer: str
+    optimizer: str  # the run's label: the backend, or "backend [variant]" when the problem has variants
     replicate: int  # 0-based
     entropy: int  # the study seed
     budget: int
     options: dict  # resolved (defaults merged)
     problem: str  # problem type name
-    settings: dict  # the problem type's settings
+    settings: dict  # the problem type's settings (of this variant)
     entry: SpecimenEntry
+    backend: str = ""  # the registered backend ("" = optimizer)
+
+    @property
+    def backend_name(self) -> str:
+        return self.backend or self.optimizer
 
     @property
     def specimen(self) -> str:
@@ -57,18 +62,27 @@ def task_seed(entropy: int, kind: str, specimen: str, optimizer: str, replicate:
 def plan_tasks(config: StudyConfig) -> list[Task]:
     """Every run of the study: posterior runs first (the longest), then the ranking, replicate by
     replicate, so a study stopped early has every backend on the same specimens."""
-    def task(kind, entry, optimizer, replicate, budget, options):
-        return Task(kind, optimizer, replicate, config.seed, budget, options, config.problem, config.settings, entry)
+    def task(kind, entry, backend, replicate, budget, options, variant=("", None)):
+        label, settings = variant
+        return Task(kind, run_label(backend, label), replicate, config.seed, budget, options, config.problem,
+                    settings or config.settings, entry, backend if label else "")
 
+    variants = config.setup.variants or (("", config.settings),)
     tasks = []
     p = config.posterior
-    if p is not None:
-        tasks += [task("posterior", entry, p.optimizer, r, p.budget, p.options)
+    if p is not None:  # the posterior samples the last variant (the identifiable formulation, when both are)
+        tasks += [task("posterior", entry, p.optimizer, r, p.budget, p.options, variants[-1])
                   for r in range(p.seeds) for entry in p.specimens]
-    tasks += [task("ranking", entry, optimizer, r, config.budget, options)
+    tasks += [task("ranking", entry, optimizer, r, config.budget, options, variant)
               for r in range(config.seeds) for entry in config.specimens
-              for optimizer, options in config.optimizers.items()]
+              for variant in variants for optimizer, options in config.optimizers.items()]
     return tasks
+
+
+def run_label(backend: str, variant: str) -> str:
+    """How a run's optimiser is named in the store and the report: "cmaes", or "cmaes [identifiable]"
+    when the study compares variants of the problem side by side."""
+    return f"{backend} [{variant}]" if variant else backend
 
 
 def run_task(task: Task) -> dict:
@@ -98,8 +112,9 @@ def run_task(task: Task) -> dict:
     started = time.perf_counter()
     try:
         problem = problem_type.make_problem(task.settings, task.entry)
-        seed = task_seed(task.entropy, task.kind, task.specimen, task.optimizer, task.replicate)
-        result = fitting.run(problem, task.optimizer, task.budget, seed, task.options)
+        # The seed follows the backend, not the label: the variants of a run share its random stream.
+        seed = task_seed(task.entropy, task.kind, task.specimen, task.backend_name, task.replicate)
+        result = fitting.run(problem, task.backend_name, task.budget, seed, task.options)
         chain = _chain_columns(result.extras)
         metrics = problem_type.run_metrics(problem, result)
         columns = problem_type.record_columns(task.settings, task.entry, result)

@@ -14,19 +14,21 @@ def add_model_options(p) -> None:
                    help="hysteretic state convention (default: shared)")
     p.add_argument("--excitation", choices=["measured", "sine"], default="measured",
                    help="measured: the specimen's own displacement (default); sine: the paper's fit")
+    p.add_argument("--formulation", choices=["paper", "identifiable"], default="paper",
+                   help="paper: the 14 parameters in Table 5 (default); identifiable: symmetry-free hysteretic "
+                        "parameters in a box scaled from the data, linear coefficients solved")
 
 
 def problem_from_args(args):
     """The problem of ``args.specimen`` with the command's state, excitation and ``--bounds``."""
     from bwbench.data import bounds as bounds_mod
     from bwbench.data.specimen import read_specimen
-    from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+    from bwbench.problems.switched_vpp.study import bound_names, make_problem
 
-    problem = SwitchedBoucWenProblem(read_specimen(args.specimen), args.state, args.excitation)
+    settings = {"state": args.state, "excitation": args.excitation, "formulation": args.formulation}
     if getattr(args, "bounds", None):
-        box = bounds_mod.read_json(args.bounds, problem.param_names)
-        problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
-    return problem
+        settings["bounds"] = bounds_mod.read_json(args.bounds, bound_names([args.formulation], args.state))
+    return make_problem(read_specimen(args.specimen), settings)
 
 
 def fit_metrics(mse: float, n: int) -> dict:
@@ -36,12 +38,12 @@ def fit_metrics(mse: float, n: int) -> dict:
 def simulate(args) -> int:
     import pandas as pd
 
-    from bwbench.data.parameters import read_json
+    from bwbench.data.parameters import read_for
     from bwbench.data.output_paths import check_outputs
 
     check_outputs({"--out": args.out}, [args.specimen, args.params])
-    params = read_json(args.params)
     problem = problem_from_args(args)
+    params = read_for(args.params, problem)
     force = problem.simulate(params)
     s = problem.signal
     frame = pd.DataFrame({
@@ -55,10 +57,10 @@ def simulate(args) -> int:
 
 
 def evaluate(args) -> int:
-    from bwbench.data.parameters import read_json
+    from bwbench.data.parameters import read_for
 
-    params = read_json(args.params)
     problem = problem_from_args(args)
+    params = read_for(args.params, problem)
     mse = float(problem.loss_batch(params[None, :])[0])
     print(json.dumps(finite_or_null({**fit_metrics(mse, problem.specimen.n_samples), **problem.info}), indent=2))
     return _not_finite(args, mse)
@@ -76,7 +78,7 @@ def _not_finite(args, mse: float) -> int:
 
 
 def add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names)")
+    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
     parser.add_argument("--specimen", required=True, help="specimen CSV")
     add_model_options(parser)
     parser.add_argument("--out", required=True, help="output CSV")
@@ -84,7 +86,7 @@ def add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names)")
+    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
     parser.add_argument("--specimen", required=True, help="specimen CSV")
     add_model_options(parser)
     parser.set_defaults(func=evaluate)

@@ -46,9 +46,12 @@ class SwitchedBoucWenProblem:
         """Number of force samples the loss averages over (the L of eq 6)."""
         return self.specimen.n_samples
 
+    formulation = "paper"
+
     @property
     def info(self) -> dict:
-        return {"specimen": self.specimen.name, "state": self.state, "excitation": self.excitation}
+        return {"specimen": self.specimen.name, "state": self.state, "excitation": self.excitation,
+                "formulation": self.formulation}
 
     def from_unit(self, U) -> np.ndarray:
         return self.lower + np.asarray(U, dtype=float) * (self.upper - self.lower)
@@ -60,6 +63,11 @@ class SwitchedBoucWenProblem:
         """Model force (N) at the specimen's sample times; +inf everywhere on blow-up."""
         s = self.signal
         return model.simulate(params, s.t, s.x, s.v, s.a, self.state)
+
+    def residual_batch(self, P) -> np.ndarray:
+        """Model − measured force (N), shape (m, L); rows of +inf where the model blows up."""
+        P = np.atleast_2d(np.asarray(P, dtype=float))
+        return np.stack([self.simulate(p) for p in P]) - self.specimen.f
 
     def loss_batch(self, P) -> np.ndarray:
         """MSE (N²) of each row of P (physical units, shape (m, 14)); +inf where it blows up."""

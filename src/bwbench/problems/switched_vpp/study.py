@@ -46,13 +46,18 @@ class SwitchedVPP(ProblemType):
     description = "the paper's switched Bouc-Wen model fitted to force-displacement specimens (loss: MSE in N²)"
     loss_unit = "N²"
     residual_unit = "N"
-    study_keys = ("state", "excitation", "data")
+    study_keys = ("state", "excitation", "data", "formulation", "fix_mass")
     tables = ("specimens", "bounds")
 
     # ------------------------------------------------------------------------ configuration
     def configure(self, fail, study, document, base_dir, data_override=None) -> ProblemSetup:
         state = choice(fail, "[study] state", study.get("state", "shared"), model.STATES)
         excitation = choice(fail, "[study] excitation", study.get("excitation", "measured"), EXCITATIONS)
+        formulations = _formulations(fail, study.get("formulation", "paper"))
+        fix_mass = study.get("fix_mass", "auto")
+        if not (fix_mass == "auto" or (isinstance(fix_mass, (int, float)) and not isinstance(fix_mass, bool)
+                                       and fix_mass >= 0)):
+            fail(f"[study] fix_mass must be \"auto\" or a mass ≥ 0 in N·s²/mm, got {fix_mass!r}")
         table = document.get("specimens", {})
         if not isinstance(table, dict):
             fail("[specimens] must be a table: files = [...] or manifest filters")
@@ -71,37 +76,42 @@ class SwitchedVPP(ProblemType):
             from bwbench.errors import InputFileError
 
             try:
-                bounds = validate(document["bounds"], model.PARAM_NAMES, "[bounds]")
+                bounds = validate(document["bounds"], bound_names(formulations, state), "[bounds]")
             except InputFileError as err:
                 fail(err.problem if err.problem.startswith("[") else f"[bounds] {err.problem}")
-        return self.setup(state, excitation, entries, available, bounds)
+        return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass)
 
-    def setup_from_files(self, fail, files, base_dir, state="shared", excitation="measured", bounds=None):
+    def setup_from_files(self, fail, files, base_dir, state="shared", excitation="measured", bounds=None,
+                         formulation="paper"):
         choice(fail, "--state", state, model.STATES)
         choice(fail, "--excitation", excitation, EXCITATIONS)
-        return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"), bounds=bounds)
+        formulations = _formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
+        return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"),
+                          bounds=bounds, formulations=formulations)
 
-    def setup(self, state, excitation, entries, available=None, bounds=None) -> ProblemSetup:
-        """The ``ProblemSetup`` of these specimens (``SpecimenEntry`` with ``meta["sha256"]``)."""
+    def setup(self, state, excitation, entries, available=None, bounds=None, formulations=("paper",),
+              fix_mass="auto") -> ProblemSetup:
+        """The ``ProblemSetup`` of these specimens (``SpecimenEntry`` with ``meta["sha256"]``); several
+        formulations are variants compared side by side."""
         bounds = {k: list(v) for k, v in (bounds or {}).items()}
         settings = {"state": state, "excitation": excitation, **({"bounds": bounds} if bounds else {})}
+        identity = dict(settings)
+        if list(formulations) != ["paper"]:  # absent for the paper's: studies stored before stay the same
+            identity["formulation"] = formulations[0] if len(formulations) == 1 else list(formulations)
+            identity["fix_mass"] = fix_mass
+        variants = [(f, {**settings, "formulation": f, "fix_mass": fix_mass}) for f in formulations]
         return ProblemSetup(
-            settings=settings, study_json=dict(settings),
+            settings=variants[0][1], study_json=identity,
             specimens_json={e.name: e.meta["sha256"] for e in entries},
             specimens=tuple(entries), available=available or {e.name: e for e in entries},
             data_location={e.name: str(Path(e.path).resolve()) for e in entries},
+            variants=tuple(variants) if len(variants) > 1 else (),
         )
 
     def make_problem(self, settings, entry):
-        from bwbench.data import bounds as bounds_mod
         from bwbench.data.specimen import read_specimen
-        from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 
-        problem = SwitchedBoucWenProblem(read_specimen(entry.path), settings["state"], settings["excitation"])
-        if settings.get("bounds"):
-            problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names,
-                                                            settings["bounds"])
-        return problem
+        return make_problem(read_specimen(entry.path), settings)
 
     def record_columns(self, settings, entry, result=None) -> dict:
         columns = {"state": settings.get("state"), "excitation": settings.get("excitation"), **entry.meta}
@@ -152,6 +162,51 @@ class SwitchedVPP(ProblemType):
         from bwbench.problems.switched_vpp import report as sections
 
         return sections.limits(report)
+
+
+FORMULATIONS = ("paper", "identifiable")
+
+
+def make_problem(specimen, settings: dict):
+    """The problem of one specimen for settings with state, excitation and optionally formulation,
+    fix_mass and bounds (names the formulation does not have are left to the other one)."""
+    from bwbench.data import bounds as bounds_mod
+
+    formulation = settings.get("formulation", "paper")
+    box = {k: tuple(v) for k, v in settings.get("bounds", {}).items()}
+    if formulation == "identifiable":
+        from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
+
+        problem = IdentifiableProblem(specimen, settings["state"], settings["excitation"],
+                                      fix_mass=settings.get("fix_mass", "auto"))
+    else:
+        from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+
+        problem = SwitchedBoucWenProblem(specimen, settings["state"], settings["excitation"])
+    box = {k: v for k, v in box.items() if k in problem.param_names}
+    problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
+    return problem
+
+
+def bound_names(formulations, state: str) -> tuple:
+    """The parameter names a search box may set for these formulations."""
+    from bwbench.problems.switched_vpp.identifiable import hysteretic_names
+
+    names = list(model.PARAM_NAMES) if "paper" in formulations else []
+    if "identifiable" in formulations:
+        names += [n for n in hysteretic_names(state) if n not in names]
+    return tuple(names)
+
+
+def _formulations(fail, value) -> tuple:
+    values = [value] if isinstance(value, str) else value
+    if not isinstance(values, list) or not values or not all(isinstance(v, str) for v in values):
+        fail(f"formulation must be one of {', '.join(map(repr, FORMULATIONS))} or a list of them, got {value!r}")
+    for v in values:
+        choice(fail, "formulation", v, FORMULATIONS)
+    if len(set(values)) != len(values):
+        fail("formulation lists a formulation twice")
+    return tuple(values)
 
 
 def specimens_from_files(fail, patterns, base_dir: Path, label: str) -> list[SpecimenEntry]:
