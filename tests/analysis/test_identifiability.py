@@ -92,3 +92,20 @@ def test_posterior_correlation_and_strongest_pairs():
     corr = identifiability.posterior_correlation(x, ["p", "q", "r"])
     (a, b, r), *_ = identifiability.strongest_pairs(corr, 2)
     assert (a, b) == ("p", "r") and r < -0.99
+
+
+def test_an_exact_invariance_stays_zero_along_a_path_and_a_flat_spot_does_not():
+    # y(a, b, c) = a·b·exp(−T) + 20(c − ½)²·sin(T): a·b is an exact (curved) invariance everywhere; at c = ½
+    # the c direction is flat (zero derivative) at the point only.
+    def flat_at_zero(u):
+        a, b, c = u
+        return a * b * np.exp(-T) + 20 * (c - 0.5) ** 2 * np.sin(T)
+
+    u = np.array([0.4, 0.6, 0.5])
+    sens = identifiability.sensitivity(flat_at_zero, u, ["a", "b", "c"])
+    assert sens.ratios[-2] < identifiability.ZERO_RATIO and sens.ratios[-1] < identifiability.ZERO_RATIO
+    scale = float(np.linalg.norm(flat_at_zero(u)))
+    product = identifiability.follow_invariance(flat_at_zero, u, np.array([0.4, -0.6, 0.0]) / 0.72, scale)
+    assert product["exact"] and product["length"] == pytest.approx(0.1) and product["change"] < 1e-9
+    flat = identifiability.follow_invariance(flat_at_zero, u, np.array([0.0, 0.0, 1.0]), scale)
+    assert not flat["exact"] and flat["change"] > 1e-4

@@ -49,3 +49,26 @@ def test_cli_refuses_parameters_outside_table5(tmp_path):
     params.write_text(json.dumps(truth))
     with pytest.raises(UserError, match="A\\+"):
         _cli([str(SPECIMEN), "--params", str(params)])
+
+
+@pytest.mark.parametrize("state, names", [("shared", ["z → s·z in both branches"]),
+                                          ("split", ["z₊ → s·z₊", "z₋ → s·z₋"])])
+def test_the_exact_symmetry_is_named_and_verified_along_its_orbit(state, names):
+    result = identifiability.analyse(SPECIMEN, manifest.truth_params(SPECIMEN), state)
+    assert [s["name"] for s in result["symmetries"]] == names
+    for s in result["symmetries"]:
+        assert s["max_force_change_N"] < 1e-9 and s["in_null_space"] > 0.99
+    # what the symmetry does not explain is followed over a path: some of it is only a flat spot here
+    assert len(result["null_directions"]) == result["numerically_zero"] - len(names)
+    assert any(not d["exact"] for d in result["null_directions"])
+    assert all(d["length"] > 0 for d in result["null_directions"])
+
+
+def test_the_identifiable_coordinates_have_no_symmetry(tmp_path):
+    from bwbench.problems.switched_vpp.identifiable import from_paper
+
+    theta, _ = from_paper(manifest.truth_params(SPECIMEN), "shared")
+    result = identifiability.analyse(SPECIMEN, theta, "shared", formulation="identifiable")
+    assert result["symmetries"] == [] and result["names"][-1] == "rho"
+    assert result["numerically_zero"] <= 1 and not any(d["exact"] for d in result["null_directions"])
+    assert "identifiable formulation" in identifiability.format_text(result)

@@ -163,6 +163,63 @@ def sensitivity(residual, u, names, labels=None, step: float = STEP, bounds=(0.0
     return Sensitivity(names, tuple(labels or names), u, float(r0 @ r0), r0.size, s, vt)
 
 
+def follow_invariance(residual, u, direction, scale: float, length: float = 0.1, steps: int = 5,
+                      step: float = STEP, bounds=(0.0, 1.0)) -> dict:
+    """Follow the near-null ``direction`` from ``u`` over a finite path and say whether it is an
+    invariance of the model to round-off, not just a flat spot at one point.
+
+    Predictor–corrector path following: a step of ``length/steps`` along the current direction, then
+    Gauss–Newton corrections orthogonal to it back onto the level set r(u) = r(u₀), and the direction
+    re-linearised (the near-null direction closest to the previous one), so a curved invariance such
+    as a scaling symmetry is followed. It is *exact* when, at every point of the path, the relative
+    singular value along it stays below ``ZERO_RATIO`` and, at the end, the residual differs from the
+    start by less than ``ZERO_RATIO`` of ``scale`` (the size of the data, e.g. ‖measured force‖): the
+    corrections cannot undo a change along the direction itself, so a flat spot (zero slope at one
+    point only) fails. Returns ``exact``, ``max_ratio`` (largest relative singular value met),
+    ``change`` (‖Δr‖/scale between the ends), ``length`` (unit length followed; shorter when a bound
+    stops it).
+    """
+    u = np.array(u, dtype=float)
+    v = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    v = v if v[np.argmax(np.abs(v))] > 0 else -v
+    r0 = np.asarray(residual(u), dtype=float)
+    travelled, max_ratio = 0.0, 0.0
+
+    def finite_jacobian(at):
+        J = jacobian(residual, at, step, bounds)
+        return J if np.all(np.isfinite(J)) else None
+
+    for _ in range(steps):
+        target = u + (length / steps) * v
+        if bounds is not None and (np.any(target < bounds[0]) or np.any(target > bounds[1])):
+            break
+        u, travelled = target, travelled + length / steps
+        orthogonal = np.eye(u.size) - np.outer(v, v)
+        for _ in range(2):  # corrector: back to the level set, without moving along v
+            J = finite_jacobian(u)
+            if J is None:
+                return {"exact": False, "max_ratio": math.inf, "change": math.inf, "length": travelled}
+            shift = np.linalg.lstsq(J @ orthogonal, np.asarray(residual(u), dtype=float) - r0, rcond=1e-9)[0]
+            u = u - orthogonal @ shift
+            if bounds is not None:
+                u = np.clip(u, *bounds)
+        J = finite_jacobian(u)
+        if J is None:
+            return {"exact": False, "max_ratio": math.inf, "change": math.inf, "length": travelled}
+        _, s, vt = np.linalg.svd(J, full_matrices=False)
+        near = vt[s <= 1e-3 * s[0]]
+        near = near if len(near) else vt[-1:]
+        projected = near.T @ (near @ v)  # the null-space direction closest to where we were going
+        if np.linalg.norm(projected) < 0.9:  # the direction has left the null space: a flat spot
+            max_ratio = max(max_ratio, float(np.linalg.norm(J @ v) / s[0]))
+            break
+        v = projected / np.linalg.norm(projected)
+        max_ratio = max(max_ratio, float(np.linalg.norm(J @ v) / s[0]))
+    change = float(np.linalg.norm(np.asarray(residual(u), dtype=float) - r0) / (scale or 1.0))
+    exact = travelled > 0 and max_ratio < ZERO_RATIO and change < ZERO_RATIO
+    return {"exact": bool(exact), "max_ratio": max_ratio, "change": change, "length": travelled}
+
+
 def profile(loss_batch, u_best, index: int, grid, maxiter: int = 15, step: float = STEP) -> pd.DataFrame:
     """Profile of the loss along coordinate ``index``: at each grid value (unit coordinates) the
     other coordinates are re-optimised by scipy's L-BFGS-B on [0, 1], and the lowest loss found

@@ -13,7 +13,9 @@ import sys
 
 import numpy as np
 
-from bwbench.analysis.identifiability import POOR_SE, STEP, ZERO_RATIO, profile, sensitivity
+from bwbench.analysis.identifiability import (
+    POOR_SE, STEP, ZERO_RATIO, describe_direction, follow_invariance, profile, sensitivity,
+)
 from bwbench.errors import UserError
 
 
@@ -22,50 +24,54 @@ def _finite(x):
 
 
 def analyse(specimen_path, params, state: str = "shared", excitation: str = "measured", *,
-            profile_names=(), profile_widest: int = 0, grid: int = 9, maxiter: int = 15, step: float = STEP,
-            weakest: int = 3) -> dict:
-    """Identifiability of the 14 parameters ``params`` (physical units) on one specimen.
+            formulation: str = "paper", bounds: dict | None = None, profile_names=(), profile_widest: int = 0,
+            grid: int = 9, maxiter: int = 15, step: float = STEP, weakest: int = 3) -> dict:
+    """Identifiability of the parameters ``params`` (physical units, the formulation's coordinates)
+    on one specimen.
 
     Returns a JSON-ready dict: fit quality, singular values (absolute, N per unit range, and
-    relative), condition number, the ``weakest`` directions with parameter names, the number of
+    relative), condition number, the ``weakest`` directions with parameter names, the exact
+    symmetries of the model (``symmetries``: named, checked along a finite orbit) and the other
+    numerically zero directions classified by following them over a finite path
+    (``null_directions``: invariant to round-off, or only weakly determined), the number of
     undetermined directions, per parameter the free range (physical units and fraction of the
-    Table 5 range) and standard error, the poorly determined parameters, and a profile (unit grid
-    of ``grid`` points over the range, MSE in N²) for each name in ``profile_names`` and for the
+    search range) and standard error, the poorly determined parameters, and a profile (unit grid of
+    ``grid`` points over the range, MSE in N²) for each name in ``profile_names`` and for the
     ``profile_widest`` parameters with the widest free ranges.
-    Raises ``UserError`` for parameters outside Table 5 or a model that blows up there.
+    Raises ``UserError`` for parameters outside the search box or a model that blows up there.
     """
-    from bwbench.models.switched_bouc_wen import PARAM_NAMES
-    from bwbench.data.parameters import LABELS
-    from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
     from bwbench.data.specimen import read_specimen
+    from bwbench.problems.switched_vpp.study import make_problem
 
-    problem = SwitchedBoucWenProblem(read_specimen(specimen_path), state, excitation)
+    settings = {"state": state, "excitation": excitation, "formulation": formulation, "bounds": bounds or {}}
+    problem = make_problem(read_specimen(specimen_path), settings)
+    names, labels = list(problem.param_names), [label(n) for n in problem.param_names]
     params = np.asarray(params, dtype=float)
     u = problem.to_unit(params)
-    outside = [n for n, x in zip(PARAM_NAMES, u) if not -1e-9 <= x <= 1 + 1e-9]
+    outside = [n for n, x in zip(names, u) if not -1e-9 <= x <= 1 + 1e-9]
     if outside:
-        raise UserError(f"parameter(s) outside the Table 5 search range: {', '.join(outside)}")
+        raise UserError(f"parameter(s) outside the search box: {', '.join(outside)} (widen it with --bounds)")
     u = np.clip(u, 0.0, 1.0)
-    unknown = [n for n in profile_names if n not in PARAM_NAMES]
+    unknown = [n for n in profile_names if n not in names]
     if unknown:
-        raise UserError(f"unknown parameter {unknown[0]!r} to profile; names: {' '.join(PARAM_NAMES)}")
-    measured = problem.specimen.f
+        raise UserError(f"unknown parameter {unknown[0]!r} to profile; names: {' '.join(names)}")
 
     def residual(v):
-        return problem.simulate(problem.from_unit(v)) - measured
+        return problem.residual_batch(problem.from_unit(v)[None, :])[0]
 
     try:
-        sens = sensitivity(residual, u, PARAM_NAMES, [LABELS[n] for n in PARAM_NAMES], step)
+        sens = sensitivity(residual, u, names, labels, step)
     except ValueError:
         raise UserError("the model blows up at (or next to) these parameters: nothing to analyse") from None
     se = sens.standard_errors()
     free = sens.free_ranges()
     span = problem.upper - problem.lower
     mse = sens.residual_norm2 / sens.n_data
+    params = problem.from_unit(u)
     out = {
-        "specimen": problem.specimen.name, "state": state, "excitation": excitation, "n_data": sens.n_data,
-        "mse": mse, "rmse_N": math.sqrt(mse), "params": dict(zip(PARAM_NAMES, map(float, params))),
-        "step_unit": step, "names": list(PARAM_NAMES),
+        "specimen": problem.specimen.name, "state": state, "excitation": excitation, "formulation": formulation,
+        "n_data": sens.n_data, "mse": mse, "rmse_N": math.sqrt(mse), "params": dict(zip(names, map(float, params))),
+        "step_unit": step, "names": names,
         "singular_values": [float(s) for s in sens.singular_values],
         "relative_singular_values": [float(r) for r in sens.ratios],
         "condition_number": _finite(sens.condition_number),
@@ -73,36 +79,90 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
         "noise_rmse_N": math.sqrt(sens.noise_variance),
         "undetermined_directions": int(sens.undetermined().sum()),
         "weakest": sens.weakest(weakest),
-        "free_range_unit": {n: float(hi - lo) for n, (lo, hi) in zip(PARAM_NAMES, free)},
-        "free_range": {n: [float(problem.lower[i] + lo * span[i]), float(problem.lower[i] + hi * span[i])]
-                       for i, (n, (lo, hi)) in enumerate(zip(PARAM_NAMES, free))},
-        "standard_error_unit": {n: float(x) for n, x in zip(PARAM_NAMES, se)},
-        "standard_error": {n: float(x * w) for n, x, w in zip(PARAM_NAMES, se, span)},
+        **classify_null_space(problem, params, sens, residual, step),
+        "free_range_unit": {n: float(hi - lo) for n, (lo, hi) in zip(names, free)},
+        "free_range": {n: [float(problem.from_unit(_at(u, i, lo))[i]), float(problem.from_unit(_at(u, i, hi))[i])]
+                       for i, (n, (lo, hi)) in enumerate(zip(names, free))},
+        "standard_error_unit": {n: float(x) for n, x in zip(names, se)},
+        "standard_error": {n: float(x * w) for n, x, w in zip(names, se, span)},
         "poor_threshold_unit": POOR_SE,
         "poorly_determined": sens.poorly_determined(),
         "profiles": {},
     }
-    widest = sorted(PARAM_NAMES, key=lambda n: -out["free_range_unit"][n])[:profile_widest]
+    widest = sorted(names, key=lambda n: -out["free_range_unit"][n])[:profile_widest]
     for name in dict.fromkeys([*profile_names, *widest]):
-        i = PARAM_NAMES.index(name)
+        i = names.index(name)
         frame = profile(lambda U: problem.loss_batch(problem.from_unit(U)), u, i,
                         np.append(np.linspace(0.0, 1.0, grid), u[i]), maxiter=maxiter, step=step)
-        frame["value"] = problem.lower[i] + frame["unit"] * (problem.upper[i] - problem.lower[i])
+        frame["value"] = [problem.from_unit(_at(u, i, x))[i] for x in frame["unit"]]
         out["profiles"][name] = [{"value": float(r.value), "unit": float(r.unit), "mse": _finite(r.loss),
                                   "evaluations": int(r.evaluations)} for r in frame.itertuples()]
     return out
 
 
+def _at(u, i, value):
+    v = np.array(u, dtype=float)
+    v[i] = value
+    return v
+
+
+def label(name: str) -> str:
+    from bwbench.data.parameters import LABELS
+    from bwbench.problems.switched_vpp.identifiable import LABELS as IDENTIFIABLE
+
+    return LABELS.get(name) or IDENTIFIABLE.get(name, name)
+
+
+def classify_null_space(problem, params, sens, residual, step) -> dict:
+    """The numerically zero directions at ``params``: first the model's exact symmetries (paper
+    formulation: z → s·z, one scale for the shared state, one per branch for the split), each
+    checked along a finite orbit s ∈ [0.8, 1.25] and measured against the numerical null space;
+    then what is left of the null space, followed over a finite path (``follow_invariance``):
+    invariant to round-off there, or only a flat spot (weakly determined)."""
+    from bwbench.problems.switched_vpp.identifiable import scale_paper
+
+    zero = sens.ratios < ZERO_RATIO
+    null = sens.directions[zero]  # orthonormal rows
+    scale = float(np.linalg.norm(problem.specimen.f))
+    symmetries, tangents = [], []
+    if getattr(problem, "formulation", "paper") == "paper":
+        orbits = {"shared": [("z → s·z in both branches", lambda s: scale_paper(params, s, s))],
+                  "split": [("z₊ → s·z₊", lambda s: scale_paper(params, s, 1.0)),
+                            ("z₋ → s·z₋", lambda s: scale_paper(params, 1.0, s))]}[problem.state]
+        f0 = problem.simulate(params)
+        for name, orbit in orbits:
+            eps = 1e-6
+            tangent = (problem.to_unit(orbit(1 + eps)) - problem.to_unit(orbit(1 - eps))) / (2 * eps)
+            tangent /= np.linalg.norm(tangent)
+            change = max(float(np.max(np.abs(problem.simulate(orbit(s)) - f0))) for s in (0.8, 0.9, 1.1, 1.25))
+            symmetries.append({"name": name, "max_force_change_N": change, "in_null_space": float(
+                np.linalg.norm(null @ tangent)) if len(null) else 0.0,
+                "direction": describe_direction(tangent, sens.labels)})
+            tangents.append(tangent)
+    others = []
+    if len(null) > len(tangents):
+        rest = null
+        if tangents:  # what of the null space the symmetries do not explain
+            basis = np.linalg.qr(np.array(tangents).T)[0]
+            rest = null - (null @ basis) @ basis.T
+            _, s, vt = np.linalg.svd(rest, full_matrices=False)
+            rest = vt[s > 1e-3]
+        for v in rest[:4]:
+            path = follow_invariance(residual, sens.u, v, scale, step=step)
+            others.append({"direction": describe_direction(v, sens.labels), **path})
+    return {"symmetries": symmetries, "null_directions": others}
+
+
 def format_text(result: dict) -> str:
     """The plain-text report of ``analyse`` (what ``bwbench identifiability`` prints)."""
-    from bwbench.data.parameters import LABELS
-
     names = result["names"]
+    box = "Table 5" if result["formulation"] == "paper" else "the box scaled from the data"
     lines = [
-        f"identifiability of {result['specimen']} ({result['state']} state, {result['excitation']} excitation): "
-        f"MSE {result['mse']:.4g} N² (RMSE {result['rmse_N']:.3g} N) on {result['n_data']} samples",
+        f"identifiability of {result['specimen']} ({result['formulation']} formulation, {result['state']} state, "
+        f"{result['excitation']} excitation): MSE {result['mse']:.4g} N² (RMSE {result['rmse_N']:.3g} N) on "
+        f"{result['n_data']} samples",
         f"Jacobian of the force residual (N) with respect to the unit-scaled parameters "
-        f"(u = 0..1 spans Table 5; central differences, step {result['step_unit']:g})",
+        f"(u = 0..1 spans {box}; central differences, step {result['step_unit']:g})",
         "",
         "singular values (N per unit range), largest first, and relative to the largest:",
     ]
@@ -116,24 +176,34 @@ def format_text(result: dict) -> str:
     lines += ["", "weakest directions (a unit step along them changes the force least):"]
     for w in result["weakest"]:
         lines.append(f"  σ/σmax = {w['ratio']:.2e}:  {w['text']}")
+    for s in result["symmetries"]:
+        lines.append(f"exact symmetry {s['name']}: the force changes by at most {s['max_force_change_N']:.2g} N "
+                     f"along s ∈ [0.8, 1.25]; {s['in_null_space']:.0%} of its tangent ({s['direction']}) lies in the "
+                     "numerically zero directions above")
+    for d in result["null_directions"]:
+        kind = ("invariant to round-off along a finite path (an exact invariance at this point, not a symmetry of "
+                "the model everywhere)" if d["exact"] else "zero here only: weakly determined, not invariant")
+        lines.append(f"other numerically zero direction {d['direction']}: {kind} (largest σ/σmax along "
+                     f"{d['length']:.2g} of the unit range: {d['max_ratio']:.1e}; force change {d['change']:.1e} of "
+                     "its size)")
     lines += ["", f"{result['undetermined_directions']} direction(s) undetermined: a step across the whole "
                   f"range changes the force by less than the noise ({result['noise_rmse_N']:.3g} N RMSE)",
-              "per parameter, as a fraction of its Table 5 range: free range along those directions "
+              f"per parameter, as a fraction of its range in {box}: free range along those directions "
               "(linearised, inside the box) and standard error:"]
     for n in names:
         flag = "  poorly determined" if n in result["poorly_determined"] else ""
         lo, hi = result["free_range"][n]
-        lines.append(f"  {LABELS[n]:<4} free {result['free_range_unit'][n]:6.1%} [{lo:9.4g} – {hi:9.4g}]"
+        lines.append(f"  {label(n):<4} free {result['free_range_unit'][n]:6.1%} [{lo:9.4g} – {hi:9.4g}]"
                      f"   s.e. {_se_text(result['standard_error_unit'][n]):>8}{flag}")
     poor = result["poorly_determined"]
     threshold = f"{result['poor_threshold_unit']:.0%}"
     if poor:
         lines.append(f"poorly determined (free range or standard error > {threshold} of the range): "
-                     + ", ".join(LABELS[n] for n in poor))
+                     + ", ".join(label(n) for n in poor))
     else:
         lines.append(f"every parameter is determined to better than {threshold} of its range")
     for name, points in result["profiles"].items():
-        lines += ["", f"profile of {LABELS[name]} (others re-optimised, L-BFGS-B): value -> MSE (N²)"]
+        lines += ["", f"profile of {label(name)} (others re-optimised, L-BFGS-B): value -> MSE (N²)"]
         lines += [f"  {p['value']:12.5g}  {p['mse'] if p['mse'] is not None else math.inf:12.5g}" for p in points]
     return "\n".join(lines)
 
@@ -149,6 +219,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="hysteretic state convention (default: shared)")
     parser.add_argument("--excitation", choices=["measured", "sine"], default="measured",
                         help="measured (default) or sine")
+    parser.add_argument("--formulation", choices=["paper", "identifiable"], default="paper",
+                        help="the coordinates to analyse in (default: paper)")
+    parser.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
     parser.add_argument("--profile", action="append", default=[], metavar="NAME",
                         help="also profile this parameter (repeatable; e.g. wn-)")
     parser.add_argument("--grid", type=int, default=9, help="profile grid points over the range (default 9)")
@@ -158,12 +231,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def cli_main(args) -> int:
     """``bwbench identifiability S.csv --params P.json [--json]``; raises ``UserError`` for bad input."""
-    from bwbench.data.parameters import read_json
+    from bwbench.data import bounds as bounds_mod
+    from bwbench.problems.switched_vpp.commands import problem_from_args
+    from bwbench.data.parameters import read_for
 
     if args.grid < 2:
         raise UserError(f"--grid must be at least 2, got {args.grid}")
-    params = read_json(args.params)
-    result = analyse(args.specimen, params, args.state, args.excitation, profile_names=args.profile, grid=args.grid)
+    problem = problem_from_args(args)
+    params = read_for(args.params, problem)
+    box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
+    result = analyse(args.specimen, params, args.state, args.excitation, formulation=args.formulation, bounds=box,
+                     profile_names=args.profile, grid=args.grid)
     if args.json:
         json.dump(result, sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")

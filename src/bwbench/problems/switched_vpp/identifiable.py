@@ -68,6 +68,23 @@ def hysteretic_names(state: str) -> tuple:
     return HYSTERETIC_NAMES[state]
 
 
+LABELS = {"xy+": "x_y₊", "n+": "n₊", "eta+": "η₊", "xy-": "x_y₋", "n-": "n₋", "eta-": "η₋", "rho": "ρ"}
+UNITS = {"xy+": "mm", "xy-": "mm"}  # the others have none
+
+
+def scale_paper(params, s_plus: float, s_minus: float) -> np.ndarray:
+    """The paper 14-vector moved along the exact symmetry: z₊ → s₊·z₊ and z₋ → s₋·z₋ (shared state:
+    s₊ = s₋), i.e. A → s·A, β, γ → s^(1−n)·β, s^(1−n)·γ, and h = (1−α)·ωn² → h/s with k = α·ωn² and
+    c = 2ξ·ωn kept (ωn² = k + h/s, α = k/ωn², ξ = c/(2ωn)). The force is unchanged."""
+    p = np.array(params, dtype=float)
+    for i, s in enumerate((s_plus, s_minus)):
+        A, n, alpha, beta, gamma, xi, wn = p[7 * i:7 * i + 7]
+        k, h, c = alpha * wn**2, (1 - alpha) * wn**2 / s, 2 * xi * wn
+        wn2 = np.sqrt(k + h)
+        p[7 * i:7 * i + 7] = [A * s, n, k / wn2**2, beta * s ** (1 - n), gamma * s ** (1 - n), c / (2 * wn2), wn2]
+    return p
+
+
 def kernel_hysteretic(theta, state: str = "shared") -> np.ndarray:
     """Kernel parameters H = (A+, n+, β+, γ+, A−, n−, β−, γ−) of the w-dynamics, shape (m, 8).
 
