@@ -88,6 +88,7 @@ def add_sections(report) -> None:
         doc.figure(figures.parameters_vs_underpressure(study, out, report.best_backend, material),
                    f"{material}: parameters against underpressure, {report.best_backend} (the paper's Figs 18–19)")
     _section_tables(report)
+    _section_non_uniqueness(report)
     report.progress("identifiability")
     _section_identifiability(report)
     _section_posterior(report)
@@ -111,6 +112,38 @@ def limits(report) -> list[str]:
             items.append(f"The posterior chain on {chain.specimen} is too short for reliable summaries "
                          f"({d['steps']} steps, τ ≈ {number(d['tau_max'], 3)}).")
     return items
+
+
+def _section_non_uniqueness(report) -> None:
+    from bwbench.problems.switched_vpp import non_uniqueness
+
+    doc, study = report.doc, report.study
+    doc.h(2, "Non-uniqueness: the exact symmetry, and what is left")
+    doc.p("The paper's 14 parameters have an exact symmetry: z → s·z with A → s·A, β, γ → s^(1−n)·β, "
+          "s^(1−n)·γ and (1 − α)·ωn² → (1 − α)·ωn²/s leaves the force unchanged (one s for the shared state, "
+          "one per branch for the split), so every fit lies on a curve of equally good parameter vectors. "
+          "Below, the good fits of each specimen (within 10 % of the best known MSE) as fitted, after moving each "
+          "to the same point of its curve (the gauge nearest the centre of Table 5), and in the identifiable "
+          "coordinates, which have no such curve.")
+    for specimen in report.featured[:2]:
+        table, s = non_uniqueness.spread_table(study, specimen)
+        if s["runs"] < 2:
+            doc.p(f"{specimen}: only {s['runs']} good fit(s): no spread to analyse.")
+            continue
+        shown = table.copy()
+        for column in shown.columns:
+            if shown[column].dtype.kind == "f":
+                shown[column] = shown[column].map(lambda x: "–" if not np.isfinite(x) else f"{x:.0%}")
+        doc.table(shown.fillna(""), f"{specimen}: range of the {s['runs']} good fits, as a fraction of each "
+                                    "parameter's search range")
+        share = s["share"]
+        if np.isfinite(share):
+            doc.p(f"{specimen}: of the scatter of the paper parameters across these fits (total variance in "
+                  f"Table 5 units), **{share:.0%} is the exact symmetry** (it disappears when the gauge is fixed); "
+                  f"the remaining {1 - share:.0%} lies in directions the data determine only weakly, the scatter "
+                  "the identifiable coordinates show as well.")
+        doc.figure(non_uniqueness.figure(study, report.out, specimen),
+                   f"{specimen}: good fits in the paper's and the identifiable coordinates")
 
 
 def _best_runs(study) -> pd.DataFrame:

@@ -1,0 +1,150 @@
+"""How non-unique are the fitted parameters, and why: the spread of the good fits across seeds in the
+paper's coordinates and in the identifiable ones, and how much of the first is the exact symmetry.
+
+The paper's 14 parameters have an exact symmetry (z → s·z; ``identifiable.scale_paper``): every fit
+lies on a curve of parameter vectors with the same force, and where on that curve an optimiser stops
+is an accident of its path. Moving every good fit to the same point of its curve (the gauge rule of
+``identifiable.to_paper``: nearest the centre of Table 5) removes that part of the scatter; what
+remains is scatter in directions the data determine only weakly. The identifiable coordinates have
+no such curve: their spread is the second part alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from bwbench.analysis import statistics
+from bwbench.data.parameters import LABELS, LOWER, UPPER
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.problems.switched_vpp import identifiable as fm
+
+TOLERANCE = 0.10  # good fits: final MSE within 10 % of the best known for the specimen
+
+
+def good_fits(study, specimen: str, tolerance: float = TOLERANCE) -> pd.DataFrame:
+    """Ranking runs on ``specimen`` whose final MSE is within ``tolerance`` of the best known."""
+    best = statistics.best_known(study.runs)[specimen]
+    runs = study.ranking[(study.ranking["specimen"] == specimen) & (study.ranking["status"] == "ok")]
+    return runs[runs["mse"] <= best * (1 + tolerance)]
+
+
+def coordinates(runs: pd.DataFrame, state: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per run: the paper vector as fitted (14), the same loops in the canonical gauge (14), and the
+    identifiable hysteretic vector (7 or 6). Runs of the paper formulation are mapped; runs of the
+    identifiable one carry both (their paper vector is already in the canonical gauge). NaN rows
+    where a map does not exist."""
+    names = fm.hysteretic_names(state)
+    paper, gauged, theta = [], [], []
+    for _, run in runs.iterrows():
+        p = run[list(PARAM_NAMES)].to_numpy(dtype=float)
+        if np.isfinite(run.get(names[0], np.nan)):  # an identifiable run
+            t = run[list(names)].to_numpy(dtype=float)
+            paper.append(p)
+            gauged.append(p)
+            theta.append(t)
+            continue
+        t, linear = fm.from_paper(p, state)
+        mapped = fm.to_paper(t, linear, state).params
+        paper.append(p)
+        gauged.append(mapped if mapped is not None else np.full(14, np.nan))
+        theta.append(t)
+    return np.array(paper).reshape(-1, 14), np.array(gauged).reshape(-1, 14), np.array(theta).reshape(-1, len(names))
+
+
+def symmetry_share(paper_unit: np.ndarray, gauged_unit: np.ndarray) -> float:
+    """Fraction of the total variance of the paper coordinates (Table 5 units) that fixing the
+    gauge removes: the part of the scatter that is the exact symmetry. NaN with fewer than 2 runs."""
+    keep = np.all(np.isfinite(paper_unit), axis=1) & np.all(np.isfinite(gauged_unit), axis=1)
+    if keep.sum() < 2:
+        return float("nan")
+    before = float(np.sum(np.var(paper_unit[keep], axis=0)))
+    after = float(np.sum(np.var(gauged_unit[keep], axis=0)))
+    return 1.0 - after / before if before > 0 else float("nan")
+
+
+def spread_table(study, specimen: str) -> tuple[pd.DataFrame, dict]:
+    """Per parameter, the range of the good fits as % of its search range: paper coordinates as
+    fitted and after fixing the gauge, identifiable coordinates (box scaled from the data); and a
+    summary (``runs``, ``share``: the symmetry's part of the paper scatter)."""
+    from bwbench.data.specimen import read_specimen
+
+    state = study.settings.get("state", "shared")
+    runs = good_fits(study, specimen)
+    paper, gauged, theta = coordinates(runs, state)
+    to_unit = lambda P: (P - LOWER) / (UPPER - LOWER)  # noqa: E731
+    spec = read_specimen(study.specimen_path(specimen))
+    box = fm.scaled_bounds(spec.x, spec.f, state)
+    paper_u, gauged_u, theta_u = to_unit(paper), to_unit(gauged), box.to_unit(theta)
+
+    def width(U, j):
+        column = U[:, j][np.isfinite(U[:, j])]
+        return float(np.ptp(column)) if column.size >= 2 else float("nan")
+
+    rows = [{"paper parameter": LABELS[n], "spread as fitted (% of Table 5)": width(paper_u, j),
+             "after fixing the gauge": width(gauged_u, j)} for j, n in enumerate(PARAM_NAMES)]
+    ident = [{"identifiable parameter": fm.LABELS[n], "spread (% of its box)": width(theta_u, j)}
+             for j, n in enumerate(box.names)]
+    frame = pd.concat([pd.DataFrame(rows), pd.DataFrame(ident)], axis=1)
+    return frame, {"runs": len(runs), "share": symmetry_share(paper_u, gauged_u), "paper_unit": paper_u,
+                   "gauged_unit": gauged_u, "theta_unit": theta_u, "theta_names": box.names, "box": box,
+                   "optimizers": list(runs["optimizer"])}
+
+
+def figure(study, out_dir, specimen: str):
+    """The good fits of ``specimen`` in both coordinate systems, side by side: the 14 paper parameters
+    (Table 5 units) as fitted (filled) and moved to the canonical gauge (open), and the identifiable
+    parameters (units of their data-scaled box). One colour per backend."""
+    import matplotlib.pyplot as plt
+
+    from bwbench.report.figures import palette, save, slug, theme
+
+    theme()
+    table, s = spread_table(study, specimen)
+    colours = palette(study)
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12.5, 4.4), gridspec_kw={"width_ratios": [2, 1]})
+    rng = np.random.default_rng(0)  # jitter only: the figure is the same every time
+    rows = []
+    for k, optimizer in enumerate(s["optimizers"]):
+        jitter = rng.uniform(-0.18, 0.18)
+        c = colours.get(optimizer, "0.4")
+        left.plot(np.arange(14) + jitter, s["paper_unit"][k], "o", ms=4.5, color=c, alpha=0.85)
+        left.plot(np.arange(14) + jitter, s["gauged_unit"][k], "o", ms=6, mfc="none", mec=c, alpha=0.85)
+        right.plot(np.arange(len(s["theta_names"])) + jitter, s["theta_unit"][k], "o", ms=4.5, color=c, alpha=0.85)
+        rows += [{"optimizer": optimizer, "coordinates": kind, "parameter": name, "unit_value": float(value)}
+                 for kind, names, values in (("paper as fitted", PARAM_NAMES, s["paper_unit"][k]),
+                                             ("paper, canonical gauge", PARAM_NAMES, s["gauged_unit"][k]),
+                                             ("identifiable", s["theta_names"], s["theta_unit"][k]))
+                 for name, value in zip(names, values)]
+    from bwbench.data import manifest
+
+    truth = manifest.truth_params(study.specimen_path(specimen))
+    if truth is not None:  # the truth's loops, in the canonical gauge and in the identifiable coordinates
+        state = study.settings.get("state", "shared")
+        t_theta, t_linear = fm.from_paper(truth, state)
+        gauged = fm.to_paper(t_theta, t_linear, state).params
+        if gauged is not None:
+            left.plot(np.arange(14), (gauged - LOWER) / (UPPER - LOWER), "x", color="black", ms=8, mew=2, zorder=5)
+        right.plot(np.arange(len(t_theta)), s["box"].to_unit(t_theta), "x", color="black", ms=8, mew=2, zorder=5)
+    left.set_xticks(np.arange(14), [LABELS[n] for n in PARAM_NAMES])
+    left.set_ylabel("(value − lower) / (upper − lower) (–)")
+    share = s["share"]
+    left.set_title(f"paper parameters (Table 5 units): filled = as fitted, open = same loops, gauge fixed\n"
+                   f"{share:.0%} of the scatter is the exact symmetry z → s·z" if np.isfinite(share) else
+                   "paper parameters (Table 5 units)", fontsize=10)
+    right.set_xticks(np.arange(len(s["theta_names"])), [fm.LABELS[n] for n in s["theta_names"]])
+    right.set_title("identifiable parameters (units of the data-scaled box)\nno symmetry: what scatters is "
+                    "weakly determined", fontsize=10)
+    for ax in (left, right):
+        ax.set_ylim(-0.04, 1.04)
+        ax.grid(axis="x", visible=False)
+    handles = [plt.Line2D([], [], ls="", marker="o", color=colours.get(o, "0.4"), label=o)
+               for o in dict.fromkeys(s["optimizers"])]
+    if truth is not None:
+        handles.append(plt.Line2D([], [], ls="", marker="x", color="black", mew=2, label="truth (gauge fixed)"))
+    fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 6), fontsize=9, frameon=False,
+               bbox_to_anchor=(0.5, 1.0))
+    fig.suptitle(f"{specimen}: the {s['runs']} ranking runs within {TOLERANCE:.0%} of the best known MSE",
+                 fontsize=11, y=0.93)
+    synthetic = study.problem_type.is_synthetic(study)
+    return save(fig, out_dir, f"nonuniqueness_{slug(specimen)}", pd.DataFrame(rows), synthetic, rect=(0, 0.03, 1, 0.88))
