@@ -64,18 +64,5 @@ def read_json(path, names=PARAM_NAMES) -> np.ndarray:
     return from_dict(data, str(path), names)
 
 
-def read_for(path, problem) -> np.ndarray:
-    """The parameters of ``path`` in ``problem``'s coordinates: its own names, or the paper's 14
-    mapped into the identifiable formulation when that is the problem's."""
-    try:
-        return read_json(path, problem.param_names)
-    except InputFileError:
-        if getattr(problem, "formulation", "paper") != "identifiable":
-            raise
-    from bwbench.problems.switched_vpp.identifiable import from_paper
-
-    return from_paper(read_json(path), problem.state)[0]
-
-
 def write_json(path, params) -> None:
     Path(path).write_text(json.dumps(to_dict(params), indent=2) + "\n", encoding="utf-8")

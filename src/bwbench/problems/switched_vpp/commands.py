@@ -31,6 +31,22 @@ def problem_from_args(args):
     return make_problem(read_specimen(args.specimen), settings)
 
 
+def read_for(path, problem):
+    """The parameters of ``path`` in ``problem``'s coordinates: its own names, or the paper's 14
+    mapped into the identifiable formulation when that is the problem's."""
+    from bwbench.data.parameters import read_json
+    from bwbench.errors import InputFileError
+
+    try:
+        return read_json(path, problem.param_names)
+    except InputFileError:
+        if getattr(problem, "formulation", "paper") != "identifiable":
+            raise
+    from bwbench.problems.switched_vpp.identifiable import from_paper
+
+    return from_paper(read_json(path), problem.state)[0]
+
+
 def fit_metrics(mse: float, n: int) -> dict:
     return {"mse": mse, "f_err": -mse, "rmse_N": math.sqrt(mse) if math.isfinite(mse) else math.inf, "n": n}
 
@@ -38,7 +54,6 @@ def fit_metrics(mse: float, n: int) -> dict:
 def simulate(args) -> int:
     import pandas as pd
 
-    from bwbench.data.parameters import read_for
     from bwbench.data.output_paths import check_outputs
 
     check_outputs({"--out": args.out}, [args.specimen, args.params])
@@ -57,8 +72,7 @@ def simulate(args) -> int:
 
 
 def evaluate(args) -> int:
-    from bwbench.data.parameters import read_for
-
+    
     problem = problem_from_args(args)
     params = read_for(args.params, problem)
     mse = float(problem.loss_batch(params[None, :])[0])

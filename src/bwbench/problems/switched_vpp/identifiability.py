@@ -232,8 +232,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def cli_main(args) -> int:
     """``bwbench identifiability S.csv --params P.json [--json]``; raises ``UserError`` for bad input."""
     from bwbench.data import bounds as bounds_mod
-    from bwbench.problems.switched_vpp.commands import problem_from_args
-    from bwbench.data.parameters import read_for
+    from bwbench.problems.switched_vpp.commands import problem_from_args, read_for
 
     if args.grid < 2:
         raise UserError(f"--grid must be at least 2, got {args.grid}")
