@@ -25,7 +25,7 @@ COMMANDS = {
     "fit": ("bwbench.optimize.commands", "add_fit_arguments", "fit one specimen with one optimiser"),
     "compare": ("bwbench.study.commands", "add_arguments", "run or resume a study: specimens × backends × seeds"),
     "report": ("bwbench.report.build", "add_arguments", "figures, statistics and recommendation of a study"),
-    "identifiability": ("bwbench.problems.switched_vpp.identifiability", "add_arguments",
+    "identifiability": ("bwbench.problems.switched_vpp.commands", "add_identifiability_arguments",
                         "which parameters a specimen cannot pin down"),
 }
 

@@ -28,9 +28,11 @@ def test_analyse_bouc_wen_at_the_truth_is_json_ready():
 
 
 def _cli(args):
+    from bwbench.problems.switched_vpp import commands
+
     parser = argparse.ArgumentParser()
-    identifiability.add_arguments(parser)
-    return identifiability.cli_main(parser.parse_args(args))
+    commands.add_identifiability_arguments(parser)
+    return commands.identifiability(parser.parse_args(args))
 
 
 def test_cli_prints_text_and_json(tmp_path, capsys):

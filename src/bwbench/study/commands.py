@@ -145,7 +145,7 @@ def study_config(args):
     bounds = None
     if args.bounds is not None:
         from bwbench.data import bounds as bounds_mod
-        from bwbench.problems.switched_vpp.study import bound_names
+        from bwbench.problems.switched_vpp.formulations import bound_names
 
         bounds = bounds_mod.read_json(args.bounds, bound_names(args.formulation.split(","), args.state))
     return config_from_arguments(args.specimens, args.optimizers, args.seeds, args.budget, name=args.name,

@@ -23,7 +23,7 @@ def problem_from_args(args):
     """The problem of ``args.specimen`` with the command's state, excitation and ``--bounds``."""
     from bwbench.data import bounds as bounds_mod
     from bwbench.data.specimen import read_specimen
-    from bwbench.problems.switched_vpp.study import bound_names, make_problem
+    from bwbench.problems.switched_vpp.formulations import bound_names, make_problem
 
     settings = {"state": args.state, "excitation": args.excitation, "formulation": args.formulation}
     if getattr(args, "bounds", None):
@@ -104,3 +104,43 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--specimen", required=True, help="specimen CSV")
     add_model_options(parser)
     parser.set_defaults(func=evaluate)
+
+
+def add_identifiability_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("specimen", help="specimen CSV")
+    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
+    parser.add_argument("--state", choices=["shared", "split"], default="shared",
+                        help="hysteretic state convention (default: shared)")
+    parser.add_argument("--excitation", choices=["measured", "sine"], default="measured",
+                        help="measured (default) or sine")
+    parser.add_argument("--formulation", choices=["paper", "identifiable"], default="paper",
+                        help="the coordinates to analyse in (default: paper)")
+    parser.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
+    parser.add_argument("--profile", action="append", default=[], metavar="NAME",
+                        help="also profile this parameter (repeatable; e.g. wn-)")
+    parser.add_argument("--grid", type=int, default=9, help="profile grid points over the range (default 9)")
+    parser.add_argument("--json", action="store_true", help="print the results as JSON")
+    parser.set_defaults(func=identifiability)
+
+
+def identifiability(args) -> int:
+    """``bwbench identifiability S.csv --params P.json [--json]``; raises ``UserError`` for bad input."""
+    import sys
+
+    from bwbench.data import bounds as bounds_mod
+    from bwbench.errors import UserError
+    from bwbench.problems.switched_vpp.identifiability import analyse, format_text
+
+    if args.grid < 2:
+        raise UserError(f"--grid must be at least 2, got {args.grid}")
+    problem = problem_from_args(args)
+    params = read_for(args.params, problem)
+    box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
+    result = analyse(args.specimen, params, args.state, args.excitation, formulation=args.formulation, bounds=box,
+                     profile_names=args.profile, grid=args.grid)
+    if args.json:
+        json.dump(result, sys.stdout, indent=2, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        print(format_text(result))
+    return 0

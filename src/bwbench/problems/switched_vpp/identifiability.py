@@ -6,10 +6,7 @@ this module applies them to the 14 paper parameters at a fit and writes the resu
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import sys
 
 import numpy as np
 
@@ -41,7 +38,7 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
     Raises ``UserError`` for parameters outside the search box or a model that blows up there.
     """
     from bwbench.data.specimen import read_specimen
-    from bwbench.problems.switched_vpp.study import make_problem
+    from bwbench.problems.switched_vpp.formulations import make_problem
 
     settings = {"state": state, "excitation": excitation, "formulation": formulation, "bounds": bounds or {}}
     problem = make_problem(read_specimen(specimen_path), settings)
@@ -210,40 +207,3 @@ def format_text(result: dict) -> str:
 
 def _se_text(x: float) -> str:
     return "> 100 %" if x > 1 else f"{x:.1%}"
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("specimen", help="specimen CSV")
-    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
-    parser.add_argument("--state", choices=["shared", "split"], default="shared",
-                        help="hysteretic state convention (default: shared)")
-    parser.add_argument("--excitation", choices=["measured", "sine"], default="measured",
-                        help="measured (default) or sine")
-    parser.add_argument("--formulation", choices=["paper", "identifiable"], default="paper",
-                        help="the coordinates to analyse in (default: paper)")
-    parser.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
-    parser.add_argument("--profile", action="append", default=[], metavar="NAME",
-                        help="also profile this parameter (repeatable; e.g. wn-)")
-    parser.add_argument("--grid", type=int, default=9, help="profile grid points over the range (default 9)")
-    parser.add_argument("--json", action="store_true", help="print the results as JSON")
-    parser.set_defaults(func=cli_main)
-
-
-def cli_main(args) -> int:
-    """``bwbench identifiability S.csv --params P.json [--json]``; raises ``UserError`` for bad input."""
-    from bwbench.data import bounds as bounds_mod
-    from bwbench.problems.switched_vpp.commands import problem_from_args, read_for
-
-    if args.grid < 2:
-        raise UserError(f"--grid must be at least 2, got {args.grid}")
-    problem = problem_from_args(args)
-    params = read_for(args.params, problem)
-    box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
-    result = analyse(args.specimen, params, args.state, args.excitation, formulation=args.formulation, bounds=box,
-                     profile_names=args.profile, grid=args.grid)
-    if args.json:
-        json.dump(result, sys.stdout, indent=2, allow_nan=False)
-        sys.stdout.write("\n")
-    else:
-        print(format_text(result))
-    return 0
