@@ -61,3 +61,24 @@ def chain_diagnostics(samples: np.ndarray, acceptance_fraction: float | None = N
     return {"steps": steps, "walkers": walkers, "dim": dim, "acceptance_fraction": float(acceptance_fraction),
             "tau": [float(t) for t in tau], "tau_max": tau_max, "ess": float(ess), "stuck": stuck,
             "warnings": warnings}
+
+
+def convergence(samples: np.ndarray, names, burn: int | None = None) -> "pd.DataFrame":
+    """ArviZ's rank-normalised split-R̂ and bulk and tail effective sample sizes per parameter of an
+    ensemble chain (steps, walkers, dim), after dropping ``burn`` steps (default half), each walker
+    taken as a chain (``arviz.from_emcee`` does the same).
+
+    Read with Vehtari et al. (2021): converged when R̂ ≤ 1.01 and both ESS ≥ 400.
+    """
+    import arviz as az
+    import pandas as pd
+
+    steps = samples.shape[0]
+    burn = steps // 2 if burn is None else burn
+    kept = np.swapaxes(samples[burn:], 0, 1)  # (chain, draw, dim)
+    data = az.convert_to_dataset({"theta": kept}, dims={"theta": ["parameter"]},
+                                 coords={"parameter": list(names)})
+    rhat = az.rhat(data)["theta"].values
+    bulk = az.ess(data, method="bulk")["theta"].values
+    tail = az.ess(data, method="tail")["theta"].values
+    return pd.DataFrame({"parameter": list(names), "r_hat": rhat, "ess_bulk": bulk, "ess_tail": tail})

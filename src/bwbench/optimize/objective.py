@@ -61,6 +61,35 @@ class Objective:
             self._record(U_run, run)
         return losses
 
+    def batch_with_likelihood(self, U) -> tuple[np.ndarray, np.ndarray]:
+        """(losses, log-likelihoods) of the rows of U, counted and cut like ``batch``: the problem's own
+        ``log_likelihood_batch`` when it has one (e.g. linear coefficients integrated out), else the
+        Gaussian likelihood with σ integrated out under Jeffreys' prior, −(n/2)·log(MSE). Rows past
+        the budget, and rows that blow up, get loss +inf and log-likelihood −inf."""
+        U = np.atleast_2d(np.asarray(U, dtype=float))
+        if U.ndim != 2 or U.shape[1] != self.dim:
+            raise ValueError(f"expected points of dimension {self.dim}, got shape {U.shape}")
+        if self.exhausted:
+            raise BudgetExhausted(f"budget of {self.budget} evaluations is spent")
+        take = min(len(U), self.remaining)
+        U_run = np.clip(U[:take], 0.0, 1.0)
+        losses, loglik = np.full(len(U), np.inf), np.full(len(U), -np.inf)
+        if take:
+            P = self.problem.from_unit(U_run)
+            if hasattr(self.problem, "log_likelihood_batch"):
+                run, ll = self.problem.log_likelihood_batch(P)
+            else:
+                run = self.problem.loss_batch(P)
+                n = float(getattr(self.problem, "n_data", 1000))
+                with np.errstate(divide="ignore", invalid="ignore"):  # an exact fit: tiny, not 0
+                    ll = -0.5 * n * np.log(np.maximum(run, np.finfo(float).tiny))
+            finite = np.isfinite(run)
+            run = np.where(finite, run, np.inf)
+            losses[:take] = run
+            loglik[:take] = np.where(finite & np.isfinite(ll), ll, -np.inf)
+            self._record(U_run, run)
+        return losses, loglik
+
     def __call__(self, u) -> float:
         """Loss of one point (1-D, unit coordinates)."""
         u = np.asarray(u, dtype=float)

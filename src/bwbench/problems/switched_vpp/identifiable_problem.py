@@ -75,6 +75,15 @@ class IdentifiableProblem:
         """MSE (N²) of each row of P (shape (m, d)) with its linear coefficients solved; +inf on blow-up."""
         return self.model.mse_batch(np.atleast_2d(np.asarray(P, dtype=float)))
 
+    def log_likelihood_batch(self, P) -> tuple[np.ndarray, np.ndarray]:
+        """(MSE in N², log marginal likelihood) of each row of P from one simulation each: the linear
+        coefficients integrated out analytically under a flat prior and σ under Jeffreys' 1/σ
+        (``marginal.log_marginal``); −inf where the model blows up."""
+        from bwbench.problems.switched_vpp.marginal import log_marginal
+
+        solution = self.model.solve(np.atleast_2d(np.asarray(P, dtype=float)))
+        return solution.mse, log_marginal(solution)
+
     def residual_batch(self, P) -> np.ndarray:
         """F_model − F_measured (N), shape (m, L); rows of +inf where the model blows up."""
         solution = self.model.solve(np.atleast_2d(np.asarray(P, dtype=float)), residual=True)
