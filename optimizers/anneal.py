@@ -15,10 +15,10 @@ temperature cycles), a new one starts from a fresh random point. scipy evaluates
 time (``batched=False``) and lets the objective's ``BudgetExhausted`` propagate out of both the
 annealer and the local search.
 
-Options: ``maxiter`` (1000, scipy's default: annealing iterations per restart; ≥ 1: with 0 scipy
-returns without evaluating anything, and restarting that forever is a loop that spends no
-budget), ``no_local_search`` (false). Should a restart still evaluate nothing, the run stops and
-says so rather than restarting for ever.
+Options: ``maxiter`` (1000, scipy's default: annealing iterations per restart; ≥ 1: with 0,
+scipy 1.17's ``while not need_to_stop: for i in range(maxiter)`` loops for ever after its first
+evaluation, spending no budget), ``no_local_search`` (false). Should a restart evaluate nothing,
+the run stops and says so rather than restarting for ever.
 
 +inf losses (model blew up) are given to scipy as 10 × the worst finite loss seen so far: the
 local search takes finite-difference gradients, which would be inf or NaN next to a blow-up

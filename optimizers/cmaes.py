@@ -17,11 +17,12 @@ NaN ("do nothing"), so the global generator is never touched. Output: by default
 to stdout, writes ``outcmaes/*.dat`` files and reads a ``cma_signals.in`` file from the
 working directory if one exists; all three are switched off.
 
-Options: ``sigma0`` (0.3, in unit coordinates: a third of the box; in (0, 1]: cma divides by it,
-and the box is 1 wide), ``popsize`` (None = cma's default 4 + ⌊3 ln d⌋; else 2 to 1,000: cma's
-recombination weights need two points; doubled at each restart). A restart that stops before
-asking for a population (cma's termination tests can hold at once, e.g. a tiny ``sigma0``) ends
-the run with a message instead of doubling the population for ever without evaluating anything.
+Options: ``sigma0`` (0.3, in unit coordinates: a third of the box; in [1e-11, 1]: the box is 1
+wide, and below cma's own ``tolx`` = 1e-11 every run stops after one population — cma divides by
+zero at 0 and fails an internal assertion at 1e-308), ``popsize`` (None = cma's default
+4 + ⌊3 ln d⌋; else 2 to 1,000: cma's recombination weights need two points; doubled at each
+restart). Should a restart stop before asking for a population, the run ends with a message
+instead of doubling the population for ever without evaluating anything.
 
 +inf losses are given to cma as 1e300. CMA-ES uses only the ranking of a population, so any
 value above every finite loss would do; cma does accept inf, but its termination tests take
@@ -41,7 +42,7 @@ from bwbench.optimize.registry import register
     "cmaes",
     family="evolution-strategy",
     description="CMA-ES (cma package, ask/tell) on the unit box, IPOP restarts doubling the population",
-    options={"sigma0": Float(0.3, minimum=0.0, maximum=1.0, exclusive_minimum=True),
+    options={"sigma0": Float(0.3, minimum=1e-11, maximum=1.0),
              "popsize": Int(None, minimum=2, maximum=1000, none="cma's default, 4 + ⌊3 ln d⌋")},
 )
 def minimize(objective, *, rng, sigma0=0.3, popsize=None):

@@ -33,7 +33,7 @@ REFUSED = [
     ("nlopt-bobyqa", "xtol_rel=abc", "nlopt-bobyqa: option xtol_rel must be a number ≥ 0, got 'abc'"),
     ("emcee", "n_walkers=3", "emcee: option n_walkers must be at least 2·d = 28 on this 14-parameter problem"),
     ("firefly", "alpha_decay=-2", "firefly: option alpha_decay must be a number in (0, 1], got -2"),
-    ("cmaes", "sigma0=0", "cmaes: option sigma0 must be a number in (0, 1], got 0"),
+    ("cmaes", "sigma0=0", "cmaes: option sigma0 must be a number in [1e-11, 1], got 0"),
     ("random", "batch_size=0", "random: option batch_size must be an integer in [1, 100000], got 0"),  # hung
     ("anneal", "maxiter=0", "anneal: option maxiter must be an integer ≥ 1, got 0"),  # hung
 ]
@@ -59,6 +59,8 @@ def test_float_takes_ints_kept_as_ints_and_refuses_bools_nan_and_infinity():
     for bad in (0, 0.0, 1.5, True, float("nan"), float("inf"), "0.5", None):
         with pytest.raises(OptionError):
             sigma.validate(bad, "x")
+    with pytest.raises(OptionError):  # JSON ints are unbounded; as a double this one is inf
+        Float(0.01, minimum=0.0).validate(10**400, "x")
     with pytest.raises(OptionError, match=r"must be a number in \(0, 1\], got NaN$"):
         sigma.validate(float("nan"), "x")
     assert sigma.describe() == "float in (0, 1], default 0.3"
@@ -125,7 +127,7 @@ def test_resolve_options_merges_defaults_and_refuses_unknown_names_listing_the_k
     with pytest.raises(UserError, match=r"^paper-ga: unknown option\(s\) colour, size; it takes population, "
                                         r"generations, p_mutation, p_crossover$"):
         registry.resolve_options("paper-ga", {"size": 3, "colour": 1})
-    with pytest.raises(UserError, match=r"^\[here\] cmaes: option sigma0 must be"):
+    with pytest.raises(UserError, match=r"^\[here\] cmaes: option sigma0 must be a number in \[1e-11, 1\], got -1$"):
         registry.resolve_options("cmaes", {"sigma0": -1}, label="[here] cmaes")
 
 
@@ -237,7 +239,7 @@ TOML_REFUSED = [
     ("nlopt-bobyqa", "xtol_rel = 'abc'", "option xtol_rel must be a number ≥ 0, got 'abc'"),
     ("emcee", "n_walkers = 1", "option n_walkers must be an integer in [2, 10000] (or null: 2·d + 2), got 1"),
     ("firefly", "alpha_decay = -2", "option alpha_decay must be a number in (0, 1], got -2"),
-    ("cmaes", "sigma0 = 0", "option sigma0 must be a number in (0, 1], got 0"),
+    ("cmaes", "sigma0 = 0", "option sigma0 must be a number in [1e-11, 1], got 0"),
     ("random", "batch_size = 0", "option batch_size must be an integer in [1, 100000], got 0"),
     ("anneal", "maxiter = 0", "option maxiter must be an integer ≥ 1, got 0"),
     ("anneal", "no_local_search = 1", "option no_local_search must be true or false, got 1"),

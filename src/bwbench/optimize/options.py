@@ -66,6 +66,8 @@ def _number(value, integer: bool):
     if isinstance(value, (bool, np.bool_)):  # True is an Integral to Python, not to a user
         return _INVALID
     if isinstance(value, numbers.Integral):
+        if not integer and abs(value) > 1e308:  # JSON ints are unbounded; a library converts to a double
+            return _INVALID
         return int(value)
     if integer or not isinstance(value, numbers.Real) or not math.isfinite(value):
         return _INVALID
