@@ -15,8 +15,10 @@ temperature cycles), a new one starts from a fresh random point. scipy evaluates
 time (``batched=False``) and lets the objective's ``BudgetExhausted`` propagate out of both the
 annealer and the local search.
 
-Options: ``maxiter`` (1000, scipy's default: annealing iterations per restart),
-``no_local_search`` (False).
+Options: ``maxiter`` (1000, scipy's default: annealing iterations per restart; ≥ 1: with 0,
+scipy 1.17's ``while not need_to_stop: for i in range(maxiter)`` loops for ever after its first
+evaluation, spending no budget), ``no_local_search`` (false). Should a restart evaluate nothing,
+the run stops and says so rather than restarting for ever.
 
 +inf losses (model blew up) are given to scipy as 10 × the worst finite loss seen so far: the
 local search takes finite-difference gradients, which would be inf or NaN next to a blow-up
@@ -30,6 +32,7 @@ import numpy as np
 from scipy.optimize import dual_annealing
 
 from bwbench.optimize.finite_penalty import WorstFinitePenalty
+from bwbench.optimize.options import Bool, Int
 from bwbench.optimize.registry import register
 
 
@@ -37,7 +40,7 @@ from bwbench.optimize.registry import register
     "anneal",
     family="annealing",
     description="scipy dual_annealing (generalised simulated annealing + L-BFGS-B), random restarts",
-    defaults={"maxiter": 1000, "no_local_search": False},
+    options={"maxiter": Int(1000, minimum=1), "no_local_search": Bool(False)},
     batched=False,
 )
 def minimize(objective, *, rng, maxiter=1000, no_local_search=False):
@@ -48,7 +51,10 @@ def minimize(objective, *, rng, maxiter=1000, no_local_search=False):
         return penalty(objective(u))
 
     while True:  # until the objective raises BudgetExhausted
+        spent = objective.nfev
         dual_annealing(
             loss, [(0.0, 1.0)] * d, maxiter=int(maxiter), x0=rng.random(d), rng=rng,
             no_local_search=bool(no_local_search),
         )
+        if objective.nfev == spent:  # the next restart would do the same: never loop for nothing
+            return {"message": "an annealing run evaluated nothing; stopped"}

@@ -27,7 +27,13 @@ so instead the log-probability stops calling the objective once it is spent and 
 is a lazy but valid transition, the step completes, is stored, and the loop stops after it.
 The backend then returns what the chain holds, with the message "budget exhausted".
 
-Options: ``n_walkers`` (None = 2·d + 2), ``n_data`` (None: see above).
+Options: ``n_walkers`` (None = 2·d + 2; else 2 to 10,000, and at least 2·d: emcee's stretch move
+with fewer walkers keeps them in a subspace, and emcee refuses it; that part depends on the problem,
+so ``minimize`` checks it before evaluating anything and raises ``OptionError``, one line, e.g.
+``emcee: option n_walkers must be at least 2·d = 28 on this 14-parameter problem, got 3``),
+``n_data`` (None: see above; else 1 to 10⁹, the number of residuals L).
+Should a whole ``sample`` call evaluate nothing (every proposal outside the box), the run stops
+and says so rather than loop.
 Extras: ``chain`` (steps, walkers, d) in unit coordinates, ``log_prob`` (steps, walkers),
 ``acceptance_fraction`` (mean over walkers), ``autocorr_time`` (per dimension, emcee's estimate
 with ``tol=0``, so it is computed however short the chain; None before two steps), ``n_steps``.
@@ -38,6 +44,7 @@ from __future__ import annotations
 import emcee
 import numpy as np
 
+from bwbench.optimize.options import Int, OptionError
 from bwbench.optimize.registry import register
 
 
@@ -45,11 +52,15 @@ from bwbench.optimize.registry import register
     "emcee",
     family="mcmc",
     description="emcee ensemble sampler, uniform prior on the box, Gaussian likelihood with σ profiled out",
-    defaults={"n_walkers": None, "n_data": None},
+    options={"n_walkers": Int(None, minimum=2, maximum=10_000, none="2·d + 2"),
+             "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points")},
 )
 def minimize(objective, *, rng, n_walkers=None, n_data=None):
     d = objective.dim
-    n_walkers = int(n_walkers) if n_walkers else 2 * d + 2
+    if n_walkers is not None and n_walkers < 2 * d:
+        raise OptionError(f"emcee: option n_walkers must be at least 2·d = {2 * d} on this {d}-parameter "
+                          f"problem (emcee's stretch move), got {n_walkers}")
+    n_walkers = 2 * d + 2 if n_walkers is None else n_walkers
     if n_data is None:
         n_data = getattr(objective.problem, "n_data", 1000)
     half_L = 0.5 * float(n_data)
@@ -72,8 +83,10 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None):
     state = rng.random((n_walkers, d))
     # −inf − (−inf) = NaN in emcee's acceptance test when a walker and its proposal both blew up:
     # the comparison with NaN is False, i.e. rejected, which is right; the warning is noise.
+    stuck = False
     with np.errstate(invalid="ignore"):
-        while not objective.exhausted:
+        while not objective.exhausted and not stuck:
+            spent = objective.nfev
             # Store only as many steps as the budget can still pay for: emcee preallocates them.
             steps = objective.remaining // n_walkers + 1
             # The ensemble check is for user-given starting points, not for a chain being continued.
@@ -81,12 +94,13 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None):
             for state in sampler.sample(state, iterations=steps, skip_initial_state_check=continuing):
                 if objective.exhausted:
                     break
+            stuck = objective.nfev == spent  # every proposal of every step outside the box: never loop for nothing
 
     n_steps = sampler.iteration
     with np.errstate(invalid="ignore"):  # a walker that never moved has a 0/0 autocorrelation: NaN
         autocorr = sampler.get_autocorr_time(quiet=True, tol=0) if n_steps >= 2 else None
     return {
-        "message": "budget exhausted",
+        "message": "every proposal fell outside the box; stopped" if stuck else "budget exhausted",
         "chain": sampler.get_chain(),
         "log_prob": sampler.get_log_prob(),
         "acceptance_fraction": float(np.mean(sampler.acceptance_fraction)) if n_steps else float("nan"),

@@ -21,13 +21,20 @@ All in unit coordinates u ∈ [0, 1]^d (γ is per unit-box distance squared). Ea
 
 Moves use the generation-start positions of the others (Yang's code moves i towards the old
 position of j), so the loop over j is over numpy rows of the whole swarm at once. Runs until the
-objective raises BudgetExhausted.
+objective raises BudgetExhausted (every generation evaluates the whole swarm, so it always ends).
+
+Options (checked before the run, see ``register``): ``population`` (25; 2 to 1,000: one firefly has
+nobody to follow; the pairwise distances take population² × d numbers), ``beta0`` (1; in [0, 2]:
+above 2 a move throws i farther from j than it started, repulsion rather than attraction),
+``gamma`` (1; ≥ 0), ``alpha0`` (0.2; in [0, 1]: the random step in box widths), ``alpha_decay``
+(0.97; in (0, 1]: 0 would freeze the random walk after one generation, above 1 it grows).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from bwbench.optimize.options import Float, Int
 from bwbench.optimize.registry import register
 
 
@@ -56,15 +63,11 @@ def move(rng, U, loss, alpha, beta0, gamma) -> np.ndarray:
     "firefly",
     family="swarm",
     description="Yang's standard firefly algorithm, vectorised, with alpha decaying as alpha0*theta^t",
-    defaults={"population": 25, "beta0": 1.0, "gamma": 1.0, "alpha0": 0.2, "alpha_decay": 0.97},
+    options={"population": Int(25, minimum=2, maximum=1000), "beta0": Float(1.0, minimum=0.0, maximum=2.0),
+             "gamma": Float(1.0, minimum=0.0), "alpha0": Float(0.2, minimum=0.0, maximum=1.0),
+             "alpha_decay": Float(0.97, minimum=0.0, maximum=1.0, exclusive_minimum=True)},
 )
 def minimize(objective, *, rng, population=25, beta0=1.0, gamma=1.0, alpha0=0.2, alpha_decay=0.97):
-    population = int(population)
-    if population < 2:
-        raise ValueError(f"population must be at least 2, got {population}")
-    if not 0.0 < alpha_decay <= 1.0:
-        raise ValueError(f"alpha_decay must be in (0, 1], got {alpha_decay}")
-
     U = rng.random((population, objective.dim))
     loss = objective.batch(U)
     alpha = float(alpha0)

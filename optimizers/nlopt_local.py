@@ -20,7 +20,10 @@ the restart loop raises ``BudgetExhausted`` itself when ``optimize`` returns (or
 numbers, so the run's randomness is only the starting points, drawn from ``rng``. The
 objective is called one point at a time (``batched=False``).
 
-Options: ``xtol_rel`` (1e-6), ``ftol_rel`` (1e-8), ``maxeval`` (0 = no limit per local search).
+Options: ``xtol_rel`` (1e-6) and ``ftol_rel`` (1e-8), each ≥ 0 (0: that test is off; NLopt also
+reads a negative value as off, refused here as most likely a typo), ``maxeval`` (0 = no limit per
+local search; at most 2³¹ − 1, NLopt's C int). A local search that evaluates nothing ends the
+run with a message instead of being restarted for ever.
 
 +inf losses are given to NLopt as 10 × the worst finite loss seen so far (1e300 before any):
 BOBYQA fits quadratic models to the values, and with an inf among them it stops after its
@@ -35,9 +38,11 @@ import numpy as np
 
 from bwbench.errors import BudgetExhausted
 from bwbench.optimize.finite_penalty import WorstFinitePenalty
+from bwbench.optimize.options import Float, Int
 from bwbench.optimize.registry import register
 
-_DEFAULTS = {"xtol_rel": 1e-6, "ftol_rel": 1e-8, "maxeval": 0}
+_OPTIONS = {"xtol_rel": Float(1e-6, minimum=0.0), "ftol_rel": Float(1e-8, minimum=0.0),
+            "maxeval": Int(0, minimum=0, maximum=2**31 - 1)}
 
 
 def _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxeval):
@@ -52,6 +57,7 @@ def _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxev
         return penalty(objective(u))
 
     while True:
+        spent = objective.nfev
         opt = nlopt.opt(algorithm, d)
         opt.set_lower_bounds(np.zeros(d))
         opt.set_upper_bounds(np.ones(d))
@@ -65,12 +71,14 @@ def _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxev
             pass  # ours, or a failed local search (restart elsewhere)
         if objective.exhausted:
             raise BudgetExhausted(f"budget of {objective.budget} evaluations is spent")
+        if objective.nfev == spent:  # the next restart would do the same: never loop for nothing
+            return {"message": "a local search evaluated nothing; stopped"}
 
 
 def _backend(name, algorithm, description):
-    @register(name, family="local", description=description, defaults=dict(_DEFAULTS), batched=False)
+    @register(name, family="local", description=description, options=_OPTIONS, batched=False)
     def minimize(objective, *, rng, xtol_rel=1e-6, ftol_rel=1e-8, maxeval=0):
-        _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxeval)
+        return _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxeval)
 
     minimize.__name__ = minimize.__qualname__ = f"minimize_{name.split('-')[1]}"
     return minimize

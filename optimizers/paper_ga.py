@@ -23,12 +23,17 @@ parent survives next to it, as it would in the paper's procedure.
 
 The paper stops after 40 generations: 100 + 40·100 = 4,100 evaluations. When the generations are
 done before the budget, the run stops and says so.
+
+Options (checked before the run, see ``register``): ``population`` (100; 2 to 100,000: a tournament
+needs two distinct individuals; the cap only bounds memory), ``generations`` (40; ≥ 0: 0 evaluates
+the initial population only), ``p_mutation`` and ``p_crossover`` (0.5; probabilities in [0, 1]).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from bwbench.optimize.options import Float, Int
 from bwbench.optimize.registry import register
 
 
@@ -80,18 +85,10 @@ def survivors(pop, loss, kids, kid_loss):
     family="evolutionary",
     description="the paper's GA (Sec. 3.2): binary tournament, one-gene uniform mutation and "
     "one-gene swap crossover at 50%, (mu+lambda) survival, 100 x 40 generations",
-    defaults={"population": 100, "generations": 40, "p_mutation": 0.5, "p_crossover": 0.5},
+    options={"population": Int(100, minimum=2, maximum=100_000), "generations": Int(40, minimum=0),
+             "p_mutation": Float(0.5, minimum=0.0, maximum=1.0), "p_crossover": Float(0.5, minimum=0.0, maximum=1.0)},
 )
 def minimize(objective, *, rng, population=100, generations=40, p_mutation=0.5, p_crossover=0.5):
-    population, generations = int(population), int(generations)
-    if population < 2:
-        raise ValueError(f"population must be at least 2 for a tournament, got {population}")
-    if generations < 0:
-        raise ValueError(f"generations must be >= 0, got {generations}")
-    for name, p in (("p_mutation", p_mutation), ("p_crossover", p_crossover)):
-        if not 0.0 <= p <= 1.0:
-            raise ValueError(f"{name} must be a probability in [0, 1], got {p}")
-
     pop = rng.random((population, objective.dim))
     loss = objective.batch(pop)
     for _ in range(generations):

@@ -14,16 +14,29 @@ of a real model), which counts every evaluation itself, independently of the ``O
   1,000 evaluations, so both sides are checked);
 - ``check_same_seed``: the same seed gives a bit-identical run, another seed a different one;
 - ``check_infinite_loss``: a problem that is +inf on 90 % of the box is survived (no exception, no
-  NaN result).
+  NaN result);
+- ``check_options_end``: for every declared option, a run with the option at each edge of its range
+  (``declaration.edges()``: bounds, just inside them, every choice, None where allowed; the other
+  options at their defaults) ends — the budget spent, or stopped early saying why, or refused with
+  a one-line ``UserError`` naming the backend (a limit the declaration cannot express, e.g. one
+  that depends on the dimension). Nothing may loop without spending budget.
 """
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
-from bwbench.optimize import fitting
+from bwbench.errors import UserError
+from bwbench.optimize import fitting, registry
+from bwbench.optimize.options import show
 
 BUDGETS = (1, 57, 600, 1500)
+# A run at an option's edge that has not ended after this long counts as hung. A hang detector,
+# not a speed limit: each such run takes well under a second on SphereProblem; the margin is for a
+# loaded machine, so that only "still looping" fails.
+HANG_AFTER_S = 60.0
 
 
 class SphereProblem:
@@ -93,8 +106,60 @@ def check_infinite_loss(name: str, budget: int = 300, options: dict | None = Non
     assert not np.isnan(result.mse), f"{name}: NaN best loss on a problem that is +inf on 90 % of the box"
 
 
+def option_edge_cases(name: str) -> list[tuple[str, object]]:
+    """(option, value) for every declared option of backend ``name`` and every value at its edges."""
+    return [(option, value) for option, declaration in registry.get(name).options.items()
+            for value in declaration.edges()]
+
+
+def check_option_ends(name: str, option: str, value, budget: int = 200, hang_after: float = HANG_AFTER_S) -> None:
+    """A run of ``name`` with ``option = value`` (the others at their defaults) on the 14-D sphere ends
+    (see the module docstring)."""
+    problem = SphereProblem()
+    outcome: dict = {}
+
+    def run():
+        try:
+            outcome["result"] = fitting.run(problem, name, budget, seed=7, options={option: value})
+        except BaseException as err:  # re-raised, or judged, in the calling thread
+            outcome["error"] = err
+
+    # A thread rather than a direct call only so that a hang fails this check instead of freezing the
+    # test session; a hung thread is left running (daemon) — it cannot be stopped from outside.
+    thread = threading.Thread(target=run, name=f"bwbench-option-edge {name}", daemon=True)
+    thread.start()
+    thread.join(hang_after)
+    what = f"{name} with {option} = {show(value)}"
+    assert not thread.is_alive(), (
+        f"{what}: still running after {hang_after:g} s: a loop that spends no budget? "
+        "(a hang detector, not a speed limit)")
+    error = outcome.get("error")
+    if isinstance(error, UserError):  # refused: fine if the user would read one clear line
+        text = str(error)
+        assert "\n" not in text and text.startswith(f"{name}: "), (
+            f"{what}: a refusal must be one line starting with '{name}: ', got {text!r}")
+        return
+    if error is not None:
+        raise AssertionError(f"{what}: {type(error).__name__}: {error}") from error
+    result = outcome["result"]
+    assert problem.evaluated == result.nfev, (
+        f"{what}: the problem counted {problem.evaluated} evaluations, the objective {result.nfev}")
+    assert result.nfev <= budget, f"{what}: {result.nfev} evaluations on a budget of {budget}"
+    assert result.nfev == budget or result.message != "budget exhausted", (
+        f"{what}: stopped after {result.nfev} of {budget} evaluations without saying why")
+
+
+def check_options_end(name: str, budget: int = 200, hang_after: float = HANG_AFTER_S) -> None:
+    """``check_option_ends`` for every edge case of every declared option of ``name`` (untyped
+    options, declared with ``defaults=``, have no range and are not tried)."""
+    for option, value in option_edge_cases(name):
+        check_option_ends(name, option, value, budget, hang_after)
+
+
 def check_backend(name: str, options: dict | None = None) -> None:
-    """Every check above, for the registered backend ``name`` (with ``options``, default its defaults)."""
+    """Every check above, for the registered backend ``name`` (with ``options``, default its defaults;
+    ``check_options_end`` varies one option at a time from the defaults)."""
     check_exact_budget(name, options=options)
     check_same_seed(name, options=options)
     check_infinite_loss(name, options=options)
+    check_options_end(name)

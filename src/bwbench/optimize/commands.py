@@ -10,15 +10,24 @@ from bwbench.errors import UserError
 
 
 def list_backends(args) -> int:
+    """One line per backend (name, family, how it asks, description), then one line per option."""
     from bwbench.optimize import registry
+    from bwbench.optimize.options import show
 
     backends = registry.available()
     width = max(len(name) for name in backends)
     for backend in backends.values():
-        defaults = ", ".join(f"{k}={v}" for k, v in backend.defaults.items()) or "-"
         asks = "populations per call" if backend.batched else "one point per call"
-        print(f"{backend.name:<{width}}  {backend.family:<18}  {backend.description}")
-        print(f"{'':<{width}}  {'':<18}  asks for {asks}; defaults: {defaults}")
+        print(f"{backend.name:<{width}}  {backend.family:<18}  {asks:<20}  {backend.description}")
+        if backend.options:
+            lines = {key: declaration.describe() for key, declaration in backend.options.items()}
+        else:  # a plugin on the untyped contract (defaults=): no type or range to show
+            lines = {key: f"untyped, default {show(value)}" for key, value in backend.defaults.items()}
+        key_width = max(map(len, lines), default=0)
+        for key, text in lines.items():
+            print(f"    {key:<{key_width}}  {text}")
+        if not lines:
+            print("    (no options)")
     return 0
 
 
@@ -40,14 +49,17 @@ def fit(args) -> int:
     import sys
 
     from bwbench.data import manifest
-    from bwbench.optimize import fitting
+    from bwbench.optimize import fitting, registry
     from bwbench.problems.switched_vpp.commands import problem_from_args
 
     if args.budget < 1:
         raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
+    if args.seed < 0:
+        raise UserError(f"--seed must be a non-negative integer, got {args.seed}")
+    # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
+    options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     check_outputs({"--out": args.out, "--plot": args.plot}, [args.specimen, getattr(args, "bounds", None)])
     problem = problem_from_args(args)
-    options = dict(parse_option(o) for o in args.option)
     result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
     result.write_json(args.out)
     if not math.isfinite(result.mse):
@@ -76,9 +88,10 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("specimen", help="specimen CSV")
     parser.add_argument("--optimizer", required=True, help="backend name (see `bwbench optimizers`)")
     parser.add_argument("--budget", type=int, default=4100, help="evaluations (default 4100, the paper's GA)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed, a non-negative integer (default 0)")
     parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                        help="backend option, repeatable (see `bwbench optimizers`)")
+                        help="backend option, repeatable; VALUE is read as JSON (3, 0.5, true, null, [0.5, 1]), "
+                        "else as a string (see `bwbench optimizers` for each backend's options and ranges)")
     add_model_options(parser)
     parser.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper] "
                                                              "(names left out keep the default range)")

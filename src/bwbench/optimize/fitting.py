@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 import time
 
 import numpy as np
@@ -15,15 +16,16 @@ from bwbench.optimize.result import Result
 def run(problem, optimizer: str, budget: int, seed, options: dict | None = None) -> Result:
     """Minimise the problem's loss with backend ``optimizer`` on exactly ``budget`` evaluations.
 
-    ``seed`` is an int or a ``numpy.random.SeedSequence``; the backend gets a ``Generator`` made
-    from it, so the same seed gives the same run.
+    ``seed`` is a non-negative int or a ``numpy.random.SeedSequence``; the backend gets a
+    ``Generator`` made from it, so the same seed gives the same run. ``options`` are checked by
+    ``registry.resolve_options`` (defaults merged in) before anything is evaluated; a bad one, like a
+    bad seed, raises ``UserError``.
     """
     backend = registry.get(optimizer)
-    unknown = set(options or {}) - set(backend.defaults)
-    if unknown:
-        raise UserError(f"{optimizer}: unknown option(s) {', '.join(sorted(unknown))}; "
-                        f"it takes {', '.join(backend.defaults) or 'none'}")
-    opts = {**backend.defaults, **(options or {})}
+    opts = registry.resolve_options(optimizer, options)
+    if not isinstance(seed, np.random.SeedSequence) and (
+            isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
+        raise UserError(f"the seed must be a non-negative integer, got {seed!r}")
     seed_seq = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(int(seed))
     rng = np.random.default_rng(seed_seq)
     objective = Objective(problem, budget)

@@ -2,12 +2,14 @@
 
 Writing a backend (built in, or in another package)
 ---------------------------------------------------
-A backend is one function registered by name::
+A backend is one function registered by name, with its options declared::
 
+    from bwbench.optimize.options import Float
     from bwbench.optimize.registry import register
 
     @register("my-search", family="local", description="what it does, in one line",
-              defaults={"step": 0.25}, batched=False)
+              options={"step": Float(0.25, minimum=0.0, maximum=1.0, exclusive_minimum=True)},
+              batched=False)
     def minimize(objective, *, rng, step=0.25):
         ...
         return {"message": "why it stopped"}          # optional extras
@@ -36,11 +38,24 @@ A backend is one function registered by name::
   exhausted" when BudgetExhausted stopped it); scalar extras go into the result JSON, and a
   ``chain`` (steps, walkers, d), with ``log_prob`` and ``acceptance_fraction``, is stored by a study
   in its ``chains`` table (MCMC backends).
-- **Options** are keyword arguments with the defaults given to ``register``; a study stores them
-  with every run, so they must be plain JSON values.
+- **Options** are keyword arguments, declared in ``options={name: declaration}`` with a type, a
+  valid range and a default (``bwbench.optimize.options``: ``Int``, ``Float``, ``Choice``, ``Bool``,
+  ``FloatOrPair``; ``none=`` also accepts None). ``resolve_options`` checks every value against its
+  declaration before the run starts (``bwbench fit --option``, a study's ``[optimizers]`` table,
+  ``bwbench.optimize.fitting.run``), so ``minimize`` receives only values in the declared ranges.
+  Declare ranges the algorithm is actually valid on, and no value in them may make the backend loop
+  without spending budget (a restart that evaluates nothing must end the run, with a message). A
+  limit that depends on the problem (e.g. emcee's walkers ≥ 2·d) is checked by the backend itself at
+  the start of ``minimize``, raising ``bwbench.optimize.options.OptionError`` (one line:
+  ``name: option X must be ..., got V``). A study stores the options with every run, so they must
+  be plain JSON values.
+- **Untyped options** (the contract before typed options): ``defaults={"step": 0.25}`` instead of
+  ``options=`` still works; only unknown names are refused, values reach ``minimize`` unchecked,
+  and ``bwbench optimizers`` shows them as untyped. Give one of ``options=`` and ``defaults=``.
 
 ``bwbench.testing.check_backend(name)`` runs the contract's checks (exact budget at several budgets,
-same seed same run, +inf survived); ``examples/plugin/`` is a complete, installable plugin package.
+same seed same run, +inf survived, a run at every declared option's edge values ends);
+``examples/plugin/`` is a complete, installable plugin package.
 
 Registration
 ------------
@@ -59,6 +74,7 @@ from importlib.metadata import entry_points
 from typing import Callable
 
 from bwbench.errors import UserError
+from bwbench.optimize.options import Option, show
 
 ENTRY_POINT_GROUP = "bwbench.optimizers"
 
@@ -69,9 +85,11 @@ class Backend:
     family: str
     description: str
     minimize: Callable
-    defaults: dict = field(default_factory=dict)
+    defaults: dict = field(default_factory=dict)  # name -> default; derived from ``options`` when typed
     # Asks for whole populations per objective.batch call (True) or one point per call (False).
     batched: bool = True
+    # name -> declaration (bwbench.optimize.options); empty for a backend registered with defaults= only.
+    options: dict = field(default_factory=dict)
 
 
 _REGISTRY: dict[str, Backend] = {}
@@ -81,14 +99,29 @@ _LOCK = threading.RLock()
 _loaded = False
 
 
-def register(name: str, *, family: str, description: str, defaults: dict | None = None, batched: bool = True):
-    """Decorator: register ``minimize`` under ``name``; a second backend of the same name is refused."""
+def register(name: str, *, family: str, description: str, options: dict | None = None,
+             defaults: dict | None = None, batched: bool = True):
+    """Decorator: register ``minimize`` under ``name``; a second backend of the same name is refused.
+
+    ``options``: {name: declaration} (typed, checked before every run); ``defaults``: {name: value}
+    (the untyped contract, names checked only). Give one or neither.
+    """
+    if options and defaults:
+        raise ValueError(f"{name}: give options= (typed) or defaults= (untyped), not both")
+    options = dict(options or {})
+    for key, declaration in options.items():
+        if not isinstance(declaration, Option):
+            raise TypeError(f"{name}: option {key!r} must be declared with bwbench.optimize.options "
+                            f"(Int, Float, Choice, Bool, ...), got {declaration!r}; plain defaults go in defaults=")
+    if options:
+        defaults = {key: declaration.default for key, declaration in options.items()}
 
     def decorate(minimize: Callable) -> Callable:
         with _LOCK:
             if name in _REGISTRY and _REGISTRY[name].minimize is not minimize:
                 raise ValueError(f"an optimiser named {name!r} is already registered")
-            _REGISTRY[name] = Backend(name, family, description, minimize, dict(defaults or {}), bool(batched))
+            _REGISTRY[name] = Backend(name, family, description, minimize, dict(defaults or {}), bool(batched),
+                                      options)
         return minimize
 
     return decorate
@@ -120,3 +153,29 @@ def get(name: str) -> Backend:
     if name not in backends:
         raise UserError(f"unknown optimiser {name!r}; available: {', '.join(backends)}")
     return backends[name]
+
+
+def resolve_options(backend_name: str, given: dict | None = None, *, label: str | None = None) -> dict:
+    """The options a run of ``backend_name`` gets: its defaults updated with ``given``, every value
+    checked against its declaration and normalised.
+
+    Raises ``UserError`` (``OptionError`` for a bad value) with one line starting with ``label``
+    (default: the backend's name), e.g. ``paper-ga: option population must be an integer in
+    [2, 100000], got 'abc'`` or ``random: unknown option(s) colour; it takes batch_size``.
+    """
+    backend = get(backend_name)
+    label = backend_name if label is None else label
+    if given is None:
+        given = {}
+    if not isinstance(given, dict):
+        raise UserError(f"{label}: options must be a table of name = value, got {show(given)}")
+    known = backend.options or backend.defaults
+    unknown = sorted((key for key in given if key not in known), key=str)
+    if unknown:
+        raise UserError(f"{label}: unknown option(s) {', '.join(map(str, unknown))}; "
+                        f"it takes {', '.join(known) or 'none'}")
+    if not backend.options:  # untyped (defaults=): names only, values unchecked, as before typed options
+        return {**backend.defaults, **given}
+    # The default goes through validate too: a fresh copy, so a backend may modify what it gets.
+    return {key: declaration.validate(given[key] if key in given else declaration.default, f"{label}: option {key}")
+            for key, declaration in backend.options.items()}

@@ -200,14 +200,12 @@ def _check_backend(fail, label, optimizer) -> None:
 
 
 def _resolve_options(fail, label, optimizer, options) -> dict:
-    backends = registry.available()
     if not isinstance(options, dict):
         fail(f"{label} must be a table of options (use {{}} for the defaults)")
-    defaults = backends[optimizer].defaults
-    unknown = sorted(set(options) - set(defaults))
-    if unknown:
-        fail(f"{label}: unknown option {unknown[0]!r}; it takes {', '.join(defaults) or 'none'}")
-    resolved = {**defaults, **options}
+    try:  # the same check as `bwbench fit --option`: names, types and ranges, defaults merged in
+        resolved = registry.resolve_options(optimizer, options, label=label)
+    except UserError as err:
+        fail(str(err))
     try:  # options are stored as JSON with every run: only plain values will do
         return json.loads(canonical_json(resolved))
     except (TypeError, ValueError):
