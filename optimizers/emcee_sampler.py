@@ -3,17 +3,24 @@
 Not an optimiser: it samples, and the point estimate is the best loss the objective met along
 the way (the objective tracks it). The chain comes back in the extras.
 
-Posterior over u ∈ [0, 1]^d: a uniform prior on the box (log p = −inf outside) and a Gaussian
-likelihood with the noise σ profiled out,
+Posterior over u ∈ [0, 1]^d: a uniform prior on the box (log p = −inf outside) times the
+likelihood ``objective.batch_with_likelihood`` gives: the problem's own marginal likelihood when it
+has one (the identifiable formulation integrates its linear coefficients out analytically), else a
+Gaussian likelihood with the noise σ integrated out under Jeffreys' prior p(σ) ∝ 1/σ,
 
     log p(u) = −(L/2)·log MSE(u)           (L = number of data points)
 
-which is, up to a constant, the marginal likelihood of σ under the Jeffreys prior p(σ) ∝ 1/σ:
-∫ σ^(−L)·exp(−L·MSE/(2σ²))·dσ/σ ∝ MSE^(−L/2). A blown-up model (MSE = +inf): log p = −inf.
-L is the option ``n_data`` if given, else ``objective.problem.n_data``, else 1000.
+(∫ σ^(−L)·exp(−L·MSE/(2σ²))·dσ/σ ∝ MSE^(−L/2)). A blown-up model: log p = −inf. With the option
+``n_data`` given, that formula is used with L = ``n_data`` whatever the problem.
+
+Start (option ``start``): "uniform" walkers uniform in the box (a sampler used as an optimiser, as in
+the ranking); "optimum": first a CMA-ES run (the ``cmaes`` backend) on ``start_fraction`` of the
+budget, then the walkers in a ball of radius 0.01 (unit coordinates) around the best point it found
+— the usual start of an ensemble sampler (walkers scattered over a 7- or 14-dimensional box get stuck
+in the poor regions for a very long time, and the chain never mixes).
 
 Library call: ``emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)`` with the
-default stretch move, walkers started uniformly in the box, and ``sampler.sample(state,
+default stretch move, and ``sampler.sample(state,
 iterations=n)`` in a loop, ``n`` being what the remaining budget can pay for. The stretch move updates half
 the ensemble at a time, so each half-step is one ``objective.batch`` call holding only the
 proposals inside the box (those outside cost nothing). emcee samples from its own
@@ -31,7 +38,8 @@ Options: ``n_walkers`` (None = 2·d + 2; else 2 to 10,000, and at least 2·d: em
 with fewer walkers keeps them in a subspace, and emcee refuses it; that part depends on the problem,
 so ``minimize`` checks it before evaluating anything and raises ``OptionError``, one line, e.g.
 ``emcee: option n_walkers must be at least 2·d = 28 on this 14-parameter problem, got 3``),
-``n_data`` (None: see above; else 1 to 10⁹, the number of residuals L).
+``n_data`` (None: see above; else 1 to 10⁹, the number of residuals L), ``start`` ("uniform"),
+``start_fraction`` (0.1, the share of the budget the start's optimisation may spend).
 Should a whole ``sample`` call evaluate nothing (every proposal outside the box), the run stops
 and says so rather than loop.
 Extras: ``chain`` (steps, walkers, d) in unit coordinates, ``log_prob`` (steps, walkers),
@@ -44,7 +52,8 @@ from __future__ import annotations
 import emcee
 import numpy as np
 
-from bwbench.optimize.options import Int, OptionError
+from bwbench.errors import BudgetExhausted
+from bwbench.optimize.options import Choice, Float, Int, OptionError
 from bwbench.optimize.registry import register
 
 
@@ -53,14 +62,17 @@ from bwbench.optimize.registry import register
     family="mcmc",
     description="emcee ensemble sampler, uniform prior on the box, Gaussian likelihood with σ profiled out",
     options={"n_walkers": Int(None, minimum=2, maximum=10_000, none="2·d + 2"),
-             "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points")},
+             "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points"),
+             "start": Choice("uniform", ("uniform", "optimum")),
+             "start_fraction": Float(0.1, minimum=0.0, maximum=0.9)},
 )
-def minimize(objective, *, rng, n_walkers=None, n_data=None):
+def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", start_fraction=0.1):
     d = objective.dim
     if n_walkers is not None and n_walkers < 2 * d:
         raise OptionError(f"emcee: option n_walkers must be at least 2·d = {2 * d} on this {d}-parameter "
                           f"problem (emcee's stretch move), got {n_walkers}")
     n_walkers = 2 * d + 2 if n_walkers is None else n_walkers
+    given_n_data = n_data is not None
     if n_data is None:
         n_data = getattr(objective.problem, "n_data", 1000)
     half_L = 0.5 * float(n_data)
@@ -73,14 +85,18 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None):
         lp = np.full(len(U), -np.inf)
         if inside.any() and not objective.exhausted:
             with np.errstate(**callers_errstate):  # the sampling loop's silencing is for emcee only
-                mse = objective.batch(U[inside])
-            # tiny: an exact fit must not give log p = +inf.
-            lp[inside] = -half_L * np.log(np.maximum(mse, np.finfo(float).tiny))
+                if given_n_data:
+                    mse = objective.batch(U[inside])
+                    # tiny: an exact fit must not give log p = +inf.
+                    lp[inside] = -half_L * np.log(np.maximum(mse, np.finfo(float).tiny))
+                else:
+                    lp[inside] = objective.batch_with_likelihood(U[inside])[1]
         return lp
 
     sampler = emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)
     sampler.random_state = np.random.RandomState(np.random.MT19937(rng.integers(2**63))).get_state()
-    state = rng.random((n_walkers, d))
+    state = rng.random((n_walkers, d)) if start == "uniform" else _ball_at_optimum(objective, rng, n_walkers,
+                                                                                  start_fraction)
     # −inf − (−inf) = NaN in emcee's acceptance test when a walker and its proposal both blew up:
     # the comparison with NaN is False, i.e. rejected, which is right; the warning is noise.
     stuck = False
@@ -109,3 +125,46 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None):
         "n_walkers": n_walkers,
         "n_data": int(n_data),
     }
+
+
+def _ball_at_optimum(objective, rng, n_walkers: int, fraction: float) -> np.ndarray:
+    """Walkers in a ball of radius 0.01 around the best point a CMA-ES run on ``fraction`` of the
+    remaining budget found (every evaluation counts against the objective's budget)."""
+    from bwbench.optimizers.cmaes import minimize as cmaes
+
+    share = _Share(objective, int(fraction * objective.remaining))
+    try:
+        cmaes(share, rng=rng)
+    except BudgetExhausted:
+        pass
+    centre = objective.best_u if objective.best_u is not None else rng.random(objective.dim)
+    return np.clip(centre + 0.01 * rng.standard_normal((n_walkers, objective.dim)), 0.0, 1.0)
+
+
+class _Share:
+    """``objective`` seen through a smaller budget; evaluations count against the real one."""
+
+    def __init__(self, objective, budget: int):
+        self.objective, self.dim, self.problem = objective, objective.dim, objective.problem
+        self.stop = objective.nfev + budget
+
+    @property
+    def nfev(self) -> int:
+        return self.objective.nfev
+
+    @property
+    def remaining(self) -> int:
+        return min(self.stop - self.objective.nfev, self.objective.remaining)
+
+    @property
+    def exhausted(self) -> bool:
+        return self.remaining <= 0
+
+    def batch(self, U):
+        if self.exhausted:
+            raise BudgetExhausted("the start's share of the budget is spent")
+        U = np.atleast_2d(U)
+        losses = np.full(len(U), np.inf)
+        take = min(len(U), self.remaining)
+        losses[:take] = self.objective.batch(U[:take])
+        return losses
