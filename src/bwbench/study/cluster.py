@@ -65,10 +65,9 @@ def _lost_scheduler(client, future) -> str | None:
         err = future.exception(timeout=0)
     except Exception as raised:  # a cancelled future raises its cancellation
         err = raised
-    if getattr(err, "reason", None) == _LOST_REASON:
+    # The cancellation says so, or (when the workers went first) the client is already reconnecting.
+    if getattr(err, "reason", None) == _LOST_REASON or client.status not in ("running", "newly-created"):
         return "the connection closed"
-    if client.status not in ("running", "newly-created"):
-        return f"the client is {client.status}"
     return None
 
 

@@ -56,19 +56,20 @@ def summarize(recorded, transient) -> list[str]:
     n = len(recorded) + len(transient)
     lines = [f"error: {n} run{'s' if n != 1 else ''} failed:"]
     for failures, what in ((recorded, "recorded as an error, not retried (it would fail the same way)"),
-                           (transient, "not recorded (a fault of the environment): run the same command "
-                                       "again to retry")):
+                           (transient, "not recorded (a fault of the environment; run the same command "
+                                       "again to retry)")):
         groups = defaultdict(list)
         for key, error in failures:
             groups[_first_line(error)].append(key)
         for text, keys in sorted(groups.items(), key=lambda item: (-len(item[1]), item[0])):
             shown = ", ".join(key_text(k) for k in sorted(keys)[:SHOWN_KEYS])
             more = f" and {len(keys) - SHOWN_KEYS} more" if len(keys) > SHOWN_KEYS else ""
-            lines.append(f"  {len(keys)} × {text} — {what}: {shown}{more}")
+            runs = f"{len(keys)} run{'s' if len(keys) != 1 else ''}"
+            lines.append(f'  {runs}: "{text}", {what}: {shown}{more}')
     return lines
 
 
 def _first_line(error: str | None) -> str:
-    # Errors are stored on one line (newlines collapsed): show its start, long enough to tell errors apart.
-    text = (error or "unknown error").splitlines()[0] if error else "unknown error"
-    return text if len(text) <= SHOWN_TEXT else text[:SHOWN_TEXT - 1] + "…"
+    # Stored errors are one line (newlines collapsed): show its start, enough to tell errors apart.
+    text = error.splitlines()[0] if error else "unknown error"
+    return text if len(text) <= SHOWN_TEXT else text[:SHOWN_TEXT - 3] + "..."
