@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sqlite3
 import sys
 from contextlib import closing
@@ -99,35 +100,44 @@ def main(args) -> int:
     """
     if args.workers is not None and args.scheduler:
         raise UserError("--workers and --scheduler exclude each other: a cluster brings its own workers")
-    config = load_study_config(args.config, data=getattr(args, "data", None))
-    db = Path(args.db) if args.db else config.default_db
-    if args.csv:
-        check_csv_path(args.csv, db)
-    resume = f"finished runs are in {db}; run the same command again to resume"
+    db = None
     try:
         with signals_raise():
+            config = load_study_config(args.config, data=getattr(args, "data", None))
+            db = Path(args.db) if args.db else config.default_db
+            if args.csv:
+                check_csv_path(args.csv, db)
             outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)
-    except KeyboardInterrupt:
-        print(f"interrupted: {resume}", file=sys.stderr)
-        return 130
-    except Interrupted as stop:
-        print(f"terminated ({stop}): {resume}", file=sys.stderr)
-        return stop.status
+            if args.csv:
+                try:
+                    export_csv(db, args.csv)
+                except OSError as err:
+                    raise UserError(f"{args.csv}: cannot write the CSV: {err.strerror or err} "
+                                    f"(the runs are in {db})") from None
+            _print_results(config, db, outcome, args.csv)
+    except (KeyboardInterrupt, Interrupted) as stop:
+        what = "interrupted" if isinstance(stop, KeyboardInterrupt) else f"terminated ({stop})"
+        where = f"finished runs are in {db}" if db is not None else "no run had started"
+        print(f"{what}: {where}; run the same command again to resume", file=sys.stderr)
+        return 130 if isinstance(stop, KeyboardInterrupt) else stop.status
     except StudyStopped as stop:
         print(f"error: {stop}", file=sys.stderr)
         return stop.status
-    print(f"\nstudy {config.name}: {outcome.already + outcome.recorded}/{outcome.total} runs in {db}")
-    print(summary_table(db, problems.get(config.problem)))
-    if args.csv:
-        try:
-            export_csv(db, args.csv)
-        except OSError as err:
-            raise UserError(f"{args.csv}: cannot write the CSV: {err.strerror or err} (the runs are in {db})") from None
-        print(f"wrote {args.csv}")
     lines = failures.summarize(outcome.failed, outcome.lost)
     for line in lines:
         print(line, file=sys.stderr)
     return 1 if lines else 0
+
+
+def _print_results(config, db, outcome, csv) -> None:
+    try:
+        print(f"\nstudy {config.name}: {outcome.already + outcome.recorded}/{outcome.total} runs in {db}")
+        print(summary_table(db, problems.get(config.problem)))
+        if csv:
+            print(f"wrote {csv}")
+        sys.stdout.flush()
+    except BrokenPipeError:  # `compare ... | head`: the reader left, the study is recorded all the same
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
 
 
 def check_csv_path(csv, db) -> None:
