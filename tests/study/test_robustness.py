@@ -285,8 +285,8 @@ def flaky_backends(monkeypatch):
             raise state["raise"]
 
     registry.available()  # load the built-ins first, so these entries are removed cleanly afterwards
-    monkeypatch.setitem(registry._REGISTRY, "test-raises", registry.Backend("test-raises", "test", "raises", raises, {}))
-    monkeypatch.setitem(registry._REGISTRY, "test-flaky", registry.Backend("test-flaky", "test", "flaky", flaky, {}))
+    for name, minimize in (("test-raises", raises), ("test-flaky", flaky)):
+        monkeypatch.setitem(registry._REGISTRY, name, registry.Backend(name, "test", name, minimize, {}))
     return state
 
 

@@ -173,6 +173,7 @@ def run_cli(argv=None, prog: str | None = None) -> int:
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    except OSError as err:  # the same as bwbench's own entry point
-        print(f"error: {err.filename or ''}: {err.strerror or err}", file=sys.stderr)
+    except OSError as err:  # as bwbench's own entry point does
+        where = f"{err.filename}: " if err.filename else ""
+        print(f"error: {where}{err.strerror or err}", file=sys.stderr)
         return 2

@@ -59,38 +59,41 @@ def run_study(config: StudyConfig, db, *, workers: int | None = None, scheduler:
         raise UserError(f"--workers must be at least 1, got {workers}")
     tasks = plan_tasks(config)
     db = prepare_database_path(db)
+    resume = f"finished runs are in {db}, run the same command again to resume"
     with StudyLock(db), closing(open_database(db, config, planned_runs=len(tasks))) as conn:
-        done = finished_keys(conn)
-        pending = [t for t in tasks if t.key not in done]
-        already = len(tasks) - len(pending)
-        if not pending:
-            print(f"study {config.name}: all {len(tasks)} runs already in {db}", file=log)
-            return StudyOutcome(len(tasks), already, 0, 0, (), tuple(failed_runs(conn)))
-        workers = min(workers or os.cpu_count() or 1, len(pending))
-        where = (f"the Dask cluster at {scheduler}" if scheduler
-                 else "this process" if workers == 1 else f"{workers} local processes")
-        print(f"study {config.name}: {len(tasks)} runs, {already} already in {db}, "
-              f"{len(pending)} to run on {where}", file=log)
-        recorded = errors = 0
-        lost = []
-        resume = f"finished runs are in {db}, run the same command again to resume"
         try:
-            # closing(): leaving early (an error, Ctrl-C, SIGTERM) stops the workers at once.
-            with closing(execute_tasks(pending, workers=workers, scheduler=scheduler)) as outcomes, \
-                    _Progress(len(pending), config.name, log) as progress:
-                for outcome in outcomes:
-                    if "lost" in outcome:
-                        lost.append((outcome["key"], outcome["lost"]))
-                    elif record_run(conn, outcome):
-                        recorded += 1
-                        errors += outcome["row"]["status"] == "error"
-                    progress.update(errors, len(lost))
+            return _run_pending(config, db, conn, tasks, workers, scheduler, log)
         except sqlite3.Error as err:  # a full disk, an I/O error: what was committed stays
             raise StudyStopped(f"{database_fault(db, err)}; {resume}", status=2) from None
         except SchedulerLost as err:
             raise StudyStopped(f"{err}; {resume}", status=1) from None
-        failed = tuple(failed_runs(conn))
-    return StudyOutcome(len(tasks), already, recorded, errors, tuple(lost), failed)
+
+
+def _run_pending(config, db, conn, tasks, workers, scheduler, log) -> StudyOutcome:
+    done = finished_keys(conn)
+    pending = [t for t in tasks if t.key not in done]
+    already = len(tasks) - len(pending)
+    if not pending:
+        print(f"study {config.name}: all {len(tasks)} runs already in {db}", file=log)
+        return StudyOutcome(len(tasks), already, 0, 0, (), tuple(failed_runs(conn)))
+    workers = min(workers or os.cpu_count() or 1, len(pending))
+    where = (f"the Dask cluster at {scheduler}" if scheduler
+             else "this process" if workers == 1 else f"{workers} local processes")
+    print(f"study {config.name}: {len(tasks)} runs, {already} already in {db}, "
+          f"{len(pending)} to run on {where}", file=log)
+    recorded = errors = 0
+    lost = []
+    # closing(): leaving early (an error, Ctrl-C, SIGTERM) stops the workers at once.
+    with closing(execute_tasks(pending, workers=workers, scheduler=scheduler)) as outcomes, \
+            _Progress(len(pending), config.name, log) as progress:
+        for outcome in outcomes:
+            if "lost" in outcome:
+                lost.append((outcome["key"], outcome["lost"]))
+            elif record_run(conn, outcome):
+                recorded += 1
+                errors += outcome["row"]["status"] == "error"
+            progress.update(errors, len(lost))
+    return StudyOutcome(len(tasks), already, recorded, errors, tuple(lost), tuple(failed_runs(conn)))
 
 
 def execute_tasks(tasks, *, workers: int = 1, scheduler: str | None = None):
@@ -139,7 +142,7 @@ class _Progress:
         eta = (self.total - self.count) / rate if rate > 0 else math.inf
         print(f"{self.name}: {self.count}/{self.total} runs ({fraction:.0%}), {rate:.2f} runs/s, "
               f"ETA {_duration(eta)}, {errors} error{'s' if errors != 1 else ''}"
-              + (f", {lost} lost (worker died)" if lost else ""), file=self.log, flush=True)
+              + (f", {lost} not finished (retried on the next call)" if lost else ""), file=self.log, flush=True)
 
 
 def _duration(seconds: float) -> str:

@@ -5,9 +5,10 @@ queue, whose write end it holds itself, and it keeps the multiprocessing resourc
 too, because every spawned worker inherits the tracker's pipe (``tracker_fd``) and the tracker only
 exits when the last holder of that pipe has closed it. So on Linux each worker asks the kernel to
 SIGKILL it when the study process dies (``PR_SET_PDEATHSIG``), and so does every process a worker
-forks with ``os.fork`` (``subprocess`` children are not covered: no backend starts one); once the workers are gone the tracker reads end-of-file and exits on its own. When the study
-stops early (an exception, Ctrl-C, SIGTERM) the workers are killed at once instead of being waited
-for: a run in flight is not a result anyway, and a posterior run can take minutes.
+forks with ``os.fork`` (``subprocess`` children are not covered: no backend starts one); once the
+workers are gone the tracker reads end-of-file and exits on its own. When the study stops early
+(an exception, Ctrl-C, SIGTERM) the workers are killed at once instead of being waited for: a run
+in flight is not a result anyway, and a posterior run can take minutes.
 """
 
 from __future__ import annotations

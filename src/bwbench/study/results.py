@@ -2,8 +2,9 @@
 
 The schema is the runner's contract: tables ``study``, ``runs``, ``timings``, ``traces`` and
 ``chains``. Reading never writes: the file is opened read-only, so a report can be made while
-the study is still running (``Study.provisional`` says how far it is). Databases from before the generic ``runs`` columns (``problem``,
-``params_json``, ``metrics_json``) read as switched-model studies with those columns filled in.
+the study is still running (``Study.provisional`` says how far it is). Databases from before the
+generic ``runs`` columns (``problem``, ``params_json``, ``metrics_json``) read as switched-model
+studies with those columns filled in.
 """
 
 from __future__ import annotations
