@@ -67,6 +67,8 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
 
     ``profile_params``: profile likelihoods of that many parameters (the widest free ranges) on the
     first featured specimen (0: none; they cost about a second per grid point).
+    A study with fewer runs than it plans (stopped part-way, or still running) is reported as
+    provisional ("provisional: 16 of 36 runs") in the title, the first paragraph and the recommendation.
     Raises ``UserError`` for a missing or non-study database, or one without finished ranking runs.
     """
     log = sys.stderr if log is None else log
@@ -84,12 +86,17 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     n_specimens = len(study.specimens)
     rec = recommend(table, tests.pairwise, tests.omnibus, study.settings.get("budget", "?"), n_specimens,
                     tests.omnibus_name, problem_type.residual_unit)
+    provisional = study.provisional  # "provisional: 16 of 36 runs" for an unfinished study
+    if provisional:
+        rec["text"] = (f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished (still running, "
+                       "or stopped part-way), so this recommendation may change when it completes. " + rec["text"])
     report = Report(study, Document(out), out, log, table, tests, rec,
                     featured_specimens(study, identifiability_specimens),
                     {"profile_params": profile_params, "profile_grid": profile_grid})
     doc = report.doc
 
-    doc.h(1, f"Optimiser comparison: {study.name}")
+    title = f"{study.name} ({provisional})" if provisional else study.name
+    doc.h(1, f"Optimiser comparison: {title}")
     if problem_type.is_synthetic(study):
         doc.banner("SYNTHETIC DATA — generated from the paper's Tables 6–8, not measured.")
     doc.p("**Recommendation.** " + rec["text"])
@@ -105,7 +112,7 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
 
     (out / "report.md").write_text(doc.markdown(), encoding="utf-8")
     html_path = out / "report.html"
-    html_path.write_text(doc.html(f"bwbench report: {study.name}"), encoding="utf-8")
+    html_path.write_text(doc.html(f"bwbench report: {title}"), encoding="utf-8")
     return html_path
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sqlite3
 import sys
 from contextlib import closing
@@ -13,8 +14,10 @@ import numpy as np
 
 from bwbench import problems
 from bwbench.errors import UserError
+from bwbench.study import failures
 from bwbench.study.config import config_from_arguments, load_study_config
 from bwbench.study.execute import run_study
+from bwbench.study.stop import Interrupted, StudyStopped, signals_raise
 
 
 def read_runs(db):
@@ -104,30 +107,74 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args) -> int:
     """``bwbench compare``: run (or resume) a study, print the ranking, optionally export CSV.
 
-    Exit status 0 when every run is recorded (including runs that raised: status "error"),
-    1 when some runs were lost to a dead worker (run again to retry them), 130 on Ctrl-C.
+    Exit status 0 when every run succeeded; 1 when some failed (their errors are listed: those
+    recorded as errors are not retried, the others are retried by running the same command again)
+    or the Dask scheduler was lost; 2 for a user's mistake or a database that cannot be written (one
+    line ``error: ...``); 130 on Ctrl-C, 143 on SIGTERM (the runs finished so far stay recorded).
     Raises ``UserError`` for a bad configuration or option.
     """
     if args.workers is not None and args.scheduler:
         raise UserError("--workers and --scheduler exclude each other: a cluster brings its own workers")
-    config = study_config(args)
-    db = Path(args.db) if args.db else config.default_db
+    db = None
     try:
-        outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)
-    except KeyboardInterrupt:
-        print(f"interrupted: finished runs are in {db}; run the same command again to resume", file=sys.stderr)
-        return 130
-    print(f"\nstudy {config.name}: {outcome.already + outcome.recorded}/{outcome.total} runs in {db}")
-    print(summary_table(db, problems.get(config.problem)))
-    if args.csv:
-        export_csv(db, args.csv)
-        print(f"wrote {args.csv}")
-    if outcome.lost:
-        key, why = outcome.lost[0]
-        print(f"error: {len(outcome.lost)} run(s) lost to a failed worker (first: {'/'.join(map(str, key))}: "
-              f"{why}); run the same command again to retry them", file=sys.stderr)
-        return 1
-    return 0
+        with signals_raise():
+            config = study_config(args)
+            db = Path(args.db) if args.db else config.default_db
+            if args.csv:
+                check_csv_path(args.csv, db)
+            outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)
+            if args.csv:
+                try:
+                    export_csv(db, args.csv)
+                except OSError as err:
+                    raise UserError(f"{args.csv}: cannot write the CSV: {err.strerror or err} "
+                                    f"(the runs are in {db})") from None
+            _print_results(config, db, outcome, args.csv)
+    except (KeyboardInterrupt, Interrupted) as stop:
+        what = "interrupted" if isinstance(stop, KeyboardInterrupt) else f"terminated ({stop})"
+        where = f"finished runs are in {db}" if db is not None else "no run had started"
+        print(f"{what}: {where}; run the same command again to resume", file=sys.stderr)
+        return 130 if isinstance(stop, KeyboardInterrupt) else stop.status
+    except StudyStopped as stop:
+        print(f"error: {stop}", file=sys.stderr)
+        return stop.status
+    lines = failures.summarize(outcome.failed, outcome.lost)
+    for line in lines:
+        print(line, file=sys.stderr)
+    return 1 if lines else 0
+
+
+def _print_results(config, db, outcome, csv) -> None:
+    try:
+        print(f"\nstudy {config.name}: {outcome.already + outcome.recorded}/{outcome.total} runs in {db}")
+        print(summary_table(db, problems.get(config.problem)))
+        if csv:
+            print(f"wrote {csv}")
+        sys.stdout.flush()
+    except BrokenPipeError:  # `compare ... | head`: the reader left, the study is recorded all the same
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+
+
+def check_csv_path(csv, db) -> None:
+    """Check, before any run starts, that the CSV file ``csv`` can be written (creating its folder);
+    ``UserError`` naming the file if not."""
+    path = Path(csv)
+    if path.is_dir():
+        raise UserError(f"{path}: is a directory; --csv needs a file name")
+    if path.resolve() == Path(db).resolve():
+        raise UserError(f"{path}: is the study database; --csv needs another file name")
+    blocking = next((p for p in [path.parent, *path.parent.parents] if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise UserError(f"{path}: cannot create its folder: {blocking} is a file")
+    existed = path.exists()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "a", encoding="utf-8"):  # opening for append changes nothing in an existing file
+            pass
+    except OSError as err:
+        raise UserError(f"{path}: cannot write the CSV: {err.strerror or err}") from None
+    if not existed:
+        path.unlink()  # written for real once the runs are done
 
 
 def study_config(args):
@@ -154,7 +201,8 @@ def study_config(args):
 
 
 def run_cli(argv=None, prog: str | None = None) -> int:
-    """Parse ``argv`` and run ``main``; a ``UserError`` becomes one line ``error: ...`` and status 2."""
+    """Parse ``argv`` and run ``main``; a ``UserError`` (or an ``OSError``, e.g. a full disk) becomes one
+    line ``error: ...`` and status 2."""
     parser = argparse.ArgumentParser(prog=prog, description=main.__doc__.splitlines()[0])
     add_arguments(parser)
     args = parser.parse_args(argv)
@@ -162,4 +210,8 @@ def run_cli(argv=None, prog: str | None = None) -> int:
         return main(args)
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
+        return 2
+    except OSError as err:  # as bwbench's own entry point does
+        where = f"{err.filename}: " if err.filename else ""
+        print(f"error: {where}{err.strerror or err}", file=sys.stderr)
         return 2

@@ -2,8 +2,9 @@
 
 The schema is the runner's contract: tables ``study``, ``runs``, ``timings``, ``traces`` and
 ``chains``. Reading never writes: the file is opened read-only, so a report can be made while
-the study is still running. Databases from before the generic ``runs`` columns (``problem``,
-``params_json``, ``metrics_json``) read as switched-model studies with those columns filled in.
+the study is still running (``Study.provisional`` says how far it is). Databases from before the
+generic ``runs`` columns (``problem``, ``params_json``, ``metrics_json``) read as switched-model
+studies with those columns filled in.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.data.parameters import LOWER, UPPER
 from bwbench import problems
 from bwbench.data.manifest import load_manifest
+from bwbench.study.failures import is_transient_text
 
 REQUIRED_TABLES = ("study", "runs", "traces")
 KEY = ["kind", "specimen", "optimizer", "replicate"]
@@ -96,6 +98,31 @@ class Study:
         return self.problem_type.loss_unit
 
     @property
+    def planned_runs(self) -> int | None:
+        """How many runs the study has: as the runner recorded it (``planned_runs``), else counted from
+        the stored configuration (seeds × specimens × backends + posterior runs); None if neither can."""
+        try:
+            return int(self.meta["planned_runs"])
+        except (KeyError, TypeError, ValueError):
+            return planned_from_config(self.config)
+
+    @property
+    def finished_runs(self) -> int:
+        """Runs the runner counts as finished: every row but an old version's transient errors."""
+        return int(sum(not (status == "error" and is_transient_text(error))
+                       for status, error in zip(self.runs["status"], self.runs["error"], strict=True)))
+
+    @property
+    def provisional(self) -> str | None:
+        """``"provisional: 16 of 36 runs"`` while the study is unfinished; None when it is finished
+        or its size is unknown."""
+        planned = self.planned_runs
+        done = self.finished_runs
+        if planned is None or done >= planned:
+            return None
+        return f"provisional: {done} of {planned} runs"
+
+    @property
     def ranking(self) -> pd.DataFrame:
         return self.runs[self.runs["kind"] == "ranking"]
 
@@ -120,6 +147,31 @@ class Study:
         """The manifest.json beside the specimens (generation settings, truth), or None if there is none."""
         folder = self.specimen_path(self.specimens[0]).parent if self.specimens else self.data_dir
         return load_manifest(folder)
+
+
+def planned_from_config(config: dict) -> int | None:
+    """The number of runs of a stored configuration (``config_json``), if it lists its specimens."""
+    try:
+        study, optimizers, specimens = config["study"], config["optimizers"], config["specimens"]
+        # {"files": [names]} (older studies, the benchmark) or {name: SHA-256}
+        files = specimens["files"] if "files" in specimens else [s for s, h in specimens.items() if isinstance(h, str)]
+        if not files:
+            return None
+        formulation = study.get("formulation", "paper")
+        variants = len(formulation) if isinstance(formulation, list) else 1
+        planned = _count(study["seeds"]) * len(files) * len(optimizers) * variants
+        posterior = config.get("posterior")
+        if posterior:
+            planned += _count(posterior["seeds"]) * len(posterior["specimens"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    return planned
+
+
+def _count(value) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ValueError(f"not a count: {value!r}")
+    return value
 
 
 def _connect(path: Path) -> sqlite3.Connection:

@@ -3,9 +3,14 @@
 Schema (the report reads it; names are a contract):
 
 - ``study(key, value)``: ``name``, ``config_json``, ``config_hash``, ``created_utc``, ``bwbench_version``,
-  and where the data of the latest run were (where ``bwbench report`` looks first; not part of the
-  configuration): ``data_paths`` (JSON, specimen name -> file) or ``data_dir`` (a folder).
-- ``runs``: one row per finished run, keyed by (kind, specimen, optimizer, replicate); no wall
+  ``planned_runs`` (how many runs the study has: the report calls a study with fewer provisional;
+  written on every open, so databases from before the key get it when resumed), and where the data
+  of the latest run were (where ``bwbench report`` looks first; not part of the configuration):
+  ``data_paths`` (JSON, specimen name -> file) or ``data_dir`` (a folder).
+- ``runs``: one row per finished run: a run that succeeded, or one that failed deterministically
+  (status "error"; ``bwbench.study.failures``). A row of an older version whose error was the
+  environment's (``OSError: ...``) is not finished: it is run again and replaced.
+  Keyed by (kind, specimen, optimizer, replicate); no wall
   time, so rows are identical whoever ran them and when. Columns for any problem: ``problem``,
   ``params_json`` (the parameters by name) and ``metrics_json`` (the problem's own metrics of the
   best point, e.g. the benchmark's test e_RMS; null where not finite; NULL for a run that raised).
@@ -15,13 +20,17 @@ Schema (the report reads it; names are a contract):
   generic columns existed get them (NULL) when a study is resumed.
 - ``timings``: wall time (s), worker (``host:pid``) and finish time (UTC) of each run.
 - ``traces``: the best-so-far improvements (evaluation count, loss) of each run.
-- ``chains``: MCMC chains (float64, unit coordinates, shape (steps, walkers, dim)) of runs that
-  return one (emcee).
+- ``chains``: MCMC chains (float64, unit coordinates, shape (steps, walkers, dim)) of the posterior
+  runs (ranking runs keep none, whatever their backend returns).
+
+Every fault of the file (read-only, not a database, a directory, a full disk, ...) is a
+``UserError`` of one line naming the file (``database_fault``).
 """
 
 from __future__ import annotations
 
 import json
+import os
 import sqlite3
 import sys
 from datetime import datetime, timezone
@@ -31,6 +40,7 @@ from bwbench import __version__
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.study.config import StudyConfig, describe_differences
+from bwbench.study.failures import is_transient_text
 
 GENERIC_COLUMNS = ("problem", "params_json", "metrics_json")  # usable by any problem
 RUN_COLUMNS = (
@@ -62,15 +72,76 @@ def utc_now() -> str:
     return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-def open_database(path, config: StudyConfig) -> sqlite3.Connection:
-    """Create the study database, or reopen it after checking it holds this very configuration.
+def prepare_database_path(path) -> Path:
+    """Check that the study database ``path`` can be created or written, creating its folder; return it.
 
-    Raises ``UserError`` if the file is not a study database or was made by another configuration.
+    Raises ``UserError`` (one line naming the file) for a directory, a folder that cannot be created
+    or written, or a read-only database file.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    conn = sqlite3.connect(path, timeout=60, isolation_level=None)  # transactions are explicit
+    if path.is_dir():
+        raise UserError(f"{path}: is a directory, not a study database; pass --db with a file name")
+    folder = path.parent
+    blocking = next((p for p in [folder, *folder.parents] if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise UserError(f"{path}: cannot create its folder: {blocking} is a file")
     try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise UserError(f"{path}: cannot create its folder {folder}: {err.strerror or err}") from None
+    # SQLite writes a journal next to the database on every commit: the folder must be writable too.
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UserError(f"{path}: the folder {folder} is not writable (SQLite keeps its journal next to "
+                        "the database); pass --db with a writable path")
+    if path.exists() and not os.access(path, os.R_OK):
+        raise UserError(f"{path}: cannot read the study database (permission denied)")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise UserError(f"{path}: the study database is read-only; make it writable or pass another --db")
+    return path
+
+
+def database_fault(path, err: sqlite3.Error) -> str:
+    """One line naming the file ``path`` and what is wrong with it, for a SQLite error."""
+    path = Path(path)
+    text = str(err)
+    code = getattr(err, "sqlite_errorcode", None)  # Python 3.11+; the text otherwise
+    primary = code & 0xFF if isinstance(code, int) else None
+
+    def means(number, words):
+        return primary == number or (primary is None and words in text)
+
+    if means(13, "is full"):  # SQLITE_FULL
+        return f"{path}: the disk is full ({text})"
+    if means(8, "readonly"):  # SQLITE_READONLY
+        where = path if path.exists() and not os.access(path, os.W_OK) else path.parent
+        return f"{path}: cannot write: {where} is read-only ({text})"
+    if means(26, "not a database"):  # SQLITE_NOTADB
+        return f"{path}: not a SQLite database ({text}); choose another --db"
+    if means(14, "unable to open"):  # SQLITE_CANTOPEN
+        if path.is_dir():
+            return f"{path}: is a directory, not a study database"
+        return f"{path}: cannot open the database file ({text})"
+    if means(5, "locked") or means(6, "locked"):  # SQLITE_BUSY, SQLITE_LOCKED
+        return f"{path}: another program holds a lock on the database ({text}); close it and try again"
+    if means(11, "malformed"):  # SQLITE_CORRUPT
+        return f"{path}: the database is damaged ({text})"
+    if means(10, "I/O error"):  # SQLITE_IOERR
+        return f"{path}: input/output error ({text})"
+    return f"{path}: {text}"
+
+
+def open_database(path, config: StudyConfig, planned_runs: int | None = None) -> sqlite3.Connection:
+    """Create the study database, or reopen it after checking it holds this very configuration.
+
+    ``planned_runs``: how many runs the study has (stored for the report). Writes on every open, so
+    a database that cannot be written fails here, before any run starts. Raises ``UserError`` (one
+    line naming the file) if it is not a study database, was made by another configuration, or
+    cannot be written.
+    """
+    path = prepare_database_path(path)
+    conn = None
+    try:
+        conn = sqlite3.connect(path, timeout=60, isolation_level=None)  # transactions are explicit
         # One write transaction for check-and-create: two studies started at once on one new file
         # cannot both create it with different configurations.
         conn.execute("BEGIN IMMEDIATE")
@@ -89,6 +160,8 @@ def open_database(path, config: StudyConfig) -> sqlite3.Connection:
                 ("config_hash", config.config_hash), ("created_utc", utc_now()),
                 ("bwbench_version", __version__),
             ])
+        if planned_runs is not None:
+            conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('planned_runs', ?)", (str(planned_runs),))
         location = config.setup.data_location  # where the data are now: for the report, not the identity
         if isinstance(location, dict):
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)",
@@ -96,11 +169,13 @@ def open_database(path, config: StudyConfig) -> sqlite3.Connection:
         elif location:
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_dir', ?)", (location,))
         conn.execute("COMMIT")
-    except sqlite3.DatabaseError as err:
-        conn.close()
-        raise UserError(f"{path}: cannot use as a study database: {err}") from None
+    except sqlite3.Error as err:
+        if conn is not None:
+            conn.close()
+        raise UserError(database_fault(path, err)) from None
     except BaseException:
-        conn.close()
+        if conn is not None:
+            conn.close()
         raise
     return conn
 
@@ -177,21 +252,44 @@ def extension_conflicts(old: dict, new: dict) -> list[str]:
 
 
 def finished_keys(conn) -> set:
-    return {tuple(r) for r in conn.execute("SELECT kind, specimen, optimizer, replicate FROM runs")}
+    """Keys of the finished runs: those that succeeded or failed deterministically."""
+    return {tuple(r[:4]) for r in conn.execute("SELECT kind, specimen, optimizer, replicate, status, error FROM runs")
+            if not _retryable(r[4], r[5])}
+
+
+def failed_runs(conn) -> list:
+    """[(key, error)] of the runs recorded as deterministic errors, by key."""
+    rows = conn.execute("SELECT kind, specimen, optimizer, replicate, error FROM runs WHERE status = 'error' "
+                        "ORDER BY kind, specimen, optimizer, replicate")
+    return [(tuple(r[:4]), r[4]) for r in rows if not _retryable("error", r[4])]
+
+
+def _retryable(status, error) -> bool:
+    # An error row of an older version that was the environment's fault: not a finished run.
+    return status == "error" and is_transient_text(error)
 
 
 def record_run(conn, outcome: dict) -> bool:
-    """Write one finished run in one transaction; False (and nothing written) if already there."""
+    """Write one finished run in one transaction; False (and nothing written) if already there.
+
+    A retryable row of the same key (``finished_keys``) is replaced. Raises ``sqlite3.Error`` (the
+    database unchanged) if the write fails, e.g. on a full disk.
+    """
     key = outcome["key"]
     placeholders = ", ".join("?" * len(RUN_COLUMNS))
     columns = ", ".join(f'"{c}"' for c in RUN_COLUMNS)
+    where = "kind = ? AND specimen = ? AND optimizer = ? AND replicate = ?"
     conn.execute("BEGIN IMMEDIATE")
     try:
-        cursor = conn.execute(f"INSERT OR IGNORE INTO runs ({columns}) VALUES ({placeholders})",
-                              [outcome["row"][c] for c in RUN_COLUMNS])
-        if cursor.rowcount == 0:
-            conn.execute("ROLLBACK")
-            return False
+        old = conn.execute(f"SELECT status, error FROM runs WHERE {where}", key).fetchone()
+        if old is not None:
+            if not _retryable(*old):
+                conn.execute("ROLLBACK")
+                return False
+            for table in ("runs", "timings", "traces", "chains"):
+                conn.execute(f"DELETE FROM {table} WHERE {where}", key)
+        conn.execute(f"INSERT INTO runs ({columns}) VALUES ({placeholders})",
+                     [outcome["row"][c] for c in RUN_COLUMNS])
         t = outcome["timing"]
         conn.execute("INSERT OR REPLACE INTO timings VALUES (?, ?, ?, ?, ?, ?, ?)",
                      (*key, t["wall_s"], t["worker"], t["finished_utc"]))
@@ -205,6 +303,9 @@ def record_run(conn, outcome: dict) -> bool:
         conn.execute("COMMIT")
     except BaseException:
         if conn.in_transaction:
-            conn.execute("ROLLBACK")
+            try:
+                conn.execute("ROLLBACK")
+            except sqlite3.Error:  # e.g. SQLite already rolled back on a full disk: the first error says more
+                pass
         raise
     return True

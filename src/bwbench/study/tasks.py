@@ -20,6 +20,7 @@ import numpy as np
 
 from bwbench import problems
 from bwbench.problems.base import SpecimenEntry
+from bwbench.study import failures
 from bwbench.study.config import StudyConfig, canonical_json
 from bwbench.study.store import RUN_COLUMNS, utc_now
 
@@ -86,10 +87,13 @@ def run_label(backend: str, variant: str) -> str:
 
 
 def run_task(task: Task) -> dict:
-    """Run one task; never raises for a failed run (status "error" with a one-line message).
+    """Run one task; never raises for a failed run.
 
     Returns a plain dict: ``key``, ``row`` (the ``runs`` columns), ``timing``, ``trace``
-    (list of (nfev, mse)) and ``chain`` (None, or the ``chains`` columns).
+    (list of (nfev, mse)) and ``chain`` (None, or the ``chains`` columns: posterior runs only).
+    A run that raised has status "error" and a one-line message, unless the fault was the
+    environment's (``bwbench.study.failures``): then the dict is ``{"key": ..., "lost": why}``, not a
+    result, and the run is left for the next call.
     """
     import numba
     from threadpoolctl import threadpool_limits
@@ -102,7 +106,7 @@ def run_task(task: Task) -> dict:
                success=0, problem=task.problem)
     problem_type = problems.get(task.problem)
     _fill(row, problem_type.record_columns(task.settings, task.entry, None))
-    trace, chain = [], None
+    trace, chain, transient = [], None, False
     # One thread per worker, numba's and BLAS/OpenMP's alike: the workers already fill the cores, a
     # BLAS-heavy backend's result must not depend on the thread count, and the wall time recorded is
     # then one core's.
@@ -115,11 +119,14 @@ def run_task(task: Task) -> dict:
         # The seed follows the backend, not the label: the variants of a run share its random stream.
         seed = task_seed(task.entropy, task.kind, task.specimen, task.backend_name, task.replicate)
         result = fitting.run(problem, task.backend_name, task.budget, seed, task.options)
-        chain = _chain_columns(result.extras)
+        # Only posterior runs keep their chain: nothing reads a ranking run's, and at the paper's
+        # budget it would be ~0.5 MB per emcee run, more than every other table together.
+        chain = _chain_columns(result.extras) if task.kind == "posterior" else None
         metrics = problem_type.run_metrics(problem, result)
         columns = problem_type.record_columns(task.settings, task.entry, result)
-    except Exception as err:  # a failed run is a result: record it, keep the study going
-        row.update(status="error", error=" ".join(f"{type(err).__name__}: {err}".split()))
+    except Exception as err:  # a deterministic failure is a result: record it, keep the study going
+        transient = failures.is_transient(err)
+        row.update(status="error", error=failures.one_line(err))
     else:
         _fill(row, columns)
         row.update(status="ok", nfev=result.nfev, mse=result.mse, f_err=result.f_err,
@@ -131,6 +138,8 @@ def run_task(task: Task) -> dict:
         wall = time.perf_counter() - started
         limits.restore_original_limits()
         numba.set_num_threads(threads)
+    if transient:  # the environment's fault, not the run's: retry it later
+        return {"key": task.key, "lost": row["error"]}
     timing = {"wall_s": wall, "worker": f"{socket.gethostname()}:{os.getpid()}", "finished_utc": utc_now()}
     return {"key": task.key, "row": row, "timing": timing, "trace": trace, "chain": chain}
 

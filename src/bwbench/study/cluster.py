@@ -1,0 +1,94 @@
+"""Running a study's tasks on a Dask cluster, and telling a lost scheduler from a failed run.
+
+When the scheduler goes away (stopped, crashed, network gone) the client cancels every future with
+the reason "scheduler-connection-lost" and tries to reconnect for 20 s. The runs in flight are then
+lost but the finished ones are in the database, so the study stops at once with one line
+(``SchedulerLost``) rather than recording hundreds of "lost" runs. ``distributed``'s own logging in
+this process (the reconnection attempts, the failure to reconnect, every closed connection) is
+silenced while the study uses the cluster: what matters is said by that one line.
+"""
+
+from __future__ import annotations
+
+import logging
+from contextlib import contextmanager
+
+from bwbench.errors import UserError
+from bwbench.study.pool import result_or_lost
+from bwbench.study.tasks import run_task
+
+_LOST_REASON = "scheduler-connection-lost"
+
+
+class SchedulerLost(Exception):
+    """The study lost its Dask scheduler; ``address`` and ``why`` say which and how."""
+
+    def __init__(self, address: str, why: str):
+        super().__init__(f"lost the Dask scheduler at {address}: {why}")
+        self.address, self.why = address, why
+
+
+def on_cluster(tasks, address: str):
+    """Yield ``run_task(task)`` of every task as it finishes on the Dask cluster at ``address``.
+
+    A task whose worker died yields ``{"key": ..., "lost": why}``. Raises ``UserError`` if the
+    scheduler cannot be reached, ``SchedulerLost`` if it goes away mid-study.
+    """
+    try:
+        from distributed import Client
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise UserError("--scheduler needs the 'distributed' package (pip install distributed)") from None
+    with quiet_distributed():
+        try:
+            client = Client(address, timeout="20s")
+        except (OSError, TimeoutError, ValueError) as err:
+            raise UserError(f"cannot connect to the Dask scheduler at {address}: {err}") from None
+        try:
+            futures = {client.submit(run_task, t, pure=False): t for t in tasks}
+            for future in dask_completed(futures):
+                task = futures.pop(future)
+                if future.status != "finished":
+                    why = _lost_scheduler(client, future)
+                    if why:
+                        raise SchedulerLost(address, why)
+                outcome = result_or_lost(future, task)
+                future.release()
+                yield outcome
+        finally:
+            _close(client)
+
+
+def _lost_scheduler(client, future) -> str | None:
+    """Why the scheduler is gone, judging by the client and a failed ``future``; None if it is not."""
+    try:
+        err = future.exception(timeout=0)
+    except Exception as raised:  # a cancelled future raises its cancellation
+        err = raised
+    # The cancellation says so, or (when the workers went first) the client is already reconnecting.
+    if getattr(err, "reason", None) == _LOST_REASON or client.status not in ("running", "newly-created"):
+        return "the connection closed"
+    return None
+
+
+def _close(client) -> None:
+    try:
+        # A short timeout: with the scheduler gone there is nothing to wait for.
+        client.close(timeout=5)
+    except Exception:  # closing a client whose scheduler is gone may complain: nothing to do about it
+        pass
+
+
+@contextmanager
+def quiet_distributed():
+    """Within the block, ``distributed``'s loggers in this process print nothing."""
+    names = ["distributed", *(n for n in logging.root.manager.loggerDict if n.startswith("distributed."))]
+    loggers = [logging.getLogger(n) for n in names]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
