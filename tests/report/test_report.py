@@ -66,41 +66,57 @@ def test_report_has_tables_identifiability_and_mcmc_sections(built):
 
 
 def _table(rows):
-    return pd.DataFrame(rows, columns=["optimizer", "mean_rank", "median_rmse_N", "success_10%", "ert_10%"])
+    return pd.DataFrame(rows, columns=["optimizer", "mean_rank", "median_rmse_N", "success_10%", "ert_10%",
+                                       "median_wall_s"])
 
 
-def _pairs(rows):
+def _pairs(rows, n=30):
+    """Pairwise rows (a, b, median log10 ratio a/b, Holm p) of a design with ``n`` paired runs."""
     frame = pd.DataFrame(rows, columns=["a", "b", "median_diff", "p_holm"])
     frame["significant"] = frame["p_holm"] < 0.05
     frame["wins_a"] = frame["wins_b"] = 0
+    frame["n_a"] = frame["n_b"] = n
+    frame["min_p"] = 2.0 / 2.0**n
     return frame
 
 
-def test_recommend_applies_the_rule():
-    table = _table([("x", 1.2, 2.0, 0.8, 900.0), ("y", 1.9, 2.1, 0.6, 1200.0), ("z", 3.0, 9.0, 0.2, 5e4),
-                    ("v", 3.5, 12.0, 0.0, np.inf), ("w", 3.9, 30.0, 0.1, 9e4), ("random", 5.0, 50.0, 0.0, np.inf)])
-    pairs = _pairs([("x", "y", -0.1, 0.40), ("x", "z", -0.9, 0.01), ("x", "w", -1.0, 0.01),
-                    ("x", "v", -0.8, 0.01), ("v", "random", -1.0, 0.01),
-                    ("x", "random", -2.0, 0.01), ("w", "random", 0.3, 0.02), ("z", "random", -1.0, 0.01)])
+def test_recommend_weighs_effect_size_and_separates_close_from_far():
+    table = _table([("x", 1.2, 2.0, 0.8, 900.0, 1.0), ("y", 1.9, 2.1, 0.6, 1200.0, 0.5),
+                    ("e", 2.0, 2.05, 0.6, 1000.0, 3.0), ("z", 3.0, 3.6, 0.2, 5e4, 1.0),
+                    ("v", 3.5, 12.0, 0.0, np.inf, 1.0), ("w", 3.9, 30.0, 0.1, 9e4, 1.0),
+                    ("random", 5.0, 50.0, 0.0, np.inf, 1.0)])
+    pairs = _pairs([("x", "y", -0.1, 0.40), ("x", "e", -0.02, 0.001), ("x", "z", -0.9, 0.01), ("x", "w", -1.0, 0.01),
+                    ("x", "v", -0.8, 0.01), ("v", "random", -1.0, 0.01), ("x", "random", -2.0, 0.01),
+                    ("w", "random", 0.3, 0.02), ("z", "random", -1.0, 0.01), ("e", "random", -2.0, 0.01)])
     fr = statistics.Friedman(10.0, 0.01, pd.Series(dtype=float), 6, "")
     rec = report.recommend(table, pairs, fr, 1000, 6)
     assert rec["best"] == "x"
-    assert [n for n, _ in rec["tied"]] == ["y"]
-    assert [n for n, _ in rec["worse"]] == ["z"]
-    assert rec["short"] == ["v"]  # never within 10 %, yet better than random: short, not "avoid"
-    assert dict(rec["avoid"]).keys() == {"w"}  # random is the baseline, not a candidate
-    assert "significantly worse than random" in dict(rec["avoid"])["w"]
-    assert "Short at this budget (no run came within 10 % of the best known MSE): v." in rec["text"]
-    assert "Random search, the baseline, ends at a median RMSE of 50 N." in rec["text"]
-    assert rec["text"].startswith("For this problem at a budget of 1,000 evaluations use **x**")
-    assert "**y** is as good within noise (Holm-corrected p = 0.4)" in rec["text"]
+    assert [n for n, _, _ in rec["tied"]] == ["y"]
+    # significant (p = 0.001) but a median ratio of 10^0.02 = 1.047: practically equal, not "worse"
+    assert [n for n, _, _ in rec["equal"]] == ["e"]
+    assert [n for n, _, _ in rec["close"]] == ["z"]  # 3.6 N ≤ 2 × 2.0 N
+    assert [n for n, _, _ in rec["far"]] == ["v"]  # 12 N, better than random: far behind, not "avoid"
+    assert dict(rec["avoid"]).keys() == {"w"}  # random is the baseline, never a candidate
+    assert rec["choice"] == "y"  # the tied/equal group's fastest per run: the tie-breaker
+    text = rec["text"]
+    assert text.startswith("For this problem at a budget of 1,000 evaluations, **x**, **y** and **e** are as good")
+    assert "use any of them" in text and "**y** is the fastest per run" in text
+    assert "e's final losses are within 10 % of x's (median ratio 1.05, Holm p = 0.001): practically equal" in text
+    assert "Close behind (significantly worse, median RMSE within 2× the best's): z (3.6 N)" in text
+    assert "Far behind (median RMSE more than 2× the best's): v (12 N)" in text
+    assert "Random search, the baseline, ends at a median RMSE of 50 N." in text
 
 
-def test_recommend_warns_when_friedman_does_not_reject():
-    table = _table([("x", 1.0, 2.0, 0.5, 10.0), ("y", 2.0, 2.5, 0.5, 20.0), ("z", 3.0, 3.0, 0.5, 30.0)])
-    pairs = _pairs([("x", "y", -0.1, 0.5), ("x", "z", -0.2, 0.5), ("y", "z", -0.1, 0.5)])
-    rec = report.recommend(table, pairs, statistics.Friedman(1.0, 0.6, pd.Series(dtype=float), 2, ""), 50, 2)
-    assert [n for n, _ in rec["tied"]] == ["y", "z"] and not rec["avoid"]
+def test_recommend_says_not_enough_runs_when_the_design_cannot_reach_alpha():
+    # 3 specimens × 2 seeds = 6 pairs: the exact signed-rank test cannot go below 2/2^6 = 0.031,
+    # and Holm multiplies it by the 3 comparisons: 0.094 ≥ 0.05
+    table = _table([("x", 1.0, 2.0, 0.5, 10.0, 1.0), ("y", 2.0, 2.5, 0.5, 20.0, 2.0), ("z", 3.0, 3.0, 0.5, 30.0, 1.0)])
+    pairs = _pairs([("x", "y", -0.1, 0.5), ("x", "z", -0.2, 0.094), ("y", "z", -0.1, 0.5)], n=6)
+    rec = report.recommend(table, pairs, statistics.Friedman(1.0, 0.6, pd.Series(dtype=float), 3, ""), 50, 3)
+    assert [n for n, _, _ in rec["tied"]] == ["y", "z"] and not rec["avoid"]
+    assert rec["power"]["min_p_holm"] == pytest.approx(0.09375) and not rec["power"]["can_reach"]
+    assert "Not enough runs to separate x from y (Holm p = 0.5" in rec["text"]
+    assert "smallest Holm-corrected p the design can reach is 0.094" in rec["text"]
     assert "does not detect a difference" in rec["text"]
 
 

@@ -1,4 +1,11 @@
-"""The recommendation: which backend to use, by a rule the report states (``RULE``)."""
+"""The recommendation: which backend to use, by a rule the report states (``rule``).
+
+It weighs effect size, not only p: a difference that is significant but small (the median paired
+ratio of final losses within ``PRACTICAL`` of 1) is reported as practically equal; and it states its
+power: how many paired comparisons there are, the smallest p the design can reach after Holm's
+correction, and "not enough runs to separate X and Y" when that smallest p cannot reach α. Ties are
+described as ties, with the wall time per run as the tie-breaker, stated.
+"""
 
 from __future__ import annotations
 
@@ -9,85 +16,127 @@ from bwbench.analysis import statistics
 from bwbench.report.format import evals_text, join, number, p_text, percent
 
 ALPHA = statistics.ALPHA
-BASELINE = "random"  # the backend "significantly worse than" disqualifies
+BASELINE = "random"  # the baseline: reported, never recommended
+PRACTICAL = 0.10  # final losses within 10 % of each other (median paired ratio): practically equal
+CLOSE = 2.0  # median final RMSE within 2× the best's: close behind, not far behind
 
 
 def rule(pairwise_name: str = "Wilcoxon signed-rank tests on the paired (specimen, seed) runs") -> str:
     """The recommendation rule in words, naming the pairwise test the design allows."""
     return (
         "best = the backend with the lowest mean Friedman rank (ranks of the median final loss across seeds, "
-        "per specimen; ties broken by the lower median RMSE); **as good within noise** = not significantly "
-        f"different from the best by pairwise {pairwise_name} on log10 final losses after Holm correction at "
-        f"α = {ALPHA:g}; **short at this budget** = success rate 0 at the 10 % tolerance (it may get there with "
-        f"more evaluations); **avoid** = significantly worse than random search ('{BASELINE}', when it is in the "
-        "study) by the same test. Every other backend is reported as significantly worse than the best. Random "
-        "search is the baseline, not a candidate."
+        f"per specimen; ties broken by the lower median RMSE). Each other backend is compared with it by pairwise "
+        f"{pairwise_name} on log10 final losses, Holm-corrected at α = {ALPHA:g}, and by the effect size, the "
+        f"median paired ratio of final losses: **practically equal** when that ratio is within {PRACTICAL * 100:.0f} % of 1 "
+        "(whatever p says), **tied** when the test cannot tell them apart; among the best and its equals and ties, "
+        "the faster one per run is the better buy (wall time breaks the tie). Of the rest, **close behind** = median "
+        f"RMSE within {CLOSE:g}× the best's, **far behind** = more; **avoid** = significantly worse than random "
+        f"search ('{BASELINE}', when it is in the study), the baseline that is never recommended."
     )
+
+
+def power(pairwise: pd.DataFrame) -> dict:
+    """What the design can show: comparisons, pairs per comparison, the smallest raw p of one test and the
+    smallest Holm-corrected p (raw × number of comparisons), and whether that can reach α."""
+    if pairwise is None or not len(pairwise):
+        return {"comparisons": 0, "pairs": 0, "min_p": np.nan, "min_p_holm": np.nan, "can_reach": False}
+    min_p = float(pairwise["min_p"].min())
+    min_holm = min(1.0, min_p * len(pairwise))
+    pairs = int(pairwise["n_a"].min()) if "n_a" in pairwise else 0
+    return {"comparisons": len(pairwise), "pairs": pairs, "min_p": min_p, "min_p_holm": min_holm,
+            "can_reach": min_holm < ALPHA}
 
 
 def recommend(table: pd.DataFrame, pairwise: pd.DataFrame, omnibus, budget, n_specimens: int,
               omnibus_name: str = "Friedman test over specimens", unit: str = "N") -> dict:
     """Apply ``rule()`` to the ranking ``table`` (sorted by mean rank) and the pairwise tests.
 
-    Returns ``best``, ``tied`` [(name, p_holm)], ``worse`` [(name, p_holm)], ``short`` [name],
-    ``avoid`` [(name, reason)] and the generated ``text`` (markdown).
+    Returns ``best``, ``equal`` and ``tied`` [(name, p_holm, ratio)], ``close`` and ``far``
+    [(name, p_holm, ratio)], ``avoid`` [(name, reason)], ``choice`` (the backend to use: the fastest
+    of the best and its equals/ties), ``power`` and the generated ``text`` (markdown).
     """
-    best = table.iloc[0]
-    b = best["optimizer"]
     names = list(table["optimizer"])
-    success10 = dict(zip(table["optimizer"], table["success_10%"]))
-    tied, worse, short, avoid = [], [], [], []
-    for name in names[1:]:
+    candidates = [n for n in names if n != BASELINE] or names
+    b = candidates[0]
+    row_of = table.set_index("optimizer")
+    rmse = row_of["median_rmse_N"].astype(float)
+    p_info = power(pairwise)
+    groups = {"equal": [], "tied": [], "close": [], "far": []}
+    avoid = []
+    for name in candidates[1:]:
         row = statistics.compare(pairwise, b, name)
-        p = row["p_holm"] if row else np.nan
-        significant = bool(row and row["significant"])
-        if name == BASELINE:
-            continue
+        p = float(row["p_holm"]) if row else np.nan
+        ratio = 10 ** abs(float(row["median_diff"])) if row and np.isfinite(row["median_diff"]) else np.nan
         vs = statistics.compare(pairwise, name, BASELINE) if BASELINE in names else None
-        if vs and vs["significant"] and vs["median_diff"] > 0:
+        if vs and vs["significant"] and vs["median_diff"] > 0 and 10 ** vs["median_diff"] > 1 + PRACTICAL:
             avoid.append((name, f"is significantly worse than random search (Holm p = {p_text(vs['p_holm'])})"))
-        elif success10[name] == 0:
-            short.append((name, p, significant))
-        elif significant:
-            worse.append((name, p))
+        elif np.isfinite(ratio) and ratio <= 1 + PRACTICAL:
+            groups["equal"].append((name, p, ratio))
+        elif not (row and row["significant"]):
+            groups["tied"].append((name, p, ratio))
+        elif rmse[name] <= CLOSE * rmse[b]:
+            groups["close"].append((name, p, ratio))
         else:
-            tied.append((name, p))
+            groups["far"].append((name, p, ratio))
+    wall = row_of["median_wall_s"].astype(float) if "median_wall_s" in row_of else pd.Series(dtype=float)
+    alike = {n for n, _, _ in groups["equal"] + groups["tied"]}
+    peers = [b] + [n for n in names if n in alike]  # in ranking order
+    choice = min(peers, key=lambda n: wall.get(n, np.inf)) if wall.notna().any() else b
+    text = _text(table, b, choice, groups, avoid, p_info, omnibus, omnibus_name, budget, n_specimens, unit, wall)
+    return {"best": b, "choice": choice, **groups, "avoid": avoid, "power": p_info, "text": text,
+            "tied_names": peers[1:]}
+
+
+def _text(table, b, choice, groups, avoid, p_info, omnibus, omnibus_name, budget, n_specimens, unit, wall) -> str:
+    row_of = table.set_index("optimizer")
+    best = row_of.loc[b]
     budget_text = f"{budget:,}" if isinstance(budget, (int, float)) else str(budget)
-    text = (f"For this problem at a budget of {budget_text} evaluations use **{b}**: it has the lowest mean "
-            f"rank ({best['mean_rank']:.2f} over {n_specimens} specimen(s)), a median RMSE of "
-            f"{number(best['median_rmse_N'], 3)} {unit}, and {percent(best['success_10%'])} of its runs came within 10 % of the "
-            f"best known MSE (ERT {evals_text(best['ert_10%'])} evaluations).")
-    if success10[b] == 0:
-        text += f" Even {b} never came within 10 % of the best known fit: consider a larger budget."
-    if tied:
-        text += " " + "; ".join(f"**{n}** is as good within noise (Holm-corrected p = {p_text(p)})"
-                                for n, p in tied) + "."
+    alike = {n for n, _, _ in groups["equal"] + groups["tied"]}
+    peers = [n for n in table["optimizer"] if n in alike]
+
+    def seconds(name):
+        return f"{number(wall.get(name), 2)} s" if name in wall and np.isfinite(wall[name]) else "–"
+
+    if peers:
+        everyone = [b] + peers
+        text = (f"For this problem at a budget of {budget_text} evaluations, {join([f'**{n}**' for n in everyone])} "
+                f"are as good as each other here: use {'either' if len(everyone) == 2 else 'any of them'}; **{choice}** is "
+                f"the fastest per run ({', '.join(f'{n} {seconds(n)}' for n in everyone)} median wall time on one "
+                "core). ")
     else:
-        text += f" No other backend is statistically indistinguishable from {b}."
-    if "median_wall_s" in table and table["median_wall_s"].notna().any():
-        # Same evaluations, not the same time: between equals, the faster one is the better buy.
-        wall = dict(zip(table["optimizer"], table["median_wall_s"]))
-        text += " Median wall time per run on one core: " + ", ".join(
-            f"{n} {number(wall[n], 2)} s" for n in [b] + [n for n, _ in tied]) + "."
-    if worse:
-        text += " " + "; ".join(f"{n} is significantly worse than {b} (p = {p_text(p)})" for n, p in worse) + "."
-    if short:
-        text += (f" Short at this budget (no run came within 10 % of the best known MSE): "
-                 f"{join([n for n, _, _ in short])}.")
-        not_sig = [f"{n} (p = {p_text(p)})" for n, p, sig in short if not sig]
-        if not_sig:
-            text += f" Of these, {join(not_sig)} are not significantly different from {b} in final MSE."
+        text = f"For this problem at a budget of {budget_text} evaluations use **{b}**. "
+    text += (f"{b} has the lowest mean rank ({best['mean_rank']:.2f} over {n_specimens} specimen(s)), a median RMSE of "
+             f"{number(best['median_rmse_N'], 3)} {unit}, and {percent(best['success_10%'])} of its runs came within "
+             f"10 % of the best known loss (ERT {evals_text(best['ert_10%'])} evaluations).")
+    if row_of.loc[b, "success_10%"] == 0:
+        text += f" Even {b} never came within 10 % of the best known fit: consider a larger budget."
+    for name, p, ratio in groups["equal"]:
+        text += (f" {name}'s final losses are within {PRACTICAL * 100:.0f} % of {b}'s (median ratio {ratio:.3g}, Holm "
+                 f"p = {p_text(p)}): practically equal.")
+    tied = [f"{n} (Holm p = {p_text(p)}, median ratio {ratio:.3g})" for n, p, ratio in groups["tied"]]
+    if tied and not p_info["can_reach"]:
+        text += (f" Not enough runs to separate {b} from {join(tied)}: with {p_info['pairs']} pairs per comparison "
+                 f"and {p_info['comparisons']} comparisons the smallest Holm-corrected p the design can reach is "
+                 f"{p_text(p_info['min_p_holm'])} ≥ α = {ALPHA:g}.")
+    elif tied:
+        text += f" The tests cannot tell {b} from {join(tied)}."
+    for label, key in (("Close behind (significantly worse, median RMSE within {close:g}× the best's)", "close"),
+                       ("Far behind (median RMSE more than {close:g}× the best's)", "far")):
+        if groups[key]:
+            listing = ", ".join(f"{n} ({number(row_of.loc[n, 'median_rmse_N'], 3)} {unit})" for n, _, _ in groups[key])
+            text += f" {label.format(close=CLOSE)}: {listing}."
     for name, reason in avoid:
         text += f" Avoid **{name}**: it {reason}."
-    if BASELINE in names and BASELINE != b:
-        row = table[table["optimizer"] == BASELINE].iloc[0]
-        text += f" Random search, the baseline, ends at a median RMSE of {number(row['median_rmse_N'], 3)} {unit}."
+    if BASELINE in row_of.index and BASELINE != b:
+        text += f" Random search, the baseline, ends at a median RMSE of {number(row_of.loc[BASELINE, 'median_rmse_N'], 3)} {unit}."
+    if not p_info["can_reach"] and p_info["comparisons"]:
+        text += (f" Power: {p_info['comparisons']} pairwise comparisons of {p_info['pairs']} paired runs each; the "
+                 f"smallest p the design can reach after Holm's correction is {p_text(p_info['min_p_holm'])}, so no "
+                 "difference can be significant at this size: the order rests on the effect sizes.")
     if not np.isfinite(omnibus.pvalue):
-        text += f" Caution: {omnibus.note}; the ranking rests on the pairwise tests alone."
+        text += f" Caution: {omnibus.note}; the ranking rests on the pairwise comparisons alone."
     elif omnibus.pvalue >= ALPHA:
         text += (f" Caution: the {omnibus_name} does not detect a difference between the backends "
                  f"(p = {p_text(omnibus.pvalue)}, {n_specimens} specimen(s)): the order of the mean ranks may be "
                  f"chance; more runs would settle it.")
-    return {"best": b, "tied": tied, "worse": worse, "short": [n for n, _, _ in short], "avoid": avoid,
-            "text": text}
-
+    return text
