@@ -100,6 +100,12 @@ def _backward_euler(z0, h, A, n, beta, gamma, z_att):
     return z
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _substeps(work):
+    """RK4 substeps for work = stiffness·|dx|: ceil, at least 1, and 1 for NaN (int(NaN) is UB)."""
+    return int(math.ceil(work / _RK4_STIFFNESS_PER_SUBSTEP)) if work > _RK4_STIFFNESS_PER_SUBSTEP else 1
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _advance_z(z, dx, A, n, beta, gamma, z_s, attractor_rate):
     """Integrate dz/dx over a monotone displacement increment dx with one branch's parameters.
@@ -137,7 +143,7 @@ def _advance_z(z, dx, A, n, beta, gamma, z_s, attractor_rate):
         dx = h * (_IMPLICIT_SUBSTEPS - done)
         work = _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS
         k1 = _rate(z, direction, A, n, beta, gamma)
-    m = max(1, int(math.ceil(work / _RK4_STIFFNESS_PER_SUBSTEP)))
+    m = _substeps(work)
     h = dx / m
     for i in range(m):
         if i > 0:
@@ -164,65 +170,94 @@ def _force(p, b, x, v, a, z):
     return a + 2.0 * p[b + _XI] * wn * v + alpha * wn * wn * x + (1.0 - alpha) * wn * wn * z
 
 
+# The 8 hysteretic parameters H = (A+, n+, β+, γ+, A−, n−, β−, γ−): 4 per branch, '+' first.
+_HA, _HN, _HBETA, _HGAMMA = range(4)
+HYSTERETIC_INDEX = (_A, _N, _BETA, _GAMMA, 7 + _A, 7 + _N, 7 + _BETA, 7 + _GAMMA)
+_H_FROM_P = np.array(HYSTERETIC_INDEX)
+
+
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _step_z(p, b, z, dx, z_s, rate):
-    i = b // 7
-    return _advance_z(z, dx, p[b + _A], p[b + _N], p[b + _BETA], p[b + _GAMMA], z_s[i], rate[i])
+def _reversal_pieces(t0, t1, x0, x1, v0, v1):
+    """Displacement before and after the reversal inside [t0, t1]: ẋ linear, x cubic Hermite."""
+    theta = v0 / (v0 - v1)
+    dt = t1 - t0
+    th2 = theta * theta
+    th3 = th2 * theta
+    x_rev = ((2.0 * th3 - 3.0 * th2 + 1.0) * x0 + (th3 - 2.0 * th2 + theta) * dt * v0
+             + (-2.0 * th3 + 3.0 * th2) * x1 + (th3 - th2) * dt * v1)
+    return x_rev - x0, x1 - x_rev
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _attractor(H, i):
+    """Loading attractor z_s = (A/(β+γ))^(1/n) of branch i (0 '+', 1 '−') and its rate n·A/z_s."""
+    b = 4 * i
+    z_s = math.pow(H[b + _HA] / (H[b + _HBETA] + H[b + _HGAMMA]), 1.0 / H[b + _HN])
+    return z_s, H[b + _HN] * H[b + _HA] / z_s
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _step_z(H, i, z, dx, z_s, rate):
+    b = 4 * i
+    return _advance_z(z, dx, H[b + _HA], H[b + _HN], H[b + _HBETA], H[b + _HGAMMA], z_s[i], rate[i])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _hysteretic_into(H, t, x, v, split, z):
+    """z of the active branch at each sample into ``z`` (the one integration path of this module).
+
+    Returns False as soon as that z is not finite; ``z`` is then only partly written.
+    """
+    n_samples = x.shape[0]
+    z_s = np.empty(2)
+    rate = np.empty(2)
+    for i in range(2):
+        z_s[i], rate[i] = _attractor(H, i)
+    z_plus = 0.0
+    z_minus = 0.0  # used only with the split convention
+    z[0] = z_plus
+    for k in range(n_samples - 1):
+        b0 = _branch(v[k]) // 7
+        b1 = _branch(v[k + 1]) // 7
+        if b0 == b1:
+            pieces_dx0 = x[k + 1] - x[k]
+            pieces_dx1 = 0.0
+        else:
+            pieces_dx0, pieces_dx1 = _reversal_pieces(t[k], t[k + 1], x[k], x[k + 1], v[k], v[k + 1])
+        # Piece before the (possible) reversal, with the branch of v[k].
+        if split and b0 == 1:
+            z_minus = _step_z(H, b0, z_minus, pieces_dx0, z_s, rate)
+        else:
+            z_plus = _step_z(H, b0, z_plus, pieces_dx0, z_s, rate)
+        if pieces_dx1 != 0.0:
+            if split and b1 == 1:
+                z_minus = _step_z(H, b1, z_minus, pieces_dx1, z_s, rate)
+            else:
+                z_plus = _step_z(H, b1, z_plus, pieces_dx1, z_s, rate)
+        z_active = z_minus if (split and b1 == 1) else z_plus
+        if not np.isfinite(z_active):
+            return False
+        z[k + 1] = z_active
+    return True
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _force_from_z(p, x, v, a, z, force):
+    """Force of parameter vector ``p`` given the z trajectory; returns False if not finite."""
+    force[0] = _force(p, _branch(v[0]), x[0], v[0], a[0], z[0])
+    for k in range(1, x.shape[0]):
+        f = _force(p, _branch(v[k]), x[k], v[k], a[k], z[k])
+        if not np.isfinite(f):
+            return False
+        force[k] = f
+    return True
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _simulate_into(p, t, x, v, a, split, force):
     """Simulate one parameter vector, writing the force into ``force``; returns False on blow-up."""
-    n_samples = x.shape[0]
-    # Loading attractor z_s and its relaxation rate n·A/z_s for the '+' (0) and '−' (1) sets.
-    z_s = np.empty(2)
-    rate = np.empty(2)
-    for i in range(2):
-        b = 7 * i
-        z_s[i] = math.pow(p[b + _A] / (p[b + _BETA] + p[b + _GAMMA]), 1.0 / p[b + _N])
-        rate[i] = p[b + _N] * p[b + _A] / z_s[i]
-    z_plus = 0.0
-    z_minus = 0.0  # used only with the split convention
-    b = _branch(v[0])
-    force[0] = _force(p, b, x[0], v[0], a[0], z_plus)
-    for k in range(n_samples - 1):
-        v0 = v[k]
-        v1 = v[k + 1]
-        b0 = _branch(v0)
-        b1 = _branch(v1)
-        if b0 == b1:
-            pieces_dx0 = x[k + 1] - x[k]
-            pieces_dx1 = 0.0
-        else:
-            # Reversal inside the interval: ẋ linear in time, x a cubic Hermite.
-            theta = v0 / (v0 - v1)
-            dt = t[k + 1] - t[k]
-            th2 = theta * theta
-            th3 = th2 * theta
-            x_rev = (
-                (2.0 * th3 - 3.0 * th2 + 1.0) * x[k]
-                + (th3 - 2.0 * th2 + theta) * dt * v0
-                + (-2.0 * th3 + 3.0 * th2) * x[k + 1]
-                + (th3 - th2) * dt * v1
-            )
-            pieces_dx0 = x_rev - x[k]
-            pieces_dx1 = x[k + 1] - x_rev
-        # Piece before the (possible) reversal, with the branch of v0.
-        if split and b0 == 7:
-            z_minus = _step_z(p, b0, z_minus, pieces_dx0, z_s, rate)
-        else:
-            z_plus = _step_z(p, b0, z_plus, pieces_dx0, z_s, rate)
-        if pieces_dx1 != 0.0:
-            if split and b1 == 7:
-                z_minus = _step_z(p, b1, z_minus, pieces_dx1, z_s, rate)
-            else:
-                z_plus = _step_z(p, b1, z_plus, pieces_dx1, z_s, rate)
-        z_active = z_minus if (split and b1 == 7) else z_plus
-        f = _force(p, b1, x[k + 1], v1, a[k + 1], z_active)
-        if not np.isfinite(f):
-            return False
-        force[k + 1] = f
-    return True
+    # z goes through ``force`` itself: each sample's force needs only that sample's z.
+    return _hysteretic_into(p[_H_FROM_P], t, x, v, split, force) and _force_from_z(p, x, v, a, force, force)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -233,16 +268,30 @@ def _simulate_one(p, t, x, v, a, split):
     return force
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _mse_of_force(force, f_meas):
+    s = 0.0
+    for k in range(force.shape[0]):
+        r = force[k] - f_meas[k]
+        s += r * r
+    m = s / force.shape[0]
+    return m if np.isfinite(m) else np.inf
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _mse_one(p, t, x, v, a, f_meas, split, force):
     if not _simulate_into(p, t, x, v, a, split, force):
         return np.inf
-    s = 0.0
-    for k in range(x.shape[0]):
-        r = force[k] - f_meas[k]
-        s += r * r
-    m = s / x.shape[0]
-    return m if np.isfinite(m) else np.inf
+    return _mse_of_force(force, f_meas)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _hysteretic_batch_scalar(H, t, x, v, split):
+    Z = np.empty((H.shape[0], x.shape[0]))
+    for i in range(H.shape[0]):
+        if not _hysteretic_into(H[i], t, x, v, split, Z[i]):
+            Z[i, :] = np.inf
+    return Z
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
@@ -290,11 +339,48 @@ def simulate(params, t, x, v, a, state: str = "shared") -> np.ndarray:
     return _simulate_one(p, t, x, v, a, split)
 
 
-def mse_batch(P, t, x, v, a, f_meas, state: str = "shared") -> np.ndarray:
+def hysteretic_state(H, t, x, v, state: str = "shared") -> np.ndarray:
+    """Hysteretic variable z (mm) at the sample times for the 8 parameters H.
+
+    ``H`` = (A+, n+, β+, γ+, A−, n−, β−, γ−) = ``params[HYSTERETIC_INDEX]``; ``t`` in s, ``x`` in mm,
+    ``v`` in mm/s, 1-D of length L. Returns the z of the branch active at each sample (split: z₋
+    where v < 0, else z₊), all +inf if it is not finite somewhere; ``simulate`` is exactly
+    a + 2ξωn·v + αωn²·x + (1 − α)ωn²·z with it (same integration path).
+    """
+    return hysteretic_state_batch(np.asarray(H, dtype=np.float64)[None], t, x, v, state, kernel="scalar")[0]
+
+
+def hysteretic_state_batch(H, t, x, v, state: str = "shared", *, kernel: str = "scalar") -> np.ndarray:
+    """``hysteretic_state`` of each row of ``H`` (shape (m, 8)): Z of shape (m, L), +inf rows on blow-up.
+
+    ``kernel="scalar"``: one row at a time (the reference); default: rows in lockstep, same result.
+    """
+    split = _check_state(state)
+    H = np.ascontiguousarray(np.atleast_2d(np.asarray(H, dtype=np.float64)))
+    if H.ndim != 2 or H.shape[1] != 8:
+        raise ValueError(f"H must have shape (m, 8), got {H.shape}")
+    t, x, v, _ = _as_excitation(t, x, v, v)
+    lockstep = _lockstep_module(kernel)
+    if lockstep is not None:
+        return lockstep.hysteretic_batch(H, t, x, v, split)
+    return _hysteretic_batch_scalar(H, t, x, v, split)
+
+
+def _lockstep_module(kernel: str):
+    if kernel not in ("lockstep", "scalar"):
+        raise ValueError(f"kernel must be 'lockstep' or 'scalar', got {kernel!r}")
+    if kernel == "scalar":
+        return None
+    from bwbench import lockstep  # it builds on this module: a top-level import would be circular
+    return lockstep
+
+
+def mse_batch(P, t, x, v, a, f_meas, state: str = "shared", *, kernel: str = "scalar") -> np.ndarray:
     """Mean squared force error (N²) of each row of ``P`` (shape (m, 14)) against ``f_meas``.
 
     Rows whose simulation is not finite get +inf. Rows run in parallel over numba's threads;
-    ``numba.set_num_threads(1)`` makes it single-core.
+    ``numba.set_num_threads(1)`` makes it single-core. ``kernel="scalar"``: one row at a time
+    (the reference); default: several rows in lockstep (``bwbench.lockstep``), same result.
     """
     split = _check_state(state)
     P = np.ascontiguousarray(np.atleast_2d(np.asarray(P, dtype=np.float64)))
@@ -304,6 +390,9 @@ def mse_batch(P, t, x, v, a, f_meas, state: str = "shared") -> np.ndarray:
     f_meas = np.ascontiguousarray(np.asarray(f_meas, dtype=np.float64))
     if f_meas.shape != x.shape:
         raise ValueError("f_meas must have the same length as the excitation")
+    lockstep = _lockstep_module(kernel)
+    if lockstep is not None:
+        return lockstep.mse_batch(P, t, x, v, a, f_meas, split)
     # One-point optimisers call this row by row: waking numba's thread pool would cost more
     # than the simulation, so small batches run on the calling thread.
     kernel = _mse_serial if P.shape[0] < 4 or numba.get_num_threads() == 1 else _mse_parallel
