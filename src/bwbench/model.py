@@ -362,7 +362,7 @@ def hysteretic_state_batch(H, t, x, v, state: str = "shared", *, kernel: str = "
     t, x, v, _ = _as_excitation(t, x, v, v)
     lockstep = _lockstep_module(kernel)
     if lockstep is not None:
-        return lockstep.hysteretic_batch(H, t, x, v, split)
+        return lockstep.run_hysteretic(H, t, x, v, split)
     return _hysteretic_batch_scalar(H, t, x, v, split)
 
 
@@ -392,7 +392,7 @@ def mse_batch(P, t, x, v, a, f_meas, state: str = "shared", *, kernel: str = "sc
         raise ValueError("f_meas must have the same length as the excitation")
     lockstep = _lockstep_module(kernel)
     if lockstep is not None:
-        return lockstep.mse_batch(P, t, x, v, a, f_meas, split)
+        return lockstep.run_mse(P, t, x, v, a, f_meas, split)
     # One-point optimisers call this row by row: waking numba's thread pool would cost more
     # than the simulation, so small batches run on the calling thread.
     kernel = _mse_serial if P.shape[0] < 4 or numba.get_num_threads() == 1 else _mse_parallel
