@@ -33,18 +33,26 @@ from bwbench.model import (
     _substeps,
 )
 
-LANES = 4  # measured best on AMD EPYC (Zen 4): 4 and 8 within noise, 2 and 16 slower
+LANES = 4  # measured on AMD EPYC (Zen 4), one core
 
 _STIFF_WORK = _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS  # as in model._advance_z
 _NEWTON_ITERATIONS = 60  # as in model._backward_euler
 
-# What a lane's pending power is for (its pow(arg, n) result feeds that state on the next round).
-_PIECE = 0  # none pending: start the next piece, sample or row
-_SETUP = 1  # |z|^n at the start of a piece: first RK4 stage and local stiffness
-_K1, _K2, _K3, _K4 = 2, 3, 4, 5  # RK4 stages
-_FALLBACK = 6  # first stage of the RK4 that finishes a piece after a bracket-less implicit step
-_BE_START = 7  # |z0|^n of a backward-Euler step
-_NEWTON = 8  # |z|^n at a Newton iterate of that step
+# Lane modes. A round is four phases; an RK4 lane computes stage q's power in phase q, so the
+# common path has no dispatch. A backward-Euler lane takes one power per phase. A lane whose piece
+# ended is given its next piece (or row) after phase 3 and starts it in the next phase 0.
+_RK, _IMPLICIT, _WAIT, _NEXT, _IDLE = range(5)
+_BE_START, _NEWTON = 0, 1  # backward-Euler step: |z0|^n pending, or |z|^n at a Newton iterate
+
+# Float fields of a lane, S[lane, field]: the piece's z, dx, direction, RK4 step and stages, the
+# pending power's argument, the branch's A, n, β+γ, β−γ, z_s, n·A/z_s, backward-Euler step h,
+# attractor, bracket and f(hi).
+(_ZC, _DX, _DIR, _H, _K1, _K2, _K3, _ZARG, _A, _N, _BG, _BM, _ZS, _RATE,
+ _BH, _BATT, _BLO, _BHI, _BFHI, _N_FLOAT) = range(20)
+_N_BRANCH_FIELDS = 6  # _A.._RATE, copied from the row's branch at the start of a piece
+# Integer fields, I[lane, field]: row, interval k, piece j, mode, fresh piece, substeps and
+# substep, backward-Euler state, steps done, Newton iterations.
+_ROW, _KK, _JJ, _MODE, _FRESH, _M, _I, _BSTATE, _BDONE, _BIT, _N_INT = range(11)
 
 _MODE_Z, _MODE_MSE = 0, 1
 
@@ -86,227 +94,210 @@ def _rate_from_pow(z, p, direction, A, beta_plus_gamma, beta_minus_gamma):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run_chunk(H, lo, hi, pieces, K, mode, Z, P, x, v, a, f_meas, out):
+def _run_chunk(H, lo, hi, dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out):
     """Rows lo..hi-1 of ``H`` (m, 8) through K lanes.
 
     mode _MODE_Z writes each row's z into ``Z`` (+inf rows on blow-up); _MODE_MSE writes the MSE
     of row r of ``P`` against ``f_meas`` into ``out[r]`` (+inf on blow-up).
     """
-    dxs, branch, slot, active = pieces
+    # Everything per sample stays in this one function, with scalar-only helpers: numba
+    # reference-counts the arrays passed to a call with atomic instructions, which are full
+    # barriers on x86 and would serialise the lanes again.
     n_samples = x.shape[0]
     zbuf = np.empty((K, n_samples))
     fbuf = np.empty(n_samples)
-    # Each row's branch parameters (index [lane, branch]) and derived constants.
-    pA = np.empty((K, 2))
-    pn = np.empty((K, 2))
-    pbg = np.empty((K, 2))  # β + γ
-    pbm = np.empty((K, 2))  # β − γ
-    pzs = np.empty((K, 2))
-    prate = np.empty((K, 2))
-    # Lane state: row, interval k and piece j, the two z's and the piece being integrated.
-    row = np.full(K, -1)
-    kk = np.zeros(K, dtype=np.int64)
-    jj = np.zeros(K, dtype=np.int64)
+    S = np.zeros((K, _N_FLOAT))
+    I = np.zeros((K, _N_INT), dtype=np.int64)
+    I[:, _ROW] = -1
+    I[:, _MODE] = _NEXT
+    branch_params = np.empty((K, 2, _N_BRANCH_FIELDS))
     z_slot = np.zeros((K, 2))
-    state = np.zeros(K, dtype=np.int64)
-    zc = np.zeros(K)  # z at the start of the current RK4 substep / backward-Euler step
-    dxl = np.zeros(K)
-    direction = np.ones(K)
-    hstep = np.zeros(K)
-    m_sub = np.zeros(K, dtype=np.int64)
-    i_sub = np.zeros(K, dtype=np.int64)
-    k1 = np.zeros(K)
-    k2 = np.zeros(K)
-    k3 = np.zeros(K)
-    zarg = np.zeros(K)  # the z whose power is pending
-    # Backward Euler: step h, attractor, steps done, bracket, Newton iteration count.
-    bh = np.zeros(K)
-    batt = np.zeros(K)
-    bdone = np.zeros(K, dtype=np.int64)
-    blo = np.zeros(K)
-    bhi = np.zeros(K)
-    bfhi = np.zeros(K)
-    bit = np.zeros(K, dtype=np.int64)
-    pw_arg = np.ones(K)
-    pw_exp = np.ones(K)
-    pw = np.zeros(K)
-
     next_row = lo
-    busy = K
-    while busy > 0:
+    while True:
+        busy = False
         for lane in range(K):
-            if row[lane] >= 0:
-                pw[lane] = math.pow(pw_arg[lane], pw_exp[lane])
-        busy = 0
-        for lane in range(K):
-            st = state[lane]
-            p = pw[lane]
+            if I[lane, _MODE] != _NEXT:
+                busy = busy or I[lane, _MODE] != _IDLE
+                continue
+            # Store the piece just integrated, then set up the lane's next piece, taking the
+            # next row (or going idle) when its row is done or blew up.
+            r = I[lane, _ROW]
+            k = I[lane, _KK]
+            j = I[lane, _JJ]
+            if r >= 0:
+                z_slot[lane, slot[k, j]] = S[lane, _ZC]
+                j += 1
             while True:
-                r = row[lane]
-                if st == _PIECE:
-                    k = kk[lane]
-                    if r >= 0 and k == n_samples - 1:
-                        _finish(mode, r, True, zbuf[lane], Z, P, x, v, a, f_meas, fbuf, out)
-                        r = -1
-                    elif r >= 0 and jj[lane] == 2:  # interval done: report the active z
-                        z_act = z_slot[lane, active[k]]
-                        if not np.isfinite(z_act):
-                            _finish(mode, r, False, zbuf[lane], Z, P, x, v, a, f_meas, fbuf, out)
-                            r = -1
-                        else:
-                            zbuf[lane, k + 1] = z_act
-                            kk[lane] = k + 1
-                            jj[lane] = 0
-                            continue
-                    if r < 0:  # take the chunk's next row, if any
-                        if next_row >= hi:
-                            row[lane] = -1
-                            break
-                        r = next_row
-                        next_row += 1
-                        row[lane] = r
-                        for b in range(2):
-                            pA[lane, b] = H[r, 4 * b]
-                            pn[lane, b] = H[r, 4 * b + 1]
-                            pbg[lane, b] = H[r, 4 * b + 2] + H[r, 4 * b + 3]
-                            pbm[lane, b] = H[r, 4 * b + 2] - H[r, 4 * b + 3]
-                            pzs[lane, b], prate[lane, b] = _attractor(H[r], b)
-                        z_slot[lane, 0] = 0.0
-                        z_slot[lane, 1] = 0.0
-                        zbuf[lane, 0] = 0.0
-                        kk[lane] = 0
-                        jj[lane] = 0
-                        continue
-                    j = jj[lane]
-                    dx = dxs[k, j]
-                    z = z_slot[lane, slot[k, j]]
-                    if dx == 0.0 or not np.isfinite(z):  # model._advance_z leaves z as it is
-                        jj[lane] = j + 1
-                        continue
-                    dxl[lane] = dx
-                    direction[lane] = 1.0 if dx > 0.0 else -1.0
-                    zc[lane] = z
-                    zarg[lane] = z
-                    st = _SETUP
-                    break
-                b = branch[kk[lane], jj[lane]]
-                A = pA[lane, b]
-                n = pn[lane, b]
-                bg = pbg[lane, b]
-                bm = pbm[lane, b]
-                zl = zarg[lane]
-                finish_piece = False
-                if st == _SETUP:  # model._advance_z up to the substep count
-                    stiffness = prate[lane, b]
-                    kfirst = A
-                    if zl != 0.0:
-                        c = bg if (zl > 0.0) == (direction[lane] > 0.0) else bm
-                        kfirst = A - c * p
-                        local = n * abs(c) * p / abs(zl)
-                        if (n >= 1.0 or abs(zl) > pzs[lane, b]) and local > stiffness:
-                            stiffness = local
-                    work = stiffness * abs(dxl[lane])
-                    if work > _STIFF_WORK:
-                        bh[lane] = dxl[lane] / _IMPLICIT_SUBSTEPS
-                        batt[lane] = direction[lane] * pzs[lane, b]
-                        bdone[lane] = 0
-                        st = _BE_START
-                        continue  # its first power is this one: |z0|^n with z0 = zarg
-                    k1[lane] = kfirst
-                    m_sub[lane] = _substeps(work)
-                    hstep[lane] = dxl[lane] / m_sub[lane]
-                    i_sub[lane] = 0
-                    zarg[lane] = zc[lane] + 0.5 * hstep[lane] * kfirst
-                    st = _K2
-                elif st == _K1 or st == _FALLBACK:
-                    k1[lane] = _rate_from_pow(zl, p, direction[lane], A, bg, bm)
-                    if st == _FALLBACK:
-                        m_sub[lane] = _substeps(_STIFF_WORK)
-                        hstep[lane] = dxl[lane] / m_sub[lane]
-                        i_sub[lane] = 0
-                    zarg[lane] = zc[lane] + 0.5 * hstep[lane] * k1[lane]
-                    st = _K2
-                elif st == _K2:
-                    k2[lane] = _rate_from_pow(zl, p, direction[lane], A, bg, bm)
-                    zarg[lane] = zc[lane] + 0.5 * hstep[lane] * k2[lane]
-                    st = _K3
-                elif st == _K3:
-                    k3[lane] = _rate_from_pow(zl, p, direction[lane], A, bg, bm)
-                    zarg[lane] = zc[lane] + hstep[lane] * k3[lane]
-                    st = _K4
-                elif st == _K4:
-                    k4 = _rate_from_pow(zl, p, direction[lane], A, bg, bm)
-                    h = hstep[lane]
-                    z = zc[lane] + h * (k1[lane] + 2.0 * k2[lane] + 2.0 * k3[lane] + k4) / 6.0
-                    zc[lane] = z
-                    i_sub[lane] += 1
-                    if not np.isfinite(z) or i_sub[lane] == m_sub[lane]:
-                        finish_piece = True
-                    else:
-                        zarg[lane] = z
-                        st = _K1
-                else:  # _BE_START or _NEWTON: model._backward_euler from z0 = zc
-                    z_new, st = _implicit_round(
-                        st, zl, p, zc[lane], bh[lane], A, n, bg, bm, batt[lane], blo, bhi, bfhi, bit, lane
-                    )
-                    if st == _NEWTON:
-                        zarg[lane] = z_new
-                    elif np.isnan(z_new):  # no bracket: RK4 over what is left of the piece
-                        dxl[lane] = bh[lane] * (_IMPLICIT_SUBSTEPS - bdone[lane])
-                        zarg[lane] = zc[lane]
-                        st = _FALLBACK
-                    else:
-                        zc[lane] = z_new
-                        bdone[lane] += 1
-                        if bdone[lane] == _IMPLICIT_SUBSTEPS:
-                            finish_piece = True
-                        else:
-                            zarg[lane] = z_new
-                            st = _BE_START
-                if finish_piece:
-                    z_slot[lane, slot[kk[lane], jj[lane]]] = zc[lane]
-                    jj[lane] += 1
-                    st = _PIECE
+                if r < 0:
+                    if next_row >= hi:
+                        I[lane, _MODE] = _IDLE
+                        break
+                    r = next_row
+                    next_row += 1
+                    _load_row(H, r, branch_params[lane])
+                    z_slot[lane, 0] = 0.0
+                    z_slot[lane, 1] = 0.0
+                    zbuf[lane, 0] = 0.0
+                    k = 0
+                    j = 0
+                if k == n_samples - 1:
+                    _finish(mode, r, True, zbuf[lane], Z, P, x, v, a, f_meas, fbuf, out)
+                    r = -1
                     continue
+                if j == 2:  # interval done: report the active z
+                    z_act = z_slot[lane, active[k]]
+                    if not np.isfinite(z_act):
+                        _finish(mode, r, False, zbuf[lane], Z, P, x, v, a, f_meas, fbuf, out)
+                        r = -1
+                        continue
+                    zbuf[lane, k + 1] = z_act
+                    k += 1
+                    j = 0
+                    continue
+                dx = dxs[k, j]
+                z = z_slot[lane, slot[k, j]]
+                if dx == 0.0 or not np.isfinite(z):  # model._advance_z leaves z as it is
+                    j += 1
+                    continue
+                b = branch[k, j]
+                for f in range(_N_BRANCH_FIELDS):
+                    S[lane, _A + f] = branch_params[lane, b, f]
+                S[lane, _ZC] = z
+                S[lane, _DX] = dx
+                S[lane, _DIR] = 1.0 if dx > 0.0 else -1.0
+                I[lane, _FRESH] = 1
+                I[lane, _MODE] = _WAIT
+                busy = True
                 break
-            state[lane] = st
-            if row[lane] >= 0:
-                pw_arg[lane] = abs(zarg[lane])
-                pw_exp[lane] = pn[lane, branch[kk[lane], jj[lane]]]
-                busy += 1
+            I[lane, _ROW] = r
+            I[lane, _KK] = k
+            I[lane, _JJ] = j
+        if not busy:
+            return
+        for phase in range(4):
+            for lane in range(K):
+                md = I[lane, _MODE]
+                if phase == 0 and md == _WAIT:
+                    md = _RK
+                    I[lane, _MODE] = _RK
+                if md == _RK:
+                    za = S[lane, _ZC] if phase == 0 else S[lane, _ZARG]
+                    p = math.pow(abs(za), S[lane, _N])
+                    A = S[lane, _A]
+                    kq = _rate_from_pow(za, p, S[lane, _DIR], A, S[lane, _BG], S[lane, _BM])
+                    if phase == 0:
+                        if I[lane, _FRESH]:  # model._advance_z up to the substep count
+                            I[lane, _FRESH] = 0
+                            dx = S[lane, _DX]
+                            work = _work(za, p, dx, S[lane, _DIR], S[lane, _N], S[lane, _BG], S[lane, _BM],
+                                         S[lane, _ZS], S[lane, _RATE])
+                            if work > _STIFF_WORK:  # backward Euler from the next phase on
+                                S[lane, _BH] = dx / _IMPLICIT_SUBSTEPS
+                                S[lane, _BATT] = S[lane, _DIR] * S[lane, _ZS]
+                                S[lane, _ZARG] = za
+                                I[lane, _BDONE] = 0
+                                I[lane, _BSTATE] = _BE_START
+                                I[lane, _MODE] = _IMPLICIT
+                                continue
+                            m = _substeps(work)
+                            I[lane, _M] = m
+                            I[lane, _I] = 0
+                            S[lane, _H] = dx / m
+                        S[lane, _K1] = kq
+                        S[lane, _ZARG] = za + 0.5 * S[lane, _H] * kq
+                    elif phase == 1:
+                        S[lane, _K2] = kq
+                        S[lane, _ZARG] = S[lane, _ZC] + 0.5 * S[lane, _H] * kq
+                    elif phase == 2:
+                        S[lane, _K3] = kq
+                        S[lane, _ZARG] = S[lane, _ZC] + S[lane, _H] * kq
+                    else:
+                        h = S[lane, _H]
+                        z = S[lane, _ZC] + h * (S[lane, _K1] + 2.0 * S[lane, _K2] + 2.0 * S[lane, _K3] + kq) / 6.0
+                        S[lane, _ZC] = z
+                        I[lane, _I] += 1
+                        if not np.isfinite(z) or I[lane, _I] == I[lane, _M]:
+                            I[lane, _MODE] = _NEXT
+                elif md == _IMPLICIT:
+                    zl = S[lane, _ZARG]
+                    p = math.pow(abs(zl), S[lane, _N])
+                    z_new, st, blo, bhi, bfhi, bit = _implicit_round(
+                        I[lane, _BSTATE], zl, p, S[lane, _ZC], S[lane, _BH], S[lane, _A], S[lane, _N],
+                        S[lane, _BG], S[lane, _BM], S[lane, _BATT], S[lane, _BLO], S[lane, _BHI],
+                        S[lane, _BFHI], I[lane, _BIT])
+                    S[lane, _BLO] = blo
+                    S[lane, _BHI] = bhi
+                    S[lane, _BFHI] = bfhi
+                    I[lane, _BIT] = bit
+                    if st == _NEWTON:
+                        S[lane, _ZARG] = z_new
+                        I[lane, _BSTATE] = _NEWTON
+                    elif np.isnan(z_new):  # no bracket: RK4 over what is left, from the next phase 0
+                        dx = S[lane, _BH] * (_IMPLICIT_SUBSTEPS - I[lane, _BDONE])
+                        m = _substeps(_STIFF_WORK)
+                        S[lane, _DX] = dx
+                        S[lane, _H] = dx / m
+                        I[lane, _M] = m
+                        I[lane, _I] = 0
+                        I[lane, _FRESH] = 0
+                        I[lane, _MODE] = _WAIT
+                    else:
+                        S[lane, _ZC] = z_new
+                        I[lane, _BDONE] += 1
+                        if I[lane, _BDONE] == _IMPLICIT_SUBSTEPS:
+                            I[lane, _MODE] = _NEXT
+                        else:
+                            S[lane, _ZARG] = z_new
+                            I[lane, _BSTATE] = _BE_START
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _implicit_round(st, z, p, z0, h, A, n, bg, bm, z_att, blo, bhi, bfhi, bit, lane):
-    """One ``pow`` worth of model._backward_euler: p = |z|^n at the start or a Newton iterate.
+def _work(z, p, dx, direction, n, bg, bm, z_s, attractor_rate):
+    """model._advance_z's stiffness·|dx| at the start of a piece, p = |z|^n."""
+    stiffness = attractor_rate
+    if z != 0.0:
+        c = bg if (z > 0.0) == (direction > 0.0) else bm
+        local = n * abs(c) * p / abs(z)
+        if (n >= 1.0 or abs(z) > z_s) and local > stiffness:
+            stiffness = local
+    return stiffness * abs(dx)
 
-    Returns (z, _NEWTON) when the next iterate z needs its power, else (step result, _PIECE)
-    with NaN for "no bracket", as the scalar function returns.
+
+@numba.njit(cache=True, error_model="numpy")
+def _load_row(H, r, params):
+    """Branch parameters of row r into params[branch, :] = A, n, β+γ, β−γ, z_s, n·A/z_s."""
+    for b in range(2):
+        params[b, 0] = H[r, 4 * b]
+        params[b, 1] = H[r, 4 * b + 1]
+        params[b, 2] = H[r, 4 * b + 2] + H[r, 4 * b + 3]
+        params[b, 3] = H[r, 4 * b + 2] - H[r, 4 * b + 3]
+        params[b, 4], params[b, 5] = _attractor(H[r], b)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _implicit_round(st, z, p, z0, h, A, n, bg, bm, z_att, lo, hi, f_hi, it):
+    """One power's worth of model._backward_euler: p = |z|^n at z = z0 (start) or an iterate.
+
+    Returns (z, _NEWTON, bracket lo, hi, f(hi), iterations) when iterate z needs its power next,
+    else (step result, -1, ...), the result being NaN for "no bracket" as in the scalar function.
     """
     direction = 1.0 if h > 0.0 else -1.0
     if st == _BE_START:
         f_lo = -h * _rate_from_pow(z0, p, direction, A, bg, bm)
         f_hi = z_att - z0
         if f_lo == 0.0:
-            return z0, _PIECE
+            return z0, -1, lo, hi, f_hi, it
         if f_lo * f_hi > 0.0:
-            return np.nan, _PIECE
-        blo[lane] = z0
-        bhi[lane] = z_att
-        bfhi[lane] = f_hi
-        bit[lane] = 0
-        return 0.5 * (z0 + z_att), _NEWTON
-    lo = blo[lane]
-    hi = bhi[lane]
+            return np.nan, -1, lo, hi, f_hi, it
+        return 0.5 * (z0 + z_att), _NEWTON, z0, z_att, f_hi, 0
     f = z - z0 - h * _rate_from_pow(z, p, direction, A, bg, bm)
     if f == 0.0:
-        return z, _PIECE
-    if (f > 0.0) == (bfhi[lane] > 0.0):
+        return z, -1, lo, hi, f_hi, it
+    if (f > 0.0) == (f_hi > 0.0):
         hi = z
     else:
         lo = z
-    blo[lane] = lo
-    bhi[lane] = hi
+    # Newton where the derivative is usable, bisection otherwise (as in the scalar function).
     pz = p if z != 0.0 else 0.0
     c = bg if (z > 0.0) == (direction > 0.0) else bm
     dg = -c * n * pz / abs(z) if z != 0.0 else -np.inf
@@ -314,15 +305,12 @@ def _implicit_round(st, z, p, z0, h, A, n, bg, bm, z_att, blo, bhi, bfhi, bit, l
     z_new = z - f / df if np.isfinite(df) and df != 0.0 else 0.5 * (lo + hi)
     if not (min(lo, hi) < z_new < max(lo, hi)):
         z_new = 0.5 * (lo + hi)
-    if abs(z_new - z) <= 1e-14 * (abs(z) + 1e-300):
-        return z_new, _PIECE
-    bit[lane] += 1
-    if bit[lane] == _NEWTON_ITERATIONS:
-        return z_new, _PIECE
-    return z_new, _NEWTON
+    if abs(z_new - z) <= 1e-14 * (abs(z) + 1e-300) or it + 1 == _NEWTON_ITERATIONS:
+        return z_new, -1, lo, hi, f_hi, it + 1
+    return z_new, _NEWTON, lo, hi, f_hi, it + 1
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
+@numba.njit(cache=True, error_model="numpy")
 def _finish(mode, r, ok, z, Z, P, x, v, a, f_meas, fbuf, out):
     if mode == _MODE_Z:
         if ok:
@@ -336,15 +324,16 @@ def _finish(mode, r, ok, z, Z, P, x, v, a, f_meas, fbuf, out):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _serial(H, pieces, K, mode, Z, P, x, v, a, f_meas, out):
-    _run_chunk(H, 0, H.shape[0], pieces, K, mode, Z, P, x, v, a, f_meas, out)
+def _serial(H, dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out):
+    _run_chunk(H, 0, H.shape[0], dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out)
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _parallel(H, pieces, K, mode, Z, P, x, v, a, f_meas, out, n_chunks):
+def _parallel(H, dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out, n_chunks):
     m = H.shape[0]
     for c in numba.prange(n_chunks):
-        _run_chunk(H, c * m // n_chunks, (c + 1) * m // n_chunks, pieces, K, mode, Z, P, x, v, a, f_meas, out)
+        lo, hi = c * m // n_chunks, (c + 1) * m // n_chunks
+        _run_chunk(H, lo, hi, dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out)
 
 
 def _run(H, t, x, v, split, mode, Z, P, a, f_meas, out):
@@ -353,12 +342,12 @@ def _run(H, t, x, v, split, mode, Z, P, a, f_meas, out):
     pieces = _excitation_pieces(t, x, v, split)
     threads = numba.get_num_threads()
     if threads == 1 or m < 2 * K:
-        _serial(H, pieces, K, mode, Z, P, x, v, a, f_meas, out)
+        _serial(H, *pieces, K, mode, Z, P, x, v, a, f_meas, out)
         return
     # A few chunks per thread, handed out one at a time: rows differ in cost by 10x and more.
     n_chunks = min(4 * threads, m // K)
     with numba.parallel_chunksize(1):
-        _parallel(H, pieces, K, mode, Z, P, x, v, a, f_meas, out, n_chunks)
+        _parallel(H, *pieces, K, mode, Z, P, x, v, a, f_meas, out, n_chunks)
 
 
 def _check_length(x):
