@@ -1,17 +1,16 @@
 """Several parameter sets simulated together, interleaved so their ``pow`` calls overlap.
 
-The scalar kernel (``bwbench.model``) is latency-bound: every RK4 stage waits for a ``pow`` whose
-argument comes from the stage before, ~25 ns each, four per step. Here K lanes each run one
-parameter set as a small state machine that stops wherever it needs |z|^n. A round computes the
-K pending powers back to back (independent, so the CPU overlaps them), then advances every lane
-to its next power. Lanes are not synchronised: each has its own sample, substep count, stiff
-(backward-Euler) fallback and Newton iteration, and a lane whose row is done (or blew up) takes
-the next row of its chunk, so stiff rows do not leave the other lanes idle.
+The scalar kernel (``bwbench.model``) is latency-bound: each RK4 stage waits for a ``pow`` whose
+argument comes from the stage before, ~27 ns, four per step, while the CPU could run two or three
+independent ones in that time. Here a group of K rows (lanes) walks the samples together: per
+piece of a sample interval, each RK4 stage is computed for all lanes in one loop, so the K
+powers are independent. Substep counts are per lane (a lane sits out the substeps it does not
+need); lanes that need the stiff backward-Euler step run theirs interleaved with each other;
+a lane that blows up stops and reports +inf, the others go on.
 
 Each lane performs exactly the scalar kernel's floating-point operations in the same order (the
 excitation pieces come from the same helper, the force and MSE from the same functions), so the
-results are bit-identical to ``model.mse_batch(..., kernel="scalar")``. The only extra ``pow`` is
-one whose result is discarded (where the scalar kernel skips it because z = 0).
+results are bit-identical to ``model.mse_batch(..., kernel="scalar")``.
 """
 
 from __future__ import annotations
@@ -33,27 +32,11 @@ from bwbench.model import (
     _substeps,
 )
 
-LANES = 4  # measured on AMD EPYC (Zen 4), one core
+LANES = 4  # rows per group; on AMD EPYC (Zen 4) 4 to 8 are best, 2 and 16 slower
 
 _STIFF_WORK = _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS  # as in model._advance_z
 _NEWTON_ITERATIONS = 60  # as in model._backward_euler
-
-# Lane modes. A round is four phases; an RK4 lane computes stage q's power in phase q, so the
-# common path has no dispatch. A backward-Euler lane takes one power per phase. A lane whose piece
-# ended is given its next piece (or row) after phase 3 and starts it in the next phase 0.
-_RK, _IMPLICIT, _WAIT, _NEXT, _IDLE = range(5)
-_BE_START, _NEWTON = 0, 1  # backward-Euler step: |z0|^n pending, or |z|^n at a Newton iterate
-
-# Float fields of a lane, S[lane, field]: the piece's z, dx, direction, RK4 step and stages, the
-# pending power's argument, the branch's A, n, β+γ, β−γ, z_s, n·A/z_s, backward-Euler step h,
-# attractor, bracket and f(hi).
-(_ZC, _DX, _DIR, _H, _K1, _K2, _K3, _ZARG, _A, _N, _BG, _BM, _ZS, _RATE,
- _BH, _BATT, _BLO, _BHI, _BFHI, _N_FLOAT) = range(20)
-_N_BRANCH_FIELDS = 6  # _A.._RATE, copied from the row's branch at the start of a piece
-# Integer fields, I[lane, field]: row, interval k, piece j, mode, fresh piece, substeps and
-# substep, backward-Euler state, steps done, Newton iterations.
-_ROW, _KK, _JJ, _MODE, _FRESH, _M, _I, _BSTATE, _BDONE, _BIT, _N_INT = range(11)
-
+_BE_START, _NEWTON, _FALLBACK, _DONE = 0, 1, 2, 3  # a lane's backward-Euler state: pending power
 _MODE_Z, _MODE_MSE = 0, 1
 
 
@@ -93,164 +76,6 @@ def _rate_from_pow(z, p, direction, A, beta_plus_gamma, beta_minus_gamma):
     return A - beta_minus_gamma * p
 
 
-@numba.njit(cache=True, error_model="numpy")
-def _run_chunk(H, lo, hi, dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out):
-    """Rows lo..hi-1 of ``H`` (m, 8) through K lanes.
-
-    mode _MODE_Z writes each row's z into ``Z`` (+inf rows on blow-up); _MODE_MSE writes the MSE
-    of row r of ``P`` against ``f_meas`` into ``out[r]`` (+inf on blow-up).
-    """
-    # Everything per sample stays in this one function, with scalar-only helpers: numba
-    # reference-counts the arrays passed to a call with atomic instructions, which are full
-    # barriers on x86 and would serialise the lanes again.
-    n_samples = x.shape[0]
-    zbuf = np.empty((K, n_samples))
-    fbuf = np.empty(n_samples)
-    S = np.zeros((K, _N_FLOAT))
-    I = np.zeros((K, _N_INT), dtype=np.int64)
-    I[:, _ROW] = -1
-    I[:, _MODE] = _NEXT
-    branch_params = np.empty((K, 2, _N_BRANCH_FIELDS))
-    z_slot = np.zeros((K, 2))
-    next_row = lo
-    while True:
-        busy = False
-        for lane in range(K):
-            if I[lane, _MODE] != _NEXT:
-                busy = busy or I[lane, _MODE] != _IDLE
-                continue
-            # Store the piece just integrated, then set up the lane's next piece, taking the
-            # next row (or going idle) when its row is done or blew up.
-            r = I[lane, _ROW]
-            k = I[lane, _KK]
-            j = I[lane, _JJ]
-            if r >= 0:
-                z_slot[lane, slot[k, j]] = S[lane, _ZC]
-                j += 1
-            while True:
-                if r < 0:
-                    if next_row >= hi:
-                        I[lane, _MODE] = _IDLE
-                        break
-                    r = next_row
-                    next_row += 1
-                    _load_row(H, r, branch_params[lane])
-                    z_slot[lane, 0] = 0.0
-                    z_slot[lane, 1] = 0.0
-                    zbuf[lane, 0] = 0.0
-                    k = 0
-                    j = 0
-                if k == n_samples - 1:
-                    _finish(mode, r, True, zbuf[lane], Z, P, x, v, a, f_meas, fbuf, out)
-                    r = -1
-                    continue
-                if j == 2:  # interval done: report the active z
-                    z_act = z_slot[lane, active[k]]
-                    if not np.isfinite(z_act):
-                        _finish(mode, r, False, zbuf[lane], Z, P, x, v, a, f_meas, fbuf, out)
-                        r = -1
-                        continue
-                    zbuf[lane, k + 1] = z_act
-                    k += 1
-                    j = 0
-                    continue
-                dx = dxs[k, j]
-                z = z_slot[lane, slot[k, j]]
-                if dx == 0.0 or not np.isfinite(z):  # model._advance_z leaves z as it is
-                    j += 1
-                    continue
-                b = branch[k, j]
-                for f in range(_N_BRANCH_FIELDS):
-                    S[lane, _A + f] = branch_params[lane, b, f]
-                S[lane, _ZC] = z
-                S[lane, _DX] = dx
-                S[lane, _DIR] = 1.0 if dx > 0.0 else -1.0
-                I[lane, _FRESH] = 1
-                I[lane, _MODE] = _WAIT
-                busy = True
-                break
-            I[lane, _ROW] = r
-            I[lane, _KK] = k
-            I[lane, _JJ] = j
-        if not busy:
-            return
-        for phase in range(4):
-            for lane in range(K):
-                md = I[lane, _MODE]
-                if phase == 0 and md == _WAIT:
-                    md = _RK
-                    I[lane, _MODE] = _RK
-                if md == _RK:
-                    za = S[lane, _ZC] if phase == 0 else S[lane, _ZARG]
-                    p = math.pow(abs(za), S[lane, _N])
-                    A = S[lane, _A]
-                    kq = _rate_from_pow(za, p, S[lane, _DIR], A, S[lane, _BG], S[lane, _BM])
-                    if phase == 0:
-                        if I[lane, _FRESH]:  # model._advance_z up to the substep count
-                            I[lane, _FRESH] = 0
-                            dx = S[lane, _DX]
-                            work = _work(za, p, dx, S[lane, _DIR], S[lane, _N], S[lane, _BG], S[lane, _BM],
-                                         S[lane, _ZS], S[lane, _RATE])
-                            if work > _STIFF_WORK:  # backward Euler from the next phase on
-                                S[lane, _BH] = dx / _IMPLICIT_SUBSTEPS
-                                S[lane, _BATT] = S[lane, _DIR] * S[lane, _ZS]
-                                S[lane, _ZARG] = za
-                                I[lane, _BDONE] = 0
-                                I[lane, _BSTATE] = _BE_START
-                                I[lane, _MODE] = _IMPLICIT
-                                continue
-                            m = _substeps(work)
-                            I[lane, _M] = m
-                            I[lane, _I] = 0
-                            S[lane, _H] = dx / m
-                        S[lane, _K1] = kq
-                        S[lane, _ZARG] = za + 0.5 * S[lane, _H] * kq
-                    elif phase == 1:
-                        S[lane, _K2] = kq
-                        S[lane, _ZARG] = S[lane, _ZC] + 0.5 * S[lane, _H] * kq
-                    elif phase == 2:
-                        S[lane, _K3] = kq
-                        S[lane, _ZARG] = S[lane, _ZC] + S[lane, _H] * kq
-                    else:
-                        h = S[lane, _H]
-                        z = S[lane, _ZC] + h * (S[lane, _K1] + 2.0 * S[lane, _K2] + 2.0 * S[lane, _K3] + kq) / 6.0
-                        S[lane, _ZC] = z
-                        I[lane, _I] += 1
-                        if not np.isfinite(z) or I[lane, _I] == I[lane, _M]:
-                            I[lane, _MODE] = _NEXT
-                elif md == _IMPLICIT:
-                    zl = S[lane, _ZARG]
-                    p = math.pow(abs(zl), S[lane, _N])
-                    z_new, st, blo, bhi, bfhi, bit = _implicit_round(
-                        I[lane, _BSTATE], zl, p, S[lane, _ZC], S[lane, _BH], S[lane, _A], S[lane, _N],
-                        S[lane, _BG], S[lane, _BM], S[lane, _BATT], S[lane, _BLO], S[lane, _BHI],
-                        S[lane, _BFHI], I[lane, _BIT])
-                    S[lane, _BLO] = blo
-                    S[lane, _BHI] = bhi
-                    S[lane, _BFHI] = bfhi
-                    I[lane, _BIT] = bit
-                    if st == _NEWTON:
-                        S[lane, _ZARG] = z_new
-                        I[lane, _BSTATE] = _NEWTON
-                    elif np.isnan(z_new):  # no bracket: RK4 over what is left, from the next phase 0
-                        dx = S[lane, _BH] * (_IMPLICIT_SUBSTEPS - I[lane, _BDONE])
-                        m = _substeps(_STIFF_WORK)
-                        S[lane, _DX] = dx
-                        S[lane, _H] = dx / m
-                        I[lane, _M] = m
-                        I[lane, _I] = 0
-                        I[lane, _FRESH] = 0
-                        I[lane, _MODE] = _WAIT
-                    else:
-                        S[lane, _ZC] = z_new
-                        I[lane, _BDONE] += 1
-                        if I[lane, _BDONE] == _IMPLICIT_SUBSTEPS:
-                            I[lane, _MODE] = _NEXT
-                        else:
-                            S[lane, _ZARG] = z_new
-                            I[lane, _BSTATE] = _BE_START
-
-
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _work(z, p, dx, direction, n, bg, bm, z_s, attractor_rate):
     """model._advance_z's stiffness·|dx| at the start of a piece, p = |z|^n."""
@@ -264,14 +89,168 @@ def _work(z, p, dx, direction, n, bg, bm, z_s, attractor_rate):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _load_row(H, r, params):
-    """Branch parameters of row r into params[branch, :] = A, n, β+γ, β−γ, z_s, n·A/z_s."""
-    for b in range(2):
-        params[b, 0] = H[r, 4 * b]
-        params[b, 1] = H[r, 4 * b + 1]
-        params[b, 2] = H[r, 4 * b + 2] + H[r, 4 * b + 3]
-        params[b, 3] = H[r, 4 * b + 2] - H[r, 4 * b + 3]
-        params[b, 4], params[b, 5] = _attractor(H[r], b)
+def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf):
+    """Rows ``rows`` of ``H`` (m, 8), one per lane, through all samples together.
+
+    mode _MODE_Z writes each row's z into ``Z`` (+inf rows on blow-up); _MODE_MSE writes the MSE
+    of row r of ``P`` against ``f_meas`` into ``out[r]`` (+inf on blow-up). ``zbuf`` (≥ K, L)
+    and ``fbuf`` (L) are scratch.
+    """
+    # Everything per sample stays inside this function and its scalar-only helpers: numba
+    # reference-counts the arrays passed to a call with atomic instructions, which are full
+    # barriers on x86 and would serialise the lanes again.
+    K = rows.shape[0]
+    pA = np.empty((2, K))  # [branch, lane]: A, n, β+γ, β−γ, z_s, n·A/z_s
+    pn = np.empty((2, K))
+    pbg = np.empty((2, K))
+    pbm = np.empty((2, K))
+    pzs = np.empty((2, K))
+    prate = np.empty((2, K))
+    for lane in range(K):
+        r = rows[lane]
+        for b in range(2):
+            pA[b, lane] = H[r, 4 * b]
+            pn[b, lane] = H[r, 4 * b + 1]
+            pbg[b, lane] = H[r, 4 * b + 2] + H[r, 4 * b + 3]
+            pbm[b, lane] = H[r, 4 * b + 2] - H[r, 4 * b + 3]
+            pzs[b, lane], prate[b, lane] = _attractor(H[r], b)
+        zbuf[lane, 0] = 0.0
+    z_slot = np.zeros((2, K))  # z₊ (or the shared z) and z₋
+    alive = np.ones(K, dtype=np.bool_)
+    n_alive = K
+    # Per lane within a piece: substeps (0: z left as is, -1: backward Euler), the z a substep
+    # starts from, the pending stage argument, RK4 step and stages; backward-Euler state.
+    msub = np.zeros(K, dtype=np.int64)
+    zc = np.empty(K)
+    zarg = np.empty(K)
+    hs = np.empty(K)
+    k1 = np.empty(K)
+    k2 = np.empty(K)
+    k3 = np.empty(K)
+    bstate = np.zeros(K, dtype=np.int64)
+    bdone = np.zeros(K, dtype=np.int64)
+    bit = np.zeros(K, dtype=np.int64)
+    batt = np.empty(K)
+    blo = np.empty(K)
+    bhi = np.empty(K)
+    bfhi = np.empty(K)
+    for k in range(x.shape[0] - 1):
+        for j in range(2):
+            dx = dxs[k, j]
+            if dx == 0.0:  # model._advance_z leaves z as it is
+                continue
+            b = branch[k, j]
+            s = slot[k, j]
+            direction = 1.0 if dx > 0.0 else -1.0
+            max_m = 0
+            n_implicit = 0
+            for lane in range(K):  # first stage, whose |z|^n also gives the substep count
+                z = z_slot[s, lane]
+                msub[lane] = 0
+                if not alive[lane] or not np.isfinite(z):
+                    continue
+                p = math.pow(abs(z), pn[b, lane])
+                zc[lane] = z
+                work = _work(z, p, dx, direction, pn[b, lane], pbg[b, lane], pbm[b, lane], pzs[b, lane],
+                             prate[b, lane])
+                if work > _STIFF_WORK:
+                    msub[lane] = -1
+                    zarg[lane] = z
+                    bstate[lane] = _BE_START
+                    bdone[lane] = 0
+                    batt[lane] = direction * pzs[b, lane]
+                    n_implicit += 1
+                    continue
+                m = _substeps(work)
+                msub[lane] = m
+                max_m = max(max_m, m)
+                hs[lane] = dx / m
+                kq = _rate_from_pow(z, p, direction, pA[b, lane], pbg[b, lane], pbm[b, lane])
+                k1[lane] = kq
+                zarg[lane] = z + 0.5 * hs[lane] * kq
+            bh = dx / _IMPLICIT_SUBSTEPS
+            while n_implicit > 0:  # backward-Euler lanes, one power each per round
+                for lane in range(K):
+                    if msub[lane] != -1 or bstate[lane] == _DONE:
+                        continue
+                    zl = zarg[lane]
+                    p = math.pow(abs(zl), pn[b, lane])
+                    if bstate[lane] == _FALLBACK:  # RK4's first stage over what is left of the piece
+                        m = _substeps(_STIFF_WORK)
+                        msub[lane] = m
+                        max_m = max(max_m, m)
+                        hs[lane] = bh * (_IMPLICIT_SUBSTEPS - bdone[lane]) / m
+                        kq = _rate_from_pow(zl, p, direction, pA[b, lane], pbg[b, lane], pbm[b, lane])
+                        k1[lane] = kq
+                        zarg[lane] = zl + 0.5 * hs[lane] * kq
+                        n_implicit -= 1
+                        continue
+                    z_new, st, blo[lane], bhi[lane], bfhi[lane], bit[lane] = _implicit_round(
+                        bstate[lane], zl, p, zc[lane], bh, pA[b, lane], pn[b, lane], pbg[b, lane],
+                        pbm[b, lane], batt[lane], blo[lane], bhi[lane], bfhi[lane], bit[lane])
+                    if st == _NEWTON:
+                        zarg[lane] = z_new
+                        bstate[lane] = _NEWTON
+                    elif np.isnan(z_new):  # no bracket: not stiff after all, as in the scalar kernel
+                        zarg[lane] = zc[lane]
+                        bstate[lane] = _FALLBACK
+                    else:
+                        zc[lane] = z_new
+                        zarg[lane] = z_new
+                        bdone[lane] += 1
+                        bstate[lane] = _BE_START
+                        if bdone[lane] == _IMPLICIT_SUBSTEPS:
+                            bstate[lane] = _DONE
+                            n_implicit -= 1
+            for i in range(max_m):  # RK4 substeps, stage by stage across the lanes
+                if i > 0:
+                    for lane in range(K):
+                        if msub[lane] > i:
+                            z = zc[lane]
+                            kq = _rate_from_pow(z, math.pow(abs(z), pn[b, lane]), direction, pA[b, lane],
+                                                pbg[b, lane], pbm[b, lane])
+                            k1[lane] = kq
+                            zarg[lane] = z + 0.5 * hs[lane] * kq
+                for lane in range(K):
+                    if msub[lane] > i:
+                        za = zarg[lane]
+                        kq = _rate_from_pow(za, math.pow(abs(za), pn[b, lane]), direction, pA[b, lane],
+                                            pbg[b, lane], pbm[b, lane])
+                        k2[lane] = kq
+                        zarg[lane] = zc[lane] + 0.5 * hs[lane] * kq
+                for lane in range(K):
+                    if msub[lane] > i:
+                        za = zarg[lane]
+                        kq = _rate_from_pow(za, math.pow(abs(za), pn[b, lane]), direction, pA[b, lane],
+                                            pbg[b, lane], pbm[b, lane])
+                        k3[lane] = kq
+                        zarg[lane] = zc[lane] + hs[lane] * kq
+                for lane in range(K):
+                    if msub[lane] > i:
+                        za = zarg[lane]
+                        kq = _rate_from_pow(za, math.pow(abs(za), pn[b, lane]), direction, pA[b, lane],
+                                            pbg[b, lane], pbm[b, lane])
+                        h = hs[lane]
+                        z = zc[lane] + h * (k1[lane] + 2.0 * k2[lane] + 2.0 * k3[lane] + kq) / 6.0
+                        zc[lane] = z
+                        if not np.isfinite(z):
+                            msub[lane] = i + 1  # no further substeps, as in the scalar kernel
+            for lane in range(K):
+                if msub[lane] != 0:
+                    z_slot[s, lane] = zc[lane]
+        sa = active[k]
+        for lane in range(K):
+            if alive[lane]:
+                z = z_slot[sa, lane]
+                if np.isfinite(z):
+                    zbuf[lane, k + 1] = z
+                else:
+                    alive[lane] = False
+                    n_alive -= 1
+        if n_alive == 0:
+            break
+    for lane in range(K):
+        _finish(mode, rows[lane], alive[lane], zbuf[lane], Z, P, x, v, a, f_meas, fbuf, out)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -324,30 +303,45 @@ def _finish(mode, r, ok, z, Z, P, x, v, a, f_meas, fbuf, out):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _serial(H, dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out):
-    _run_chunk(H, 0, H.shape[0], dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out)
+def _serial(H, order, K, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out):
+    zbuf = np.empty((K, x.shape[0]))
+    fbuf = np.empty(x.shape[0])
+    for lo in range(0, order.shape[0], K):
+        rows = order[lo:lo + K]
+        _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf)
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _parallel(H, dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out, n_chunks):
-    m = H.shape[0]
-    for c in numba.prange(n_chunks):
-        lo, hi = c * m // n_chunks, (c + 1) * m // n_chunks
-        _run_chunk(H, lo, hi, dxs, branch, slot, active, K, mode, Z, P, x, v, a, f_meas, out)
+def _parallel(H, order, K, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out):
+    n_groups = (order.shape[0] + K - 1) // K
+    for g in numba.prange(n_groups):
+        rows = order[g * K:(g + 1) * K]
+        zbuf = np.empty((K, x.shape[0]))
+        fbuf = np.empty(x.shape[0])
+        _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf)
+
+
+def _stiffness_key(H):
+    """Larger for stiffer rows: the largest loading-attractor relaxation rate n·A/z_s (1/mm)."""
+    with np.errstate(all="ignore"):
+        rates = [H[:, 4 * b + 1] * H[:, 4 * b] / (H[:, 4 * b] / (H[:, 4 * b + 2] + H[:, 4 * b + 3])) ** (1.0 / H[:, 4 * b + 1])
+                 for b in range(2)]
+        key = np.fmax(rates[0], rates[1])
+    return np.where(np.isnan(key), np.inf, key)
 
 
 def _run(H, t, x, v, split, mode, Z, P, a, f_meas, out):
     m = H.shape[0]
     K = min(LANES, m)
     pieces = _excitation_pieces(t, x, v, split)
-    threads = numba.get_num_threads()
-    if threads == 1 or m < 2 * K:
-        _serial(H, *pieces, K, mode, Z, P, x, v, a, f_meas, out)
+    # Rows of similar stiffness side by side, so that lanes needing many substeps or backward
+    # Euler share a group and overlap their powers too (each row's result is independent of it).
+    order = np.argsort(_stiffness_key(H), kind="stable")
+    if numba.get_num_threads() == 1 or m < 2 * K:
+        _serial(H, order, K, *pieces, mode, Z, P, x, v, a, f_meas, out)
         return
-    # A few chunks per thread, handed out one at a time: rows differ in cost by 10x and more.
-    n_chunks = min(4 * threads, m // K)
-    with numba.parallel_chunksize(1):
-        _parallel(H, *pieces, K, mode, Z, P, x, v, a, f_meas, out, n_chunks)
+    with numba.parallel_chunksize(1):  # groups differ in cost by 10x and more: hand them out one by one
+        _parallel(H, order, K, *pieces, mode, Z, P, x, v, a, f_meas, out)
 
 
 def _check_length(x):
