@@ -134,6 +134,13 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
     blo = np.empty(K)
     bhi = np.empty(K)
     bfhi = np.empty(K)
+    # The current branch's parameters per lane, contiguous, copied when the branch changes.
+    cA = np.empty(K)
+    cn = np.empty(K)
+    cbg = np.empty(K)
+    cbm = np.empty(K)
+    pw = np.empty(K)
+    b_loaded = -1
     for k in range(x.shape[0] - 1):
         for j in range(2):
             dx = dxs[k, j]
@@ -141,18 +148,30 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                 continue
             b = branch[k, j]
             s = slot[k, j]
+            if b != b_loaded:
+                cA[:] = pA[b]
+                cn[:] = pn[b]
+                cbg[:] = pbg[b]
+                cbm[:] = pbm[b]
+                b_loaded = b
             direction = 1.0 if dx > 0.0 else -1.0
+            # Each stage is a loop of bare pow calls, then a loop of the arithmetic around them:
+            # the CPU then holds more of the independent pow calls in flight at once.
+            for lane in range(K):
+                z = z_slot[s, lane]
+                zc[lane] = z
+                msub[lane] = 1 if alive[lane] and np.isfinite(z) else 0
+            for lane in range(K):
+                if msub[lane]:
+                    pw[lane] = math.pow(abs(zc[lane]), cn[lane])
             max_m = 0
             n_implicit = 0
             for lane in range(K):  # first stage, whose |z|^n also gives the substep count
-                z = z_slot[s, lane]
-                msub[lane] = 0
-                if not alive[lane] or not np.isfinite(z):
+                if not msub[lane]:
                     continue
-                p = math.pow(abs(z), pn[b, lane])
-                zc[lane] = z
-                work = _work(z, p, dx, direction, pn[b, lane], pbg[b, lane], pbm[b, lane], pzs[b, lane],
-                             prate[b, lane])
+                z = zc[lane]
+                p = pw[lane]
+                work = _work(z, p, dx, direction, cn[lane], cbg[lane], cbm[lane], pzs[b, lane], prate[b, lane])
                 if work > _STIFF_WORK:
                     msub[lane] = -1
                     zarg[lane] = z
@@ -165,29 +184,32 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                 msub[lane] = m
                 max_m = max(max_m, m)
                 hs[lane] = dx / m
-                kq = _rate_from_pow(z, p, direction, pA[b, lane], pbg[b, lane], pbm[b, lane])
+                kq = _rate_from_pow(z, p, direction, cA[lane], cbg[lane], cbm[lane])
                 k1[lane] = kq
                 zarg[lane] = z + 0.5 * hs[lane] * kq
             bh = dx / _IMPLICIT_SUBSTEPS
             while n_implicit > 0:  # backward-Euler lanes, one power each per round
                 for lane in range(K):
+                    if msub[lane] == -1 and bstate[lane] != _DONE:
+                        pw[lane] = math.pow(abs(zarg[lane]), cn[lane])
+                for lane in range(K):
                     if msub[lane] != -1 or bstate[lane] == _DONE:
                         continue
                     zl = zarg[lane]
-                    p = math.pow(abs(zl), pn[b, lane])
+                    p = pw[lane]
                     if bstate[lane] == _FALLBACK:  # RK4's first stage over what is left of the piece
                         m = _substeps(_STIFF_WORK)
                         msub[lane] = m
                         max_m = max(max_m, m)
                         hs[lane] = bh * (_IMPLICIT_SUBSTEPS - bdone[lane]) / m
-                        kq = _rate_from_pow(zl, p, direction, pA[b, lane], pbg[b, lane], pbm[b, lane])
+                        kq = _rate_from_pow(zl, p, direction, cA[lane], cbg[lane], cbm[lane])
                         k1[lane] = kq
                         zarg[lane] = zl + 0.5 * hs[lane] * kq
                         n_implicit -= 1
                         continue
                     z_new, st, blo[lane], bhi[lane], bfhi[lane], bit[lane] = _implicit_round(
-                        bstate[lane], zl, p, zc[lane], bh, pA[b, lane], pn[b, lane], pbg[b, lane],
-                        pbm[b, lane], batt[lane], blo[lane], bhi[lane], bfhi[lane], bit[lane])
+                        bstate[lane], zl, p, zc[lane], bh, cA[lane], cn[lane], cbg[lane], cbm[lane],
+                        batt[lane], blo[lane], bhi[lane], bfhi[lane], bit[lane])
                     if st == _NEWTON:
                         zarg[lane] = z_new
                         bstate[lane] = _NEWTON
@@ -206,30 +228,34 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                 if i > 0:
                     for lane in range(K):
                         if msub[lane] > i:
-                            z = zc[lane]
-                            kq = _rate_from_pow(z, math.pow(abs(z), pn[b, lane]), direction, pA[b, lane],
-                                                pbg[b, lane], pbm[b, lane])
+                            pw[lane] = math.pow(abs(zc[lane]), cn[lane])
+                    for lane in range(K):
+                        if msub[lane] > i:
+                            kq = _rate_from_pow(zc[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
                             k1[lane] = kq
-                            zarg[lane] = z + 0.5 * hs[lane] * kq
+                            zarg[lane] = zc[lane] + 0.5 * hs[lane] * kq
                 for lane in range(K):
                     if msub[lane] > i:
-                        za = zarg[lane]
-                        kq = _rate_from_pow(za, math.pow(abs(za), pn[b, lane]), direction, pA[b, lane],
-                                            pbg[b, lane], pbm[b, lane])
+                        pw[lane] = math.pow(abs(zarg[lane]), cn[lane])
+                for lane in range(K):
+                    if msub[lane] > i:
+                        kq = _rate_from_pow(zarg[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
                         k2[lane] = kq
                         zarg[lane] = zc[lane] + 0.5 * hs[lane] * kq
                 for lane in range(K):
                     if msub[lane] > i:
-                        za = zarg[lane]
-                        kq = _rate_from_pow(za, math.pow(abs(za), pn[b, lane]), direction, pA[b, lane],
-                                            pbg[b, lane], pbm[b, lane])
+                        pw[lane] = math.pow(abs(zarg[lane]), cn[lane])
+                for lane in range(K):
+                    if msub[lane] > i:
+                        kq = _rate_from_pow(zarg[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
                         k3[lane] = kq
                         zarg[lane] = zc[lane] + hs[lane] * kq
                 for lane in range(K):
                     if msub[lane] > i:
-                        za = zarg[lane]
-                        kq = _rate_from_pow(za, math.pow(abs(za), pn[b, lane]), direction, pA[b, lane],
-                                            pbg[b, lane], pbm[b, lane])
+                        pw[lane] = math.pow(abs(zarg[lane]), cn[lane])
+                for lane in range(K):
+                    if msub[lane] > i:
+                        kq = _rate_from_pow(zarg[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
                         h = hs[lane]
                         z = zc[lane] + h * (k1[lane] + 2.0 * k2[lane] + 2.0 * k3[lane] + kq) / 6.0
                         zc[lane] = z
