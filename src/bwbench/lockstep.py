@@ -32,7 +32,7 @@ from bwbench.model import (
     _substeps,
 )
 
-LANES = 4  # rows per group; on AMD EPYC (Zen 4) 4 to 8 are best, 2 and 16 slower
+LANES = 8  # rows per group; on AMD EPYC (Zen 4): 4 and 16 are 5-15% slower on Table 5 populations
 
 _STIFF_WORK = _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS  # as in model._advance_z
 _NEWTON_ITERATIONS = 60  # as in model._backward_euler
@@ -93,7 +93,7 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
     """Rows ``rows`` of ``H`` (m, 8), one per lane, through all samples together.
 
     mode _MODE_Z writes each row's z into ``Z`` (+inf rows on blow-up); _MODE_MSE writes the MSE
-    of row r of ``P`` against ``f_meas`` into ``out[r]`` (+inf on blow-up). ``zbuf`` (≥ K, L)
+    of row r of ``P`` against ``f_meas`` into ``out[r]`` (+inf on blow-up). ``zbuf`` (L, ≥ K)
     and ``fbuf`` (L) are scratch.
     """
     # Everything per sample stays inside this function and its scalar-only helpers: numba
@@ -114,7 +114,7 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
             pbg[b, lane] = H[r, 4 * b + 2] + H[r, 4 * b + 3]
             pbm[b, lane] = H[r, 4 * b + 2] - H[r, 4 * b + 3]
             pzs[b, lane], prate[b, lane] = _attractor(H[r], b)
-        zbuf[lane, 0] = 0.0
+        zbuf[0, lane] = 0.0
     z_slot = np.zeros((2, K))  # z₊ (or the shared z) and z₋
     alive = np.ones(K, dtype=np.bool_)
     n_alive = K
@@ -269,14 +269,17 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
             if alive[lane]:
                 z = z_slot[sa, lane]
                 if np.isfinite(z):
-                    zbuf[lane, k + 1] = z
+                    zbuf[k + 1, lane] = z  # sample-major: one contiguous store per sample
                 else:
                     alive[lane] = False
                     n_alive -= 1
         if n_alive == 0:
             break
+    z_row = np.empty(x.shape[0])
     for lane in range(K):
-        _finish(mode, rows[lane], alive[lane], zbuf[lane], Z, P, x, v, a, f_meas, fbuf, out)
+        if alive[lane]:
+            z_row[:] = zbuf[:, lane]
+        _finish(mode, rows[lane], alive[lane], z_row, Z, P, x, v, a, f_meas, fbuf, out)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -330,7 +333,7 @@ def _finish(mode, r, ok, z, Z, P, x, v, a, f_meas, fbuf, out):
 
 @numba.njit(cache=True, error_model="numpy")
 def _serial(H, order, K, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out):
-    zbuf = np.empty((K, x.shape[0]))
+    zbuf = np.empty((x.shape[0], K))
     fbuf = np.empty(x.shape[0])
     for lo in range(0, order.shape[0], K):
         rows = order[lo:lo + K]
@@ -342,7 +345,7 @@ def _parallel(H, order, K, dxs, branch, slot, active, mode, Z, P, x, v, a, f_mea
     n_groups = (order.shape[0] + K - 1) // K
     for g in numba.prange(n_groups):
         rows = order[g * K:(g + 1) * K]
-        zbuf = np.empty((K, x.shape[0]))
+        zbuf = np.empty((x.shape[0], K))
         fbuf = np.empty(x.shape[0])
         _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf)
 

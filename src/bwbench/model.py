@@ -350,7 +350,7 @@ def hysteretic_state(H, t, x, v, state: str = "shared") -> np.ndarray:
     return hysteretic_state_batch(np.asarray(H, dtype=np.float64)[None], t, x, v, state, kernel="scalar")[0]
 
 
-def hysteretic_state_batch(H, t, x, v, state: str = "shared", *, kernel: str = "scalar") -> np.ndarray:
+def hysteretic_state_batch(H, t, x, v, state: str = "shared", *, kernel: str = "lockstep") -> np.ndarray:
     """``hysteretic_state`` of each row of ``H`` (shape (m, 8)): Z of shape (m, L), +inf rows on blow-up.
 
     ``kernel="scalar"``: one row at a time (the reference); default: rows in lockstep, same result.
@@ -375,7 +375,7 @@ def _lockstep_module(kernel: str):
     return lockstep
 
 
-def mse_batch(P, t, x, v, a, f_meas, state: str = "shared", *, kernel: str = "scalar") -> np.ndarray:
+def mse_batch(P, t, x, v, a, f_meas, state: str = "shared", *, kernel: str = "lockstep") -> np.ndarray:
     """Mean squared force error (N²) of each row of ``P`` (shape (m, 14)) against ``f_meas``.
 
     Rows whose simulation is not finite get +inf. Rows run in parallel over numba's threads;
