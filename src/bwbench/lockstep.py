@@ -36,7 +36,7 @@ LANES = 8  # rows per group; on AMD EPYC (Zen 4): 4 and 16 are 5-15% slower on T
 
 _STIFF_WORK = _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS  # as in model._advance_z
 _NEWTON_ITERATIONS = 60  # as in model._backward_euler
-_BE_START, _NEWTON, _FALLBACK, _DONE = 0, 1, 2, 3  # a lane's backward-Euler state: pending power
+_BE_START, _NEWTON, _DONE = 0, 1, 2  # a lane's backward-Euler state: pending power
 _MODE_Z, _MODE_MSE = 0, 1
 
 
@@ -188,79 +188,72 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                 k1[lane] = kq
                 zarg[lane] = z + 0.5 * hs[lane] * kq
             bh = dx / _IMPLICIT_SUBSTEPS
-            while n_implicit > 0:  # backward-Euler lanes, one power each per round
+            # Rounds: every pending power (an RK4 stage, or a backward-Euler lane's next one) in
+            # one loop, then the arithmetic. RK4 lanes share the substep i and stage q (a lane
+            # sits out the substeps it does not need); stage 1 comes first, the setup made k1.
+            i = 0
+            q = 1
+            while i < max_m or n_implicit > 0:
                 for lane in range(K):
-                    if msub[lane] == -1 and bstate[lane] != _DONE:
+                    if msub[lane] > i or (msub[lane] == -1 and bstate[lane] != _DONE):
                         pw[lane] = math.pow(abs(zarg[lane]), cn[lane])
-                for lane in range(K):
-                    if msub[lane] != -1 or bstate[lane] == _DONE:
-                        continue
-                    zl = zarg[lane]
-                    p = pw[lane]
-                    if bstate[lane] == _FALLBACK:  # RK4's first stage over what is left of the piece
-                        m = _substeps(_STIFF_WORK)
-                        msub[lane] = m
-                        max_m = max(max_m, m)
-                        hs[lane] = bh * (_IMPLICIT_SUBSTEPS - bdone[lane]) / m
-                        kq = _rate_from_pow(zl, p, direction, cA[lane], cbg[lane], cbm[lane])
-                        k1[lane] = kq
-                        zarg[lane] = zl + 0.5 * hs[lane] * kq
-                        n_implicit -= 1
-                        continue
-                    z_new, st, blo[lane], bhi[lane], bfhi[lane], bit[lane] = _implicit_round(
-                        bstate[lane], zl, p, zc[lane], bh, cA[lane], cn[lane], cbg[lane], cbm[lane],
-                        batt[lane], blo[lane], bhi[lane], bfhi[lane], bit[lane])
-                    if st == _NEWTON:
-                        zarg[lane] = z_new
-                        bstate[lane] = _NEWTON
-                    elif np.isnan(z_new):  # no bracket: not stiff after all, as in the scalar kernel
-                        zarg[lane] = zc[lane]
-                        bstate[lane] = _FALLBACK
-                    else:
+                if n_implicit > 0:
+                    for lane in range(K):
+                        if msub[lane] != -1 or bstate[lane] == _DONE:
+                            continue
+                        z_new, st, blo[lane], bhi[lane], bfhi[lane], bit[lane] = _implicit_round(
+                            bstate[lane], zarg[lane], pw[lane], zc[lane], bh, cA[lane], cn[lane], cbg[lane],
+                            cbm[lane], batt[lane], blo[lane], bhi[lane], bfhi[lane], bit[lane])
+                        if st == _NEWTON:
+                            zarg[lane] = z_new
+                            bstate[lane] = _NEWTON
+                            continue
+                        if np.isnan(z_new):  # no bracket: not stiff after all; RK4 over what is left
+                            z_new = _rk_fallback(zc[lane], bh * (_IMPLICIT_SUBSTEPS - bdone[lane]), direction,
+                                                 cA[lane], cn[lane], cbg[lane], cbm[lane])
+                            bdone[lane] = _IMPLICIT_SUBSTEPS
+                        else:
+                            bdone[lane] += 1
                         zc[lane] = z_new
                         zarg[lane] = z_new
-                        bdone[lane] += 1
                         bstate[lane] = _BE_START
                         if bdone[lane] == _IMPLICIT_SUBSTEPS:
                             bstate[lane] = _DONE
                             n_implicit -= 1
-            for i in range(max_m):  # RK4 substeps, stage by stage across the lanes
-                if i > 0:
-                    for lane in range(K):
-                        if msub[lane] > i:
-                            pw[lane] = math.pow(abs(zc[lane]), cn[lane])
+                if i >= max_m:
+                    continue
+                if q == 0:
                     for lane in range(K):
                         if msub[lane] > i:
                             kq = _rate_from_pow(zc[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
                             k1[lane] = kq
                             zarg[lane] = zc[lane] + 0.5 * hs[lane] * kq
-                for lane in range(K):
-                    if msub[lane] > i:
-                        pw[lane] = math.pow(abs(zarg[lane]), cn[lane])
-                for lane in range(K):
-                    if msub[lane] > i:
-                        kq = _rate_from_pow(zarg[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
-                        k2[lane] = kq
-                        zarg[lane] = zc[lane] + 0.5 * hs[lane] * kq
-                for lane in range(K):
-                    if msub[lane] > i:
-                        pw[lane] = math.pow(abs(zarg[lane]), cn[lane])
-                for lane in range(K):
-                    if msub[lane] > i:
-                        kq = _rate_from_pow(zarg[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
-                        k3[lane] = kq
-                        zarg[lane] = zc[lane] + hs[lane] * kq
-                for lane in range(K):
-                    if msub[lane] > i:
-                        pw[lane] = math.pow(abs(zarg[lane]), cn[lane])
-                for lane in range(K):
-                    if msub[lane] > i:
-                        kq = _rate_from_pow(zarg[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
-                        h = hs[lane]
-                        z = zc[lane] + h * (k1[lane] + 2.0 * k2[lane] + 2.0 * k3[lane] + kq) / 6.0
-                        zc[lane] = z
-                        if not np.isfinite(z):
-                            msub[lane] = i + 1  # no further substeps, as in the scalar kernel
+                elif q == 1:
+                    for lane in range(K):
+                        if msub[lane] > i:
+                            kq = _rate_from_pow(zarg[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
+                            k2[lane] = kq
+                            zarg[lane] = zc[lane] + 0.5 * hs[lane] * kq
+                elif q == 2:
+                    for lane in range(K):
+                        if msub[lane] > i:
+                            kq = _rate_from_pow(zarg[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
+                            k3[lane] = kq
+                            zarg[lane] = zc[lane] + hs[lane] * kq
+                else:
+                    for lane in range(K):
+                        if msub[lane] > i:
+                            kq = _rate_from_pow(zarg[lane], pw[lane], direction, cA[lane], cbg[lane], cbm[lane])
+                            h = hs[lane]
+                            z = zc[lane] + h * (k1[lane] + 2.0 * k2[lane] + 2.0 * k3[lane] + kq) / 6.0
+                            zc[lane] = z
+                            zarg[lane] = z
+                            if not np.isfinite(z):
+                                msub[lane] = i + 1  # no further substeps, as in the scalar kernel
+                q += 1
+                if q == 4:
+                    q = 0
+                    i += 1
             for lane in range(K):
                 if msub[lane] != 0:
                     z_slot[s, lane] = zc[lane]
@@ -316,6 +309,27 @@ def _implicit_round(st, z, p, z0, h, A, n, bg, bm, z_att, lo, hi, f_hi, it):
     if abs(z_new - z) <= 1e-14 * (abs(z) + 1e-300) or it + 1 == _NEWTON_ITERATIONS:
         return z_new, -1, lo, hi, f_hi, it + 1
     return z_new, _NEWTON, lo, hi, f_hi, it + 1
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _rk_fallback(z, dx, direction, A, n, bg, bm):
+    """The RK4 with which model._advance_z finishes a piece after a bracket-less implicit step."""
+    m = _substeps(_STIFF_WORK)
+    h = dx / m
+    k1 = _rate_from_pow(z, math.pow(abs(z), n), direction, A, bg, bm)
+    for i in range(m):
+        if i > 0:
+            k1 = _rate_from_pow(z, math.pow(abs(z), n), direction, A, bg, bm)
+        z2 = z + 0.5 * h * k1
+        k2 = _rate_from_pow(z2, math.pow(abs(z2), n), direction, A, bg, bm)
+        z3 = z + 0.5 * h * k2
+        k3 = _rate_from_pow(z3, math.pow(abs(z3), n), direction, A, bg, bm)
+        z4 = z + h * k3
+        k4 = _rate_from_pow(z4, math.pow(abs(z4), n), direction, A, bg, bm)
+        z = z + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+        if not np.isfinite(z):
+            return z
+    return z
 
 
 @numba.njit(cache=True, error_model="numpy")
