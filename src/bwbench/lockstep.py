@@ -32,7 +32,7 @@ from bwbench.model import (
     _substeps,
 )
 
-LANES = 8  # rows per group; on AMD EPYC (Zen 4): 4 and 16 are 5-15% slower on Table 5 populations
+LANES = 16  # rows per group; on AMD EPYC (Zen 4), one core: 4 is ~15% slower, 8 ~3%, 24 the same
 
 _STIFF_WORK = _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS  # as in model._advance_z
 _NEWTON_ITERATIONS = 60  # as in model._backward_euler
@@ -100,46 +100,19 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
     # reference-counts the arrays passed to a call with atomic instructions, which are full
     # barriers on x86 and would serialise the lanes again.
     K = rows.shape[0]
-    pA = np.empty((2, K))  # [branch, lane]: A, n, β+γ, β−γ, z_s, n·A/z_s
-    pn = np.empty((2, K))
-    pbg = np.empty((2, K))
-    pbm = np.empty((2, K))
-    pzs = np.empty((2, K))
-    prate = np.empty((2, K))
-    for lane in range(K):
-        r = rows[lane]
-        for b in range(2):
-            pA[b, lane] = H[r, 4 * b]
-            pn[b, lane] = H[r, 4 * b + 1]
-            pbg[b, lane] = H[r, 4 * b + 2] + H[r, 4 * b + 3]
-            pbm[b, lane] = H[r, 4 * b + 2] - H[r, 4 * b + 3]
-            pzs[b, lane], prate[b, lane] = _attractor(H[r], b)
-        zbuf[0, lane] = 0.0
+    pA, pn, pbg, pbm, pzs, prate = _load_rows(H, rows)  # [branch, lane]
+    zbuf[0, :K] = 0.0
     z_slot = np.zeros((2, K))  # z₊ (or the shared z) and z₋
     alive = np.ones(K, dtype=np.bool_)
     n_alive = K
     # Per lane within a piece: substeps (0: z left as is, -1: backward Euler), the z a substep
-    # starts from, the pending stage argument, RK4 step and stages; backward-Euler state.
+    # starts from, the pending power's argument, RK4 step and stages; backward-Euler state; the
+    # current branch's parameters, contiguous, copied when the branch changes.
     msub = np.zeros(K, dtype=np.int64)
-    zc = np.empty(K)
-    zarg = np.empty(K)
-    hs = np.empty(K)
-    k1 = np.empty(K)
-    k2 = np.empty(K)
-    k3 = np.empty(K)
     bstate = np.zeros(K, dtype=np.int64)
     bdone = np.zeros(K, dtype=np.int64)
     bit = np.zeros(K, dtype=np.int64)
-    batt = np.empty(K)
-    blo = np.empty(K)
-    bhi = np.empty(K)
-    bfhi = np.empty(K)
-    # The current branch's parameters per lane, contiguous, copied when the branch changes.
-    cA = np.empty(K)
-    cn = np.empty(K)
-    cbg = np.empty(K)
-    cbm = np.empty(K)
-    pw = np.empty(K)
+    zc, zarg, pw, hs, k1, k2, k3, batt, blo, bhi, bfhi, cA, cn, cbg, cbm = np.empty((15, K))
     b_loaded = -1
     for k in range(x.shape[0] - 1):
         for j in range(2):
@@ -161,9 +134,8 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                 z = z_slot[s, lane]
                 zc[lane] = z
                 msub[lane] = 1 if alive[lane] and np.isfinite(z) else 0
-            for lane in range(K):
                 if msub[lane]:
-                    pw[lane] = math.pow(abs(zc[lane]), cn[lane])
+                    pw[lane] = math.pow(abs(z), cn[lane])
             max_m = 0
             n_implicit = 0
             for lane in range(K):  # first stage, whose |z|^n also gives the substep count
@@ -220,6 +192,7 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                         if bdone[lane] == _IMPLICIT_SUBSTEPS:
                             bstate[lane] = _DONE
                             n_implicit -= 1
+                            z_slot[s, lane] = z_new
                 if i >= max_m:
                     continue
                 if q == 0:
@@ -250,13 +223,12 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                             zarg[lane] = z
                             if not np.isfinite(z):
                                 msub[lane] = i + 1  # no further substeps, as in the scalar kernel
+                            if msub[lane] == i + 1:
+                                z_slot[s, lane] = z
                 q += 1
                 if q == 4:
                     q = 0
                     i += 1
-            for lane in range(K):
-                if msub[lane] != 0:
-                    z_slot[s, lane] = zc[lane]
         sa = active[k]
         for lane in range(K):
             if alive[lane]:
@@ -273,6 +245,22 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
         if alive[lane]:
             z_row[:] = zbuf[:, lane]
         _finish(mode, rows[lane], alive[lane], z_row, Z, P, x, v, a, f_meas, fbuf, out)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _load_rows(H, rows):
+    """Per branch and lane: A, n, β+γ, β−γ, z_s, n·A/z_s of rows ``rows`` of H, each (2, K)."""
+    out = np.empty((6, 2, rows.shape[0]))
+    for lane in range(rows.shape[0]):
+        r = rows[lane]
+        for b in range(2):
+            beta, gamma = H[r, 4 * b + 2], H[r, 4 * b + 3]
+            out[0, b, lane] = H[r, 4 * b]
+            out[1, b, lane] = H[r, 4 * b + 1]
+            out[2, b, lane] = beta + gamma
+            out[3, b, lane] = beta - gamma
+            out[4, b, lane], out[5, b, lane] = _attractor(H[r], b)
+    return out[0], out[1], out[2], out[3], out[4], out[5]
 
 
 @numba.njit(cache=True, error_model="numpy")
