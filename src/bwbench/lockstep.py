@@ -37,16 +37,13 @@ LANES = 16  # rows per group; on AMD EPYC (Zen 4), one core: 4 is ~15% slower, 8
 _STIFF_WORK = _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS  # as in model._advance_z
 _NEWTON_ITERATIONS = 60  # as in model._backward_euler
 _BE_START, _NEWTON, _DONE = 0, 1, 2  # a lane's backward-Euler state: pending power
-_MODE_Z, _MODE_MSE = 0, 1
+_MODE_Z, _MODE_MSE = 0, 1  # what a group writes: z rows, or MSEs
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _excitation_pieces(t, x, v, split):
-    """Per sample interval k and piece j (before/after a reversal): dx (mm), branch, z slot.
-
-    ``slot`` is 1 where the piece drives z₋ (split convention, '−' branch), else 0 (z₊ or the
-    shared z); ``active[k]`` is the slot whose z is reported at sample k + 1.
-    """
+    """Per sample interval k and piece j (before/after a reversal): dx (mm), branch, z slot
+    (1: z₋ of the split convention, 0: z₊ or the shared z); active[k]: the slot reported at k + 1."""
     n = max(x.shape[0] - 1, 0)
     dx = np.zeros((n, 2))
     branch = np.zeros((n, 2), dtype=np.int64)
@@ -90,12 +87,8 @@ def _work(z, p, dx, direction, n, bg, bm, z_s, attractor_rate):
 
 @numba.njit(cache=True, error_model="numpy")
 def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf):
-    """Rows ``rows`` of ``H`` (m, 8), one per lane, through all samples together.
-
-    mode _MODE_Z writes each row's z into ``Z`` (+inf rows on blow-up); _MODE_MSE writes the MSE
-    of row r of ``P`` against ``f_meas`` into ``out[r]`` (+inf on blow-up). ``zbuf`` (L, ≥ K)
-    and ``fbuf`` (L) are scratch.
-    """
+    """Rows ``rows`` of H (m, 8), one per lane, through all samples together (output: _finish);
+    ``zbuf`` (L, ≥ K) and ``fbuf`` (L) are scratch."""
     # Everything per sample stays inside this function and its scalar-only helpers: numba
     # reference-counts the arrays passed to a call with atomic instructions, which are full
     # barriers on x86 and would serialise the lanes again.
@@ -108,10 +101,7 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
     # Per lane within a piece: substeps (0: z left as is, -1: backward Euler), the z a substep
     # starts from, the pending power's argument, RK4 step and stages; backward-Euler state; the
     # current branch's parameters, contiguous, copied when the branch changes.
-    msub = np.zeros(K, dtype=np.int64)
-    bstate = np.zeros(K, dtype=np.int64)
-    bdone = np.zeros(K, dtype=np.int64)
-    bit = np.zeros(K, dtype=np.int64)
+    msub, bstate, bdone, bit = np.zeros((4, K), dtype=np.int64)
     zc, zarg, pw, hs, k1, k2, k3, batt, blo, bhi, bfhi, cA, cn, cbg, cbm = np.empty((15, K))
     b_loaded = -1
     for k in range(x.shape[0] - 1):
@@ -299,21 +289,21 @@ def _implicit_round(st, z, p, z0, h, A, n, bg, bm, z_att, lo, hi, f_hi, it):
     return z_new, _NEWTON, lo, hi, f_hi, it + 1
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _rate_of(z, n, direction, A, bg, bm):
+    return _rate_from_pow(z, math.pow(abs(z), n), direction, A, bg, bm)
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _rk_fallback(z, dx, direction, A, n, bg, bm):
     """The RK4 with which model._advance_z finishes a piece after a bracket-less implicit step."""
     m = _substeps(_STIFF_WORK)
     h = dx / m
-    k1 = _rate_from_pow(z, math.pow(abs(z), n), direction, A, bg, bm)
-    for i in range(m):
-        if i > 0:
-            k1 = _rate_from_pow(z, math.pow(abs(z), n), direction, A, bg, bm)
-        z2 = z + 0.5 * h * k1
-        k2 = _rate_from_pow(z2, math.pow(abs(z2), n), direction, A, bg, bm)
-        z3 = z + 0.5 * h * k2
-        k3 = _rate_from_pow(z3, math.pow(abs(z3), n), direction, A, bg, bm)
-        z4 = z + h * k3
-        k4 = _rate_from_pow(z4, math.pow(abs(z4), n), direction, A, bg, bm)
+    for _ in range(m):
+        k1 = _rate_of(z, n, direction, A, bg, bm)
+        k2 = _rate_of(z + 0.5 * h * k1, n, direction, A, bg, bm)
+        k3 = _rate_of(z + 0.5 * h * k2, n, direction, A, bg, bm)
+        k4 = _rate_of(z + h * k3, n, direction, A, bg, bm)
         z = z + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
         if not np.isfinite(z):
             return z
@@ -322,6 +312,7 @@ def _rk_fallback(z, dx, direction, A, n, bg, bm):
 
 @numba.njit(cache=True, error_model="numpy")
 def _finish(mode, r, ok, z, Z, P, x, v, a, f_meas, fbuf, out):
+    """_MODE_Z: row r of Z is z (+inf if not ok); _MODE_MSE: out[r] is the MSE of P[r] (+inf)."""
     if mode == _MODE_Z:
         if ok:
             Z[r, :] = z
@@ -354,16 +345,21 @@ def _parallel(H, order, K, dxs, branch, slot, active, mode, Z, P, x, v, a, f_mea
 
 def _stiffness_key(H):
     """Larger for stiffer rows: the largest loading-attractor relaxation rate n·A/z_s (1/mm)."""
+    A, n, beta_plus_gamma = H[:, [0, 4]], H[:, [1, 5]], H[:, [2, 6]] + H[:, [3, 7]]
     with np.errstate(all="ignore"):
-        rates = [H[:, 4 * b + 1] * H[:, 4 * b] / (H[:, 4 * b] / (H[:, 4 * b + 2] + H[:, 4 * b + 3])) ** (1.0 / H[:, 4 * b + 1])
-                 for b in range(2)]
-        key = np.fmax(rates[0], rates[1])
+        key = np.max(n * A / (A / beta_plus_gamma) ** (1.0 / n), axis=1)  # NaN if either is NaN
     return np.where(np.isnan(key), np.inf, key)
 
 
 def _run(H, t, x, v, split, mode, Z, P, a, f_meas, out):
     m = H.shape[0]
-    K = min(LANES, m)
+    if x.shape[0] == 0:
+        raise ValueError("the excitation needs at least one sample")
+    if m == 0:
+        return
+    K = -(-m // -(-m // LANES))  # at most LANES rows per group, the groups as even as can be
+    # One array type for every call (read-only inputs copied): one compilation of the kernel.
+    t, x, v, a, f_meas = (np.require(arr, np.float64, ["C", "W"]) for arr in (t, x, v, a, f_meas))
     pieces = _excitation_pieces(t, x, v, split)
     # Rows of similar stiffness side by side, so that lanes needing many substeps or backward
     # Euler share a group and overlap their powers too (each row's result is independent of it).
@@ -375,17 +371,11 @@ def _run(H, t, x, v, split, mode, Z, P, a, f_meas, out):
         _parallel(H, order, K, *pieces, mode, Z, P, x, v, a, f_meas, out)
 
 
-def _check_length(x):
-    if x.shape[0] == 0:
-        raise ValueError("the excitation needs at least one sample")
-
-
 def run_mse(P, t, x, v, a, f_meas, split):
     """The kernel behind ``model.mse_batch``: inputs already checked (contiguous float64)."""
-    _check_length(x)
-    out = np.empty(P.shape[0])
-    if P.shape[0] == 1:  # nothing to interleave
+    if P.shape[0] == 1 and x.shape[0] > 0:  # nothing to interleave
         return model.mse_batch(P, t, x, v, a, f_meas, "split" if split else "shared", kernel="scalar")
+    out = np.empty(P.shape[0])
     H = np.ascontiguousarray(P[:, list(model.HYSTERETIC_INDEX)])
     _run(H, t, x, v, split, _MODE_MSE, np.empty((0, 0)), P, a, f_meas, out)
     return out
@@ -393,7 +383,6 @@ def run_mse(P, t, x, v, a, f_meas, split):
 
 def run_hysteretic(H, t, x, v, split):
     """The kernel behind ``model.hysteretic_state_batch``: inputs already checked."""
-    _check_length(x)
     Z = np.empty((H.shape[0], x.shape[0]))
     _run(H, t, x, v, split, _MODE_Z, Z, np.empty((0, 0)), x, x, np.empty(0))
     return Z
