@@ -67,6 +67,8 @@ def test_lockstep_mse_is_bit_identical_to_scalar(specimen, population, state):
         np.testing.assert_array_equal(ours, scalar[start:start + len(P)])
         start += len(P)
     assert start == len(population)
+    # The whole population at once: several groups, in parallel when numba has threads.
+    np.testing.assert_array_equal(model.mse_batch(population, ex.t, ex.x, ex.v, ex.a, f, state), scalar)
 
 
 @pytest.mark.parametrize("state", model.STATES)
