@@ -1,16 +1,17 @@
 """Several parameter sets simulated together, interleaved so their ``pow`` calls overlap.
 
 The scalar kernel (``bwbench.model``) is latency-bound: each RK4 stage waits for a ``pow`` whose
-argument comes from the stage before, ~27 ns, four per step, while the CPU could run two or three
-independent ones in that time. Here a group of K rows (lanes) walks the samples together: per
-piece of a sample interval, each RK4 stage is computed for all lanes in one loop, so the K
-powers are independent. Substep counts are per lane (a lane sits out the substeps it does not
-need); lanes that need the stiff backward-Euler step run theirs interleaved with each other;
-a lane that blows up stops and reports +inf, the others go on.
+argument comes from the stage before (~27 ns, four per step), while the CPU can run two or three
+independent ones in that time. Here a group of K rows (lanes; rows of similar stiffness) walks
+the samples together. Per piece of a sample interval, each round computes every lane's pending
+power in one loop, then the arithmetic: RK4 stages with per-lane substep counts (a lane sits out
+the substeps it does not need), the stiff lanes' backward-Euler steps in the same rounds. A lane
+that blows up stops and reports +inf; the others go on.
 
 Each lane performs exactly the scalar kernel's floating-point operations in the same order (the
 excitation pieces come from the same helper, the force and MSE from the same functions), so the
-results are bit-identical to ``model.mse_batch(..., kernel="scalar")``.
+results are bit-identical to ``model.mse_batch(..., kernel="scalar")``: no fastmath, and the pow
+calls are scalar libm calls (a vectorised pow, e.g. numba with Intel SVML, would break that).
 """
 
 from __future__ import annotations
