@@ -315,10 +315,9 @@ def _rk_fallback(z, dx, direction, A, n, bg, bm):
 def _finish(mode, r, ok, z, Z, P, x, v, a, f_meas, fbuf, out):
     """_MODE_Z: row r of Z is z (+inf if not ok); _MODE_MSE: out[r] is the MSE of P[r] (+inf)."""
     if mode == _MODE_Z:
+        Z[r, :] = np.inf
         if ok:
             Z[r, :] = z
-        else:
-            Z[r, :] = np.inf
     elif ok and _force_from_z(P[r], x, v, a, z, fbuf):
         out[r] = _mse_of_force(fbuf, f_meas)
     else:
@@ -330,8 +329,7 @@ def _serial(H, order, K, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas,
     zbuf = np.empty((x.shape[0], K))
     fbuf = np.empty(x.shape[0])
     for lo in range(0, order.shape[0], K):
-        rows = order[lo:lo + K]
-        _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf)
+        _run_group(H, order[lo:lo + K], dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf)
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
@@ -384,6 +382,8 @@ def run_mse(P, t, x, v, a, f_meas, split):
 
 def run_hysteretic(H, t, x, v, split):
     """The kernel behind ``model.hysteretic_state_batch``: inputs already checked."""
+    if H.shape[0] == 1 and x.shape[0] > 0:  # nothing to interleave
+        return model._hysteretic_batch_scalar(H, t, x, v, split)
     Z = np.empty((H.shape[0], x.shape[0]))
     _run(H, t, x, v, split, _MODE_Z, Z, np.empty((0, 0)), x, x, np.empty(0))
     return Z
