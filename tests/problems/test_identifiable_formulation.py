@@ -59,8 +59,8 @@ def test_w_dynamics_integrate_z_over_the_gauge(name, state):
     """trajectories(θ) = z/z_s₊ (split: z_b/z_s_b) of the paper's own hysteretic parameters."""
     e, _, p = load(name)
     theta, _ = fm.from_paper(p, state)
-    w = fm.hysteretic_state_batch(fm.kernel_hysteretic(theta, state), e.t, e.x, e.v, state)[0]
-    z = fm.hysteretic_state(p[[0, 1, 3, 4, 7, 8, 10, 11]], e.t, e.x, e.v, state)
+    w = model.hysteretic_state_batch(fm.kernel_hysteretic(theta, state), e.t, e.x, e.v, state)[0]
+    z = model.hysteretic_state(p[[0, 1, 3, 4, 7, 8, 10, 11]], e.t, e.x, e.v, state)
     z_s = [(p[i] / (p[i + 3] + p[i + 4])) ** (1 / p[i + 1]) for i in (0, 7)]
     scale = np.where(e.v >= 0, z_s[0], z_s[1]) if state == "split" else z_s[0]
     np.testing.assert_allclose(w * scale, z, rtol=0, atol=1e-9 * np.ptp(z))

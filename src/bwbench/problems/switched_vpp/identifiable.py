@@ -102,21 +102,6 @@ def kernel_hysteretic(theta, state: str = "shared") -> np.ndarray:
                             rho / xm, n_m, s_m * (1 + em) / 2, s_m * (1 - em) / 2])
 
 
-# --- ADAPTER: to be replaced by the native batched kernel model.hysteretic_state_batch ---------
-# With ξ = 0, α = 0, ωn = 1 in both branches and ẍ = 0 the paper force is F = z exactly (split:
-# the active branch's z), so the existing force kernel returns the hysteretic trajectory.
-def hysteretic_state(H, t, x, v, state: str = "shared") -> np.ndarray:
-    """z (L,) for kernel parameters H = (A+, n+, β+, γ+, A−, n−, β−, γ−); +inf on blow-up. ADAPTER."""
-    Ap, n_p, bp, gp, Am, n_m, bm, gm = np.asarray(H, dtype=float)
-    p = np.array([Ap, n_p, 0.0, bp, gp, 0.0, 1.0, Am, n_m, 0.0, bm, gm, 0.0, 1.0])
-    return model.simulate(p, t, x, v, np.zeros_like(np.asarray(x, dtype=float)), state)
-
-
-def hysteretic_state_batch(H, t, x, v, state: str = "shared") -> np.ndarray:
-    """Z (m, L) for the rows of H (m, 8); rows that blow up are +inf. ADAPTER (same contract as
-    the coming ``model.hysteretic_state_batch``)."""
-    return np.stack([hysteretic_state(h, t, x, v, state) for h in np.atleast_2d(H)])
-# --- end of ADAPTER --------------------------------------------------------------------------
 
 
 @dataclass(frozen=True, eq=False)
@@ -319,7 +304,7 @@ class IdentifiableModel:
         """w (m, L) for theta rows (m, d); +inf rows on blow-up."""
         s = self.signal
         H = kernel_hysteretic(theta, self.state)
-        return hysteretic_state_batch(H, s.t, s.x, s.v, self.state)  # → model.hysteretic_state_batch
+        return model.hysteretic_state_batch(H, s.t, s.x, s.v, self.state)
 
     def solve(self, theta, residual: bool = False) -> LinearSolution:
         """Linear coefficients, MSE (N²) and optionally residuals for theta rows (m, d)."""
