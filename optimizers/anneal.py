@@ -29,7 +29,6 @@ starting point (it retries a non-finite start from new random points, up to 1000
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import dual_annealing
 
 from bwbench.optimize.finite_penalty import WorstFinitePenalty
 from bwbench.optimize.options import Bool, Int
@@ -44,6 +43,8 @@ from bwbench.optimize.registry import register
     batched=False,
 )
 def minimize(objective, *, rng, maxiter=1000, no_local_search=False):
+    from scipy.optimize import dual_annealing  # here: scipy.optimize costs ~0.5 s to import
+
     d = objective.dim
     penalty = WorstFinitePenalty(before_any_finite=np.inf)
 

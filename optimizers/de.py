@@ -35,7 +35,6 @@ with an inf member is simply false, so a blown-up member is replaced by its next
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import differential_evolution
 
 from bwbench.optimize.options import Choice, Float, FloatOrPair, Int
 from bwbench.optimize.registry import register
@@ -56,6 +55,8 @@ STRATEGIES = ("best1bin", "best1exp", "rand1bin", "rand1exp", "rand2bin", "rand2
 )
 def minimize(objective, *, rng, popsize=5, strategy="best1bin", mutation=(0.5, 1.0), recombination=0.7,
              tol=0.01, init="latinhypercube"):
+    from scipy.optimize import differential_evolution  # here: scipy.optimize costs ~0.5 s to import
+
     d = objective.dim
 
     def losses(U_columns):

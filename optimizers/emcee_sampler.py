@@ -49,7 +49,6 @@ with ``tol=0``, so it is computed however short the chain; None before two steps
 
 from __future__ import annotations
 
-import emcee
 import numpy as np
 
 from bwbench.errors import BudgetExhausted
@@ -71,6 +70,8 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", st
     if n_walkers is not None and n_walkers < 2 * d:
         raise OptionError(f"emcee: option n_walkers must be at least 2·d = {2 * d} on this {d}-parameter "
                           f"problem (emcee's stretch move), got {n_walkers}")
+    import emcee  # here, not at module level: it pulls in scipy.stats (~0.7 s for every command)
+
     n_walkers = 2 * d + 2 if n_walkers is None else n_walkers
     given_n_data = n_data is not None
     if n_data is None:

@@ -42,3 +42,16 @@ def test_measured_refuses_uneven_sampling_and_unknown_kinds():
         excitation.measured(t, t)
     with pytest.raises(ValueError, match="excitation"):
         excitation.build("triangle", t, t)
+
+
+@pytest.mark.parametrize("window, polyorder", [(9, 4), (7, 2), (5, 3)])
+@pytest.mark.parametrize("deriv", [0, 1, 2])
+def test_the_numpy_savitzky_golay_is_scipys(window, polyorder, deriv):
+    from scipy.signal import savgol_filter
+
+    from bwbench.models.savitzky_golay import savgol
+
+    x = np.cumsum(np.random.default_rng(1).normal(size=300))
+    expected = savgol_filter(x, window, polyorder, deriv=deriv, delta=0.3, mode="interp")
+    np.testing.assert_allclose(savgol(x, window, polyorder, deriv, 0.3), expected, rtol=0,
+                               atol=1e-10 * np.max(np.abs(expected)))

@@ -94,3 +94,19 @@ def test_unknown_backend_and_option_are_user_errors(capsys):
     assert "unknown optimiser 'nope'" in capsys.readouterr().err
     assert main(["fit", str(SPECIMEN), "--optimizer", "random", "--option", "colour=3", "--out", "x.json"]) == 2
     assert "unknown option(s) colour" in capsys.readouterr().err
+
+
+def test_the_table_of_builtin_backends_is_what_the_modules_register():
+    import importlib
+    import pkgutil
+
+    import bwbench.optimizers as builtin
+
+    found = {}
+    for module in pkgutil.iter_modules(builtin.__path__):
+        before = set(registry._REGISTRY)
+        loaded = importlib.import_module(f"{builtin.__name__}.{module.name}")
+        found.update({name: module.name for name, backend in registry._REGISTRY.items()
+                      if backend.minimize.__module__ == loaded.__name__})
+        assert set(registry._REGISTRY) >= before
+    assert found == registry.BUILTIN

@@ -92,6 +92,14 @@ class Backend:
     options: dict = field(default_factory=dict)
 
 
+# The built-in backends and the module of ``bwbench.optimizers`` each lives in: running one backend
+# imports only its module and the libraries it needs (emcee, scipy.optimize, nlopt and pyswarms cost
+# a second or more together). A test checks this table against what the modules register.
+BUILTIN = {
+    "random": "random_search", "paper-ga": "paper_ga", "firefly": "firefly", "pso": "pso",
+    "anneal": "anneal", "nlopt-bobyqa": "nlopt_local", "nlopt-sbplx": "nlopt_local",
+    "nlopt-neldermead": "nlopt_local", "cmaes": "cmaes", "de": "de", "emcee": "emcee_sampler",
+}
 _REGISTRY: dict[str, Backend] = {}
 # One lock for loading and registering: a Dask worker runs tasks in threads, and a thread must not
 # see the registry half-loaded (it would record "unknown optimiser 'pso'" as the run's result).
@@ -149,6 +157,14 @@ def available() -> dict[str, Backend]:
 
 
 def get(name: str) -> Backend:
+    """The backend ``name``: a built-in one by importing its module only, else after loading them all."""
+    with _LOCK:
+        if name in _REGISTRY:
+            return _REGISTRY[name]
+        if name in BUILTIN:
+            importlib.import_module(f"bwbench.optimizers.{BUILTIN[name]}")
+            if name in _REGISTRY:
+                return _REGISTRY[name]
     backends = available()
     if name not in backends:
         raise UserError(f"unknown optimiser {name!r}; available: {', '.join(backends)}")

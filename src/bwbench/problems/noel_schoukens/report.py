@@ -306,10 +306,11 @@ def add_sections(report) -> None:
     problem, results, truth = c["problem"], c["results"], c["truth"]
     _section_parameters(doc, study, results, problem, truth)
     ranking = study.ranking
-    best = results.set_index("optimizer").loc[report.best_backend]
-    run = ranking[(ranking["optimizer"] == report.best_backend) & (ranking["replicate"] == best["best_replicate"])]
-    params = run.iloc[0][list(NAMES)].to_numpy(dtype=float)
-    label = f"{report.best_backend}, seed {int(best['best_replicate'])}"
+    # the best fit of the study: the run with the lowest training MSE, whichever backend found it
+    done = finished(ranking)
+    run = done.loc[done["mse"].idxmin()]
+    params = run[list(NAMES)].to_numpy(dtype=float)
+    label = f"{run['optimizer']}, seed {int(run['replicate'])}"
     report.progress("identifiability")
     try:
         analysis = analyse_identifiability(problem, params)
