@@ -39,7 +39,8 @@ with fewer walkers keeps them in a subspace, and emcee refuses it; that part dep
 so ``minimize`` checks it before evaluating anything and raises ``OptionError``, one line, e.g.
 ``emcee: option n_walkers must be at least 2·d = 28 on this 14-parameter problem, got 3``),
 ``n_data`` (None: see above; else 1 to 10⁹, the number of residuals L), ``start`` ("uniform"),
-``start_fraction`` (0.1, the share of the budget the start's optimisation may spend).
+``start_fraction`` (0.1, the share of the budget the start's optimisation may spend), ``moves``
+("stretch": emcee's default; "de": differential-evolution and snooker moves, for curved ridges).
 Should a whole ``sample`` call evaluate nothing (every proposal outside the box), the run stops
 and says so rather than loop.
 Extras: ``chain`` (steps, walkers, d) in unit coordinates, ``log_prob`` (steps, walkers),
@@ -63,9 +64,10 @@ from bwbench.optimize.registry import register
     options={"n_walkers": Int(None, minimum=2, maximum=10_000, none="2·d + 2"),
              "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points"),
              "start": Choice("uniform", ("uniform", "optimum")),
-             "start_fraction": Float(0.1, minimum=0.0, maximum=0.9)},
+             "start_fraction": Float(0.1, minimum=0.0, maximum=0.9),
+             "moves": Choice("stretch", ("stretch", "de"))},
 )
-def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", start_fraction=0.1):
+def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", start_fraction=0.1, moves="stretch"):
     d = objective.dim
     if n_walkers is not None and n_walkers < 2 * d:
         raise OptionError(f"emcee: option n_walkers must be at least 2·d = {2 * d} on this {d}-parameter "
@@ -94,7 +96,10 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", st
                     lp[inside] = objective.batch_with_likelihood(U[inside])[1]
         return lp
 
-    sampler = emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)
+    # "de": differential-evolution proposals with 20 % snooker moves, emcee's advice for posteriors with
+    # strongly correlated or curved ridges, where the stretch move's autocorrelation runs to ~10³ steps.
+    chosen = None if moves == "stretch" else [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    sampler = emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True, moves=chosen)
     sampler.random_state = np.random.RandomState(np.random.MT19937(rng.integers(2**63))).get_state()
     state = rng.random((n_walkers, d)) if start == "uniform" else _ball_at_optimum(objective, rng, n_walkers,
                                                                                   start_fraction)
