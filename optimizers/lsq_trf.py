@@ -53,14 +53,21 @@ from bwbench.errors import BudgetExhausted
 from bwbench.optimize.finite_penalty import WorstFinitePenalty
 from bwbench.optimize.registry import register
 
-_DEFAULTS = {"diff_step": 1e-5, "xtol": 1e-8, "ftol": 1e-8, "x_scale": "jac", "max_nfev_per_start": None}
+_DEFAULTS = {"diff_step": 1e-5, "xtol": 1e-8, "ftol": 1e-8, "x_scale": "jac", "max_nfev_per_start": None,
+             "stall_iters": 5, "stall_rtol": 1e-3}
+
+
+class _Stalled(Exception):
+    """A local search that no longer makes progress worth its evaluations: restart elsewhere."""
 
 
 class _Residuals:
     """The objective as a finite residual function for least_squares, with a batched Jacobian."""
 
-    def __init__(self, objective, diff_step: float):
+    def __init__(self, objective, diff_step: float, stall_iters: int = 0, stall_rtol: float = 0.0):
         self.objective = objective
+        self.stall_iters, self.stall_rtol = int(stall_iters), float(stall_rtol)
+        self.costs: list[float] = []  # mean square at each Jacobian of the current local search
         self.step = float(diff_step)
         if not 0.0 < self.step < 0.5:
             raise ValueError(f"diff_step must be in (0, 0.5) (unit coordinates), got {diff_step}")
@@ -91,6 +98,7 @@ class _Residuals:
 
     def start(self, u0) -> np.ndarray | None:
         """Evaluate a starting point; its finite residual (kept for ``fun``), or None on blow-up."""
+        self.costs = []
         r = self.raw(u0)[0]
         if not np.all(np.isfinite(r)):
             return None
@@ -110,6 +118,7 @@ class _Residuals:
     def jac(self, u) -> np.ndarray:
         u = np.asarray(u, dtype=float)
         r0 = self.fun(u)  # normally remembered: scipy takes the Jacobian at the point fun just ran
+        self._check_progress(float(np.mean(r0**2)))
         h = np.where(u + self.step <= 1.0, self.step, -self.step)  # inward at the upper bound
         R = self.raw(u + np.diag(h))
         self._stop_if_spent()
@@ -126,6 +135,14 @@ class _Residuals:
         J[bad] = 0.0  # blown up on both sides: no slope to follow along that coordinate
         return J.T
 
+    def _check_progress(self, cost: float):
+        # scipy's ftol looks at one step; a search creeping along a flat valley makes tiny but
+        # steady steps for hundreds of iterations, so judge the progress over a window instead.
+        self.costs.append(cost)
+        w = self.stall_iters
+        if w > 0 and len(self.costs) > w and cost > (1.0 - self.stall_rtol) * self.costs[-1 - w]:
+            raise _Stalled
+
     def _stop_if_spent(self):
         # A batch cut at the budget leaves +inf rows that are not blow-ups; nothing more can run.
         if self.objective.exhausted:
@@ -139,15 +156,19 @@ class _Residuals:
     defaults=dict(_DEFAULTS),
     batched=True,
 )
-def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="jac", max_nfev_per_start=None):
+def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="jac", max_nfev_per_start=None,
+             stall_iters=5, stall_rtol=1e-3):
     if not (x_scale == "jac" or isinstance(x_scale, (int, float)) and x_scale > 0):
         raise ValueError(f"x_scale must be 'jac' or a positive number, got {x_scale!r}")
     d = objective.dim
-    residuals = _Residuals(objective, diff_step)
+    residuals = _Residuals(objective, diff_step, stall_iters, stall_rtol)
     max_nfev = None if max_nfev_per_start is None else int(max_nfev_per_start)
     while True:  # until the objective raises BudgetExhausted
         u0 = rng.random(d)
         if residuals.start(u0) is None:
             continue  # blew up at the start: draw another
-        least_squares(residuals.fun, u0, jac=residuals.jac, bounds=(0.0, 1.0), method="trf",
-                      x_scale=x_scale, xtol=float(xtol), ftol=float(ftol), max_nfev=max_nfev)
+        try:
+            least_squares(residuals.fun, u0, jac=residuals.jac, bounds=(0.0, 1.0), method="trf",
+                          x_scale=x_scale, xtol=float(xtol), ftol=float(ftol), max_nfev=max_nfev)
+        except _Stalled:
+            pass
