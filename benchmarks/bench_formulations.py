@@ -13,7 +13,7 @@ may go slightly below the floor). The table gives, per backend and formulation, 
 runs that hit, the median final MSE, the median MSE / floor and the median wall time of a run.
 
 Runs go to a pool of ``--workers`` processes (default 2), each single-threaded
-(``numba.set_num_threads(1)``): wall times are per run on one core, comparable between backends.
+(``numba.set_num_threads(1)``, one BLAS thread): wall times are per run on one core, comparable between backends.
 """
 
 from __future__ import annotations
@@ -36,10 +36,16 @@ HIT = 1.02  # final MSE ≤ 1.02 × the truth's MSE
 SEED = 20261121  # the quick study's seed
 
 
+_LIMITS = []
+
+
 def _init_worker():
+    # One thread per worker, numba's and BLAS's, as the study runner does (study/tasks.py).
     import numba
+    from threadpoolctl import threadpool_limits
 
     numba.set_num_threads(1)
+    _LIMITS.append(threadpool_limits(limits=1))
 
 
 @functools.lru_cache(maxsize=None)
