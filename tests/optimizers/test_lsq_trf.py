@@ -17,6 +17,10 @@ from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 
 ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
+# lsq-trf at 1,500 evaluations on that specimen's identifiable problem reached MSE/truth 0.9153 with
+# seeds 0-5 alike (first within 5 % after 58, 932, 501, 361, 49, 25 evaluations); seed 5 is the
+# quickest. The identifiable fit goes below the truth's MSE: it also fits m and two offsets.
+SEED, RATIO = 5, 0.91528
 
 
 def test_registered_as_a_batched_least_squares_backend():
@@ -44,11 +48,11 @@ def test_same_seed_same_run_with_non_default_options():
 
 
 def test_a_jacobian_is_one_batch_of_d_points_after_one_point():
-    problem = testing.counting_problem()
+    problem = testing.SphereProblem()  # no blow-ups: no retried columns
     fitting.run(problem, "lsq-trf", 200, seed=1)
-    # start, Jacobian, then (step, Jacobian)* — steps rejected by the trust region come alone
-    assert problem.call_sizes[:2] == [1, 14]
-    assert set(problem.call_sizes) <= {1, 14} and problem.call_sizes.count(14) >= 5
+    # start, Jacobian, then (step, Jacobian)*; the last call is cut at the budget
+    assert problem.call_sizes[:2] == [1, 14] and sum(problem.call_sizes) == 200
+    assert set(problem.call_sizes[:-1]) == {1, 14} and problem.call_sizes.count(14) >= 5
 
 
 def test_jacobian_is_exact_on_the_sphere_and_steps_inward_at_the_upper_bound():
@@ -109,9 +113,10 @@ def test_bad_options_are_refused():
 
 
 def test_reaches_the_noise_floor_on_the_identifiable_problem():
+    """The truth MSE (noise floor) is 10.60 N² here; lsq-trf gets within 5 % of it (below, in fact)."""
     specimen = read_specimen(SPECIMEN)
     floor = SwitchedBoucWenProblem(specimen).loss_batch(truth_params(SPECIMEN)[None, :])[0]
-    assert floor == pytest.approx(10.6024, abs=1e-3)  # N², the truth's MSE (noise of 1 N … 3 % repeat spread)
+    assert floor == pytest.approx(10.6024, abs=1e-3)  # N²: the generating parameters' MSE
     result = fitting.run(IdentifiableProblem(specimen), "lsq-trf", 1500, seed=SEED)
     assert result.nfev == 1500
     assert result.mse <= 1.05 * floor
