@@ -10,7 +10,8 @@ noise floor of a specimen is the MSE of its generating parameters (data/specimen
 under the paper problem's ``loss_batch``; a run "hits" when its final MSE is within 2 % of it
 (the identifiable formulation has 2 more linear coefficients, m and an offset per branch, so it
 may go slightly below the floor). The table gives, per backend and formulation, the fraction of
-runs that hit, the median final MSE, the median MSE / floor and the median wall time of a run.
+runs that hit, the median final MSE, the median MSE / floor, the median number of evaluations
+after which the runs that hit first did, and the median wall time of a run.
 
 Runs go to a pool of ``--workers`` processes (default 2), each single-threaded
 (``numba.set_num_threads(1)``, one BLAS thread): wall times are per run on one core, comparable between backends.
@@ -77,9 +78,11 @@ def run_one(path: str, formulation: str, backend: str, replicate: int, budget: i
     seed = np.random.SeedSequence([SEED, SPECIMENS.index(Path(path)), replicate])
     started = time.perf_counter()
     result = fitting.run(problem, backend, budget, seed)
+    floor = noise_floor(path)
+    hits = [n for n, mse in zip(result.trace_nfev, result.trace_mse) if mse <= HIT * floor]
     return {"specimen": Path(path).stem, "formulation": formulation, "backend": backend,
             "replicate": replicate, "mse": result.mse, "nfev": result.nfev,
-            "wall_s": time.perf_counter() - started}
+            "nfev_to_hit": hits[0] if hits else None, "wall_s": time.perf_counter() - started}
 
 
 def main(argv=None) -> int:
@@ -119,16 +122,18 @@ def main(argv=None) -> int:
                   f"MSE/truth {row['mse'] / floors[row['specimen']]:.4f}, {row['wall_s']:.1f}s",
                   file=sys.stderr, flush=True)
 
-    print(f"\n{'backend':<14} {'formulation':<13} {'hit':>9} {'median MSE':>12} {'median MSE/truth':>17} "
-          f"{'median wall':>12}")
+    print(f"\n{'backend':<14} {'formulation':<13} {'hit':>11} {'median MSE':>11} {'median MSE/truth':>17} "
+          f"{'median nfev to hit':>19} {'median wall':>12}")
     for f in formulations:
         for b in backends:
             cell = [r for r in rows if r["backend"] == b and r["formulation"] == f]
             ratio = np.array([r["mse"] / floors[r["specimen"]] for r in cell])
             hits = int(np.sum(ratio <= HIT))
-            print(f"{b:<14} {f:<13} {hits:>3}/{len(cell):<2} {hits / len(cell):>3.0%} "
-                  f"{np.median([r['mse'] for r in cell]):>12.4g} {np.median(ratio):>17.4f} "
-                  f"{np.median([r['wall_s'] for r in cell]):>11.1f}s")
+            to_hit = [r["nfev_to_hit"] for r in cell if r["nfev_to_hit"] is not None]
+            to_hit = f"{np.median(to_hit):.0f}" if to_hit else "-"
+            print(f"{b:<14} {f:<13} {hits:>2}/{len(cell):<2} {hits / len(cell):>5.0%} "
+                  f"{np.median([r['mse'] for r in cell]):>11.4g} {np.median(ratio):>17.4f} "
+                  f"{to_hit:>19} {np.median([r['wall_s'] for r in cell]):>11.1f}s")
     print(f"\ntotal {time.perf_counter() - started:.0f}s on {args.workers} workers (cpu count {os.cpu_count()})")
     return 0
 
