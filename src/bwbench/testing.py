@@ -7,7 +7,8 @@
 
 Each check runs the backend through ``bwbench.optimize.fitting.run`` on ``SphereProblem``, a cheap
 14-D stand-in for a model (a shifted sphere in unit coordinates with a region of +inf, the "blow-up"
-of a real model), which counts every evaluation itself, independently of the ``Objective``:
+of a real model; it has residuals too, for least-squares backends), which counts every evaluation
+itself, independently of the ``Objective``:
 
 - ``check_exact_budget``: never one evaluation over the budget, and the whole budget spent unless
   the backend says why it stopped early — at ``BUDGETS`` (some backends change algorithm above
@@ -71,6 +72,29 @@ class SphereProblem:
         blown = self.blow_up(P)
         self.blew_up += int(blown.sum())
         return np.where(blown, np.inf, loss)
+
+    def residual_batch(self, P):
+        """Residuals (m, n_data) whose mean square is ``loss_batch``: √n_data·(P − centre) in the
+        first d columns, zeros after; rows of +inf where it blows up. Counted like ``loss_batch``."""
+        P = np.atleast_2d(P)
+        if self.n_data < self.dim:
+            raise ValueError(f"n_data ({self.n_data}) < dim ({self.dim}): no room for the residuals")
+        self.evaluated += len(P)
+        self.call_sizes.append(len(P))
+        R = np.zeros((len(P), self.n_data))
+        R[:, :self.dim] = np.sqrt(self.n_data) * (P - self.centre)
+        if self.blow_up is None:
+            return R
+        blown = self.blow_up(P)
+        self.blew_up += int(blown.sum())
+        R[blown] = np.inf
+        return R
+
+
+class LossOnlySphereProblem(SphereProblem):
+    """``SphereProblem`` without residuals: what a problem that only has a loss looks like."""
+
+    residual_batch = None
 
 
 def counting_problem() -> SphereProblem:

@@ -16,7 +16,11 @@ from bwbench.errors import BudgetExhausted
 
 
 class Objective:
-    """Loss = MSE (N²) = −F_err of a problem, on an exact evaluation budget."""
+    """Loss = MSE (N²) = −F_err of a problem, on an exact evaluation budget.
+
+    ``batch``/``__call__`` give losses; ``residuals`` gives the residual vectors the loss is the
+    mean square of (least-squares backends), counted against the same budget.
+    """
 
     def __init__(self, problem, budget: int):
         if int(budget) < 1:
@@ -89,6 +93,44 @@ class Objective:
             loglik[:take] = np.where(finite & np.isfinite(ll), ll, -np.inf)
             self._record(U_run, run)
         return losses, loglik
+
+    def residuals(self, U) -> np.ndarray:
+        """Residual vectors of the rows of U: shape (m, n) for U of shape (m, d), (n,) for one point (d,).
+
+        Needs a problem with ``residual_batch(P) -> (m, n)`` (model − data, in the square root of
+        the loss's unit, rows of +inf where the model blows up); raises ``TypeError`` otherwise.
+        Counted and cut exactly like ``batch``: each row is one evaluation, rows past the budget
+        are not run and read +inf, a call once the budget is spent raises ``BudgetExhausted``;
+        points are clipped to the box. A row with any non-finite entry is returned as all +inf.
+        The loss recorded for the trace and the best point is the row's mean square (+inf for a
+        non-finite row), which is the problem's ``loss_batch`` of the same point up to rounding.
+        """
+        residual_batch = getattr(self.problem, "residual_batch", None)
+        if not callable(residual_batch):
+            raise TypeError(f"{type(self.problem).__name__} has no residual_batch: "
+                            "only its loss can be evaluated (use batch or __call__)")
+        U = np.asarray(U, dtype=float)
+        single = U.ndim == 1
+        U = np.atleast_2d(U)
+        if U.ndim != 2 or U.shape[1] != self.dim:
+            raise ValueError(f"expected points of dimension {self.dim}, got shape {U.shape}")
+        if self.exhausted:
+            raise BudgetExhausted(f"budget of {self.budget} evaluations is spent")
+        take = min(len(U), self.remaining)
+        if not take:  # an empty batch: nothing run, nothing counted
+            return np.empty((0, int(getattr(self.problem, "n_data", 0))))
+        U_run = np.clip(U[:take], 0.0, 1.0)
+        run = np.atleast_2d(np.array(residual_batch(self.problem.from_unit(U_run)), dtype=float))
+        if run.shape[0] != take:
+            raise ValueError(f"residual_batch returned {run.shape[0]} rows for {take} points")
+        finite = np.all(np.isfinite(run), axis=1)
+        run[~finite] = np.inf  # a NaN from a blow-up must read +inf, like a loss
+        with np.errstate(over="ignore"):  # a huge finite residual may square to inf: a loss of inf
+            losses = np.where(finite, np.mean(np.where(finite[:, None], run, 0.0) ** 2, axis=1), np.inf)
+        R = np.full((len(U), run.shape[1]), np.inf)
+        R[:take] = run
+        self._record(U_run, losses)
+        return R[0] if single else R
 
     def __call__(self, u) -> float:
         """Loss of one point (1-D, unit coordinates)."""

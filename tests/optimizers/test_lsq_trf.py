@@ -1,0 +1,123 @@
+"""lsq-trf: the contract, the batched Jacobian, blow-ups, and a real fit at the noise floor."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bwbench import testing
+from bwbench.data.manifest import truth_params
+from bwbench.data.specimen import read_specimen
+from bwbench.errors import BudgetExhausted
+from bwbench.optimize import fitting, registry
+from bwbench.optimize.objective import Objective
+from bwbench.optimizers import lsq_trf
+from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
+from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+
+ROOT = Path(__file__).resolve().parents[2]
+SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
+# lsq-trf at 1,500 evaluations on that specimen's identifiable problem reached MSE/truth 0.9153 with
+# seeds 0-5 alike (first within 5 % after 58, 932, 501, 361, 49, 25 evaluations); seed 5 is the
+# quickest. The identifiable fit goes below the truth's MSE: it also fits m and two offsets.
+SEED, RATIO = 5, 0.91528
+
+
+def test_registered_as_a_batched_least_squares_backend():
+    backend = registry.get("lsq-trf")
+    assert backend.family == "least-squares" and backend.batched
+    assert backend.defaults["x_scale"] == "jac" and backend.defaults["max_nfev_per_start"] is None
+
+
+def test_keeps_the_contract():
+    testing.check_backend("lsq-trf")
+
+
+@pytest.mark.parametrize("budget", [2, 15, 16, 17, 333])
+def test_exact_budget_at_budgets_that_cut_a_jacobian(budget):
+    # one start costs 1 evaluation, each Jacobian 14: these budgets end inside or at a Jacobian
+    problem = testing.counting_problem()
+    result = fitting.run(problem, "lsq-trf", budget, seed=3)
+    assert result.nfev == problem.evaluated == budget and result.message == "budget exhausted"
+
+
+def test_same_seed_same_run_with_non_default_options():
+    options = {"x_scale": "unit", "diff_step": 1e-4, "stall_iters": 0, "max_nfev_per_start": 5}
+    testing.check_same_seed("lsq-trf", options=options)
+    testing.check_exact_budget("lsq-trf", budgets=(57, 600), options=options)
+
+
+def test_a_jacobian_is_one_batch_of_d_points_after_one_point():
+    problem = testing.SphereProblem()  # no blow-ups: no retried columns
+    fitting.run(problem, "lsq-trf", 200, seed=1)
+    # start, Jacobian, then (step, Jacobian)*; the last call is cut at the budget
+    assert problem.call_sizes[:2] == [1, 14] and sum(problem.call_sizes) == 200
+    assert set(problem.call_sizes[:-1]) == {1, 14} and problem.call_sizes.count(14) >= 5
+
+
+def test_jacobian_is_exact_on_the_sphere_and_steps_inward_at_the_upper_bound():
+    problem = testing.SphereProblem(dim=3, centre=0.5, n_data=4)
+    residuals = lsq_trf._Residuals(Objective(problem, 100), diff_step=1e-5)
+    for u in (np.array([0.2, 0.5, 0.7]), np.array([0.2, 1.0, 1.0 - 1e-7])):
+        J = residuals.jac(u)
+        expected = np.vstack([2.0 * np.eye(3), np.zeros((1, 3))])  # √n_data = 2
+        np.testing.assert_allclose(J, expected, atol=1e-6)
+    assert problem.call_sizes == [1, 3, 1, 3]  # each point (not remembered here), then its d neighbours
+
+
+def test_a_blown_up_neighbour_is_differenced_from_the_other_side():
+    problem = testing.SphereProblem(dim=3, centre=0.5, n_data=4, blow_up=lambda P: P[:, 0] > 0.3)
+    objective = Objective(problem, 100)
+    residuals = lsq_trf._Residuals(objective, diff_step=1e-3)
+    J = residuals.jac(np.array([0.3, 0.5, 0.5]))  # u₀ + h blows up, u₀ − h does not
+    np.testing.assert_allclose(J[:3], 2.0 * np.eye(3), atol=1e-9)
+    assert problem.call_sizes == [1, 3, 1]  # the point, the Jacobian batch, the retried column
+    # both sides blown up: a zero column, and the trial point itself gets the finite penalty
+    squeezed = testing.SphereProblem(dim=2, centre=0.5, n_data=2, blow_up=lambda P: np.abs(P[:, 0] - 0.5) > 1e-4)
+    residuals = lsq_trf._Residuals(Objective(squeezed, 100), diff_step=1e-3)
+    J = residuals.jac(np.array([0.5, 0.2]))
+    np.testing.assert_array_equal(J[:, 0], 0.0)
+    penalised = residuals.fun(np.array([0.9, 0.2]))
+    worst = np.mean(residuals.fun(np.array([0.5, 0.2])) ** 2)  # the worst finite mean square seen
+    np.testing.assert_allclose(penalised, np.sqrt(10 * worst))
+
+
+def test_blown_up_starts_are_redrawn_and_a_hostile_box_is_survived():
+    # +inf on 99 % of the box: most starts and most trial steps blow up
+    problem = testing.SphereProblem(dim=4, centre=0.05, blow_up=lambda P: (P[:, 0] > 0.1) | (P[:, 1] > 0.1))
+    result = fitting.run(problem, "lsq-trf", 800, seed=4)
+    assert result.nfev == 800 and problem.blew_up > 100
+    assert result.mse < 1e-8  # it still finds the centre
+
+
+def test_a_problem_with_only_a_loss_falls_back_to_the_square_root_of_the_loss():
+    problem = testing.LossOnlySphereProblem(blow_up=lambda P: P[:, 0] > 0.9)
+    result = fitting.run(problem, "lsq-trf", 600, seed=3)
+    assert result.nfev == problem.evaluated == 600
+    assert result.mse < 1e-6
+
+
+def test_budget_exhausted_propagates_out_of_least_squares():
+    objective = Objective(testing.counting_problem(), 40)
+    with pytest.raises(BudgetExhausted):
+        lsq_trf.minimize(objective, rng=np.random.default_rng(0), **registry.get("lsq-trf").defaults)
+    assert objective.nfev == 40
+
+
+def test_bad_options_are_refused():
+    from bwbench.optimize import registry
+
+    for bad in ({"x_scale": "auto"}, {"diff_step": 0.0}, {"stall_iters": -1}):
+        with pytest.raises(ValueError):
+            registry.resolve_options("lsq-trf", bad)
+
+
+def test_reaches_the_noise_floor_on_the_identifiable_problem():
+    """The truth MSE (noise floor) is 10.60 N² here; lsq-trf gets within 5 % of it (below, in fact)."""
+    specimen = read_specimen(SPECIMEN)
+    floor = SwitchedBoucWenProblem(specimen).loss_batch(truth_params(SPECIMEN)[None, :])[0]
+    assert floor == pytest.approx(10.6024, abs=1e-3)  # N²: the generating parameters' MSE
+    result = fitting.run(IdentifiableProblem(specimen), "lsq-trf", 1500, seed=SEED)
+    assert result.nfev == 1500
+    assert result.mse <= 1.05 * floor
+    assert result.mse / floor == pytest.approx(RATIO, abs=2e-3)
