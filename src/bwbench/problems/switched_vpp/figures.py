@@ -19,6 +19,7 @@ from bwbench.data import manifest
 from bwbench.data.parameters import LABELS, LOWER, UNITS, UPPER
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.report.figures import DPI, finished, mark_synthetic, palette, save, slug, theme
+from bwbench.problems.switched_vpp.fit_figures import hysteresis_loops, plot_fit  # noqa: F401
 
 SPREAD_TOLERANCE = 0.10  # parameter spread: runs with MSE ≤ (1 + 0.10) × best known
 
@@ -40,79 +41,6 @@ def _problem(study, specimen):
     from bwbench.problems import SpecimenEntry
 
     return study.problem_type.make_problem(study.settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
-
-
-def plot_fit(problem, result, path, synthetic: bool = False) -> None:
-    """Measured and fitted force against displacement (loops) and against time; PNG at ``path``."""
-    sns.set_theme(style="whitegrid", context="notebook")
-    spec = problem.specimen
-    params = np.array([result.params[name] for name in problem.param_names])
-    fitted = problem.simulate(params)
-    fig, (loops, series) = plt.subplots(1, 2, figsize=(13, 5), gridspec_kw={"width_ratios": [1, 1.4]})
-    loops.plot(spec.x, spec.f, ".", ms=2.5, color="0.55", label="measured")
-    loops.plot(problem.signal.x, fitted, "-", lw=1.2, color="C3", label="fitted model")
-    loops.set_xlabel("displacement x (mm)")
-    loops.set_ylabel("force F (N)")
-    loops.set_title("hysteresis loops")
-    loops.legend(loc="upper left")
-    series.plot(spec.t, spec.f, ".", ms=2, color="0.55", label="measured")
-    series.plot(spec.t, fitted, "-", lw=1.0, color="C3", label="fitted model")
-    series.set_xlabel("time t (s)")
-    series.set_ylabel("force F (N)")
-    series.set_title("force over time")
-    series.legend(loc="upper left")
-    fig.suptitle(
-        f"{spec.name} — {result.optimizer}, seed {result.seed}, {result.nfev} evaluations: "
-        f"RMSE {result.rmse_N:.3g} N, F_err {result.f_err:.4g} N² ({problem.state} state, "
-        f"{problem.excitation} excitation)",
-        fontsize=11,
-    )
-    if synthetic:
-        mark_synthetic(fig)
-    fig.tight_layout(rect=(0, 0.02, 1, 0.97))
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-def hysteresis_loops(study, out_dir, specimen: str) -> Path:
-    """Measured vs fitted force–displacement loops of the best run of each backend on ``specimen``
-    (one panel per backend, the paper's Figs 20–21)."""
-    theme()
-    problem = _problem(study, specimen)
-    runs = finished(study.runs[study.runs["specimen"] == specimen])
-    colours = palette(study)
-    best = runs.loc[runs.groupby("optimizer")["mse"].idxmin()]
-    best = best.set_index("optimizer").loc[[o for o in colours if o in set(best["optimizer"])]].reset_index()
-    n = len(best)
-    ncols = min(3, max(n, 1))
-    nrows = max(1, -(-n // ncols))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(4.6 * ncols, 3.9 * nrows + 0.6), sharex=True, sharey=True,
-                             squeeze=False)
-    frames = []
-    spec = problem.specimen
-    for ax, run in zip(axes.flat, best.itertuples()):
-        params = best.loc[run.Index, list(PARAM_NAMES)].to_numpy(dtype=float)
-        force = problem.simulate(params)
-        ax.plot(problem.signal.x, force, "-", lw=1.6, color=colours[run.optimizer], label="fitted model")
-        ax.plot(spec.x, spec.f, ".", ms=1.3, color="0.3", alpha=0.45, label="measured", rasterized=True)
-        kind = "" if run.kind == "ranking" else f" ({run.kind})"
-        ax.set_title(f"{run.optimizer}{kind}: RMSE {np.sqrt(run.mse):.3g} N (seed {run.replicate})", fontsize=10)
-        ax.legend(loc="upper left", fontsize=8, markerscale=3)
-        frames.append(pd.DataFrame({
-            "specimen": specimen, "optimizer": run.optimizer, "kind": run.kind, "replicate": run.replicate,
-            "time_s": spec.t, "displacement_mm": spec.x, "force_measured_N": spec.f, "force_model_N": force}))
-    for ax in axes.flat[n:]:
-        ax.set_visible(False)
-    for k, ax in enumerate(axes.flat[:n]):
-        if k + ncols >= n:  # lowest visible panel of its column: needs its own x axis labels
-            ax.xaxis.set_tick_params(labelbottom=True)
-            ax.set_xlabel("displacement x (mm)")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("force F (N)")
-    fig.suptitle(f"{specimen}: measured vs fitted hysteresis loops, best run of each backend "
-                 f"({problem.state} state, {problem.excitation} excitation)", fontsize=11)
-    frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-    return save(fig, out_dir, f"loops_{slug(specimen)}", frame, _synthetic(study, [specimen]))
 
 
 def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_TOLERANCE) -> Path:
