@@ -155,6 +155,11 @@ def figure(width: float, height: float, **kw):
     return plt.subplots(figsize=(min(width, MAX_WIDTH_IN), height), layout="constrained", **kw)
 
 
+def canvas(width: float, height: float):
+    """An empty constrained-layout figure, at most ``MAX_WIDTH_IN`` wide (for hand-made grids)."""
+    return plt.figure(figsize=(min(width, MAX_WIDTH_IN), height), layout="constrained")
+
+
 def legend(fig, handles, ncol: int | None = None, title: str | None = None, loc: str = "below"):
     """The figure's one legend, outside the axes: ``"below"`` them (default; ``save`` makes room
     for it above the SYNTHETIC mark) or any of matplotlib's ``"outside …"`` places."""
