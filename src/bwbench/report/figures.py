@@ -293,8 +293,9 @@ def waterfall(study, out_dir, order=None, specimens=None) -> Path:
     axes[-1, 0].set_xlim(-0.6, len(optimizers) - 0.4)
     handles = [Line2D([], [], color="black", lw=1.0, ls=ls, label=f"{tau:.0%} above the best known (success at {tau:.0%})")
                for tau, ls in zip(statistics.TOLERANCES, (":", "--"))]
-    handles.append(Line2D([], [], color="0.4", marker="^", ms=8, mec="black", mew=0.6, ls="",
-                          label=f"n runs above {top:g} %"))
+    if (np.isfinite(excess) & (excess > top)).any():
+        handles.append(Line2D([], [], color="0.4", marker="^", ms=8, mec="black", mew=0.6, ls="",
+                              label=f"n runs above {top:g} % (off the scale)"))
     legend(fig, handles, ncol=3)
     fig.suptitle("Waterfall: final MSE of every ranking run above its specimen's best known, runs sorted per "
                  "backend (backends best first)")
