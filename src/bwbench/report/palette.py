@@ -179,6 +179,10 @@ def backend_handles(styles_, labels, text=None, line: bool = True, marker: bool 
     return [s.handle((text or {}).get(name), line, marker) for name, s in styles_.items() if name in present]
 
 
+def runs_text(n: int) -> str:
+    return f"{n} run" if n == 1 else f"{n} runs"
+
+
 def truth_handle(text: str = "truth") -> Line2D:
     return Line2D([], [], label=text, **TRUTH)
 

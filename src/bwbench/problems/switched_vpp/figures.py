@@ -23,7 +23,7 @@ from bwbench.problems.switched_vpp.fit_figures import hysteresis_loops, plot_fit
 from bwbench.problems.switched_vpp.posterior_figures import posterior, profiles  # noqa: F401
 from bwbench.report.figures import finished, specimen_order, specimen_title
 from bwbench.report.palette import (
-    MAX_WIDTH_IN, TRUTH, backend_handles, figure, legend, save, slug, styles, theme, truth_handle,
+    MAX_WIDTH_IN, TRUTH, backend_handles, figure, legend, runs_text, save, slug, styles, theme, truth_handle,
 )
 
 SPREAD_TOLERANCE = 0.10  # parameter spread: runs with MSE ≤ (1 + 0.10) × best known
@@ -85,7 +85,7 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
     axes[-1, 0].set_xticks(x0, [LABELS[n] for n in PARAM_NAMES])
     axes[-1, 0].set_xlabel("parameter, scaled to its Table 5 search range (0 = lower, 1 = upper bound)")
     totals = good.groupby("optimizer").size()
-    handles = backend_handles(look, present, {o: f"{o} ({int(totals[o])} runs)" for o in present}, line=False)
+    handles = backend_handles(look, present, {o: f"{o} ({runs_text(int(totals[o]))})" for o in present}, line=False)
     if any(r["optimizer"] == "truth" for r in rows):
         handles.append(truth_handle())
     legend(fig, handles, ncol=min(len(handles), 5))

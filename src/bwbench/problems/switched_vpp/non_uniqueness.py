@@ -97,8 +97,8 @@ def figure(study, out_dir, specimen: str, order=None):
     parameters (units of their data-scaled box). Each backend in its report-wide colour and marker
     (``order``: the report's ranking, see ``bwbench.report.palette``); one legend."""
     from bwbench.data import manifest
-    from bwbench.report.palette import MAX_WIDTH_IN, TRUTH, backend_handles, figure as new_figure, legend, save, \
-        slug, styles, theme, truth_handle
+    from bwbench.report.palette import MAX_WIDTH_IN, TRUTH, backend_handles, figure as new_figure, legend, \
+        runs_text, save, slug, styles, theme, truth_handle
 
     theme()
     table, s = spread_table(study, specimen)
@@ -140,7 +140,7 @@ def figure(study, out_dir, specimen: str, order=None):
         ax.grid(axis="x", visible=False)
     present = list(dict.fromkeys(s["optimizers"]))
     counts = pd.Series(s["optimizers"]).value_counts()
-    handles = backend_handles(look, present, {o: f"{o} ({counts[o]} runs)" for o in present}, line=False)
+    handles = backend_handles(look, present, {o: f"{o} ({runs_text(int(counts[o]))})" for o in present}, line=False)
     if truth is not None:
         handles.append(truth_handle("truth (gauge fixed)"))
     legend(fig, handles, ncol=min(len(handles), 5))
