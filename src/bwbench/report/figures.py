@@ -20,7 +20,7 @@ from matplotlib.patches import Patch
 from bwbench.analysis import statistics
 from bwbench.report.palette import (  # noqa: F401  (DPI … styles: the shared look, imported from here too)
     DPI, MAX_WIDTH_IN, SYNTHETIC_LABEL, backend_handles, figure, legend, mark_synthetic, palette, save, slug,
-    styles, theme,
+    split_label, styles, theme,
 )
 
 # Targets of the runtime ECDF: best known × (1 + τ) = 1.01×, 1.1×, 2× and 10×. The loosest is what
@@ -104,9 +104,11 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
     grid = _evaluation_grid(budget)
     traces = {k: g for k, g in study.traces[study.traces["kind"] == "ranking"].groupby(
         ["specimen", "optimizer", "replicate"])}
+    # The pooled panel divides by each specimen's floor only if every specimen has one: a mix of
+    # floors and best knowns would put different things at 1.
     pooled_floor = all(s in floors for s in study.specimens)
-    reference = {s: floors[s][0] if (s in floors and (s in specimens or pooled_floor)) else best[s]
-                 for s in study.specimens}
+    reference = {(s, pooled): floors[s][0] if s in floors and (pooled_floor or not pooled) else best[s]
+                 for s in study.specimens for pooled in (True, False)}
     panels = [("all specimens (pooled)", None)] if len(specimens) > 1 else []
     panels += [(specimen_title(study, s), s) for s in specimens]
     ncols = 1 if len(panels) == 1 else 2
@@ -118,8 +120,8 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
         shown = []  # what sets the y range: the medians after the first tenth of the budget
         counts = set()
         for rank, optimizer in enumerate(optimizers):
-            curves = [best_so_far(g["nfev"].to_numpy(), g["mse"].to_numpy(), grid) / reference[s]
-                      for (s, o, r), g in traces.items() if o == optimizer and specimen in (None, s)]
+            curves = [best_so_far(g["nfev"].to_numpy(), g["mse"].to_numpy(), grid) / reference[s, specimen is None]
+                      for (s, o, _), g in traces.items() if o == optimizer and specimen in (None, s)]
             if not curves:
                 continue
             q25, median, q75 = quartiles(curves)
@@ -128,7 +130,7 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
             zorder = 3 + len(optimizers) - rank  # the best on top
             ax.plot(grid, median, **style.line(markers=True, ms=5, markevery=(8 + 11 * rank % 37, 60)),
                     zorder=zorder)
-            if rank < bands and optimizer != "random":
+            if rank < bands and split_label(optimizer)[0] != "random":
                 ax.fill_between(grid, q25, q75, color=style.colour, alpha=0.13, lw=0, zorder=1)
                 shown.append(q25[grid >= budget / 10])
             shown.append(median[grid >= budget / 10])
@@ -145,10 +147,12 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
         ax.set_ylabel("MSE / noise floor (–)" if on_floor else "MSE / best known (–)")
         floor_text = (f"; noise floor {floors[specimen][0]:.3g} {study.loss_unit}"
                       if specimen is not None and on_floor else "")
-        runs_text = f" ({counts.pop()} runs per backend)" if len(counts) == 1 else ""
-        ax.set_title(title + floor_text + runs_text, loc="left")
-    for ax in axes[-1]:
-        ax.set_xlabel("evaluations")
+        count_text = f" ({counts.pop()} runs per backend)" if len(counts) == 1 else ""
+        ax.set_title(title + floor_text + count_text, loc="left")
+    for k, ax in enumerate(axes.flat[:len(panels)]):
+        if k + ncols >= len(panels):  # the lowest panel of its column carries the axis
+            ax.xaxis.set_tick_params(labelbottom=True)
+            ax.set_xlabel("evaluations")
     for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
     frame = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
@@ -254,7 +258,7 @@ def waterfall(study, out_dir, order=None, specimens=None) -> Path:
     # hundreds of times above the best would otherwise squash the range where the ranking is.
     bottom = min(0.1, 10 ** np.floor(np.log10(finite[finite > 0].min()))) if (finite > 0).any() else 0.1
     bottom = max(bottom, 1e-3)
-    others = finite[(frame.loc[finite.index, "optimizer"] != "random")]
+    others = finite[[split_label(o)[0] != "random" for o in frame.loc[finite.index, "optimizer"]]]
     q = float(np.percentile(others, 75)) if len(others) else float(finite.max()) if len(finite) else 100.0
     top = max(100.0, 10 ** np.ceil(np.log10(max(q, 1e-9)) + 0.3))
     fig, axes = figure(MAX_WIDTH_IN, 2.5 * len(specimens) + 1.9, nrows=len(specimens), ncols=1, squeeze=False,
@@ -282,7 +286,8 @@ def waterfall(study, out_dir, order=None, specimens=None) -> Path:
         ax.set_yscale("log")
         ax.set_ylim(bottom / 1.5, top)  # the best run, drawn at the bottom tick, stays whole
         ax.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(
-            lambda v, _, low=bottom: f"{'≤ ' if v <= low * 1.0001 else ''}{v:g} %"))
+            lambda v, _, low=bottom: f"{'≤ ' if v <= low * 1.0001 else ''}{v:,.0f} %" if v >= 1 else
+            f"{'≤ ' if v <= low * 1.0001 else ''}{v:g} %"))
         ax.set_ylabel("final MSE above best known")
         ax.set_title(f"{specimen_title(study, specimen)}: best known {best[specimen]:.4g} {study.loss_unit}",
                      loc="left")

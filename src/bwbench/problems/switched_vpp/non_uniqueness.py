@@ -101,7 +101,7 @@ def figure(study, out_dir, specimen: str, order=None):
         runs_text, save, slug, styles, theme, truth_handle
 
     theme()
-    table, s = spread_table(study, specimen)
+    _, s = spread_table(study, specimen)
     look = styles(study, order)
     fig, (left, right) = new_figure(MAX_WIDTH_IN, 5.0, ncols=2, gridspec_kw={"width_ratios": [2, 1]})
     rng = np.random.default_rng(0)  # jitter only: the figure is the same every time
