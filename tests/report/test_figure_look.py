@@ -132,7 +132,12 @@ def test_one_legend_per_figure_and_sized_for_the_page(study, drawn, tmp_path):
     switched_figures.parameters_vs_underpressure(study, tmp_path, "cmaes", material, order=ORDER)
     switched_figures.posterior(study, tmp_path, study.chains[0], order=ORDER)
     non_uniqueness.figure(study, tmp_path, study.specimens[0], order=ORDER)
-    assert len(drawn) == 8
+    names = ("wn-", "A+", "n-", "xi+")  # four profiles: two rows of panels
+    analysis = {"specimen": "toy", "mse": 1.0, "noise_rmse_N": 1.0, "n_data": 100, "params": dict.fromkeys(names, 10.0),
+                "profiles": {name: [{"value": v, "unit": 0.0, "mse": 1.0 + (v - 10) ** 2, "evaluations": 5}
+                                    for v in (2.0, 10.0, 20.0)] for name in names}}
+    switched_figures.profiles(analysis, tmp_path)
+    assert len(drawn) == 9
     for record in drawn:
         assert record.figure_legends == 1 and record.axes_legends == 0
         assert record.width_in <= palette.MAX_WIDTH_IN and record.dpi == palette.DPI

@@ -111,6 +111,16 @@ def test_a_median_of_best_so_far_curves_never_rises():
     assert median[0] == 4.0 and median[-1] == 1.0
 
 
+def test_convergence_pools_relative_to_the_floor_only_when_every_specimen_has_one(study, out):
+    low, high = "pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1"
+    frame = _read(figures.convergence(study, out, floors={high: (10.0, "noise floor (truth): 10 N²")}))
+    kinds = frame.drop_duplicates("panel").set_index("panel")["y"].to_dict()
+    assert kinds == {"all specimens (pooled)": "mse_over_best_known", "0.01 MPa, repeat 1": "mse_over_best_known",
+                     "0.09 MPa, repeat 1": "mse_over_noise_floor"}
+    pooled = frame[frame["panel"] == "all specimens (pooled)"]
+    assert pooled.groupby("optimizer")["median"].min().min() >= 1.0 - 1e-9  # nothing below the best known
+
+
 def test_loops_show_the_best_ranking_run_of_the_best_backends_and_random(study, out):
     specimen = study.specimens[0]
     frame = _read(switched_figures.hysteresis_loops(study, out, specimen, order=["de", "cmaes", "random"],
