@@ -300,7 +300,7 @@ def waterfall(study, out_dir, order=None, specimens=None) -> Path:
                for tau, ls in zip(statistics.TOLERANCES, (":", "--"))]
     if (np.isfinite(excess) & (excess > top)).any():
         handles.append(Line2D([], [], color="0.4", marker="^", ms=8, mec="black", mew=0.6, ls="",
-                              label=f"n runs above {top:g} % (off the scale)"))
+                              label=f"n runs above {top:,.0f} % (off the scale)"))
     legend(fig, handles, ncol=3)
     fig.suptitle("Waterfall: final MSE of every ranking run above its specimen's best known, runs sorted per "
                  "backend (backends best first)")
