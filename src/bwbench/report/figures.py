@@ -1,70 +1,63 @@
-"""Study figures every problem gets: convergence, runtime ECDF, waterfall; and the shared look.
+"""Study figures every problem gets: convergence, runtime ECDF, waterfall.
 
 Every function takes a loaded ``bwbench.study.results.Study`` and an output folder and returns the
-PNG's path, with the tidy CSV behind it beside it (same name, ``.csv``). Colours follow the
-backends' order in the study, so a backend has one colour in every figure. Figures of synthetic
+PNG's path, with the tidy CSV behind it beside it (same name, ``.csv``). ``order``: the report's
+ranking (best first); it sets the legend order and each backend's style, the same in every figure
+(default: lowest median final loss first; see ``bwbench.report.palette``). Figures of synthetic
 data carry the SYNTHETIC mark.
 """
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
-import matplotlib
+import matplotlib.ticker
+import numpy as np
+import pandas as pd
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
-matplotlib.use("Agg")  # files only: no display on test machines and CI
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-import seaborn as sns  # noqa: E402
+from bwbench.analysis import statistics
+from bwbench.report.palette import (  # noqa: F401  (DPI … styles: the shared look, imported from here too)
+    DPI, MAX_WIDTH_IN, SYNTHETIC_LABEL, backend_handles, figure, legend, mark_synthetic, palette, save, slug,
+    split_label, styles, theme,
+)
 
-from bwbench.analysis import statistics  # noqa: E402
-
-DPI = 110
-ECDF_TAUS = (1.0, 0.1, 0.01)
-SYNTHETIC_LABEL = "SYNTHETIC DATA (generated from the paper's Tables 6–8)"
-
-
-def theme() -> None:
-    sns.set_theme(style="whitegrid", context="notebook", font_scale=0.9)
-
-
-def mark_synthetic(fig) -> None:
-    fig.text(0.995, 0.005, SYNTHETIC_LABEL, ha="right", va="bottom", fontsize=8, color="0.35", style="italic")
-
-
-def palette(study) -> dict:
-    """Backend -> colour, stable across figures (ranking backends first, then posterior ones)."""
-    names = study.optimizers + [o for o in dict.fromkeys(study.runs["optimizer"]) if o not in study.optimizers]
-    # The baseline is always dark grey so it reads as the reference; the others get tab10's ten
-    # distinct colours (a larger registry falls back to evenly spaced hues).
-    others = [name for name in names if name != "random"]
-    colours = dict(zip(others, sns.color_palette("tab10" if len(others) <= 10 else "husl", max(len(others), 1))))
-    if "random" in names:
-        colours["random"] = (0.25, 0.25, 0.25)
-    return {name: colours[name] for name in names}
-
-
-def slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9.]+", "-", str(text)).strip("-").lower()
-
-
-def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool, rect=(0, 0.03, 1, 0.97)) -> Path:
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    if synthetic_data:
-        mark_synthetic(fig)
-    fig.tight_layout(rect=rect)
-    png = out_dir / f"{stem}.png"
-    fig.savefig(png, dpi=DPI)
-    plt.close(fig)
-    frame.to_csv(png.with_suffix(".csv"), index=False, float_format="%.6g")
-    return png
+# Targets of the runtime ECDF: best known × (1 + τ) = 1.01×, 1.1×, 2× and 10×. The loosest is what
+# separates the backends that never come near the best from those that merely miss its last percent.
+ECDF_TAUS = (0.01, 0.1, 1.0, 9.0)
+BANDS = 3  # interquartile bands for the best few backends only: more bands hide each other
 
 
 def finished(runs: pd.DataFrame) -> pd.DataFrame:
     return runs[(runs["status"] == "ok") & np.isfinite(runs["mse"].astype(float))]
+
+
+def specimen_order(study, specimens=None) -> list[str]:
+    """``specimens`` (default all) in natural order: by underpressure, then repeat, when the
+    runs carry them, else by name."""
+    specimens = list(dict.fromkeys(specimens or study.specimens))
+    runs = study.runs
+    first = runs.drop_duplicates("specimen").set_index("specimen")
+
+    def key(name):
+        row = first.loc[name] if name in first.index else {}
+        pressure = pd.to_numeric(row.get("underpressure_MPa", np.nan), errors="coerce") if len(row) else np.nan
+        repeat = pd.to_numeric(row.get("repeat", np.nan), errors="coerce") if len(row) else np.nan
+        return (np.inf if pd.isna(pressure) else float(pressure), np.inf if pd.isna(repeat) else float(repeat), name)
+
+    return sorted(specimens, key=key)
+
+
+def specimen_title(study, specimen: str) -> str:
+    """``"0.05 MPa, repeat 1"`` when the runs give underpressure and repeat, else the specimen's name."""
+    row = study.runs[study.runs["specimen"] == specimen].head(1)
+    if len(row) and "underpressure_MPa" in row and np.isfinite(pd.to_numeric(row["underpressure_MPa"].iloc[0],
+                                                                              errors="coerce")):
+        text = f"{float(row['underpressure_MPa'].iloc[0]):g} MPa"
+        repeat = pd.to_numeric(row["repeat"].iloc[0], errors="coerce") if "repeat" in row else np.nan
+        return text + (f", repeat {int(repeat)}" if np.isfinite(repeat) else "")
+    return specimen
 
 
 # --------------------------------------------------------------------------------- convergence
@@ -77,85 +70,104 @@ def best_so_far(trace_nfev, trace_mse, grid) -> np.ndarray:
     return np.where(idx >= 0, values, np.inf)
 
 
-def _evaluation_grid(max_nfev: float, points: int = 120) -> np.ndarray:
-    return np.unique(np.round(np.geomspace(1, max(max_nfev, 2), points)).astype(int))
+def quartiles(curves) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lower quartile, median and upper quartile across runs (rows) of best-so-far curves.
+
+    Order statistics, not interpolation: a quartile between a finite value and +inf is +inf (not
+    drawn), where interpolating would give inf − inf = NaN; and an order statistic of curves that
+    never rise never rises either."""
+    q25, median, q75 = np.percentile(np.asarray(curves, dtype=float), [25, 50, 75], axis=0, method="inverted_cdf")
+    return q25, median, q75
 
 
-def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=None) -> Path:
-    """Best-so-far MSE against evaluations (the paper's Fig 16, every backend): median line and
-    interquartile band across seeds. First panel (when there are several specimens): all
-    specimens pooled, MSE relative to each specimen's best known; then one panel per specimen
-    (absolute MSE, in ``study.loss_unit``). ``floors``: {specimen: (MSE, label)} drawn as a dashed
-    line on that specimen's panel (e.g. the truth's MSE, the noise floor)."""
+def _evaluation_grid(max_nfev: float, points: int = 400) -> np.ndarray:
+    return np.unique(np.round(np.linspace(1, max(max_nfev, 2), points)).astype(int))
+
+
+def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=None, order=None,
+                bands: int = BANDS) -> Path:
+    """Best-so-far loss against evaluations (the paper's Fig 16, every backend): the median across
+    seeds as a line, the interquartile range as a band for the ``bands`` best backends only. First
+    panel (when there are several specimens): all specimens pooled; then one panel per specimen
+    of ``specimens`` (at most ``max_specimens``, in natural order). ``floors``: {specimen: (loss,
+    label)}, e.g. the truth's MSE: the loss of that specimen is shown relative to its floor (the
+    floor is the line at 1); without one, relative to the best known. Linear evaluation axis: the
+    last stretch of the budget, where the ranking is decided, gets most of the width."""
     theme()
-    ranking = study.ranking
+    floors = floors or {}
     best = statistics.best_known(study.runs)
-    specimens = list(specimens or study.specimens)[:max_specimens]
-    colours = palette(study)
+    ranking = study.ranking
+    look = styles(study, order)
+    optimizers = [o for o in look if o in set(ranking["optimizer"])]
+    specimens = specimen_order(study, list(specimens or study.specimens)[:max_specimens])
     budget = float(np.nanmax(ranking["nfev"])) if len(ranking) else 1.0
     grid = _evaluation_grid(budget)
     traces = {k: g for k, g in study.traces[study.traces["kind"] == "ranking"].groupby(
         ["specimen", "optimizer", "replicate"])}
+    # The pooled panel divides by each specimen's floor only if every specimen has one: a mix of
+    # floors and best knowns would put different things at 1.
+    pooled_floor = all(s in floors for s in study.specimens)
+    reference = {(s, pooled): floors[s][0] if s in floors and (pooled_floor or not pooled) else best[s]
+                 for s in study.specimens for pooled in (True, False)}
     panels = [("all specimens (pooled)", None)] if len(specimens) > 1 else []
-    panels += [(s, s) for s in specimens]
-    ncols = 2 if len(panels) in (2, 4) else min(3, len(panels))
+    panels += [(specimen_title(study, s), s) for s in specimens]
+    ncols = 1 if len(panels) == 1 else 2
     nrows = -(-len(panels) // ncols)
-    # one panel: wide enough for the title and a legend of many backends
-    fig, axes = plt.subplots(nrows, ncols, figsize=(max(6.0 * ncols, 12.0), 4.0 * nrows + 0.9), squeeze=False)
-    rows = []
+    fig, axes = figure(MAX_WIDTH_IN, 3.4 * nrows + 1.3, nrows=nrows, ncols=ncols, squeeze=False, sharex=True)
+    rows, drawn = [], []
     for ax, (title, specimen) in zip(axes.flat, panels):
+        on_floor = pooled_floor if specimen is None else specimen in floors
+        shown = []  # what sets the y range: the medians after the first tenth of the budget
         counts = set()
-        shown = []  # medians and lower quartiles: they set the y range, the bands do not
-        for optimizer in study.optimizers:
-            curves = []
-            for (s, o, r), g in traces.items():
-                if o != optimizer or (specimen is not None and s != specimen):
-                    continue
-                curve = best_so_far(g["nfev"].to_numpy(), g["mse"].to_numpy(), grid)
-                curves.append(curve / best[s] if specimen is None else curve)
+        for rank, optimizer in enumerate(optimizers):
+            curves = [best_so_far(g["nfev"].to_numpy(), g["mse"].to_numpy(), grid) / reference[s, specimen is None]
+                      for (s, o, _), g in traces.items() if o == optimizer and specimen in (None, s)]
             if not curves:
                 continue
-            curves = np.array(curves)
+            q25, median, q75 = quartiles(curves)
             counts.add(len(curves))
-            # Order statistics, not interpolation: a quartile between a finite value and +inf is
-            # +inf (not drawn), where interpolating would give inf − inf = NaN.
-            q25, median, q75 = np.percentile(curves, [25, 50, 75], axis=0, method="inverted_cdf")
-            ax.plot(grid, median, color=colours[optimizer], lw=1.6, label=optimizer)
-            shown += [median, q25]
-            ax.fill_between(grid, q25, q75, color=colours[optimizer], alpha=0.18, lw=0)
+            style = look[optimizer]
+            zorder = 3 + len(optimizers) - rank  # the best on top
+            ax.plot(grid, median, **style.line(markers=True, ms=5, markevery=(8 + 11 * rank % 37, 60)),
+                    zorder=zorder)
+            if rank < bands and split_label(optimizer)[0] != "random":
+                ax.fill_between(grid, q25, q75, color=style.colour, alpha=0.13, lw=0, zorder=1)
+                shown.append(q25[grid >= budget / 10])
+            shown.append(median[grid >= budget / 10])
+            drawn.append(optimizer)
             rows.append(pd.DataFrame({"panel": title, "optimizer": optimizer, "nfev": grid, "median": median,
                                       "q25": q25, "q75": q75, "runs": len(curves),
-                                      "y": "mse_over_best_known" if specimen is None else "mse_N2"}))
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("evaluations")
-        if specimen is not None and specimen in (floors or {}):
-            value, label = floors[specimen]
-            ax.axhline(value, color="black", lw=1.0, ls="--", label=label)
-            shown.append(np.array([value]))
-        values = np.concatenate(shown) if shown else np.array([])
+                                      "y": "mse_over_noise_floor" if on_floor else "mse_over_best_known"}))
+        ax.axhline(1.0, color="black", lw=1.1, ls=(0, (5, 3)) if on_floor else ":", zorder=2)
+        values = np.concatenate(shown + [np.array([1.0])])
         values = values[np.isfinite(values) & (values > 0)]
-        if values.size:
-            # A run's first points can be astronomically bad (a near-runaway parameter set): let the
-            # upper quartile band run off the top rather than squash every median line flat.
-            ax.set_ylim(values.min() / 2, values.max() * 5)
-        ax.set_ylabel("best-so-far MSE / best known (–)" if specimen is None else
-                      f"best-so-far MSE ({study.loss_unit})")
-        ax.set_title(title + (f" ({counts.pop()} runs per backend)" if len(counts) == 1 else ""), fontsize=10)
+        ax.set_yscale("log")
+        ax.set_ylim(min(values.min(), 1.0) / 1.25, values.max() * 1.6)  # earlier, worse points run off the top
+        ax.set_xlim(0, budget * 1.01)
+        ax.set_ylabel("MSE / noise floor (–)" if on_floor else "MSE / best known (–)")
+        floor_text = (f"; noise floor {floors[specimen][0]:.3g} {study.loss_unit}"
+                      if specimen is not None and on_floor else "")
+        count_text = f" ({counts.pop()} runs per backend)" if len(counts) == 1 else ""
+        ax.set_title(title + floor_text + count_text, loc="left")
+    for k, ax in enumerate(axes.flat[:len(panels)]):
+        if k + ncols >= len(panels):  # the lowest panel of its column carries the axis
+            ax.xaxis.set_tick_params(labelbottom=True)
+            ax.set_xlabel("evaluations")
     for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
-    handles, labels = {}, {}
-    for ax in axes.flat[:len(panels)]:  # union over panels: a floor line is on one panel only
-        for h, label in zip(*ax.get_legend_handles_labels()):
-            handles.setdefault(label, h)
-    labels = list(handles)
-    handles = list(handles.values())
-    fig.legend(handles, labels, loc="upper center", ncol=min(len(labels), 6), bbox_to_anchor=(0.5, 0.96),
-               frameon=False)
-    fig.suptitle("Convergence: median (line) and interquartile range (band) across seeds of the best-so-far MSE",
-                 fontsize=11)
     frame = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
-    return save(fig, out_dir, "convergence", frame, study.problem_type.is_synthetic(study), rect=(0, 0.03, 1, 0.90))
+    handles = backend_handles(look, drawn)
+    if bands:
+        handles.append(Patch(color="0.6", alpha=0.5, label=f"interquartile range over seeds (best {bands})"))
+    kinds = {pooled_floor if s is None else s in floors for _, s in panels}
+    if True in kinds:
+        label = next(iter(floors.values()))[1].split(":")[0]
+        handles.append(Line2D([], [], color="black", lw=1.1, ls=(0, (5, 3)), label=f"{label} = 1"))
+    if False in kinds:
+        handles.append(Line2D([], [], color="black", lw=1.1, ls=":", label="best known = 1"))
+    legend(fig, handles, ncol=4)
+    fig.suptitle("Convergence: median over seeds of the best-so-far MSE (backends best first)")
+    return save(fig, out_dir, "convergence", frame, study.problem_type.is_synthetic(study))
 
 
 # ------------------------------------------------------------------------------------ runtime ECDF
@@ -168,41 +180,65 @@ def ecdf(evals, grid) -> np.ndarray:
     return np.searchsorted(evals, grid, side="right") / evals.size
 
 
-def runtime_ecdf(study, out_dir, taus=ECDF_TAUS) -> Path:
+def runtime_ecdf(study, out_dir, taus=ECDF_TAUS, order=None) -> Path:
     """ECDF of evaluations to target (COCO/IOHprofiler style): for each backend, the fraction of
     (specimen, seed, target) triples reached within x evaluations; targets = best known MSE of
-    the specimen × (1 + τ). A curve reaches 1 only if every run hit every target."""
+    the specimen × (1 + τ), from 1.01× to 10× by default. A curve reaches 1 only if every run hit
+    every target. Backends that reach no target are named, not drawn (flat lines at 0 would hide
+    each other); the x axis starts where the first target is reached."""
     theme()
     best = statistics.best_known(study.runs)
     rt = statistics.runtimes(study.ranking, study.traces, taus, best)
-    colours = palette(study)
+    look = styles(study, order)
+    optimizers = [o for o in look if o in set(rt["optimizer"])]
     budget = float(np.nanmax(study.ranking["nfev"])) if len(study.ranking) else 1.0
-    grid = _evaluation_grid(budget, 300)
-    fig, ax = plt.subplots(figsize=(8.0, 5.0))
-    n = len(study.optimizers)
-    for i, optimizer in enumerate(study.optimizers):
+    finite = rt.loc[np.isfinite(rt["evals"]), "evals"]
+    start = max(1.0, float(finite.min()) / 1.5) if len(finite) else 1.0
+    grid = np.unique(np.round(np.geomspace(start, max(budget, start * 2), 400)).astype(int))
+    fig, ax = figure(MAX_WIDTH_IN, 6.0)
+    handles, never = [], []
+    n = len(optimizers)
+    for rank, optimizer in enumerate(optimizers):
         evals = rt.loc[rt["optimizer"] == optimizer, "evals"]
         y = ecdf(evals, grid)
-        # earlier curves drawn wider, so a curve lying on another (e.g. two at 0) still shows
-        ax.step(grid, y, where="post", color=colours[optimizer], lw=1.6 + 2.4 * (n - 1 - i) / max(n - 1, 1),
-                label=f"{optimizer}: {y[-1]:.0%} of {len(evals)} reached")
+        if y[-1] == 0:
+            never.append(optimizer)
+            continue
+        style = look[optimizer]
+        # Drawn from its first target on: flat stretches at 0 would lie on top of each other.
+        start_at = max(int(np.argmax(y > 0)) - 1, 0)
+        y = np.where(np.arange(len(y)) >= start_at, y, np.nan)
+        # markers at staggered places: two curves on top of each other still show both
+        ax.step(grid, y, where="post", zorder=3 + n - rank,
+                **style.line(markers=True, ms=5.5, markevery=(5 + 23 * rank % 61, 75)))
+        handles.append(style.handle(f"{optimizer}: {y[-1]:.0%}"))
     ax.set_xscale("log")
-    ax.set_ylim(-0.02, 1.04)
-    ax.set_xlim(1, grid[-1] * 1.05)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlim(start, budget * 1.05)
+    ax.xaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:,.0f}"))
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     ax.set_xlabel("evaluations")
     ax.set_ylabel("fraction of (specimen, seed, target) reached (–)")
-    taus_text = ", ".join(f"{t:g}" for t in taus)
-    ax.set_title(f"Runtime ECDF: targets = best known MSE × (1 + τ), τ ∈ {{{taus_text}}}", fontsize=11)
-    ax.legend(loc="upper left", fontsize=9)
+    targets = ", ".join(f"{1 + t:g}×" for t in taus)
+    ax.set_title(f"targets: best known MSE of the specimen × {{{targets}}}", loc="left")
+    if never:
+        ax.text(0.01, 0.97, "reached no target: " + ", ".join(never), transform=ax.transAxes, va="top",
+                ha="left", fontsize=9.5, color="0.2", bbox={"fc": "white", "ec": "0.7", "boxstyle": "round"})
+    legend(fig, handles, ncol=4, title="fraction reached at the budget (backends best first)")
+    fig.suptitle("Runtime ECDF: how many targets each backend reaches within x evaluations")
     frame = rt.drop(columns=["kind"])
     return save(fig, out_dir, "ecdf", frame, study.problem_type.is_synthetic(study))
 
 
 # ---------------------------------------------------------------------------------- waterfall
 
-def waterfall(study, out_dir) -> Path:
-    """Final MSE of every ranking run, relative to its specimen's best known, sorted per backend:
-    flat stretches are plateaus where many runs end at the same (local) optimum."""
+def waterfall(study, out_dir, order=None, specimens=None) -> Path:
+    """Final MSE of every ranking run above its specimen's best known, one panel per specimen (in
+    natural order), one slot per backend (best first) with its runs sorted: a flat stretch is a
+    plateau where several seeds end at the same (local) optimum. Log axis of (MSE − best)/best, as
+    COCO plots Δf: the 1 % and 10 % success levels are lines; the best known run itself sits on the
+    bottom edge; runs above the plotted range are a ▲ at the top edge with their count."""
     theme()
     ranking = study.ranking
     best = statistics.best_known(study.runs)
@@ -210,22 +246,62 @@ def waterfall(study, out_dir) -> Path:
     frame = ranking[["optimizer", "specimen", "replicate", "status"]].assign(
         final_mse=final.to_numpy(), best_known=ranking["specimen"].map(best).to_numpy())
     frame["ratio"] = frame["final_mse"] / frame["best_known"]
-    frame = frame.sort_values(["optimizer", "ratio"], kind="stable")
-    frame["rank"] = frame.groupby("optimizer").cumcount() + 1
-    colours = palette(study)
-    fig, ax = plt.subplots(figsize=(10.5, 5.0))
-    for optimizer in study.optimizers:
-        g = frame[frame["optimizer"] == optimizer]
-        shown = g[np.isfinite(g["ratio"])]
-        failed = len(g) - len(shown)
-        label = f"{optimizer} ({len(g)} runs{f', {failed} failed, not shown' if failed else ''})"
-        ax.plot(shown["rank"], shown["ratio"], "-o", ms=4, lw=0.8, color=colours[optimizer], label=label)
-    ax.set_yscale("log")
-    ax.set_xlabel("run, sorted by final MSE (within each backend)")
-    ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
-    ax.set_ylabel("final MSE / best known for its specimen (–)")
-    ax.axhline(1.0 + statistics.TOLERANCES[-1], color="0.3", lw=0.8, ls="--",
-               label=f"{1.0 + statistics.TOLERANCES[-1]:g} × best known (success at 10 %)")
-    ax.set_title("Waterfall: final MSE of every ranking run", fontsize=11)
-    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))  # outside: never over the data
+    frame = frame.sort_values(["specimen", "optimizer", "ratio"], kind="stable")
+    frame["rank"] = frame.groupby(["specimen", "optimizer"]).cumcount() + 1
+    look = styles(study, order)
+    optimizers = [o for o in look if o in set(frame["optimizer"])]
+    specimens = specimen_order(study, specimens or list(dict.fromkeys(frame["specimen"])))
+    excess = 100 * (frame["ratio"] - 1)  # % above the best known
+    finite = excess[np.isfinite(excess)]
+    # Bottom: one decade below the 1 % line (or the smallest positive excess); top: the upper
+    # quartile of the backends other than random, to the next decade: random search's runs
+    # hundreds of times above the best would otherwise squash the range where the ranking is.
+    bottom = min(0.1, 10 ** np.floor(np.log10(finite[finite > 0].min()))) if (finite > 0).any() else 0.1
+    bottom = max(bottom, 1e-3)
+    others = finite[[split_label(o)[0] != "random" for o in frame.loc[finite.index, "optimizer"]]]
+    q = float(np.percentile(others, 75)) if len(others) else float(finite.max()) if len(finite) else 100.0
+    top = max(100.0, 10 ** np.ceil(np.log10(max(q, 1e-9)) + 0.3))
+    fig, axes = figure(MAX_WIDTH_IN, 2.5 * len(specimens) + 1.9, nrows=len(specimens), ncols=1, squeeze=False,
+                       sharex=True, sharey=True)
+    for ax, specimen in zip(axes[:, 0], specimens):
+        for b, optimizer in enumerate(optimizers):
+            g = frame[(frame["specimen"] == specimen) & (frame["optimizer"] == optimizer)]
+            e = 100 * (g["ratio"].to_numpy() - 1)
+            x = b + (np.linspace(-0.3, 0.3, len(e)) if len(e) > 1 else np.zeros(len(e)))
+            inside = np.isfinite(e) & (e <= top)
+            shown = np.clip(e, bottom, top)
+            style = look[optimizer]
+            ax.plot(x[inside], shown[inside], **style.line(lw=1.0, markers=True, ms=5), zorder=3)
+            above, failed = int((np.isfinite(e) & (e > top)).sum()), int((~np.isfinite(e)).sum())
+            if above:
+                ax.plot(b, top, marker="^", ms=9, color=style.colour, mec="black", mew=0.6, ls="",
+                        clip_on=False, zorder=5)
+                ax.annotate(f"{above}", (b, top), xytext=(7, -3), textcoords="offset points", fontsize=9.5,
+                            va="top", annotation_clip=False)
+            if failed:
+                ax.annotate(f"{failed} failed", (b, bottom), xytext=(0, 3), textcoords="offset points",
+                            fontsize=9, ha="center", va="bottom", color="0.2")
+        for tau, ls in zip(statistics.TOLERANCES, (":", "--")):
+            ax.axhline(100 * tau, color="black", lw=1.0, ls=ls, zorder=2)
+        ax.set_yscale("log")
+        ax.set_ylim(bottom / 1.5, top)  # the best run, drawn at the bottom tick, stays whole
+        ax.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(
+            lambda v, _, low=bottom: f"{'≤ ' if v <= low * 1.0001 else ''}{v:,.0f} %" if v >= 1 else
+            f"{'≤ ' if v <= low * 1.0001 else ''}{v:g} %"))
+        ax.set_ylabel("final MSE above best known")
+        ax.set_title(f"{specimen_title(study, specimen)}: best known {best[specimen]:.4g} {study.loss_unit}",
+                     loc="left")
+        for b in range(len(optimizers) - 1):
+            ax.axvline(b + 0.5, color="0.85", lw=0.8)
+        ax.grid(axis="x", visible=False)
+    axes[-1, 0].set_xticks(range(len(optimizers)), optimizers, rotation=30, ha="right")
+    axes[-1, 0].set_xlim(-0.6, len(optimizers) - 0.4)
+    handles = [Line2D([], [], color="black", lw=1.0, ls=ls, label=f"{tau:.0%} above the best known (success at {tau:.0%})")
+               for tau, ls in zip(statistics.TOLERANCES, (":", "--"))]
+    if (np.isfinite(excess) & (excess > top)).any():
+        handles.append(Line2D([], [], color="0.4", marker="^", ms=8, mec="black", mew=0.6, ls="",
+                              label=f"n runs above {top:,.0f} % (off the scale)"))
+    legend(fig, handles, ncol=3)
+    fig.suptitle("Waterfall: final MSE of every ranking run above its specimen's best known, runs sorted per "
+                 "backend (backends best first)")
     return save(fig, out_dir, "waterfall", frame, study.problem_type.is_synthetic(study))

@@ -4,20 +4,25 @@ The convergence, ECDF and waterfall figures are ``bwbench.report.figures``' own;
 benchmark's: the best fit against the ``test_multisine`` output, and the identified parameters
 scaled to the search box with the truth marked. Each returns the PNG's path and writes the CSV
 behind it beside it (same name). The data are the public benchmark: no SYNTHETIC mark.
+``order``: the report's ranking (best first), for the backends' styles and legend order, the same
+as in the study's other figures (see ``bwbench.report.palette``).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.lines import Line2D
 
+from bwbench.analysis import statistics
 from bwbench.problems.box import box_to_unit
 from bwbench.problems.noel_schoukens import problem as bm
-from bwbench.analysis import statistics
-from bwbench.report.figures import finished, palette, save, theme
+from bwbench.report.figures import finished
+from bwbench.report.palette import (
+    MAX_WIDTH_IN, TRUTH, backend_handles, figure, legend, save, styles, theme, truth_handle,
+)
 
 SPREAD_TOLERANCE = 0.10  # parameter spread: runs within 10 % of the best known training MSE
 
@@ -44,10 +49,11 @@ def unit_values(P) -> np.ndarray:
     return np.hstack(columns)
 
 
-def test_fit(study, out_dir, problem, params, label: str, window_s=(2.0, 2.4)) -> Path:
+def test_fit(study, out_dir, problem, params, label: str, window_s=(2.0, 2.4), order=None) -> Path:
     """The best fit against ``test_multisine`` over a short window: output (mm) on top, the error
-    y_model − y_test (µm) of the fit and of the true parameters below. e_RMS over the whole file
-    in the legends."""
+    y_model − y_test (µm) of the fit and of the true parameters below, on the same time axis.
+    e_RMS over the whole file in the legend. ``label``: "backend, seed N" (its colour is the
+    backend's)."""
     theme()
     record = bm.read_benchmark_csv(Path(problem.data_dir) / "test_multisine.csv")
     y_fit = problem.simulate_test(params, "test_multisine")
@@ -56,41 +62,47 @@ def test_fit(study, out_dir, problem, params, label: str, window_s=(2.0, 2.4)) -
     e_truth = float(np.sqrt(np.mean((y_truth - record.y) ** 2)))
     shown = (record.t >= window_s[0]) & (record.t <= window_s[1])
     t = record.t[shown]
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6.4), sharex=True, gridspec_kw={"height_ratios": [1.3, 1]})
-    top.plot(t, 1e3 * record.y[shown], "-", color="0.25", lw=2.6, label="test_multisine (measured)")
-    top.plot(t, 1e3 * y_fit[shown], "--", color="C3", lw=1.4, label=f"best fit: {label}")
+    backend = label.split(",")[0].strip()
+    look = styles(study, order)
+    colour = look[backend].colour if backend in look else look[next(iter(look))].colour
+    fig, (top, bottom) = figure(MAX_WIDTH_IN, 6.6, nrows=2, ncols=1, sharex=True,
+                                gridspec_kw={"height_ratios": [1.2, 1]})
+    top.plot(t, 1e3 * record.y[shown], "-", color="black", lw=2.6, zorder=2)
+    top.plot(t, 1e3 * y_fit[shown], "--", color=colour, lw=1.5, zorder=3)
     top.set_ylabel("displacement y (mm)")
-    top.legend(loc="upper right", fontsize=9)
-    if e_fit < 0.05 * float(np.std(record.y)):
-        top.set_title("output: the two curves overlap at this scale; the error is below", fontsize=10)
-    bottom.plot(t, 1e6 * (y_fit - record.y)[shown], "-", color="C3", lw=1.2,
-                label=f"best fit (e_RMS over the file {e_fit:.2e} m)")
-    bottom.plot(t, 1e6 * (y_truth - record.y)[shown], "-", color="black", lw=1.0,
-                label=f"true parameters, this simulator (e_RMS {e_truth:.2e} m)")
+    top.set_title("output" + (": the curves overlap at this scale; the error is below"
+                              if e_fit < 0.05 * float(np.std(record.y)) else ""), loc="left")
+    bottom.plot(t, 1e6 * (y_fit - record.y)[shown], "-", color=colour, lw=1.2, zorder=3)
+    bottom.plot(t, 1e6 * (y_truth - record.y)[shown], "-", color="black", lw=1.0, zorder=2)
     bottom.axhline(0.0, color="0.6", lw=0.8)
-    bottom.set_ylabel("error y_model − y_test (µm)")
+    bottom.set_ylabel("y_model − y_test (µm)")
     bottom.set_xlabel("time t (s)")
-    bottom.legend(loc="upper right", fontsize=9)
+    bottom.set_title("error", loc="left")
+    legend(fig, [Line2D([], [], color="black", lw=2.6, label="test_multisine (measured)"),
+                 Line2D([], [], color=colour, lw=1.5, ls="--", label=f"best fit: {label} (e_RMS over the file {e_fit:.2e} m)"),
+                 Line2D([], [], color="black", lw=1.0, label=f"true parameters, this simulator (e_RMS {e_truth:.2e} m)")],
+           ncol=1)
     fig.suptitle(f"Best fit vs the benchmark's test_multisine output, {window_s[0]:g}–{window_s[1]:g} s of the "
-                 f"{record.t[-1] - record.t[0] + 1 / bm.SAMPLE_RATE_HZ:.2f} s period", fontsize=11)
+                 f"{record.t[-1] - record.t[0] + 1 / bm.SAMPLE_RATE_HZ:.2f} s period")
     frame = pd.DataFrame({"time_s": record.t, "y_test_m": record.y, "y_fit_m": y_fit, "y_truth_m": y_truth})
     return save(fig, out_dir, "test_multisine_fit", frame, False)
 
 
-def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE) -> Path:
+def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE, order=None) -> Path:
     """The 8 parameters and the products βγ, βδ of every ranking run whose training MSE is
     within ``tolerance`` of the best known, scaled to the search box; the truth as black ×.
-    β, γ and δ may scatter along their exact invariance while βγ and βδ stay on the truth."""
+    β, γ and δ may scatter along their exact invariance while βγ and βδ stay on the truth. Only
+    backends with such runs are drawn and listed."""
     theme()
     specimen = study.specimens[0]
     best = statistics.best_known(study.runs)[specimen]
     runs = finished(study.ranking)
     good = runs[runs["mse"] <= best * (1 + tolerance)]
     total = runs.groupby("optimizer").size()
-    colours = palette(study)
+    look = styles(study, order)
     names = [*bm.PARAM_NAMES, *COMBINATIONS]
-    optimizers = [o for o in study.optimizers if o in set(good["optimizer"])]
-    fig, ax = plt.subplots(figsize=(12.5, 5.2))
+    optimizers = [o for o in look if o in set(good["optimizer"])]
+    fig, ax = figure(MAX_WIDTH_IN, 5.6)
     width = 0.8 / max(len(optimizers), 1)
     rng = np.random.default_rng(0)  # jitter only: the figure is the same every time
     rows = []
@@ -100,14 +112,13 @@ def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE) -> Pat
         offset = (b - (len(optimizers) - 1) / 2) * width
         for j in range(len(names)):
             x = j + offset + rng.uniform(-0.25, 0.25, len(g)) * width
-            ax.plot(x, unit[:, j], "o", ms=5, alpha=0.8, color=colours[optimizer], zorder=3,
-                    label=f"{optimizer} ({len(g)}/{int(total.get(optimizer, 0))} runs)" if j == 0 else None)
+            ax.plot(x, unit[:, j], **look[optimizer].point(ms=6), alpha=0.85, zorder=3)
         for replicate, mse, u in zip(g["replicate"], g["mse"], unit):
             rows += [{"optimizer": optimizer, "replicate": int(replicate), "mse_m2": mse, "parameter": n,
                       "unit_value": float(u[j])} for j, n in enumerate(names)]
     truth = unit_values(bm.TRUE_PARAMS)[0]
-    ax.hlines(truth, np.arange(len(names)) - 0.42, np.arange(len(names)) + 0.42, color="black", lw=1.2, zorder=1)
-    ax.plot(np.arange(len(names)), truth, "x", color="black", ms=9, mew=2, label="truth", zorder=4)
+    ax.hlines(truth, np.arange(len(names)) - 0.42, np.arange(len(names)) + 0.42, color="black", lw=1.0, zorder=1)
+    ax.plot(np.arange(len(names)), truth, **TRUTH, zorder=4)
     rows += [{"optimizer": "truth", "replicate": -1, "mse_m2": np.nan, "parameter": n, "unit_value": float(u)}
              for n, u in zip(names, truth)]
     ax.axvline(len(bm.PARAM_NAMES) - 0.5, color="0.3", lw=1.2)
@@ -120,8 +131,9 @@ def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE) -> Pat
     ax.set_ylim(-0.04, 1.04)
     ax.set_ylabel("position in the search box (–)")
     ax.set_xlabel("parameter (log: log10 scaled to the box; lin: linear) | identifiable products")
-    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
-    fig.suptitle(f"Identified parameters of every ranking run with training MSE ≤ {1 + tolerance:g} × the best known "
-                 f"({best:.3g} m²), scaled to the search box", fontsize=11)
+    text = {o: f"{o} ({int((good['optimizer'] == o).sum())}/{int(total.get(o, 0))} runs)" for o in optimizers}
+    legend(fig, [*backend_handles(look, optimizers, text, line=False), truth_handle()], ncol=5)
+    fig.suptitle(f"Identified parameters of every ranking run with training MSE ≤ {1 + tolerance:g} × the best "
+                 f"known ({best:.3g} m²), scaled to the search box")
     frame = pd.DataFrame(rows, columns=["optimizer", "replicate", "mse_m2", "parameter", "unit_value"])
     return save(fig, out_dir, "spread", frame, False)

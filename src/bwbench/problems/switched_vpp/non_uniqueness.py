@@ -91,60 +91,59 @@ def spread_table(study, specimen: str) -> tuple[pd.DataFrame, dict]:
                    "optimizers": list(runs["optimizer"])}
 
 
-def figure(study, out_dir, specimen: str):
+def figure(study, out_dir, specimen: str, order=None):
     """The good fits of ``specimen`` in both coordinate systems, side by side: the 14 paper parameters
     (Table 5 units) as fitted (filled) and moved to the canonical gauge (open), and the identifiable
-    parameters (units of their data-scaled box). One colour per backend."""
-    import matplotlib.pyplot as plt
-
-    from bwbench.report.figures import palette, save, slug, theme
+    parameters (units of their data-scaled box). Each backend in its report-wide colour and marker
+    (``order``: the report's ranking, see ``bwbench.report.palette``); one legend."""
+    from bwbench.data import manifest
+    from bwbench.report.palette import MAX_WIDTH_IN, TRUTH, backend_handles, figure as new_figure, legend, \
+        runs_text, save, slug, styles, theme, truth_handle
 
     theme()
-    table, s = spread_table(study, specimen)
-    colours = palette(study)
-    fig, (left, right) = plt.subplots(1, 2, figsize=(12.5, 4.4), gridspec_kw={"width_ratios": [2, 1]})
+    _, s = spread_table(study, specimen)
+    look = styles(study, order)
+    fig, (left, right) = new_figure(MAX_WIDTH_IN, 5.0, ncols=2, gridspec_kw={"width_ratios": [2, 1]})
     rng = np.random.default_rng(0)  # jitter only: the figure is the same every time
     rows = []
     for k, optimizer in enumerate(s["optimizers"]):
         jitter = rng.uniform(-0.18, 0.18)
-        c = colours.get(optimizer, "0.4")
-        left.plot(np.arange(14) + jitter, s["paper_unit"][k], "o", ms=4.5, color=c, alpha=0.85)
-        left.plot(np.arange(14) + jitter, s["gauged_unit"][k], "o", ms=6, mfc="none", mec=c, alpha=0.85)
-        right.plot(np.arange(len(s["theta_names"])) + jitter, s["theta_unit"][k], "o", ms=4.5, color=c, alpha=0.85)
+        point = look[optimizer].point(ms=5.5)
+        left.plot(np.arange(14) + jitter, s["paper_unit"][k], **{**point, "mfc": point["color"]}, alpha=0.85)
+        left.plot(np.arange(14) + jitter, s["gauged_unit"][k], **{**point, "mfc": "none", "ms": 7.5}, alpha=0.85)
+        right.plot(np.arange(len(s["theta_names"])) + jitter, s["theta_unit"][k], **{**point, "mfc": point["color"]},
+                   alpha=0.85)
         rows += [{"optimizer": optimizer, "coordinates": kind, "parameter": name, "unit_value": float(value)}
                  for kind, names, values in (("paper as fitted", PARAM_NAMES, s["paper_unit"][k]),
                                              ("paper, canonical gauge", PARAM_NAMES, s["gauged_unit"][k]),
                                              ("identifiable", s["theta_names"], s["theta_unit"][k]))
                  for name, value in zip(names, values)]
-    from bwbench.data import manifest
-
     truth = manifest.truth_params(study.specimen_path(specimen))
     if truth is not None:  # the truth's loops, in the canonical gauge and in the identifiable coordinates
         state = study.settings.get("state", "shared")
         t_theta, t_linear = fm.from_paper(truth, state)
         gauged = fm.to_paper(t_theta, t_linear, state).params
         if gauged is not None:
-            left.plot(np.arange(14), (gauged - LOWER) / (UPPER - LOWER), "x", color="black", ms=8, mew=2, zorder=5)
-        right.plot(np.arange(len(t_theta)), s["box"].to_unit(t_theta), "x", color="black", ms=8, mew=2, zorder=5)
+            left.plot(np.arange(14), (gauged - LOWER) / (UPPER - LOWER), **TRUTH, zorder=5)
+        right.plot(np.arange(len(t_theta)), s["box"].to_unit(t_theta), **TRUTH, zorder=5)
     left.set_xticks(np.arange(14), [LABELS[n] for n in PARAM_NAMES])
-    left.set_ylabel("(value − lower) / (upper − lower) (–)")
+    left.set_ylabel("position in range (–)")
     share = s["share"]
-    left.set_title(f"paper parameters (Table 5 units): filled = as fitted, open = same loops, gauge fixed\n"
-                   f"{share:.0%} of the scatter is the exact symmetry z → s·z" if np.isfinite(share) else
-                   "paper parameters (Table 5 units)", fontsize=10)
+    left.set_title("paper parameters (Table 5 units): filled = as fitted, open = same loops, gauge fixed"
+                   + (f"\n{share:.0%} of the scatter is the exact symmetry z → s·z" if np.isfinite(share) else ""),
+                   loc="left")
     right.set_xticks(np.arange(len(s["theta_names"])), [fm.LABELS[n] for n in s["theta_names"]])
-    right.set_title("identifiable parameters (units of the data-scaled box)\nno symmetry: what scatters is "
-                    "weakly determined", fontsize=10)
+    right.set_title("identifiable parameters (data-scaled\nbox): no symmetry; what scatters is\nweakly determined",
+                    loc="left")
     for ax in (left, right):
         ax.set_ylim(-0.04, 1.04)
         ax.grid(axis="x", visible=False)
-    handles = [plt.Line2D([], [], ls="", marker="o", color=colours.get(o, "0.4"), label=o)
-               for o in dict.fromkeys(s["optimizers"])]
+    present = list(dict.fromkeys(s["optimizers"]))
+    counts = pd.Series(s["optimizers"]).value_counts()
+    handles = backend_handles(look, present, {o: f"{o} ({runs_text(int(counts[o]))})" for o in present}, line=False)
     if truth is not None:
-        handles.append(plt.Line2D([], [], ls="", marker="x", color="black", mew=2, label="truth (gauge fixed)"))
-    fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 6), fontsize=9, frameon=False,
-               bbox_to_anchor=(0.5, 1.0))
-    fig.suptitle(f"{specimen}: the {s['runs']} ranking runs within {TOLERANCE:.0%} of the best known MSE",
-                 fontsize=11, y=0.93)
+        handles.append(truth_handle("truth (gauge fixed)"))
+    legend(fig, handles, ncol=min(len(handles), 5))
+    fig.suptitle(f"{specimen}: the {s['runs']} ranking runs within {TOLERANCE:.0%} of the best known MSE")
     synthetic = study.problem_type.is_synthetic(study)
-    return save(fig, out_dir, f"nonuniqueness_{slug(specimen)}", pd.DataFrame(rows), synthetic, rect=(0, 0.03, 1, 0.88))
+    return save(fig, out_dir, f"nonuniqueness_{slug(specimen)}", pd.DataFrame(rows), synthetic)

@@ -1,0 +1,84 @@
+"""What the switched model's figures share: axis labels of both coordinate systems, a study's
+truth and synthetic flag, the problem a run was fitted in, and where the displacement reverses."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bwbench.data import manifest
+from bwbench.data.parameters import LABELS, UNITS
+from bwbench.problems.switched_vpp import identifiable as fm
+from bwbench.report.palette import split_label
+
+
+def axis_label(name: str) -> str:
+    """``"ωn₊ (rad/s)"``: symbol and unit of a paper or identifiable parameter."""
+    if name in LABELS:
+        unit = UNITS[name]
+        return f"{LABELS[name]} ({'–' if unit == '-' else unit})"
+    label = fm.LABELS.get(name, name)
+    return f"{label} ({fm.UNITS.get(name, '–')})"
+
+
+def synthetic(study, specimens) -> bool:
+    return any(manifest.is_synthetic(study.specimen_path(s)) for s in specimens)
+
+
+def truth(study, specimen):
+    """The paper 14-vector the specimen was generated from, or None (measured data)."""
+    return manifest.truth_params(study.specimen_path(specimen))
+
+
+def formulation_of(study, label: str) -> str:
+    """The formulation a run label was fitted in: its ``[variant]``, else the study's one."""
+    _, variant = split_label(label)
+    configured = study.settings.get("formulation", "paper")
+    return variant or (configured if isinstance(configured, str) else configured[0])
+
+
+def problem_for(study, specimen: str, formulation: str = "paper", cache: dict | None = None):
+    """The problem object of ``specimen`` in ``formulation`` (built once per pair with ``cache``)."""
+    key = (specimen, formulation)
+    if cache is not None and key in cache:
+        return cache[key]
+    from bwbench.problems import SpecimenEntry
+
+    settings = {**study.settings, "formulation": formulation}
+    problem = study.problem_type.make_problem(settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
+    if cache is not None:
+        cache[key] = problem
+    return problem
+
+
+def reversals(x, fraction: float = 0.05) -> np.ndarray:
+    """Indices where the displacement ``x`` turns round: extremes after which it moves back by more
+    than ``fraction`` of its range (noise does not count as a reversal)."""
+    x = np.asarray(x, dtype=float)
+    threshold = fraction * float(np.ptp(x)) if x.size else 0.0
+    out, direction, extreme = [], 0, 0
+    for i in range(1, x.size):
+        if direction == 0:
+            if abs(x[i] - x[0]) > threshold:
+                direction, extreme = (1 if x[i] > x[0] else -1), i
+        elif direction * (x[i] - x[extreme]) > 0:
+            extreme = i
+        elif direction * (x[extreme] - x[i]) > threshold:
+            out.append(extreme)
+            direction, extreme = -direction, i
+    return np.array(out, dtype=int)
+
+
+def travel_arrows(ax, x, f, turns, colour, per_stroke: int = 1) -> None:
+    """Arrows along the curve (x, f) in its direction of travel, ``per_stroke`` per stroke between
+    reversals (``turns``), placed mid-stroke where the branch is straight."""
+    edges = np.concatenate([[0], turns, [len(x) - 1]])
+    step = max(len(x) // 200, 1)
+    for a, b in zip(edges[:-1], edges[1:]):
+        for k in range(1, per_stroke + 1):
+            i = a + (b - a) * k // (per_stroke + 1)
+            j = min(i + step, len(x) - 1)
+            if i >= j or (x[i] == x[j] and f[i] == f[j]):
+                continue
+            ax.annotate("", xy=(x[j], f[j]), xytext=(x[i], f[i]), zorder=6,
+                        arrowprops={"arrowstyle": "-|>", "color": colour, "lw": 1.4, "mutation_scale": 16,
+                                    "shrinkA": 0, "shrinkB": 0})

@@ -1,0 +1,186 @@
+"""Fits of the switched model against the measured force: one fit (``bwbench fit --plot``) and the
+best fits of a study on one specimen.
+
+Both have the same three panels: the hysteresis loop (measured points on top of the model line,
+arrows in the direction of travel, reversals marked), the force against time, and the residual
+(model − measured, N) against time on the same time axis, where misfits of a few newtons that a
+1,000 N loop hides are visible.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+
+from bwbench.problems.switched_vpp.figure_common import (
+    formulation_of, problem_for, reversals, synthetic, travel_arrows, truth,
+)
+from bwbench.report.palette import (
+    MAX_WIDTH_IN, OKABE_ITO, Style, backend_handles, figure, legend, save, slug, split_label, styles, theme,
+    write_png,
+)
+
+BACKENDS = 3  # residuals of the best few backends (and random search): more lines hide each other
+MEASURED = {"color": "black", "marker": ".", "ls": "", "ms": 2.2, "alpha": 0.75, "zorder": 5, "rasterized": True}
+
+
+def _panels(height: float = 6.6):
+    """The figure: the loop on the left, force and residual against time (shared axis) on the right."""
+    fig, axes = figure(MAX_WIDTH_IN, height, nrows=2, ncols=2, gridspec_kw={"width_ratios": [1, 1.35]})
+    gs = axes[0, 0].get_gridspec()
+    for ax in axes[:, 0]:
+        ax.remove()
+    loop = fig.add_subplot(gs[:, 0])
+    force, residual = axes[0, 1], axes[1, 1]
+    residual.sharex(force)
+    force.tick_params(labelbottom=False)
+    return fig, loop, force, residual
+
+
+def _draw_measured(loop, force, t, x, f, fitted, style: Style, turns, x_model=None) -> None:
+    """Measured points (at displacement ``x``) on top of the model line (at ``x_model``, default
+    ``x``), travel arrows and reversals on the loop; the same against time."""
+    x_model = np.asarray(x if x_model is None else x_model)
+    loop.plot(x_model, fitted, **style.line(lw=2.2, ls="-"), zorder=3)
+    loop.plot(x, f, **MEASURED)
+    travel_arrows(loop, x_model, np.asarray(fitted), turns, "black")
+    loop.plot(np.asarray(x)[turns], np.asarray(f)[turns], ls="", marker="D", ms=7, mfc="white", mec="black",
+              mew=1.3, zorder=6)
+    loop.set_xlabel("displacement x (mm)")
+    loop.set_ylabel("force F (N)")
+    loop.set_title("hysteresis loop (arrows: direction of travel)", loc="left")
+    force.plot(t, fitted, **style.line(lw=2.0, ls="-"), zorder=3)
+    force.plot(t, f, **MEASURED)
+    force.set_ylabel("force F (N)")
+    force.set_title("force against time", loc="left")
+
+
+def _mark_reversals(axes, t, turns) -> None:
+    for ax in axes:
+        for i in turns:
+            ax.axvline(t[i], color="0.45", lw=0.8, ls=":", zorder=1)
+
+
+REVERSAL = Line2D([], [], ls=":", color="0.45", marker="D", ms=7, mfc="white", mec="black", mew=1.3,
+                  label="reversal of travel (◇ on the loop, dotted against time)")
+
+
+def _residual_limit(residuals: dict, skip=()) -> float:
+    """Symmetric y range of the residual panel: the lines of ``residuals`` not in ``skip`` fit; a
+    far worse one (random search) runs off the edge instead of flattening the others."""
+    kept = [np.abs(r[np.isfinite(r)]) for name, r in residuals.items() if name not in skip]
+    kept = [r for r in kept if r.size] or [np.abs(r[np.isfinite(r)]) for r in residuals.values()]
+    return 1.15 * max(float(np.percentile(r, 99.8)) for r in kept) if kept else 1.0
+
+
+def plot_fit(problem, result, path, synthetic: bool = False) -> None:
+    """One fit: the loop with its direction of travel, force against time, and the residual against
+    time with its RMSE; PNG at ``path``. The title names the formulation when the problem has one."""
+    theme()
+    spec = problem.specimen
+    params = np.array([result.params[name] for name in problem.param_names])
+    fitted = problem.simulate(params)
+    turns = reversals(spec.x)
+    style = Style(result.optimizer, OKABE_ITO[0], "-", "o", True)
+    fig, loop, force, residual = _panels()
+    _draw_measured(loop, force, spec.t, spec.x, spec.f, fitted, style, turns, x_model=problem.signal.x)
+    error = fitted - spec.f
+    rmse = float(np.sqrt(np.mean(error**2)))
+    residual.plot(spec.t, error, **style.line(lw=0.9, ls="-"))
+    residual.axhline(0.0, color="black", lw=0.8)
+    limit = _residual_limit({"fit": error})
+    residual.set_ylim(-limit, limit)
+    residual.set_ylabel("model − measured (N)")
+    residual.set_xlabel("time t (s)")
+    residual.set_title(f"residual: RMSE {rmse:.3g} N", loc="left")
+    _mark_reversals([force, residual], spec.t, turns)
+    formulation = getattr(problem, "formulation", "paper")
+    legend(fig, [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
+                 style.handle(f"fitted model ({result.optimizer})", marker=False),
+                 REVERSAL], ncol=3)
+    fig.suptitle(f"{spec.name} — {result.optimizer} ({formulation} formulation), seed {result.seed}, "
+                 f"{result.nfev} evaluations: RMSE {result.rmse_N:.3g} N, F_err {result.f_err:.4g} N²\n"
+                 f"{problem.state} state, {problem.excitation} excitation")
+    write_png(fig, path, synthetic)
+
+
+def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = BACKENDS) -> Path:
+    """The best fits of a study on ``specimen`` (the paper's Figs 20–21 made comparable): the
+    measured loop once with the best ranking run's fit, and the residual against time of the best
+    run of each of the ``backends`` best backends (ranking ``order``; plus the backend of the best
+    run if it is not among them) and of random search. Ranking runs only: a posterior run has a
+    far larger budget and would not be a fair "best run of its backend"."""
+    theme()
+    ranking = study.ranking
+    runs = ranking[(ranking["specimen"] == specimen) & (ranking["status"] == "ok")
+                   & np.isfinite(ranking["mse"].astype(float))]
+    look = styles(study, order)
+    present = [o for o in look if o in set(runs["optimizer"])]
+    best_run = runs.loc[runs["mse"].idxmin()]
+    shown = [o for o in present if split_label(o)[0] != "random"][:backends]
+    if best_run["optimizer"] not in shown and split_label(best_run["optimizer"])[0] != "random":
+        shown.append(best_run["optimizer"])
+    randoms = [o for o in present if split_label(o)[0] == "random"]
+    shown += randoms
+    cache, frames, residuals, fits = {}, [], {}, {}
+    spec = None
+    for optimizer in shown:
+        run = runs[runs["optimizer"] == optimizer].sort_values("mse").iloc[0]
+        problem = problem_for(study, specimen, formulation_of(study, optimizer), cache)
+        spec = problem.specimen
+        force = problem.simulate(run[list(problem.param_names)].to_numpy(dtype=float))
+        fits[optimizer] = (run, force, problem)
+        residuals[optimizer] = force - spec.f
+        frames.append(pd.DataFrame({
+            "specimen": specimen, "optimizer": optimizer, "kind": run["kind"], "replicate": int(run["replicate"]),
+            "time_s": spec.t, "displacement_mm": spec.x, "force_measured_N": spec.f, "force_model_N": force,
+            "residual_N": force - spec.f}))
+    turns = reversals(spec.x)
+    fig, loop, force_ax, residual = _panels(7.4)
+    best_label = best_run["optimizer"]
+    _, best_force, best_problem = fits[best_label]
+    _draw_measured(loop, force_ax, spec.t, spec.x, spec.f, best_force, look[best_label], turns)
+    noise = _noise_band(study, specimen, cache)
+    if noise is not None:
+        residual.axhspan(-2 * noise, 2 * noise, color="0.85", zorder=0, lw=0)
+    for rank, optimizer in reversed(list(enumerate(shown))):  # the best drawn last, on top
+        residual.plot(spec.t, residuals[optimizer], **look[optimizer].line(lw=0.9), zorder=3 + len(shown) - rank)
+    residual.axhline(0.0, color="black", lw=0.8, zorder=2)
+    limit = _residual_limit(residuals, skip=randoms)
+    residual.set_ylim(-limit, limit)
+    off = [o for o in randoms if np.nanmax(np.abs(residuals[o])) > limit]
+    if off:
+        residual.text(0.99, 0.03, "off-scale: " + ", ".join(f"{o} (up to {np.nanmax(np.abs(residuals[o])):.0f} N)"
+                                                             for o in off),
+                      transform=residual.transAxes, ha="right", va="bottom", fontsize=9,
+                      bbox={"fc": "white", "ec": "0.7", "boxstyle": "round"}, zorder=10)
+    residual.set_ylabel("model − measured (N)")
+    residual.set_xlabel("time t (s)")
+    residual.set_title("residual of the best run of each backend", loc="left")
+    _mark_reversals([force_ax, residual], spec.t, turns)
+    text = {o: f"{o}: RMSE {np.sqrt(fits[o][0]['mse']):.3g} N (seed {int(fits[o][0]['replicate'])})" for o in shown}
+    handles = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"})]
+    handles += backend_handles(look, shown, text, marker=False)
+    handles.append(REVERSAL)
+    if noise is not None:
+        handles.append(Patch(color="0.85", label=f"±2σ of the noise (truth's residual, σ = {noise:.2g} N)"))
+    legend(fig, handles, ncol=2)
+    fig.suptitle(f"{specimen}: best fit ({best_label}, seed {int(best_run['replicate'])}) and the residuals of the "
+                 f"best {len(shown) - len(randoms)} backends and random search\n"
+                 f"ranking runs only ({best_problem.state} state, {best_problem.excitation} excitation)")
+    frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    return save(fig, out_dir, f"loops_{slug(specimen)}", frame, synthetic(study, [specimen]))
+
+
+def _noise_band(study, specimen, cache):
+    """RMS of the truth's residual on a synthetic specimen (the noise), else None."""
+    params = truth(study, specimen)
+    if params is None:
+        return None
+    problem = problem_for(study, specimen, "paper", cache)
+    error = problem.simulate(params) - problem.specimen.f
+    return float(np.sqrt(np.mean(error**2))) if np.all(np.isfinite(error)) else None

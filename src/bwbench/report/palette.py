@@ -1,0 +1,236 @@
+"""The look every study figure shares: one style per backend, the theme, the legend, saving.
+
+A backend keeps one colour, line style and marker in every figure of a report, assigned in
+ranking order (best first): Okabe–Ito's colour-blind-safe colours, black kept for the measured
+data, the truth and the noise floor, random search always dark grey. Past seven backends the
+colours repeat with dashed lines and other marker shapes. When a study compares formulations side
+by side (labels ``"cmaes [paper]"``, ``"cmaes [identifiable]"``), both formulations of a backend
+share its colour and marker: solid line and filled marker for the identifiable formulation,
+dashed line and open marker for the paper's.
+
+Figures are sized for a 1,200 px HTML column: at most ``MAX_WIDTH_IN`` inches wide at ``DPI``,
+no text below ``MIN_FONT_PT``.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only: no display on test machines and CI
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+import seaborn as sns  # noqa: E402
+from matplotlib import patheffects  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+
+DPI = 110
+MAX_WIDTH_IN = 11.0  # 1,210 px at DPI: a report's column, shown at 100 %
+MIN_FONT_PT = 9.0
+SYNTHETIC_LABEL = "SYNTHETIC DATA (generated from the paper's Tables 6–8)"
+
+# Okabe & Ito (2008), without black: the seven most distinct first, yellow (weak on white) last.
+OKABE_ITO = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9", "#F0E442")
+LIGHT = {"#F0E442"}  # drawn with a dark edge
+RANDOM_COLOUR = "#404040"  # the baseline: dark grey, so it reads as the reference
+MARKERS = ("o", "s", "^", "D", "v", "P", "<", ">", "p", "h", "*", "d")
+RANDOM_MARKER = "X"
+# Formulations compared side by side: solid/filled for the identifiable one, dashed/open for the paper's.
+VARIANT_LOOK = {"identifiable": ("-", True), "paper": ("--", False)}
+OTHER_VARIANT_LOOK = ((":", True), ("-.", False))
+TRUTH = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
+
+_LABEL = re.compile(r"^(?P<backend>.*?)\s*\[(?P<variant>[^\]]+)\]\s*$")
+
+
+@dataclass(frozen=True)
+class Style:
+    """How one backend (run label) is drawn."""
+
+    label: str
+    colour: str
+    linestyle: str
+    marker: str
+    filled: bool
+
+    def line(self, lw: float = 1.6, markers: bool = False, **extra) -> dict:
+        """``ax.plot`` keyword arguments for a line (with its marker when ``markers``)."""
+        kw = {"color": self.colour, "ls": self.linestyle, "lw": lw, "path_effects": self.outline(lw)}
+        if markers:
+            kw.update(self.point(), ls=self.linestyle)
+        return {**kw, **extra}
+
+    def outline(self, lw: float) -> list:
+        """A thin dark edge around a light colour (Okabe–Ito's yellow is faint on white)."""
+        if self.colour not in LIGHT:
+            return []
+        return [patheffects.Stroke(linewidth=lw + 1.0, foreground="0.35"), patheffects.Normal()]
+
+    def point(self, ms: float = 6.0, **extra) -> dict:
+        """``ax.plot`` keyword arguments for markers only; open markers keep a white fill so they
+        stay open on top of other data."""
+        edge = "0.35" if self.colour in LIGHT else self.colour
+        return {"color": self.colour, "ls": "", "marker": self.marker, "ms": ms, "mec": edge,
+                "mfc": self.colour if self.filled else "white", "mew": 1.2, **extra}
+
+    def handle(self, text: str | None = None, line: bool = True, marker: bool = True) -> Line2D:
+        """A legend entry: line and marker, the marker alone (``line=False``) or the line alone
+        (``marker=False``), as the figure draws it."""
+        kw = self.point(ms=6.5) if marker else {"color": self.colour}
+        if line:
+            kw.update(ls=self.linestyle, lw=1.6, path_effects=self.outline(1.6))
+        return Line2D([], [], label=self.label if text is None else text, **kw)
+
+
+def split_label(label: str) -> tuple[str, str | None]:
+    """``"cmaes [paper]"`` → ``("cmaes", "paper")``; ``"cmaes"`` → ``("cmaes", None)``."""
+    match = _LABEL.match(str(label))
+    return (match["backend"], match["variant"]) if match else (str(label), None)
+
+
+def median_order(runs: pd.DataFrame) -> list[str]:
+    """Labels of the ranking runs in ``runs``, lowest median final loss first (failed runs count as
+    infinitely bad; ties by name)."""
+    ranking = runs[runs["kind"] == "ranking"] if "kind" in runs else runs
+    mse = ranking["mse"].astype(float).where(ranking["status"] == "ok", np.inf)
+    medians = mse.where(np.isfinite(mse), np.inf).groupby(ranking["optimizer"]).median()
+    return sorted(medians.index, key=lambda name: (medians[name], name))
+
+
+def ranking_order(study, order=None) -> list[str]:
+    """Every run label of ``study``: those of ``order`` first (the report's ranking), then the other
+    ranking labels by median final loss, then labels found only in other runs (e.g. posterior)."""
+    known = list(dict.fromkeys(study.runs["optimizer"]))
+    first = [o for o in (order or []) if o in known]
+    rest = [o for o in median_order(study.runs) if o not in first]
+    return list(dict.fromkeys(first + rest + known))
+
+
+def styles(study, order=None) -> dict[str, Style]:
+    """Label → ``Style`` for every run label of ``study``, in ranking order (see ``ranking_order``).
+    The same ``order`` gives the same styles in every figure."""
+    return styles_for(ranking_order(study, order))
+
+
+def styles_for(labels) -> dict[str, Style]:
+    """Label → ``Style`` for ``labels`` given best first (see the module docstring)."""
+    labels = list(dict.fromkeys(labels))
+    split = {label: split_label(label) for label in labels}
+    bases = list(dict.fromkeys(base for base, _ in split.values() if base != "random"))
+    variants = list(dict.fromkeys(v for _, v in split.values() if v is not None))
+    out = {}
+    for label, (base, variant) in split.items():
+        if base == "random":
+            colour, marker, linestyle, filled = RANDOM_COLOUR, RANDOM_MARKER, "-", True
+        else:
+            i = bases.index(base)
+            colour, marker = OKABE_ITO[i % len(OKABE_ITO)], MARKERS[i % len(MARKERS)]
+            linestyle, filled = "-" if i < len(OKABE_ITO) else "--", True
+        if variant is not None:  # the formulation, not the backend, sets line style and fill
+            linestyle, filled = VARIANT_LOOK.get(variant) or OTHER_VARIANT_LOOK[
+                variants.index(variant) % len(OTHER_VARIANT_LOOK)]
+        out[label] = Style(label, colour, linestyle, marker, filled)
+    return out
+
+
+def palette(study, order=None) -> dict:
+    """Label → colour (hex), the colours of ``styles``."""
+    return {label: s.colour for label, s in styles(study, order).items()}
+
+
+def theme() -> None:
+    """Seaborn's white grid with every text at least ``MIN_FONT_PT``."""
+    sns.set_theme(style="whitegrid", context="notebook")
+    plt.rcParams.update({"font.size": 10, "axes.titlesize": 10.5, "axes.labelsize": 10, "xtick.labelsize": 9.5,
+                         "ytick.labelsize": 9.5, "legend.fontsize": 9.5, "legend.title_fontsize": 9.5,
+                         "figure.titlesize": 12, "lines.linewidth": 1.6})
+
+
+def figure(width: float, height: float, **kw):
+    """A constrained-layout figure, at most ``MAX_WIDTH_IN`` wide (``plt.subplots`` arguments in ``kw``)."""
+    return plt.subplots(figsize=(min(width, MAX_WIDTH_IN), height), layout="constrained", **kw)
+
+
+def canvas(width: float, height: float):
+    """An empty constrained-layout figure, at most ``MAX_WIDTH_IN`` wide (for hand-made grids)."""
+    return plt.figure(figsize=(min(width, MAX_WIDTH_IN), height), layout="constrained")
+
+
+def legend(fig, handles, ncol: int | None = None, title: str | None = None, loc: str = "below"):
+    """The figure's one legend, outside the axes: ``"below"`` them (default; ``save`` makes room
+    for it above the SYNTHETIC mark) or any of matplotlib's ``"outside …"`` places."""
+    ncol = max(ncol or min(len(handles), 4), 1)
+    if loc != "below":
+        return fig.legend(handles=handles, loc=loc, ncol=ncol, title=title, frameon=False, handlelength=2.6)
+    leg = fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.0), ncol=ncol, title=title,
+                     frameon=False, columnspacing=1.4, handlelength=2.6)
+    fig._bwbench_legend_below = leg  # noqa: SLF001  (read by save)
+    return leg
+
+
+def backend_handles(styles_, labels, text=None, line: bool = True, marker: bool = True) -> list:
+    """Legend entries for ``labels`` (those present in a figure) in the order of ``styles_`` (ranking
+    order); ``text``: optional label → legend text."""
+    present = set(labels)
+    return [s.handle((text or {}).get(name), line, marker) for name, s in styles_.items() if name in present]
+
+
+def runs_text(n: int) -> str:
+    return f"{n} run" if n == 1 else f"{n} runs"
+
+
+def truth_handle(text: str = "truth") -> Line2D:
+    return Line2D([], [], label=text, **TRUTH)
+
+
+def mark_synthetic(fig) -> None:
+    fig.text(0.995, 0.003, SYNTHETIC_LABEL, ha="right", va="bottom", fontsize=MIN_FONT_PT, color="0.35",
+             style="italic")
+
+
+def slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9.]+", "-", str(text)).strip("-").lower()
+
+
+def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool, rect=(0, 0.03, 1, 0.97)) -> Path:
+    """Write ``stem``.png and the CSV behind it (``frame``) into ``out_dir`` (see ``write_png``);
+    return the PNG's path."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    png = out_dir / f"{stem}.png"
+    write_png(fig, png, synthetic_data, rect)
+    frame.to_csv(png.with_suffix(".csv"), index=False, float_format="%.6g")
+    return png
+
+
+def write_png(fig, png, synthetic_data: bool, rect=(0, 0.03, 1, 0.97)) -> None:
+    """Lay out, mark (SYNTHETIC) and write ``fig`` at ``DPI`` to ``png``, then close it. ``rect``: the
+    area the axes may use under a tight layout; a constrained layout gets the figure less a strip at
+    the bottom for the legend below and the mark."""
+    engine = fig.get_layout_engine()
+    if synthetic_data:
+        mark_synthetic(fig)
+    if isinstance(engine, matplotlib.layout_engine.ConstrainedLayoutEngine):
+        _make_room_below(fig, engine, 0.22 if synthetic_data else 0.04)
+    elif engine is None:
+        fig.tight_layout(rect=rect)
+    fig.savefig(png, dpi=DPI)
+    plt.close(fig)
+
+
+def _make_room_below(fig, engine, mark_in: float) -> None:
+    """Constrained layout does not see a legend placed by hand: measure it, put it above the mark
+    strip (``mark_in`` inches) and keep the axes above both."""
+    height_in = fig.get_size_inches()[1]
+    below = mark_in
+    leg = getattr(fig, "_bwbench_legend_below", None)
+    if leg is not None:
+        fig.canvas.draw()  # the legend's size is known only once drawn
+        leg_in = leg.get_window_extent().height / fig.dpi
+        leg.set_bbox_to_anchor((0.5, mark_in / height_in), transform=fig.transFigure)
+        below += leg_in + 0.08
+    engine.set(rect=(0, below / height_in, 1, 1 - below / height_in))
