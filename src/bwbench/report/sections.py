@@ -116,11 +116,14 @@ def run_figures(report) -> None:
         value = study.problem_type.noise_floor(study, specimen)
         if value is not None:
             floors[specimen] = (value, f"noise floor (truth): {value:.3g} {study.loss_unit}")
-    doc.figure(figures.convergence(study, out, report.featured, floors=floors),
-               "Convergence: median and interquartile range over seeds of the best-so-far loss")
-    doc.figure(figures.runtime_ecdf(study, out),
+    order = list(report.table["optimizer"])
+    doc.figure(figures.convergence(study, out, report.featured, floors=floors, order=order),
+               "Convergence: median over seeds of the best-so-far loss relative to the noise floor (or the best "
+               "known loss where no floor is known); interquartile band for the best 3")
+    doc.figure(figures.runtime_ecdf(study, out, order=order),
                "Runtime ECDF: fraction of (specimen, seed, target) triples reached within x evaluations")
-    doc.figure(figures.waterfall(study, out), "Waterfall: the final loss of every ranking run, sorted per backend")
+    doc.figure(figures.waterfall(study, out, order=order),
+               "Waterfall: the final loss of every ranking run, per specimen, sorted per backend")
 
 
 def limits(report) -> None:

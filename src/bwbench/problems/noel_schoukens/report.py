@@ -318,10 +318,10 @@ def add_sections(report) -> None:
         doc.p("Identifiability analysis not possible: the model is not finite next to the best fit.")
     else:
         _section_identifiability(doc, analysis, label)
-    doc.figure(benchmark_figures.test_fit(study, out, problem, params, label),
+    doc.figure(benchmark_figures.test_fit(study, out, problem, params, label, order=list(report.table["optimizer"])),
                f"The best fit ({label}) against the test_multisine output, and the error of the fit and of the true "
                "parameters")
-    doc.figure(benchmark_figures.parameter_spread(study, out),
+    doc.figure(benchmark_figures.parameter_spread(study, out, order=list(report.table["optimizer"])),
                "Identified parameters of the runs within 10 % of the best training MSE, scaled to the search box, "
                "with the truth (×): β, γ, δ scatter along their invariance while βγ and βδ stay on the truth")
     _section_posterior(doc, study)

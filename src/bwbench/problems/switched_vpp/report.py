@@ -16,7 +16,7 @@ from bwbench.data import manifest
 from bwbench.data.parameters import LABELS, LOWER, UPPER
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.switched_vpp import figures
+from bwbench.problems.switched_vpp import figures, posterior_section
 from bwbench.problems.switched_vpp import identifiability as switched_identifiability
 from bwbench.report.format import evals_text, join, number, spread_text, unit_of
 
@@ -80,18 +80,20 @@ def _describe_file(path) -> dict:
 def add_sections(report) -> None:
     study, doc, out = report.study, report.doc, report.out
     featured = report.featured
-    doc.figure(figures.hysteresis_loops(study, out, featured[0]),
-               f"Measured vs fitted loops on {featured[0]}, best run of each backend (the paper's Figs 20–21)")
-    doc.figure(figures.parameter_spread(study, out, featured),
+    order = list(report.table["optimizer"])
+    doc.figure(figures.hysteresis_loops(study, out, featured[0], order=order),
+               f"Measured loop on {featured[0]} with the best ranking run's fit, and the residuals of the best 3 "
+               "backends and random search (the paper's Figs 20–21)")
+    doc.figure(figures.parameter_spread(study, out, featured, order=order),
                "Parameters of every run within 10 % of the best known MSE, scaled to the Table 5 range")
     for material in study.ranking["material"].dropna().unique():
-        doc.figure(figures.parameters_vs_underpressure(study, out, report.best_backend, material),
+        doc.figure(figures.parameters_vs_underpressure(study, out, report.best_backend, material, order=order),
                    f"{material}: parameters against underpressure, {report.best_backend} (the paper's Figs 18–19)")
     _section_tables(report)
     _section_non_uniqueness(report)
     report.progress("identifiability")
     _section_identifiability(report)
-    _section_posterior(report)
+    posterior_section.section(report)
 
 
 def limits(report) -> list[str]:
@@ -108,9 +110,9 @@ def limits(report) -> list[str]:
     items.append("Identifiability is analysed locally (linearised at the best fit); profiles use a small local "
                  "re-optimisation budget and can miss a better fit far away, so a profile is an upper bound.")
     for chain, d in report.options.get("chain_diagnostics", []):
-        if d["warnings"]:
-            items.append(f"The posterior chain on {chain.specimen} is too short for reliable summaries "
-                         f"({d['steps']} steps, τ ≈ {number(d['tau_max'], 3)}).")
+        if not d["converged"]:
+            items.append(f"The posterior chain on {chain.specimen} has not converged ({d['steps']:,} steps; worst "
+                         f"R̂ {d['worst_r_hat']:.3f}, least bulk ESS {d['min_ess']:,.0f}): its summaries are not reliable.")
     return items
 
 
@@ -142,7 +144,7 @@ def _section_non_uniqueness(report) -> None:
                   f"Table 5 units), **{share:.0%} is the exact symmetry** (it disappears when the gauge is fixed); "
                   f"the remaining {1 - share:.0%} lies in directions the data determine only weakly, the scatter "
                   "the identifiable coordinates show as well.")
-        doc.figure(non_uniqueness.figure(study, report.out, specimen),
+        doc.figure(non_uniqueness.figure(study, report.out, specimen, order=list(report.table["optimizer"])),
                    f"{specimen}: good fits in the paper's and the identifiable coordinates")
 
 
@@ -299,39 +301,3 @@ def _profile_sentence(result: dict) -> str:
             parts.append(f"{LABELS[name]}: the profile rises to {number(worst, 3)} N² (best {number(floor, 3)} N²), so the "
                          "data constrain it away from its best value")
     return "Profiles — " + "; ".join(parts) + "."
-
-
-def _section_posterior(report):
-    doc, study = report.doc, report.study
-    chains = [c for c in study.chains if c.kind == "posterior"]
-    if not chains:
-        return []
-    from bwbench.analysis.identifiability import posterior_correlation, strongest_pairs
-
-    doc.h(2, "Posterior sampling (emcee)")
-    diags = []
-    for chain in chains:
-        d = mcmc.chain_diagnostics(chain.samples, chain.acceptance_fraction, chain.log_prob)
-        diags.append((chain, d))
-        png = figures.posterior(study, doc.out_dir, chain)
-        burn = chain.steps // 2
-        stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
-        corr = posterior_correlation(chain.physical(burn, ~stuck), list(PARAM_NAMES))
-        pairs = strongest_pairs(corr, 4)
-        doc.h(3, chain.specimen)
-        doc.table(pd.DataFrame([{
-            "steps": d["steps"], "walkers": d["walkers"], "acceptance fraction": f"{d['acceptance_fraction']:.2f}",
-            "τ max (steps)": number(d["tau_max"], 3), "τ median (steps)": number(float(np.nanmedian(d["tau"])), 3),
-            "effective samples (steps·walkers/τ)": evals_text(d["ess"]), "50·τ (steps)": evals_text(50 * d["tau_max"])}]),
-            f"{chain.optimizer} chain diagnostics (emcee.autocorr.integrated_time on the whole chain)")
-        if d["warnings"]:
-            doc.banner("Warning: " + "; ".join(d["warnings"]) + ".")
-        else:
-            doc.p("No warning: the chain is longer than 50·τ and the acceptance fraction is in 0.2–0.5.")
-        doc.p("Strongest posterior correlations (second half of the chain, stuck walkers left out): "
-              + "; ".join(f"{LABELS[a]}–{LABELS[b]} r = {r:+.2f}" for a, b, r in pairs) + ".")
-        doc.figure(png, f"{chain.specimen}: posterior marginals of the 14 parameters and the 4 most correlated pairs, "
-                        "with each backend's best fit and the truth")
-    report.options["chain_diagnostics"] = diags
-    return diags
-

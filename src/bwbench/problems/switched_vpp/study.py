@@ -142,7 +142,10 @@ class SwitchedVPP(ProblemType):
         truth = manifest_mod.truth_params(study.specimen_path(specimen))
         if truth is None:
             return None
-        problem = self.make_problem(study.settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
+        # The truth is a paper vector: its loss in the paper formulation, whatever the study compared.
+        s = study.settings
+        settings = {"state": s.get("state", "shared"), "excitation": s.get("excitation", "measured")}
+        problem = self.make_problem(settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
         return float(problem.loss_batch(truth[None, :])[0])
 
     def setup_text(self, report) -> str:
