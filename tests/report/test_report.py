@@ -97,12 +97,13 @@ def test_recommend_weighs_effect_size_and_separates_close_from_far():
     assert [n for n, _, _ in rec["close"]] == ["z"]  # 3.6 N ≤ 2 × 2.0 N
     assert [n for n, _, _ in rec["far"]] == ["v"]  # 12 N, better than random: far behind, not "avoid"
     assert dict(rec["avoid"]).keys() == {"w"}  # random is the baseline, never a candidate
-    assert rec["choice"] == "y"  # the tied/equal group's fastest per run: the tie-breaker
+    assert rec["choice"] == "x"  # the practically equal group's fastest per run: the tie-breaker
     text = rec["text"]
-    assert text.startswith("For this problem at a budget of 1,000 evaluations, **x**, **y** and **e** are as good")
-    assert "use any of them" in text and "**y** is the fastest per run" in text
+    assert text.startswith("For this problem at a budget of 1,000 evaluations, **x** and **e** are as good")
+    assert "use either" in text and "**x** is the fastest per run" in text
     assert "e's final losses are within 10 % of x's (median ratio 1.05, Holm p = 0.001): practically equal" in text
-    assert "Close behind (significantly worse, median RMSE within 2× the best's): z (3.6 N)" in text
+    assert "The tests cannot tell x from y (Holm p = 0.4, median ratio 1.26)" in text  # tied, not "as good"
+    assert "Close behind (median RMSE within 2× the best's): z (3.6 N)" in text
     assert "Far behind (median RMSE more than 2× the best's): v (12 N)" in text
     assert "Random search, the baseline, ends at a median RMSE of 50 N." in text
 

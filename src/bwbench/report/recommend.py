@@ -72,14 +72,14 @@ def recommend(table: pd.DataFrame, pairwise: pd.DataFrame, omnibus, budget, n_sp
             avoid.append((name, f"is significantly worse than random search (Holm p = {p_text(vs['p_holm'])})"))
         elif np.isfinite(ratio) and ratio <= 1 + PRACTICAL:
             groups["equal"].append((name, p, ratio))
-        elif not (row and row["significant"]):
-            groups["tied"].append((name, p, ratio))
+        elif not (row and row["significant"]) and rmse[name] <= CLOSE * rmse[b]:
+            groups["tied"].append((name, p, ratio))  # the tests cannot tell, and the effect is moderate
         elif rmse[name] <= CLOSE * rmse[b]:
             groups["close"].append((name, p, ratio))
         else:
             groups["far"].append((name, p, ratio))
     wall = row_of["median_wall_s"].astype(float) if "median_wall_s" in row_of else pd.Series(dtype=float)
-    alike = {n for n, _, _ in groups["equal"] + groups["tied"]}
+    alike = {n for n, _, _ in groups["equal"]}
     peers = [b] + [n for n in names if n in alike]  # in ranking order
     choice = min(peers, key=lambda n: wall.get(n, np.inf)) if wall.notna().any() else b
     text = _text(table, b, choice, groups, avoid, p_info, omnibus, omnibus_name, budget, n_specimens, unit, wall)
@@ -91,11 +91,14 @@ def _text(table, b, choice, groups, avoid, p_info, omnibus, omnibus_name, budget
     row_of = table.set_index("optimizer")
     best = row_of.loc[b]
     budget_text = f"{budget:,}" if isinstance(budget, (int, float)) else str(budget)
-    alike = {n for n, _, _ in groups["equal"] + groups["tied"]}
+    alike = {n for n, _, _ in groups["equal"]}
     peers = [n for n in table["optimizer"] if n in alike]
+    significant = {n for n, p, _ in groups["close"] + groups["far"] if np.isfinite(p) and p < ALPHA}
 
     def seconds(name):
-        return f"{number(wall.get(name), 2)} s" if name in wall and np.isfinite(wall[name]) else "–"
+        if name not in wall or not np.isfinite(wall[name]):
+            return "–"
+        return f"{wall[name]:,.0f} s" if wall[name] >= 100 else f"{number(wall[name], 2)} s"
 
     if peers:
         everyone = [b] + peers
@@ -111,19 +114,21 @@ def _text(table, b, choice, groups, avoid, p_info, omnibus, omnibus_name, budget
     if row_of.loc[b, "success_10%"] == 0:
         text += f" Even {b} never came within 10 % of the best known fit: consider a larger budget."
     for name, p, ratio in groups["equal"]:
-        text += (f" {name}'s final losses are within {PRACTICAL * 100:.0f} % of {b}'s (median ratio {ratio:.3g}, Holm "
+        text += (f" {name}'s final losses are within {PRACTICAL * 100:.0f} % of {b}'s (median ratio {ratio:.2f}, Holm "
                  f"p = {p_text(p)}): practically equal.")
-    tied = [f"{n} (Holm p = {p_text(p)}, median ratio {ratio:.3g})" for n, p, ratio in groups["tied"]]
+    tied = [f"{n} (Holm p = {p_text(p)}, median ratio {ratio:.2f})" for n, p, ratio in groups["tied"]]
     if tied and not p_info["can_reach"]:
         text += (f" Not enough runs to separate {b} from {join(tied)}: with {p_info['pairs']} pairs per comparison "
                  f"and {p_info['comparisons']} comparisons the smallest Holm-corrected p the design can reach is "
                  f"{p_text(p_info['min_p_holm'])} ≥ α = {ALPHA:g}.")
     elif tied:
         text += f" The tests cannot tell {b} from {join(tied)}."
-    for label, key in (("Close behind (significantly worse, median RMSE within {close:g}× the best's)", "close"),
+    for label, key in (("Close behind (median RMSE within {close:g}× the best's)", "close"),
                        ("Far behind (median RMSE more than {close:g}× the best's)", "far")):
         if groups[key]:
-            listing = ", ".join(f"{n} ({number(row_of.loc[n, 'median_rmse_N'], 3)} {unit})" for n, _, _ in groups[key])
+            listing = ", ".join(f"{n} ({number(row_of.loc[n, 'median_rmse_N'], 3)} {unit}"
+                                + ("" if n in significant else ", not significant at this size") + ")"
+                                for n, _, _ in groups[key])
             text += f" {label.format(close=CLOSE)}: {listing}."
     for name, reason in avoid:
         text += f" Avoid **{name}**: it {reason}."

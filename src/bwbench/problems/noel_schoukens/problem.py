@@ -145,6 +145,12 @@ class BoucWenBenchmarkProblem:
         """MSE (m²) of each row of P (physical units, shape (m, 8)); +inf where it blows up."""
         return mse_batch(P, self.input, self.y_period)
 
+    def residual_batch(self, P) -> np.ndarray:
+        """Model − measured displacement (m) over the compared period, shape (m, 8192); +inf rows on blow-up."""
+        P = np.atleast_2d(np.asarray(P, dtype=float))
+        R = np.stack([simulate(p, self.input) for p in P]) - self.y_period
+        return np.where(np.all(np.isfinite(R), axis=1)[:, None], R, np.inf)
+
     def simulate_test(self, params, which: str = "test_multisine") -> np.ndarray:
         """Model y (m) on a test file's sample times: steady state (multisine) or from rest (sweep)."""
         record, inp = self._test(which)
