@@ -16,7 +16,7 @@ Gaussian likelihood with the noise σ integrated out under Jeffreys' prior p(σ)
 Start (option ``start``): "uniform" walkers uniform in the box (a sampler used as an optimiser, as in
 the ranking); "optimum": first a CMA-ES run (the ``cmaes`` backend) on ``start_fraction`` of the
 budget, then the walkers in a ball of radius 0.01 (unit coordinates) around the best point it found
-— the usual start of an ensemble sampler (walkers scattered over a 7- or 14-dimensional box get stuck
+(option ``start_radius``, 0.01) — the usual start of an ensemble sampler (walkers scattered over a 7- or 14-dimensional box get stuck
 in the poor regions for a very long time, and the chain never mixes).
 
 Library call: ``emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)`` with the
@@ -65,9 +65,11 @@ from bwbench.optimize.registry import register
              "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points"),
              "start": Choice("uniform", ("uniform", "optimum")),
              "start_fraction": Float(0.1, minimum=0.0, maximum=0.9),
-             "moves": Choice("stretch", ("stretch", "de"))},
+             "moves": Choice("stretch", ("stretch", "de")),
+             "start_radius": Float(0.01, minimum=1e-6, maximum=0.5)},
 )
-def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", start_fraction=0.1, moves="stretch"):
+def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", start_fraction=0.1, moves="stretch",
+             start_radius=0.01):
     d = objective.dim
     if n_walkers is not None and n_walkers < 2 * d:
         raise OptionError(f"emcee: option n_walkers must be at least 2·d = {2 * d} on this {d}-parameter "
@@ -102,7 +104,7 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", st
     sampler = emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True, moves=chosen)
     sampler.random_state = np.random.RandomState(np.random.MT19937(rng.integers(2**63))).get_state()
     state = rng.random((n_walkers, d)) if start == "uniform" else _ball_at_optimum(objective, rng, n_walkers,
-                                                                                  start_fraction)
+                                                                                  start_fraction, start_radius)
     # −inf − (−inf) = NaN in emcee's acceptance test when a walker and its proposal both blew up:
     # the comparison with NaN is False, i.e. rejected, which is right; the warning is noise.
     stuck = False
@@ -133,8 +135,8 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", st
     }
 
 
-def _ball_at_optimum(objective, rng, n_walkers: int, fraction: float) -> np.ndarray:
-    """Walkers in a ball of radius 0.01 around the best point a CMA-ES run on ``fraction`` of the
+def _ball_at_optimum(objective, rng, n_walkers: int, fraction: float, radius: float) -> np.ndarray:
+    """Walkers in a ball of ``radius`` (unit coordinates) around the best point a CMA-ES run on ``fraction`` of the
     remaining budget found (every evaluation counts against the objective's budget)."""
     from bwbench.optimizers.cmaes import minimize as cmaes
 
@@ -144,7 +146,7 @@ def _ball_at_optimum(objective, rng, n_walkers: int, fraction: float) -> np.ndar
     except BudgetExhausted:
         pass
     centre = objective.best_u if objective.best_u is not None else rng.random(objective.dim)
-    return np.clip(centre + 0.01 * rng.standard_normal((n_walkers, objective.dim)), 0.0, 1.0)
+    return np.clip(centre + radius * rng.standard_normal((n_walkers, objective.dim)), 0.0, 1.0)
 
 
 class _Share:
