@@ -180,3 +180,36 @@ budget = 300
     assert len(table) == 3 and np.isfinite(fr.pvalue)
     rec = report.recommend(table, statistics.pairwise_wilcoxon(loaded.ranking), fr, 60, 2)
     assert rec["best"] == table.iloc[0]["optimizer"]
+
+
+def test_pairwise_tests_read_as_a_matrix_in_ranking_order():
+    pairs = _pairs([("x", "y", -0.5, 0.01), ("x", "z", -1.0, 0.01), ("y", "z", 0.2, 0.40)])
+    from bwbench.report.sections import pairwise_matrix
+
+    matrix = pairwise_matrix(pairs, ["x", "y", "z"])
+    assert list(matrix.columns) == ["backend (rank)", "1", "2", "3"]
+    assert list(matrix["backend (rank)"]) == ["1. x", "2. y", "3. z"]
+    # antisymmetric, starred only where Holm leaves the difference significant
+    assert matrix.loc[0, "2"] == "-0.5*" and matrix.loc[1, "1"] == "0.5*"
+    assert matrix.loc[1, "3"] == "0.2" and matrix.loc[2, "2"] == "-0.2"
+    assert matrix.loc[0, "1"] == "–"
+
+
+def test_html_tables_put_text_left_and_numbers_right(built):
+    _, _, html_path = built
+    html = html_path.read_text(encoding="utf-8")
+    # the backend column is text, the wall-time column numbers; every ranking row has both
+    assert re.search(r'<td class="text">cmaes</td>', html)
+    assert re.search(r"<td>\d[\d.,]*</td>", html)
+    assert not re.search(r'<td class="text">\d[\d.,]*</td>', html.split("<h2>Ranking</h2>")[1].split("</table>")[0])
+
+
+def test_backends_table_finds_the_backend_behind_a_formulation_label(built):
+    db, _, _ = built
+    from bwbench.report.sections import backends_table
+
+    study = results_db.load_study(db)
+    study.config["optimizers"] = {"cmaes": {"popsize": 8}}
+    study.runs.loc[study.runs["optimizer"] == "cmaes", "optimizer"] = "cmaes [identifiable]"
+    row = backends_table(study).set_index("backend").loc["cmaes [identifiable]"]
+    assert row["family"] != "–" and row["evaluates"] == "populations" and row["options"] == "popsize=8"

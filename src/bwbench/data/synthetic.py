@@ -167,7 +167,7 @@ def generate(out_dir=SPECIMEN_DIR, settings: Settings = Settings(), paper=PAPER_
             })
     document = {
         "note": SYNTHETIC_NOTE,
-        "generator": "bwbench data generate (src/bwbench/synthetic.py)",
+        "generator": "bwbench data generate (src/bwbench/data/synthetic.py)",
         "settings": dataclasses.asdict(s),
         "units": {"time": "s", "displacement": "mm", "force": "N", "noise_force_N": "N (1 sigma)",
                   "noise_displacement_mm": "mm (1 sigma)", "reversal_s": "s"},

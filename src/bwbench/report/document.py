@@ -89,9 +89,12 @@ class Document:
                 body.append("<ul>" + "".join(f"<li>{self._inline(i)}</li>" for i in block[1]) + "</ul>")
             elif kind == "table":
                 frame, caption = block[1], block[2]
-                head = "".join(f"<th>{self._inline(str(c))}</th>" for c in frame.columns)
-                rows = "".join("<tr>" + "".join(f"<td>{self._inline(str(c))}</td>" for c in row) + "</tr>"
-                               for row in frame.itertuples(index=False))
+                # text columns left, number columns right (decided per column, so a column reads as one)
+                align = ['' if all(_NUMBER.match(str(c)) for c in frame[col]) else ' class="text"'
+                         for col in frame.columns]
+                head = "".join(f"<th{a}>{self._inline(str(c))}</th>" for a, c in zip(align, frame.columns))
+                rows = "".join("<tr>" + "".join(f"<td{a}>{self._inline(str(c))}</td>" for a, c in zip(align, row))
+                               + "</tr>" for row in frame.itertuples(index=False))
                 cap = f"<caption>{self._inline(caption)}</caption>" if caption else ""
                 body.append(f'<div class="scroll"><table>{cap}<thead><tr>{head}</tr></thead>'
                             f"<tbody>{rows}</tbody></table></div>")
@@ -109,6 +112,9 @@ class Document:
         return head + "<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"
 
 
+# A cell that reads as a number: 4,100 / -0.0103 / 4.9e-04 / 75% / 1.1* / ∞ / – (missing) / 10.2 … 9.54
+_NUMBER = re.compile(r"^\s*(([-+−≤<>~]?\s*[\d.,]+(e[-+]?\d+)?\s*%?\*?)(\s*…\s*[-+−]?[\d.,]+(e[-+]?\d+)?)?|∞|–|)\s*$")
+
 _CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; max-width: 1500px;
        margin: 1.5em auto; padding: 0 1em; color: #222; line-height: 1.45; }
@@ -117,9 +123,9 @@ h2 { border-bottom: 1px solid #bbb; padding-bottom: .15em; margin-top: 2em; }
 .banner { background: #fff3cd; border: 2px solid #d39e00; padding: .6em 1em; font-weight: bold; margin: 1em 0; }
 table { border-collapse: collapse; margin: .6em 0 1.2em; font-size: .88em; }
 caption { caption-side: top; text-align: left; font-style: italic; padding-bottom: .3em; }
-th, td { border: 1px solid #ccc; padding: .25em .55em; text-align: right; white-space: nowrap; }
-th { background: #f0f0f0; }
-td:first-child, th:first-child { text-align: left; }
+th, td { border: 1px solid #ccc; padding: .25em .5em; text-align: right; white-space: nowrap; }
+th { background: #f0f0f0; white-space: normal; vertical-align: bottom; }
+th.text, td.text { text-align: left; }
 tbody tr:nth-child(even) { background: #fafafa; }
 .scroll { overflow-x: auto; }
 figure { margin: 1em 0 2em; }

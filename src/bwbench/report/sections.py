@@ -26,13 +26,30 @@ def backends_table(study) -> pd.DataFrame:
     nfev = ranking.groupby("optimizer")["nfev"].median()
     rows = []
     for name in study.optimizers:
-        options = study.config.get("optimizers", {}).get(name, {})
-        backend = backends.get(name)
+        base = name.split(" [", 1)[0]  # "cmaes [identifiable]" ran the backend "cmaes" (study.tasks.run_label)
+        options = study.config.get("optimizers", {}).get(base, {})
+        backend = backends.get(base)
         rows.append({"backend": name, "family": getattr(backend, "family", "–"),
                      "evaluates": "–" if backend is None else ("populations" if backend.batched else "one point per call"),
                      "options": ", ".join(f"{k}={json.dumps(v)}" for k, v in options.items()) or "defaults",
                      "median wall time per run (s)": number(wall.get(name), 3),
                      "median evaluations": evals_text(nfev.get(name))})
+    return pd.DataFrame(rows)
+
+
+def pairwise_matrix(pairwise: pd.DataFrame, order: list[str]) -> pd.DataFrame:
+    """The pairwise tests as a compact square table in ranking ``order``: row i, column j holds the
+    median log10 loss ratio of i over j, starred when Holm's correction leaves it significant."""
+    cells = {}
+    for r in pairwise.itertuples():
+        star = "*" if r.significant else ""
+        cells[r.a, r.b] = number(r.median_diff, 2) + star
+        cells[r.b, r.a] = number(-r.median_diff if np.isfinite(r.median_diff) else r.median_diff, 2) + star
+    rows = []
+    for i, a in enumerate(order, 1):
+        row = {"backend (rank)": f"{i}. {a}"}
+        row.update({str(j): ("–" if a == b else cells.get((a, b), "")) for j, b in enumerate(order, 1)})
+        rows.append(row)
     return pd.DataFrame(rows)
 
 
@@ -84,14 +101,12 @@ def ranking(report) -> None:
               f"**p = {p_text(omnibus.pvalue)}**.")
     else:
         doc.p(f"{omnibus.note}.")
-    rows = []
-    for r in report.pairwise.itertuples():
-        verdict = f"{r.better} better" if r.significant else "no significant difference"
-        rows.append({"A": r.a, "B": r.b, "runs A/B": f"{r.n_a}/{r.n_b}", "A wins": r.wins_a, "B wins": r.wins_b,
-                     "median log10(loss A / loss B)": number(r.median_diff, 3), "p": p_text(r.p),
-                     "p (Holm)": p_text(r.p_holm), f"verdict (α = {ALPHA:g})": verdict})
-    if rows:
-        doc.table(pd.DataFrame(rows), f"Pairwise {report.tests.pairwise_name}, Holm-corrected")
+    if len(report.pairwise):
+        doc.table(pairwise_matrix(report.pairwise, list(table["optimizer"])),
+                  f"Pairwise {report.tests.pairwise_name}: median log10(loss of the row / loss of the column); "
+                  f"negative = the row reaches lower losses; * = significant after Holm's correction "
+                  f"(α = {ALPHA:g}). Columns are numbered by rank; every p, win count and verdict is in "
+                  "pairwise_tests.csv")
     doc.p(f"The pairwise tests are on log10 of the final loss (a ratio, so a specimen with larger forces does not "
           f"dominate); a failed run counts as one decade worse than the worst finished run on its specimen. "
           f"{report.tests.pairwise_note} Holm's step-down correction is written out in "
