@@ -195,10 +195,16 @@ def test_missing_data_folder_is_one_line_saying_where_and_how(tmp_path):
     assert not (tmp_path / "x.sqlite").exists()
 
 
-def test_a_database_of_the_old_format_still_resumes_the_same_study():
+def test_a_database_of_the_old_format_still_resumes_the_same_study(tmp_path):
     from bwbench.study.store import extension_conflicts
 
-    config = load_study_config(REPO / "studies" / "quick.toml")
+    # quick.toml as it was when such databases were written: 5 seeds, the paper's formulation only
+    text = (REPO / "studies" / "quick.toml").read_text(encoding="utf-8")
+    text = text.replace("seeds = 4\n", "seeds = 5\n", 1).replace('formulation = ["paper", "identifiable"]\n', "")
+    text = text.replace('data = "../data/specimens"', f'data = "{(REPO / "data" / "specimens").as_posix()}"')
+    assert "seeds = 5" in text and "formulation" not in text.split("[optimizers]")[0].split("[study]")[1]
+    (tmp_path / "quick.toml").write_text(text, encoding="utf-8")
+    config = load_study_config(tmp_path / "quick.toml")
     assert config.problem == "switched-bouc-wen" and "problem" not in config.to_json_dict()["study"]
     new = config.to_json_dict()
     legacy = {**QUICK_LEGACY, "optimizers": new["optimizers"], "posterior": {
