@@ -213,3 +213,15 @@ def test_backends_table_finds_the_backend_behind_a_formulation_label(built):
     study.runs.loc[study.runs["optimizer"] == "cmaes", "optimizer"] = "cmaes [identifiable]"
     row = backends_table(study).set_index("backend").loc["cmaes [identifiable]"]
     assert row["family"] != "–" and row["evaluates"] == "populations" and row["options"] == "popsize=8"
+
+
+def test_report_says_how_long_the_study_took(built):
+    db, out, _ = built
+    with sqlite3.connect(db) as conn:
+        walls = np.array([r[0] for r in conn.execute("SELECT wall_s FROM timings")])
+    md = (out / "report.md").read_text(encoding="utf-8")
+    # every fixture run finished at the same instant: the study took as long as its longest run
+    took = re.search(r"Computed in \*\*([0-9.e-]+) s\*\* elapsed.*in one session; ([0-9.e-]+) core-hours", md)
+    assert took, md[:2000]
+    assert float(took.group(1)) == pytest.approx(walls.max(), rel=2e-3)
+    assert float(took.group(2)) == pytest.approx(walls.sum() / 3600, rel=2e-3)

@@ -10,6 +10,7 @@ import pandas as pd
 from bwbench.report import figures
 from bwbench.report.format import evals_text, number, p_text, percent
 from bwbench.report.recommend import ALPHA, rule
+from bwbench.study.timing import compute_time
 
 
 def backends_table(study) -> pd.DataFrame:
@@ -63,6 +64,9 @@ def setup(report) -> None:
           f"had the same budget of **{budget} evaluations** per run (one evaluation = one simulation of one "
           f"parameter vector), {s.get('seeds', '?')} seeds per (specimen, backend), study seed {s.get('seed', '?')}."
           + (" " + report.problem_type.setup_text(report) if report.problem_type.setup_text(report) else ""))
+    took = _compute_time_text(study)
+    if took:
+        doc.p(took)
     doc.table(backends_table(study), "Backends and their options (as run), with the wall time of their runs "
                                      "(one core each)")
     post = study.config.get("posterior")
@@ -70,6 +74,19 @@ def setup(report) -> None:
         doc.p(f"Posterior sampling (not part of the ranking): {post.get('optimizer')} on "
               f"{', '.join(post.get('specimens', []))}, budget {post.get('budget')} evaluations, "
               f"{post.get('seeds')} seed(s), options {json.dumps(post.get('options', {}))}.")
+
+
+def _compute_time_text(study) -> str:
+    """"Computed in 41.2 min …": elapsed over the runner's sessions, core-hours, and the machine."""
+    took = compute_time(study.runs)
+    if took is None:
+        return ""
+    sessions = "one session" if took.sessions == 1 else f"{took.sessions} sessions (the idle time between them left out)"
+    machine = study.meta.get("machine")
+    elapsed = (f"{number(took.elapsed_s, 3)} s" if took.elapsed_s < 120 else f"{number(took.elapsed_s / 60, 3)} min")
+    return (f"Computed in **{elapsed}** elapsed, first run start to last run end, in "
+            f"{sessions}; {number(took.core_s / 3600, 3)} core-hours of runs"
+            + (f", on {machine}" if machine else "") + ". Writing this report is not included.")
 
 
 def ranking(report) -> None:

@@ -203,7 +203,7 @@ def read_meta(conn) -> tuple[dict, dict]:
 def read_runs(conn) -> pd.DataFrame:
     tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
     if "timings" in tables:
-        query = ("SELECT runs.*, timings.wall_s, timings.worker FROM runs "
+        query = ("SELECT runs.*, timings.wall_s, timings.worker, timings.finished_utc FROM runs "
                  "LEFT JOIN timings USING (kind, specimen, optimizer, replicate)")
     else:
         query = "SELECT * FROM runs"

@@ -41,6 +41,7 @@ from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.study.config import StudyConfig, describe_differences
 from bwbench.study.failures import is_transient_text
+from bwbench.study.timing import machine_description
 
 GENERIC_COLUMNS = ("problem", "params_json", "metrics_json")  # usable by any problem
 RUN_COLUMNS = (
@@ -162,6 +163,7 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
             ])
         if planned_runs is not None:
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('planned_runs', ?)", (str(planned_runs),))
+        conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('machine', ?)", (machine_description(),))
         location = config.setup.data_location  # where the data are now: for the report, not the identity
         if isinstance(location, dict):
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)",
