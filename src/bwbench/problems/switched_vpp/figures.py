@@ -73,7 +73,7 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
             rows += [{"specimen": specimen, "optimizer": "truth", "replicate": -1, "mse": np.nan, "parameter": n,
                       "value": float(v), "unit_value": float(w)} for n, v, w in zip(PARAM_NAMES, true, unit_truth)]
         ax.set_xlim(-0.6, len(PARAM_NAMES) - 0.4)
-        ax.set_ylim(-0.04, 1.04)
+        ax.set_ylim(-EDGE - 0.03, 1 + EDGE + 0.03)
         ax.set_ylabel("position in range (–)")
         ax.set_title(f"{specimen_title(study, specimen)}: best known {best[specimen]:.4g} {study.loss_unit}, "
                      f"{len(here)} of {int((runs['specimen'] == specimen).sum())} runs within {tolerance:.0%}",
@@ -94,6 +94,9 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
     frame = pd.DataFrame(rows, columns=["specimen", "optimizer", "replicate", "mse", "parameter", "value",
                                         "unit_value"])
     return save(fig, out_dir, "spread", frame, synthetic(study, specimens))
+
+
+EDGE = 0.06  # where off-range values are drawn, as a fraction of the range beyond its bound
 
 
 def parameters_vs_underpressure(study, out_dir, optimizer: str, material: str, order=None) -> Path:
@@ -121,24 +124,33 @@ def parameters_vs_underpressure(study, out_dir, optimizer: str, material: str, o
                            for n, v in zip(frame["parameter"], frame["value"])]
     pressures = sorted(runs["underpressure_MPa"].unique())
     step = float(np.min(np.diff(pressures))) if len(pressures) > 1 else 0.02
-    fig, axes = figure(MAX_WIDTH_IN, 6.4, nrows=2, ncols=7, squeeze=False, sharex=True, sharey=True)
+    fig, axes = figure(MAX_WIDTH_IN, 7.2, nrows=2, ncols=7, squeeze=False, sharex=True, sharey=True)
     rng = np.random.default_rng(0)  # jitter only: the figure is the same every time
+    off_scale = 0
     for ax, name in zip(axes.flat, PARAM_NAMES):
         g = frame[(frame["source"] == optimizer) & (frame["parameter"] == name)]
         jitter = rng.uniform(-0.12, 0.12, len(g)) * step
-        ax.plot(g["underpressure_MPa"] + jitter, g["unit_value"], **style.point(ms=4.5), alpha=0.55, zorder=3)
-        stats = g.groupby("underpressure_MPa")["unit_value"].agg(["median", "min", "max"])
+        # Values beyond the Table 5 range (the identifiable formulation's box is another) are drawn on
+        # the panel's edge as triangles pointing the way they went, never silently cut off.
+        y = g["unit_value"].to_numpy()
+        for mask, marker, edge in ((y < 0, "v", -EDGE), ((y >= 0) & (y <= 1), "o", None), (y > 1, "^", 1 + EDGE)):
+            ax.plot(g["underpressure_MPa"][mask] + jitter[mask], y[mask] if edge is None else np.full(mask.sum(), edge),
+                    **{**style.point(ms=4.5), "marker": marker}, alpha=0.55, zorder=3)
+        off_scale += int(np.sum((y < 0) | (y > 1)))
+        stats = g.assign(unit_value=g["unit_value"].clip(-EDGE, 1 + EDGE)).groupby(
+            "underpressure_MPa")["unit_value"].agg(["median", "min", "max"])
         ax.errorbar(stats.index + 0.3 * step, stats["median"],
                     yerr=[stats["median"] - stats["min"], stats["max"] - stats["median"]], fmt="_", ms=14, mew=2.4,
                     color=style.colour, ecolor=style.colour, elinewidth=1.4, capsize=3, ls="none", zorder=4)
         t = frame[(frame["source"] == "truth") & (frame["parameter"] == name)]
+        t = t.assign(unit_value=t["unit_value"].clip(-EDGE, 1 + EDGE))
         ax.plot(t["underpressure_MPa"], t["unit_value"], **{**TRUTH, "ms": 7}, zorder=5)
         j = PARAM_NAMES.index(name)
         ax.set_title(f"{axis_label(name)}\n{LOWER[j]:.3g} … {UPPER[j]:.3g}", fontsize=10)
         ax.set_xlim(pressures[0] - 0.7 * step, pressures[-1] + 0.8 * step) if pressures else None
         ax.set_xticks(pressures, [f"{p:g}" for p in pressures])
         ax.tick_params(axis="x", labelrotation=90 if len(pressures) > 3 else 0)
-        ax.set_ylim(-0.04, 1.04)
+        ax.set_ylim(-EDGE - 0.03, 1 + EDGE + 0.03)
         ax.set_yticks([0, 0.5, 1])
     for ax in axes[:, 0]:
         ax.set_ylabel("position in range (–)")
@@ -149,10 +161,15 @@ def parameters_vs_underpressure(study, out_dir, optimizer: str, material: str, o
     handles = [style.handle(f"{optimizer}: each run", line=False),
                Line2D([], [], color=style.colour, marker="_", ms=14, mew=2.4, ls="-", lw=1.4,
                       label="median, bar = min–max")]
+    if off_scale:
+        handles.append(Line2D([], [], color=style.colour, marker="^", ls="none", ms=6,
+                              label=f"beyond the range, at its edge ({off_scale} of {len(runs) * 14} values)"))
     if truths:
         handles.append(truth_handle())
-    legend(fig, handles, ncol=3)
+    legend(fig, handles, ncol=2 if off_scale else 3)
+    gauge = ("\nA, β, γ (and with them α, ξ, ωn) of an identifiable fit are one point on the exact symmetry's "
+             "orbit: the gauge nearest Table 5's centre" if "[identifiable]" in optimizer else "")
     fig.suptitle(f"{material}: identified parameters against underpressure — {optimizer}, {seeds} seeds × "
                  f"{repeats} repeat(s) per underpressure\ny axis: each parameter's whole Table 5 range (its bounds "
-                 "under its name)")
-    return save(fig, out_dir, f"underpressure_{slug(material)}", frame, synthetic(study, runs["specimen"].unique()))
+                 f"under its name){gauge}", fontsize=11)
+    return save(fig, out_dir, f"underpressure_{slug(material)}" + ("_identifiable" if "[identifiable]" in optimizer else ""), frame, synthetic(study, runs["specimen"].unique()))
