@@ -181,7 +181,21 @@ def test_parameters_against_underpressure(study, out):
     assert sorted(frame["underpressure_MPa"].unique()) == [0.01, 0.09]
     assert (frame["source"] == "truth").sum() == 14 * 2
     # y is the position in the whole Table 5 range: every panel the same scale
-    assert frame["unit_value"].between(0, 1).all()
+    assert frame["unit_value"].between(0, 1).all() and not frame["drawn_at_edge"].any()
+
+
+def test_underpressure_values_beyond_table_5_are_drawn_at_the_edge_not_dropped(study, out):
+    import dataclasses
+
+    material = study.ranking["material"].iloc[0]
+    runs = study.runs.copy()
+    first = runs.index[(runs["optimizer"] == "cmaes") & (runs["kind"] == "ranking")][0]
+    runs.loc[first, "A+"] = 10.0  # Table 5: 0.001 … 0.025
+    frame = _read(switched_figures.parameters_vs_underpressure(dataclasses.replace(study, runs=runs), out,
+                                                               "cmaes", material))
+    edge = frame[frame["drawn_at_edge"]]
+    assert len(edge) == 1 and edge["parameter"].iloc[0] == "A+" and edge["value"].iloc[0] == 10.0
+    assert len(frame[frame["source"] == "cmaes"]) == 14 * 8  # still every value
 
 
 def test_profiles_figure(out):

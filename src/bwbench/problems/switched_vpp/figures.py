@@ -122,6 +122,7 @@ def parameters_vs_underpressure(study, out_dir, optimizer: str, material: str, o
     frame = pd.concat([long, pd.DataFrame(truths)], ignore_index=True).assign(material=material)
     frame["unit_value"] = [(v - LOWER[PARAM_NAMES.index(n)]) / (UPPER - LOWER)[PARAM_NAMES.index(n)]
                            for n, v in zip(frame["parameter"], frame["value"])]
+    frame["drawn_at_edge"] = (frame["unit_value"] < 0) | (frame["unit_value"] > 1)
     pressures = sorted(runs["underpressure_MPa"].unique())
     step = float(np.min(np.diff(pressures))) if len(pressures) > 1 else 0.02
     fig, axes = figure(MAX_WIDTH_IN, 7.2, nrows=2, ncols=7, squeeze=False, sharex=True, sharey=True)
