@@ -225,3 +225,19 @@ def test_report_says_how_long_the_study_took(built):
     assert took, md[:2000]
     assert float(took.group(1)) == pytest.approx(walls.max(), rel=2e-3)
     assert float(took.group(2)) == pytest.approx(walls.sum() / 3600, rel=2e-3)
+
+
+def test_recommend_says_many_practically_equal_backends_in_one_sentence():
+    table = _table([("x", 1.2, 2.0, 0.8, 900.0, 1.0), ("a", 1.9, 2.01, 0.8, 900.0, 2.0),
+                    ("b", 2.0, 2.02, 0.8, 900.0, 0.5), ("c", 2.2, 2.1, 0.7, 900.0, 3.0),
+                    ("random", 5.0, 50.0, 0.0, np.inf, 1.0)])
+    pairs = _pairs([("x", "a", -0.001, 0.30), ("x", "b", -0.01, 0.02), ("x", "c", -0.03, 0.001),
+                    ("x", "random", -2.0, 0.01), ("a", "random", -2.0, 0.01), ("b", "random", -2.0, 0.01),
+                    ("c", "random", -2.0, 0.01)])
+    fr = statistics.Friedman(10.0, 0.01, pd.Series(dtype=float), 6, "")
+    rec = report.recommend(table, pairs, fr, 1000, 6)
+    assert [n for n, _, _ in rec["equal"]] == ["a", "b", "c"] and rec["choice"] == "b"
+    text = rec["text"]
+    assert ("The final losses of the other 3 are within 10 % of x's (median paired ratios 1.00 to 1.07; "
+            "Holm p 0.001 to 0.3;") in text
+    assert "final losses are within 10 % of x's (median ratio" not in text  # no sentence per backend

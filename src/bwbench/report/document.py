@@ -90,8 +90,10 @@ class Document:
             elif kind == "table":
                 frame, caption = block[1], block[2]
                 # text columns left, number columns right (decided per column, so a column reads as one)
-                align = ['' if all(_NUMBER.match(str(c)) for c in frame[col]) else ' class="text"'
-                         for col in frame.columns]
+                # a column of long texts (backend options) wraps, so the table fits the page
+                align = ['' if all(_NUMBER.match(str(c)) for c in frame[col]) else
+                         ' class="text long"' if max(len(str(c)) for c in frame[col]) > 40 else ' class="text"'
+                         for col in frame.columns] if len(frame) else [''] * len(frame.columns)
                 head = "".join(f"<th{a}>{self._inline(str(c))}</th>" for a, c in zip(align, frame.columns))
                 rows = "".join("<tr>" + "".join(f"<td{a}>{self._inline(str(c))}</td>" for a, c in zip(align, row))
                                + "</tr>" for row in frame.itertuples(index=False))
@@ -126,6 +128,7 @@ caption { caption-side: top; text-align: left; font-style: italic; padding-botto
 th, td { border: 1px solid #ccc; padding: .25em .5em; text-align: right; white-space: nowrap; }
 th { background: #f0f0f0; white-space: normal; vertical-align: bottom; }
 th.text, td.text { text-align: left; }
+td.long { white-space: normal; min-width: 16em; }
 tbody tr:nth-child(even) { background: #fafafa; }
 .scroll { overflow-x: auto; }
 figure { margin: 1em 0 2em; }

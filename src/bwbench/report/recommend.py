@@ -113,9 +113,17 @@ def _text(table, b, choice, groups, avoid, p_info, omnibus, omnibus_name, budget
              f"10 % of the best known loss (ERT {evals_text(best['ert_10%'])} evaluations).")
     if row_of.loc[b, "success_10%"] == 0:
         text += f" Even {b} never came within 10 % of the best known fit: consider a larger budget."
-    for name, p, ratio in groups["equal"]:
-        text += (f" {name}'s final losses are within {PRACTICAL * 100:.0f} % of {b}'s (median ratio {ratio:.2f}, Holm "
-                 f"p = {p_text(p)}): practically equal.")
+    if len(groups["equal"]) <= 2:
+        for name, p, ratio in groups["equal"]:
+            text += (f" {name}'s final losses are within {PRACTICAL * 100:.0f} % of {b}'s (median ratio {ratio:.2f}, "
+                     f"Holm p = {p_text(p)}): practically equal.")
+    else:  # one sentence for many: a list of a dozen identical sentences hides the rest of the paragraph
+        ratios = [r for _, _, r in groups["equal"]]
+        ps = [p for _, p, _ in groups["equal"] if np.isfinite(p)]
+        p_range = f"; Holm p {p_text(min(ps))} to {p_text(max(ps))}" if ps else ""
+        text += (f" The final losses of the other {len(groups['equal'])} are within {PRACTICAL * 100:.0f} % of {b}'s "
+                 f"(median paired ratios {min(ratios):.2f} to {max(ratios):.2f}{p_range}; each pair in the "
+                 "pairwise matrix below): practically equal, whether or not the difference is significant.")
     tied = [f"{n} (Holm p = {p_text(p)}, median ratio {ratio:.2f})" for n, p, ratio in groups["tied"]]
     if tied and not p_info["can_reach"]:
         text += (f" Not enough runs to separate {b} from {join(tied)}: with {p_info['pairs']} pairs per comparison "

@@ -154,8 +154,12 @@ def run_figures(report) -> None:
                "known loss where no floor is known); interquartile band for the best 3")
     doc.figure(figures.runtime_ecdf(study, out, order=order),
                "Runtime ECDF: fraction of (specimen, seed, target) triples reached within x evaluations")
-    doc.figure(figures.waterfall(study, out, order=order),
-               "Waterfall: the final loss of every ranking run, per specimen, sorted per backend")
+    # One panel per specimen reads well up to a handful; beyond, the featured ones (all in the CSV).
+    many = len(study.specimens) > len(report.featured) + 1
+    doc.figure(figures.waterfall(study, out, order=order, specimens=report.featured if many else None),
+               "Waterfall: the final loss of every ranking run, per specimen, sorted per backend"
+               + (f" — on the {len(report.featured)} featured specimens of {len(study.specimens)} (every run of "
+                  "every specimen in the CSV)" if many else ""))
 
 
 def limits(report) -> None:
