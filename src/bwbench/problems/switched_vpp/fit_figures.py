@@ -170,7 +170,7 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
         handles.append(Patch(color="0.85", label=f"±2σ of the noise (truth's residual, σ = {noise:.2g} N)"))
     legend(fig, handles, ncol=2)
     fig.suptitle(f"{specimen}: best fit ({best_label}, seed {int(best_run['replicate'])}) and the residuals of the "
-                 f"best {len(shown) - len(randoms)} backends and random search\n"
+                 f"best {len(shown) - len(randoms)} backends" + (" and random search" if randoms else "") + "\n"
                  f"ranking runs only ({best_problem.state} state, {best_problem.excitation} excitation)")
     frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     return save(fig, out_dir, f"loops_{slug(specimen)}", frame, synthetic(study, [specimen]))

@@ -24,8 +24,18 @@ from bwbench.report.format import evals_text, join, number, spread_text, unit_of
 
 def setup_text(report) -> str:
     s = report.study.settings
+    formulations = s.get("formulation", "paper")
+    formulations = [formulations] if isinstance(formulations, str) else list(formulations)
+    boxes = {"paper": "the paper's 14 parameters in its Table 5 box, unit mass",
+             "identifiable": "the identifiable formulation: hysteretic parameters searched in a box scaled from "
+                             "each specimen's data, linear coefficients solved per simulation"
+                             + (f" (mass: {s.get('fix_mass', 'auto')})" if s.get("fix_mass", "auto") != "auto" else "")}
+    text = "; ".join(boxes.get(f, f) for f in formulations)
+    if s.get("bounds"):
+        text += f"; bounds set by the study: {', '.join(sorted(s['bounds']))}"
+    label = "formulations compared side by side" if len(formulations) > 1 else "formulation"
     return (f"Model state convention **{s.get('state', '?')}**, excitation **{s.get('excitation', '?')}**; "
-            "search box: the paper's Table 5.")
+            f"{label}: {text}.")
 
 
 def data_section(report) -> None:
@@ -84,7 +94,8 @@ def add_sections(report) -> None:
     order = list(report.table["optimizer"])
     doc.figure(figures.hysteresis_loops(study, out, featured[0], order=order),
                f"Measured loop on {featured[0]} with the best ranking run's fit, and the residuals of the best 3 "
-               "backends and random search (the paper's Figs 20–21)")
+               "backends" + (" and random search" if any(o.split(" [")[0] == "random" for o in order) else "")
+               + " (the paper's Figs 20–21)")
     doc.figure(figures.parameter_spread(study, out, featured, order=order),
                "Parameters of every run within 10 % of the best known MSE, scaled to the Table 5 range")
     # The paper's view (its 14 parameters, searched in its box) from the best backend of that formulation,
