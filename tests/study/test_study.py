@@ -26,33 +26,15 @@ from bwbench.study.execute import run_study
 from bwbench.study.tasks import plan_tasks, task_seed
 from bwbench.study.config import load_study_config
 
-REPO = Path(__file__).resolve().parents[2]
-RUN_COMPARE = REPO / "studies" / "run_compare.py"
-DATA = REPO / "data" / "specimens"
+import robustness_helpers
+from robustness_helpers import REPO, RUN_COMPARE
+
 KEY_ORDER = "ORDER BY kind, specimen, optimizer, replicate"
 
 
-def write_config(path: Path, *, budget=400, seeds=2, optimizers="random = {}\nfirefly = {}",
-                 underpressures="[0.01, 0.05, 0.09]", extra="") -> Path:
+def write_config(path: Path, *, budget=400, seeds=2, **options) -> Path:
     """A tiny study: 3 specimens × 2 backends × 2 seeds = 12 runs of 400 evaluations by default."""
-    path.write_text(f"""
-[study]
-name = "tiny"
-seed = 11
-budget = {budget}
-seeds = {seeds}
-data = "{DATA.as_posix()}"
-
-[specimens]
-material = ["POM MT24u01"]
-underpressure_MPa = {underpressures}
-repeat = [1]
-
-[optimizers]
-{optimizers}
-{extra}
-""", encoding="utf-8")
-    return path
+    return robustness_helpers.write_config(path, budget=budget, seeds=seeds, **options)
 
 
 def rows(db, table="runs") -> list:

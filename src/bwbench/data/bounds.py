@@ -7,12 +7,12 @@ problem's default range (the paper's Table 5 for the paper formulation). Every m
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
+from bwbench.data.json_input import read_json_file
 from bwbench.errors import InputFileError
 
 # Where a value of the wrong sign makes the model meaningless rather than merely a bad fit: |z|^n with
@@ -45,14 +45,7 @@ def validate(table, names, where: str) -> dict:
 def read_json(path, names) -> dict:
     """The bounds in a JSON file (see the module docstring)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputFileError(path, None, f"cannot read: {getattr(err, 'strerror', None) or err}") from None
-    try:
-        table = json.loads(text)
-    except json.JSONDecodeError as err:
-        raise InputFileError(path, err.lineno, f"not valid JSON: {err.msg}") from None
+    table = read_json_file(path)
     return validate(table, names, str(path))
 
 

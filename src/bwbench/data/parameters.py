@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bwbench.data.json_input import read_json_file
 from bwbench.errors import InputFileError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 
@@ -49,14 +50,7 @@ def read_json(path, names=PARAM_NAMES) -> np.ndarray:
     """A parameters JSON: an object with the ``names`` (default the paper's 14), or a fit result with
     a ``params`` object; values in the order of ``names``."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputFileError(path, None, f"cannot read: {getattr(err, 'strerror', None) or err}") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as err:
-        raise InputFileError(path, err.lineno, f"not valid JSON: {err.msg}") from None
+    data = read_json_file(path)
     if isinstance(data, dict) and isinstance(data.get("params"), dict):
         data = data["params"]
     if not isinstance(data, dict):

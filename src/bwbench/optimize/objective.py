@@ -48,15 +48,20 @@ class Objective:
     def best_params(self) -> np.ndarray | None:
         return None if self.best_u is None else self.problem.from_unit(self.best_u)
 
-    def batch(self, U) -> np.ndarray:
-        """Losses of the rows of U (shape (m, d)); rows past the budget are not run (+inf)."""
-        U = np.atleast_2d(np.asarray(U, dtype=float))
+    def _admit(self, U) -> tuple[int, np.ndarray]:
+        """How many rows of U (m, d) the budget runs, and those rows clipped to the box; raises for a
+        wrong shape or a spent budget."""
         if U.ndim != 2 or U.shape[1] != self.dim:
             raise ValueError(f"expected points of dimension {self.dim}, got shape {U.shape}")
         if self.exhausted:
             raise BudgetExhausted(f"budget of {self.budget} evaluations is spent")
         take = min(len(U), self.remaining)
-        U_run = np.clip(U[:take], 0.0, 1.0)
+        return take, np.clip(U[:take], 0.0, 1.0)
+
+    def batch(self, U) -> np.ndarray:
+        """Losses of the rows of U (shape (m, d)); rows past the budget are not run (+inf)."""
+        U = np.atleast_2d(np.asarray(U, dtype=float))
+        take, U_run = self._admit(U)
         losses = np.full(len(U), np.inf)
         if take:
             run = self.problem.loss_batch(self.problem.from_unit(U_run))
@@ -71,12 +76,7 @@ class Objective:
         Gaussian likelihood with σ integrated out under Jeffreys' prior, −(n/2)·log(MSE). Rows past
         the budget, and rows that blow up, get loss +inf and log-likelihood −inf."""
         U = np.atleast_2d(np.asarray(U, dtype=float))
-        if U.ndim != 2 or U.shape[1] != self.dim:
-            raise ValueError(f"expected points of dimension {self.dim}, got shape {U.shape}")
-        if self.exhausted:
-            raise BudgetExhausted(f"budget of {self.budget} evaluations is spent")
-        take = min(len(U), self.remaining)
-        U_run = np.clip(U[:take], 0.0, 1.0)
+        take, U_run = self._admit(U)
         losses, loglik = np.full(len(U), np.inf), np.full(len(U), -np.inf)
         if take:
             P = self.problem.from_unit(U_run)
@@ -112,14 +112,9 @@ class Objective:
         U = np.asarray(U, dtype=float)
         single = U.ndim == 1
         U = np.atleast_2d(U)
-        if U.ndim != 2 or U.shape[1] != self.dim:
-            raise ValueError(f"expected points of dimension {self.dim}, got shape {U.shape}")
-        if self.exhausted:
-            raise BudgetExhausted(f"budget of {self.budget} evaluations is spent")
-        take = min(len(U), self.remaining)
+        take, U_run = self._admit(U)
         if not take:  # an empty batch: nothing run, nothing counted
             return np.empty((0, int(getattr(self.problem, "n_data", 0))))
-        U_run = np.clip(U[:take], 0.0, 1.0)
         run = np.atleast_2d(np.array(residual_batch(self.problem.from_unit(U_run)), dtype=float))
         if run.shape[0] != take:
             raise ValueError(f"residual_batch returned {run.shape[0]} rows for {take} points")
