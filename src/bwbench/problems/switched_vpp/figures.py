@@ -27,6 +27,7 @@ from bwbench.report.palette import (
 )
 
 SPREAD_TOLERANCE = 0.10  # parameter spread: runs with MSE ≤ (1 + 0.10) × best known
+EDGE = 0.06  # off-range values are drawn this far beyond the bound, as a fraction of the range
 
 
 def _unit(values) -> np.ndarray:
@@ -73,7 +74,7 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
             rows += [{"specimen": specimen, "optimizer": "truth", "replicate": -1, "mse": np.nan, "parameter": n,
                       "value": float(v), "unit_value": float(w)} for n, v, w in zip(PARAM_NAMES, true, unit_truth)]
         ax.set_xlim(-0.6, len(PARAM_NAMES) - 0.4)
-        ax.set_ylim(-EDGE - 0.03, 1 + EDGE + 0.03)
+        ax.set_ylim(-0.04, 1.04)
         ax.set_ylabel("position in range (–)")
         ax.set_title(f"{specimen_title(study, specimen)}: best known {best[specimen]:.4g} {study.loss_unit}, "
                      f"{len(here)} of {int((runs['specimen'] == specimen).sum())} runs within {tolerance:.0%}",
@@ -94,9 +95,6 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
     frame = pd.DataFrame(rows, columns=["specimen", "optimizer", "replicate", "mse", "parameter", "value",
                                         "unit_value"])
     return save(fig, out_dir, "spread", frame, synthetic(study, specimens))
-
-
-EDGE = 0.06  # where off-range values are drawn, as a fraction of the range beyond its bound
 
 
 def parameters_vs_underpressure(study, out_dir, optimizer: str, material: str, order=None) -> Path:
@@ -173,4 +171,5 @@ def parameters_vs_underpressure(study, out_dir, optimizer: str, material: str, o
     fig.suptitle(f"{material}: identified parameters against underpressure — {optimizer}, {seeds} seeds × "
                  f"{repeats} repeat(s) per underpressure\ny axis: each parameter's whole Table 5 range (its bounds "
                  f"under its name){gauge}", fontsize=11)
-    return save(fig, out_dir, f"underpressure_{slug(material)}" + ("_identifiable" if "[identifiable]" in optimizer else ""), frame, synthetic(study, runs["specimen"].unique()))
+    name = f"underpressure_{slug(material)}" + ("_identifiable" if "[identifiable]" in optimizer else "")
+    return save(fig, out_dir, name, frame, synthetic(study, runs["specimen"].unique()))
