@@ -226,3 +226,17 @@ def test_reversals_are_the_turning_points_not_the_noise():
     x = x + np.random.default_rng(0).normal(0, 0.05, t.size)
     turns = t[reversals(x)]
     assert np.allclose(turns, np.arange(0.5, 4.0, 0.5), atol=0.02)
+
+
+def test_panel_titles_name_the_material_when_a_study_has_several(study):
+    import dataclasses
+
+    from bwbench.report.figures import specimen_title
+
+    specimen = study.runs["specimen"].iloc[0]
+    one = specimen_title(study, specimen)
+    assert "MPa" in one and study.runs["material"].iloc[0] not in one
+    runs = study.runs.copy()
+    runs.loc[runs["specimen"] != specimen, "material"] = "PC/ABS C12HF"
+    two = specimen_title(dataclasses.replace(study, runs=runs), specimen)
+    assert two == f"{study.runs['material'].iloc[0]}, {one}"

@@ -50,11 +50,14 @@ def specimen_order(study, specimens=None) -> list[str]:
 
 
 def specimen_title(study, specimen: str) -> str:
-    """``"0.05 MPa, repeat 1"`` when the runs give underpressure and repeat, else the specimen's name."""
+    """``"0.05 MPa, repeat 1"`` when the runs give underpressure and repeat (``"POM C9021, 0.05 MPa,
+    repeat 1"`` when the study has several materials), else the specimen's name."""
     row = study.runs[study.runs["specimen"] == specimen].head(1)
     if len(row) and "underpressure_MPa" in row and np.isfinite(pd.to_numeric(row["underpressure_MPa"].iloc[0],
                                                                               errors="coerce")):
         text = f"{float(row['underpressure_MPa'].iloc[0]):g} MPa"
+        if "material" in row and study.runs["material"].nunique() > 1:
+            text = f"{row['material'].iloc[0]}, {text}"
         repeat = pd.to_numeric(row["repeat"].iloc[0], errors="coerce") if "repeat" in row else np.nan
         return text + (f", repeat {int(repeat)}" if np.isfinite(repeat) else "")
     return specimen
