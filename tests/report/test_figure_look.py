@@ -198,3 +198,19 @@ def test_plot_fit_titles_the_formulation_and_shows_the_residual(study, drawn, tm
     (record,) = drawn
     assert "cmaes (paper formulation)" in record.texts and f"residual: RMSE {np.sqrt(run['mse']):.3g} N" in record.texts
     assert record.width_in <= palette.MAX_WIDTH_IN and record.smallest_font >= palette.MIN_FONT_PT
+
+
+def test_a_legend_too_wide_for_the_page_gets_fewer_columns(tmp_path, monkeypatch):
+    from matplotlib.lines import Line2D
+
+    drawn = {}
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig",
+                        lambda self, *a, **k: drawn.update(fig=self, legend=self._bwbench_legend_below))
+    fig, ax = palette.figure(palette.MAX_WIDTH_IN, 4.0)
+    ax.plot([0, 1], [0, 1])
+    handles = [Line2D([], [], marker="o", label=f"a long backend name [identifiable] ({i} runs)") for i in range(24)]
+    palette.legend(fig, handles, ncol=5)
+    palette.save(fig, tmp_path, "wide", pd.DataFrame({"x": [0]}), synthetic_data=False)
+    leg, fig = drawn["legend"], drawn["fig"]
+    assert leg._ncols < 5 and len(leg.legend_handles) == 24
+    assert leg.get_window_extent().width <= fig.get_size_inches()[0] * fig.dpi

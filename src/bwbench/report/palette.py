@@ -230,6 +230,13 @@ def _make_room_below(fig, engine, mark_in: float) -> None:
     leg = getattr(fig, "_bwbench_legend_below", None)
     if leg is not None:
         fig.canvas.draw()  # the legend's size is known only once drawn
+        width = fig.get_size_inches()[0] * fig.dpi
+        while leg.get_window_extent().width > 0.99 * width and leg._ncols > 1:  # noqa: SLF001
+            # long labels: fewer columns rather than a legend cut off at both sides
+            handles, ncols, title = leg.legend_handles, leg._ncols - 1, leg.get_title().get_text() or None  # noqa: SLF001
+            leg.remove()
+            leg = legend(fig, handles, ncol=ncols, title=title)
+            fig.canvas.draw()
         leg_in = leg.get_window_extent().height / fig.dpi
         leg.set_bbox_to_anchor((0.5, mark_in / height_in), transform=fig.transFigure)
         below += leg_in + 0.08

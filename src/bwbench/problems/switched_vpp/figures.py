@@ -49,7 +49,7 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
     present = [o for o in look if o in set(good["optimizer"])]  # "(0/5 runs)" entries say nothing
     fig, axes = figure(MAX_WIDTH_IN, 2.9 * len(specimens) + 1.6, nrows=len(specimens), ncols=1, squeeze=False,
                        sharex=True)
-    rows = []
+    rows, off_scale = [], 0
     width = 0.8 / max(len(present), 1)
     rng = np.random.default_rng(0)  # jitter only: the figure is the same every time
     x0 = np.arange(len(PARAM_NAMES))
@@ -60,9 +60,12 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
             values = g[list(PARAM_NAMES)].to_numpy(dtype=float)
             unit = _unit(values)
             offset = (b - (len(present) - 1) / 2) * width
+            off_scale += int(np.sum((unit < 0) | (unit > 1)))
             for j in range(len(PARAM_NAMES)):
                 x = j + offset + rng.uniform(-0.25, 0.25, len(g)) * width
-                ax.plot(x, unit[:, j], **look[optimizer].point(ms=5.5), alpha=0.85, zorder=3)
+                # beyond the Table 5 range (an identifiable fit mapped back): on the grey edge bands
+                ax.plot(x, np.clip(unit[:, j], -EDGE, 1 + EDGE), **look[optimizer].point(ms=5.5), alpha=0.85,
+                        zorder=3)
             for (replicate, mse), v, u in zip(g[["replicate", "mse"]].itertuples(index=False), values, unit):
                 rows += [{"specimen": specimen, "optimizer": optimizer, "replicate": replicate, "mse": mse,
                           "parameter": n, "value": v[j], "unit_value": u[j]} for j, n in enumerate(PARAM_NAMES)]
@@ -74,7 +77,9 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
             rows += [{"specimen": specimen, "optimizer": "truth", "replicate": -1, "mse": np.nan, "parameter": n,
                       "value": float(v), "unit_value": float(w)} for n, v, w in zip(PARAM_NAMES, true, unit_truth)]
         ax.set_xlim(-0.6, len(PARAM_NAMES) - 0.4)
-        ax.set_ylim(-0.04, 1.04)
+        ax.set_ylim(-EDGE - 0.03, 1 + EDGE + 0.03)
+        for band in ((-EDGE - 0.03, 0.0), (1.0, 1 + EDGE + 0.03)):
+            ax.axhspan(*band, color="0.9", lw=0, zorder=0)
         ax.set_ylabel("position in range (–)")
         ax.set_title(f"{specimen_title(study, specimen)}: best known {best[specimen]:.4g} {study.loss_unit}, "
                      f"{len(here)} of {int((runs['specimen'] == specimen).sum())} runs within {tolerance:.0%}",
@@ -91,7 +96,8 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
         handles.append(truth_handle())
     legend(fig, handles, ncol=min(len(handles), 5))
     fig.suptitle(f"Parameter spread across seeds: every ranking run with MSE ≤ {1 + tolerance:g} × the best known "
-                 "for its specimen")
+                 "for its specimen" + (f"\n{off_scale} values beyond the Table 5 range are drawn on the grey band at "
+                                       "its edge" if off_scale else ""))
     frame = pd.DataFrame(rows, columns=["specimen", "optimizer", "replicate", "mse", "parameter", "value",
                                         "unit_value"])
     return save(fig, out_dir, "spread", frame, synthetic(study, specimens))
