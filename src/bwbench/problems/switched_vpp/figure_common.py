@@ -10,6 +10,16 @@ from bwbench.data.parameters import LABELS, UNITS
 from bwbench.problems.switched_vpp import identifiable as fm
 from bwbench.report.palette import split_label
 
+EDGE = 0.06  # values beyond a parameter's Table 5 range are drawn this far beyond it (fraction of the range)
+
+
+def edge_bands(ax) -> None:
+    """y from just below 0 to just above 1 (positions in the Table 5 range), with grey bands beyond
+    the bounds where ``np.clip(value, -EDGE, 1 + EDGE)`` puts the values outside the range."""
+    ax.set_ylim(-EDGE - 0.03, 1 + EDGE + 0.03)
+    for band in ((-EDGE - 0.03, 0.0), (1.0, 1 + EDGE + 0.03)):
+        ax.axhspan(*band, color="0.9", lw=0, zorder=0)
+
 
 def axis_label(name: str) -> str:
     """``"ωn₊ (rad/s)"``: symbol and unit of a paper or identifiable parameter."""

@@ -18,7 +18,7 @@ from matplotlib.lines import Line2D
 from bwbench.analysis import statistics
 from bwbench.data.parameters import LABELS, LOWER, UPPER
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.switched_vpp.figure_common import axis_label, synthetic, truth  # noqa: F401
+from bwbench.problems.switched_vpp.figure_common import EDGE, axis_label, edge_bands, synthetic, truth  # noqa: F401
 from bwbench.problems.switched_vpp.fit_figures import hysteresis_loops, plot_fit  # noqa: F401
 from bwbench.problems.switched_vpp.posterior_figures import posterior, profiles  # noqa: F401
 from bwbench.report.figures import finished, specimen_order, specimen_title
@@ -27,7 +27,6 @@ from bwbench.report.palette import (
 )
 
 SPREAD_TOLERANCE = 0.10  # parameter spread: runs with MSE ≤ (1 + 0.10) × best known
-EDGE = 0.06  # off-range values are drawn this far beyond the bound, as a fraction of the range
 
 
 def _unit(values) -> np.ndarray:
@@ -77,9 +76,7 @@ def parameter_spread(study, out_dir, specimens=None, tolerance: float = SPREAD_T
             rows += [{"specimen": specimen, "optimizer": "truth", "replicate": -1, "mse": np.nan, "parameter": n,
                       "value": float(v), "unit_value": float(w)} for n, v, w in zip(PARAM_NAMES, true, unit_truth)]
         ax.set_xlim(-0.6, len(PARAM_NAMES) - 0.4)
-        ax.set_ylim(-EDGE - 0.03, 1 + EDGE + 0.03)
-        for band in ((-EDGE - 0.03, 0.0), (1.0, 1 + EDGE + 0.03)):
-            ax.axhspan(*band, color="0.9", lw=0, zorder=0)
+        edge_bands(ax)
         ax.set_ylabel("position in range (–)")
         ax.set_title(f"{specimen_title(study, specimen)}: best known {best[specimen]:.4g} {study.loss_unit}, "
                      f"{len(here)} of {int((runs['specimen'] == specimen).sum())} runs within {tolerance:.0%}",
@@ -155,7 +152,7 @@ def parameters_vs_underpressure(study, out_dir, optimizer: str, material: str, o
         ax.set_xlim(pressures[0] - 0.7 * step, pressures[-1] + 0.8 * step) if pressures else None
         ax.set_xticks(pressures, [f"{p:g}" for p in pressures])
         ax.tick_params(axis="x", labelrotation=90 if len(pressures) > 3 else 0)
-        ax.set_ylim(-EDGE - 0.03, 1 + EDGE + 0.03)
+        edge_bands(ax)
         ax.set_yticks([0, 0.5, 1])
     for ax in axes[:, 0]:
         ax.set_ylabel("position in range (–)")

@@ -54,13 +54,15 @@ def coordinates(runs: pd.DataFrame, state: str) -> tuple[np.ndarray, np.ndarray,
 
 def symmetry_share(paper_unit: np.ndarray, gauged_unit: np.ndarray) -> float:
     """Fraction of the total variance of the paper coordinates (Table 5 units) that fixing the
-    gauge removes: the part of the scatter that is the exact symmetry. NaN with fewer than 2 runs."""
+    gauge removes: the part of the scatter that is the exact symmetry. NaN with fewer than 2 runs; 0
+    when fixing the gauge does not shrink the scatter (it can move fits apart: then none of it is the
+    symmetry, never a negative share)."""
     keep = np.all(np.isfinite(paper_unit), axis=1) & np.all(np.isfinite(gauged_unit), axis=1)
     if keep.sum() < 2:
         return float("nan")
     before = float(np.sum(np.var(paper_unit[keep], axis=0)))
     after = float(np.sum(np.var(gauged_unit[keep], axis=0)))
-    return 1.0 - after / before if before > 0 else float("nan")
+    return max(0.0, 1.0 - after / before) if before > 0 else float("nan")
 
 
 def spread_table(study, specimen: str) -> tuple[pd.DataFrame, dict]:
@@ -97,6 +99,7 @@ def figure(study, out_dir, specimen: str, order=None):
     parameters (units of their data-scaled box). Each backend in its report-wide colour and marker
     (``order``: the report's ranking, see ``bwbench.report.palette``); one legend."""
     from bwbench.data import manifest
+    from bwbench.problems.switched_vpp.figure_common import EDGE, edge_bands
     from bwbench.report.palette import MAX_WIDTH_IN, TRUTH, backend_handles, figure as new_figure, legend, \
         runs_text, save, slug, styles, theme, truth_handle
 
@@ -105,12 +108,15 @@ def figure(study, out_dir, specimen: str, order=None):
     look = styles(study, order)
     fig, (left, right) = new_figure(MAX_WIDTH_IN, 5.0, ncols=2, gridspec_kw={"width_ratios": [2, 1]})
     rng = np.random.default_rng(0)  # jitter only: the figure is the same every time
-    rows = []
+    rows, off_scale = [], 0
     for k, optimizer in enumerate(s["optimizers"]):
         jitter = rng.uniform(-0.18, 0.18)
         point = look[optimizer].point(ms=5.5)
-        left.plot(np.arange(14) + jitter, s["paper_unit"][k], **{**point, "mfc": point["color"]}, alpha=0.85)
-        left.plot(np.arange(14) + jitter, s["gauged_unit"][k], **{**point, "mfc": "none", "ms": 7.5}, alpha=0.85)
+        off_scale += int(np.sum((s["paper_unit"][k] < 0) | (s["paper_unit"][k] > 1)))
+        left.plot(np.arange(14) + jitter, np.clip(s["paper_unit"][k], -EDGE, 1 + EDGE),
+                  **{**point, "mfc": point["color"]}, alpha=0.85)
+        left.plot(np.arange(14) + jitter, np.clip(s["gauged_unit"][k], -EDGE, 1 + EDGE),
+                  **{**point, "mfc": "none", "ms": 7.5}, alpha=0.85)
         right.plot(np.arange(len(s["theta_names"])) + jitter, s["theta_unit"][k], **{**point, "mfc": point["color"]},
                    alpha=0.85)
         rows += [{"optimizer": optimizer, "coordinates": kind, "parameter": name, "unit_value": float(value)}
@@ -130,13 +136,15 @@ def figure(study, out_dir, specimen: str, order=None):
     left.set_ylabel("position in range (–)")
     share = s["share"]
     left.set_title("paper parameters (Table 5 units): filled = as fitted, open = same loops, gauge fixed"
-                   + (f"\n{share:.0%} of the scatter is the exact symmetry z → s·z" if np.isfinite(share) else ""),
+                   + (f"\n{share:.0%} of the scatter is the exact symmetry z → s·z" if np.isfinite(share) else "")
+                   + (f"; {off_scale} values beyond Table 5 on the grey bands" if off_scale else ""),
                    loc="left")
     right.set_xticks(np.arange(len(s["theta_names"])), [fm.LABELS[n] for n in s["theta_names"]])
     right.set_title("identifiable parameters (data-scaled\nbox): no symmetry; what scatters is\nweakly determined",
                     loc="left")
+    edge_bands(left)  # fits mapped from the identifiable box can lie beyond Table 5
+    right.set_ylim(-0.04, 1.04)
     for ax in (left, right):
-        ax.set_ylim(-0.04, 1.04)
         ax.grid(axis="x", visible=False)
     present = list(dict.fromkeys(s["optimizers"]))
     counts = pd.Series(s["optimizers"]).value_counts()
