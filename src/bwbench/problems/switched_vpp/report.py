@@ -157,7 +157,8 @@ def _section_non_uniqueness(report) -> None:
                                     "parameter's search range")
         share = s["share"]
         if np.isfinite(share):
-            doc.p(f"{specimen}: of the scatter of the paper parameters across these fits (total variance in "
+            doc.p(f"{specimen}: of the scatter of the paper parameters across the {s['share_runs']} of these fits "
+                  "that searched the paper's coordinates (total variance in "
                   f"Table 5 units), **{share:.0%} is the exact symmetry** (it disappears when the gauge is fixed); "
                   f"the remaining {1 - share:.0%} lies in directions the data determine only weakly, the scatter "
                   "the identifiable coordinates show as well.")
