@@ -145,7 +145,7 @@ def figure(study, out_dir, specimen: str, order=None):
     left.set_title("paper parameters (Table 5 units): filled = as fitted, open = same loops, gauge fixed"
                    + (f"\n{share:.0%} of the scatter of the {s['share_runs']} paper-coordinate searches is the "
                       "exact symmetry z → s·z" if np.isfinite(share) else "")
-                   + (f"; {off_scale} values beyond Table 5 on the grey bands" if off_scale else ""),
+                   + (f"\n{off_scale} values beyond Table 5 drawn on the grey bands" if off_scale else ""),
                    loc="left")
     right.set_xticks(np.arange(len(s["theta_names"])), [fm.LABELS[n] for n in s["theta_names"]])
     right.set_title("identifiable parameters (data-scaled\nbox): no symmetry; what scatters is\nweakly determined",
