@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from bwbench.report import figures
+from bwbench.report.palette import split_label
 from bwbench.report.format import evals_text, number, p_text, percent
 from bwbench.report.recommend import ALPHA, rule
 from bwbench.study.timing import compute_time
@@ -27,7 +28,7 @@ def backends_table(study) -> pd.DataFrame:
     nfev = ranking.groupby("optimizer")["nfev"].median()
     rows = []
     for name in study.optimizers:
-        base = name.split(" [", 1)[0]  # "cmaes [identifiable]" ran the backend "cmaes" (study.tasks.run_label)
+        base = split_label(name)[0]  # "cmaes [identifiable]" ran the backend "cmaes" (study.tasks.run_label)
         options = study.config.get("optimizers", {}).get(base, {})
         backend = backends.get(base)
         rows.append({"backend": name, "family": getattr(backend, "family", "–"),
@@ -58,12 +59,13 @@ def setup(report) -> None:
     study, doc = report.study, report.doc
     s = study.settings
     budget = s.get("budget", "?")
+    problem_text = report.problem_type.setup_text(report)
     doc.h(2, "What was compared")
     doc.p(f"Study **{study.name}** (database `{study.path.name}`, bwbench {study.meta.get('bwbench_version', '?')}, "
           f"created {study.meta.get('created_utc', '?')}). Problem: {study.problem_type.description}. Every backend "
           f"had the same budget of **{budget} evaluations** per run (one evaluation = one simulation of one "
           f"parameter vector), {s.get('seeds', '?')} seeds per (specimen, backend), study seed {s.get('seed', '?')}."
-          + (" " + report.problem_type.setup_text(report) if report.problem_type.setup_text(report) else ""))
+          + (" " + problem_text if problem_text else ""))
     took = _compute_time_text(study)
     if took:
         doc.p(took)

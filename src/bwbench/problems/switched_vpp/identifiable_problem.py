@@ -19,9 +19,10 @@ from bwbench.models import switched_bouc_wen as model
 from bwbench.problems.box import box_from_unit, box_to_unit
 from bwbench.problems.switched_vpp import identifiable as fm
 from bwbench.problems.switched_vpp.linear_solve import LINEAR_NAMES
+from bwbench.problems.switched_vpp.problem import SpecimenFit
 
 
-class IdentifiableProblem:
+class IdentifiableProblem(SpecimenFit):
     """The identifiable formulation fitted to one specimen (loss: MSE in N²).
 
     ``fix_mass``: "auto" (fitted only when the data excite inertia, else fixed at the paper's 1),
@@ -42,18 +43,6 @@ class IdentifiableProblem:
         self.param_names = tuple(box.names)
         self.log_scaled = np.array(box.log, dtype=bool)
         self.lower, self.upper = bounds_mod.apply(box.lower, box.upper, self.param_names, bounds or {})
-
-    @property
-    def name(self) -> str:
-        return self.specimen.name
-
-    @property
-    def dim(self) -> int:
-        return len(self.param_names)
-
-    @property
-    def n_data(self) -> int:
-        return self.specimen.n_samples
 
     @property
     def notes(self) -> list[str]:

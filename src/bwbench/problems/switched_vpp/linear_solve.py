@@ -380,12 +380,3 @@ def _w_solve(Z, good, col, Q, r0, nw, want_residual, residual):
                     residual[i, l] = e
         rss[i] = r
     return C, Rw, qwy, h, rss, full
-
-
-def _back_substitute(R, b):
-    """Solve R x = b for a batch of small upper-triangular R (m, k, k), b (m, k)."""
-    k = b.shape[1]
-    x = np.zeros_like(b)
-    for i in range(k - 1, -1, -1):
-        x[:, i] = (b[:, i] - np.einsum("mj,mj->m", R[:, i, i + 1:], x[:, i + 1:])) / R[:, i, i]
-    return x

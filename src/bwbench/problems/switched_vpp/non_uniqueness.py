@@ -18,6 +18,7 @@ from bwbench.analysis import statistics
 from bwbench.data.parameters import LABELS, LOWER, UPPER
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.problems.switched_vpp import identifiable as fm
+from bwbench.report.palette import split_label
 
 TOLERANCE = 0.10  # good fits: final MSE within 10 % of the best known for the specimen
 
@@ -92,8 +93,7 @@ def spread_table(study, specimen: str) -> tuple[pd.DataFrame, dict]:
     # The symmetry's share is a question about fits searched in the paper's 14 coordinates: a fit of
     # the identifiable formulation is mapped back in the canonical gauge already.
     single = study.settings.get("formulation", "paper")
-    searched_paper = np.array([(o.split(" [", 1)[1].rstrip("]") if " [" in o else single) == "paper"
-                               for o in runs["optimizer"]], dtype=bool)
+    searched_paper = np.array([(split_label(o)[1] or single) == "paper" for o in runs["optimizer"]], dtype=bool)
     share = symmetry_share(paper_u[searched_paper], gauged_u[searched_paper])
     return frame, {"runs": len(runs), "share": share, "share_runs": int(searched_paper.sum()), "paper_unit": paper_u,
                    "gauged_unit": gauged_u, "theta_unit": theta_u, "theta_names": box.names, "box": box,

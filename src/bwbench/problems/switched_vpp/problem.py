@@ -17,21 +17,9 @@ from bwbench.data.parameters import LOWER, UPPER
 from bwbench.data.specimen import Specimen
 
 
-@dataclass
-class SwitchedBoucWenProblem:
-    """The paper's 14-parameter switched Bouc-Wen fit to one specimen (loss: MSE in N²)."""
-
-    specimen: Specimen
-    state: str = "shared"
-    excitation: str = "measured"
-    param_names: tuple = model.PARAM_NAMES
-    lower: np.ndarray = field(default_factory=lambda: LOWER.copy())
-    upper: np.ndarray = field(default_factory=lambda: UPPER.copy())
-
-    def __post_init__(self):
-        if self.state not in model.STATES:
-            raise ValueError(f"state must be one of {model.STATES}, got {self.state!r}")
-        self.signal = excitation_mod.build(self.excitation, self.specimen.t, self.specimen.x)
+class SpecimenFit:
+    """What every fit of the switched model to one specimen answers the same way, whatever the
+    formulation: needs ``specimen`` and ``param_names``."""
 
     @property
     def name(self) -> str:
@@ -45,6 +33,23 @@ class SwitchedBoucWenProblem:
     def n_data(self) -> int:
         """Number of force samples the loss averages over (the L of eq 6)."""
         return self.specimen.n_samples
+
+
+@dataclass
+class SwitchedBoucWenProblem(SpecimenFit):
+    """The paper's 14-parameter switched Bouc-Wen fit to one specimen (loss: MSE in N²)."""
+
+    specimen: Specimen
+    state: str = "shared"
+    excitation: str = "measured"
+    param_names: tuple = model.PARAM_NAMES
+    lower: np.ndarray = field(default_factory=lambda: LOWER.copy())
+    upper: np.ndarray = field(default_factory=lambda: UPPER.copy())
+
+    def __post_init__(self):
+        if self.state not in model.STATES:
+            raise ValueError(f"state must be one of {model.STATES}, got {self.state!r}")
+        self.signal = excitation_mod.build(self.excitation, self.specimen.t, self.specimen.x)
 
     formulation = "paper"
 

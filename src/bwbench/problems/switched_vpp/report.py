@@ -20,6 +20,7 @@ from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.problems.switched_vpp import figures, posterior_section
 from bwbench.problems.switched_vpp import identifiability as switched_identifiability
 from bwbench.report.format import evals_text, join, number, spread_text, unit_of
+from bwbench.report.palette import split_label
 
 
 def setup_text(report) -> str:
@@ -94,7 +95,7 @@ def add_sections(report) -> None:
     order = list(report.table["optimizer"])
     doc.figure(figures.hysteresis_loops(study, out, featured[0], order=order),
                f"Measured loop on {featured[0]} with the best ranking run's fit, and the residuals of the best 3 "
-               "backends" + (" and random search" if any(o.split(" [")[0] == "random" for o in order) else "")
+               "backends" + (" and random search" if any(split_label(o)[0] == "random" for o in order) else "")
                + " (the paper's Figs 20–21)")
     doc.figure(figures.parameter_spread(study, out, featured, order=order),
                "Parameters of every run within 10 % of the best known MSE, scaled to the Table 5 range")
