@@ -167,7 +167,9 @@ class Model:
         raise NotImplementedError
 
     def to_direct(self, theta, coef: dict, state=None):
-        """The direct parameters (a vector) of the same force as (θ, coefficients by name), or None."""
+        """The direct parameters (a vector) of the same loops as (θ, coefficients by name), or None when
+        there are none. Coefficients the direct parameters cannot hold (an inertia other than the
+        model's, a constant force offset) are left out: results report them beside."""
         return None
 
     def from_direct(self, P, state=None):

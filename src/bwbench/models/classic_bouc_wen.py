@@ -40,7 +40,7 @@ LAYOUT = LinearLayout(
 # Table 5's tension ranges (DESIGN.md §2), the paper's box for eq 1.
 TABLE5_PLUS = {"A": (0.001, 0.025), "n": (0.43, 10.75), "alpha": (0.07, 1.75), "beta": (0.1, 2.5),
                "gamma": (0.3, 7.5), "xi": (20.0, 500.0), "wn": (0.3, 7.5)}
-# As the switched model's identifiable box (bwbench.problems.switched_vpp.identifiable).
+# As the switched model's identifiable box (bwbench.models.switched_identifiable).
 XY_RANGE = (1e-4, 1e2)
 N_RANGE = (0.2, 10.75)
 ETA_RANGE = (-2.0, 1.0)
@@ -92,12 +92,12 @@ class ClassicBoucWen(Model):
         return switched.hysteretic_state_batch(np.concatenate([half, half], axis=1), s.t, s.x, s.v)
 
     def to_direct(self, theta, coef: dict, state=None):
-        """(A, n, α, β, γ, ξ, ωn) of the same force, in the gauge z_s = x_y (A = 1) or, where that makes
-        ωn² = k + h/z_s ≤ 0, the nearest gauge that does not; None when m ≠ 1 or f ≠ 0 (eq 1 has
-        unit mass and no offset) or no gauge gives ωn² > 0."""
+        """(A, n, α, β, γ, ξ, ωn) of the same loops, in the gauge z_s = x_y (A = 1) or, where that makes
+        ωn² = k + h/z_s ≤ 0, one that does not; None when no gauge gives ωn² > 0. Eq 1 has unit mass
+        and no offset: m and f are left out (reported beside)."""
         xy, n, eta = np.asarray(theta, dtype=float)
-        m, c, k, h, f = (coef[name] for name in LAYOUT.names)
-        if abs(m - 1.0) > 1e-9 or abs(f) > 1e-9:
+        c, k, h = coef["c"], coef["k"], coef["h"]
+        if not np.all(np.isfinite([xy, n, eta, c, k, h])):
             return None
         z_s = xy
         if not k + h / z_s > 0:

@@ -83,12 +83,10 @@ def theta_from_direct(P) -> tuple[np.ndarray, np.ndarray]:
 
 
 def direct_from_theta(theta, coef, gauge_A: float = GAUGE_A):
-    """Direct parameters (10,) of θ (6,) and (c₁, k₁, f₀) in the gauge A = ``gauge_A``; None when f₀ ≠ 0
-    but k₁ = 0 (an offset Spencer's model can only make as k₁·x₀)."""
+    """Direct parameters (10,) of θ (6,) and (c₁, k₁, f₀) in the gauge A = ``gauge_A``. Spencer's model
+    makes an offset only as −k₁·x₀: with k₁ = 0, x₀ = 0 and f₀ is left out (reported beside)."""
     xy, n, eta, vy, r0, kappa0 = np.asarray(theta, dtype=float)
     c1, k1, f0 = np.asarray(coef, dtype=float)
-    if k1 == 0.0 and f0 != 0.0:
-        return None
     z_s = gauge_A * xy
     bg = gauge_A / z_s**n
     return np.array([r0 * c1, c1, kappa0 * c1, k1, -f0 / k1 if k1 != 0.0 else 0.0, vy * c1 / z_s,

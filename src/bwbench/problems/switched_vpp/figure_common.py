@@ -7,7 +7,7 @@ import numpy as np
 
 from bwbench.data import manifest
 from bwbench.data.parameters import LABELS, UNITS
-from bwbench.problems.switched_vpp import identifiable as fm
+from bwbench.models import switched_identifiable as fm
 from bwbench.report.palette import split_label
 
 EDGE = 0.06  # values beyond a parameter's Table 5 range are drawn this far beyond it (fraction of the range)
