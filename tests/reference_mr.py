@@ -34,11 +34,31 @@ def spencer_force(p: dict, t, x_of, v_of, rtol=1e-11):
         u = v_of(tt) - yd
         return [yd, -gamma * abs(u) * z * abs(z) ** (n - 1) - beta * u * abs(z) ** n + A * u]
 
-    sol = solve_ivp(rhs, (t[0], t[-1]), [float(x_of(t[0])), 0.0], method="DOP853", rtol=rtol, atol=1e-13,
+    start = [float(x_of(t[0])), 0.0]
+    k = preroll_sample(x_of(t), v_of(t))
+    if k:  # started in motion: from the state one cycle of the record's motion leads to
+        pre = solve_ivp(rhs, (t[0], t[k]), start, method="DOP853", rtol=rtol, atol=1e-13, max_step=float(t[1] - t[0]))
+        assert pre.success, pre.message
+        start = [pre.y[0, -1] + float(x_of(t[0]) - x_of(t[k])), pre.y[1, -1]]
+    sol = solve_ivp(rhs, (t[0], t[-1]), start, method="DOP853", rtol=rtol, atol=1e-13,
                     t_eval=t, max_step=float(t[1] - t[0]))
     assert sol.success, sol.message
     y, z = sol.y
     return c1 * np.array([ydot(tt, yy, zz) for tt, yy, zz in zip(t, y, z)]) + k1 * (x_of(t) - x0)
+
+
+def preroll_sample(x, v) -> int:
+    """First sample after two velocity reversals where x passes x[0] again in the starting direction
+    (0 when the record starts at rest or never does): where a record in motion is taken to start."""
+    direction = np.sign(v[0])
+    if direction == 0:
+        return 0
+    reversals = np.cumsum(np.r_[0, (v[1:] * v[:-1] < 0)])
+    d = (x - x[0]) * direction
+    for k in range(1, len(x)):
+        if reversals[k] >= 2 and v[k] * direction > 0 and d[k - 1] < 0 <= d[k]:
+            return k
+    return 0
 
 
 def classic_force(p7, t, x_of, v_of, a_of, rtol=1e-11):

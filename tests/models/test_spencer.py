@@ -68,17 +68,20 @@ def test_identifiable_coordinates_give_the_same_force_and_map_back():
     t = np.arange(0.0, 0.8, 1.0 / 500.0)
     w = 2 * np.pi * 2.5
     signal = _signal(t, 15.0 * np.sin(w * t), 15.0 * w * np.cos(w * t))
-    P = _vector(PUBLISHED_1V)
-    theta, coef = theta_from_direct(P[None])
-    W = MODEL.trajectories(theta, signal)[0]
-    c1, k1, f0 = coef[0]
-    np.testing.assert_allclose(c1 * W + k1 * signal.x + f0, MODEL.force_batch(P[None], signal)[0], rtol=1e-12, atol=1e-9)
-    back = direct_from_theta(theta[0], coef[0], gauge_A=PUBLISHED_1V["A"])
-    np.testing.assert_allclose(back, P, rtol=1e-12)
+    P = _vector({**PUBLISHED_1V, "k0": 0.0})  # the identifiable formulation has κ₀ = k₀/c₁ = 0
+    theta, coef = MODEL.from_direct(P)
+    assert theta.shape == (5,)
+    W = MODEL.trajectories(theta[None], signal)[0]
+    np.testing.assert_allclose(coef["c1"] * W + coef["k1"] * signal.x + coef["f0"], MODEL.force_batch(P[None], signal)[0],
+                               rtol=1e-12, atol=1e-9)
+    back = direct_from_theta(theta, list(coef.values()), gauge_A=PUBLISHED_1V["A"])
+    np.testing.assert_allclose(back, P, rtol=1e-12, atol=1e-12)
     # Another gauge of A is the same force: A is not identifiable.
-    other = direct_from_theta(theta[0], coef[0], gauge_A=30.0)
+    other = direct_from_theta(theta, list(coef.values()), gauge_A=30.0)
     np.testing.assert_allclose(MODEL.force_batch(other[None], signal)[0], MODEL.force_batch(P[None], signal)[0],
                                rtol=1e-9, atol=1e-6)
+    with pytest.raises(ValueError, match="k0"):
+        MODEL.from_direct(_vector(PUBLISHED_1V))
 
 
 def test_published_damper_lies_inside_the_data_scaled_box():
@@ -87,7 +90,7 @@ def test_published_damper_lies_inside_the_data_scaled_box():
     signal = _signal(t, 25.0 * np.sin(w * t), 25.0 * w * np.cos(w * t))
     box = MODEL.hysteretic_box(signal, np.array([-1200.0, 1200.0]))
     theta, _ = theta_from_direct(_vector(PUBLISHED_1V)[None])
-    u = box.to_unit(theta[0])
+    u = box.to_unit(theta[0, :5])
     assert np.all((u > 0) & (u < 1)), dict(zip(box.names, u))
 
 
@@ -113,3 +116,20 @@ def test_a_blow_up_is_an_inf_row():
     bad[NAMES.index("beta")] = 1.0
     F = MODEL.force_batch(np.stack([_vector(PUBLISHED_1V), bad]), signal)
     assert np.all(np.isfinite(F[0])) and np.all(np.isinf(F[1]))
+
+
+def test_a_test_recorded_in_motion_starts_in_its_steady_state():
+    """The MR-damper generator records after a warm-up cycle (x = 0 moving up, the damper yielded):
+    the model, run on the record alone, reproduces it from the first sample, not after a transient."""
+    from bwbench.data import mr_damper
+
+    published = dict(mr_damper.SPENCER_1997, k0=0.0)  # k0 = 0: y itself does not enter the force
+    t, x, force, _ = mr_damper.damper_force(amplitude_mm=10.0, frequency_hz=1.0, voltage=1.0, rate_hz=500.0,
+                                            cycles=2, params=published)
+    c = mr_damper._coefficients(1.0, published)
+    p = {"c0": c["c0"] / 10, "c1": c["c1"] / 10, "k0": 0.0, "k1": published["k1"] / 10, "x0": published["x0"] * 10,
+         "alpha": c["alpha"] / 10, "beta": published["beta"] / 100, "gamma": published["gamma"] / 100,
+         "A": published["A"], "n": published["n"]}
+    w = 2 * np.pi
+    ours = MODEL.force_batch(_vector(p)[None], _signal(t, x, 10.0 * w * np.cos(w * t)))[0]
+    assert np.max(np.abs(ours - force)) <= 1e-6 * np.ptp(force)
