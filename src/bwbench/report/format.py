@@ -54,3 +54,16 @@ def spread_text(values) -> str:
         return number(values[0])
     return f"{number(np.median(values))} [{number(values.min(), 3)}, {number(values.max(), 3)}]"
 
+
+
+def seconds_text(x) -> str:
+    """A duration: '0.42 ms', '3.1 s', '2.5 min'; ∞ for never, – for unknown."""
+    if x is None or np.isnan(x):
+        return "–"
+    if np.isinf(x):
+        return "∞"
+    if x < 0.1:
+        return f"{x * 1000:.2g} ms"
+    if x < 10:
+        return f"{x:.2g} s"
+    return f"{x:,.0f} s" if x < 120 else f"{x / 60:,.1f} min"
