@@ -7,9 +7,10 @@ import json
 import numpy as np
 import pandas as pd
 
-from bwbench.report import figures
+from bwbench.report import ecdf_figures, figures
 from bwbench.report.palette import split_label
 from bwbench.analysis import statistics
+from bwbench.report.floors import noise_floors
 from bwbench.report.format import evals_text, number, p_text
 from bwbench.report.recommend import ALPHA, ratio_text, rule
 from bwbench.report.verdict import TARGET
@@ -207,17 +208,25 @@ def ranking(report) -> None:
 def run_figures(report) -> None:
     study, doc, out = report.study, report.doc, report.out
     doc.h(2, "Figures")
-    floors = {}
-    for specimen in report.featured:
-        value = study.problem_type.noise_floor(study, specimen)
-        if value is not None:
-            floors[specimen] = (value, f"noise floor (truth): {value:.3g} {study.loss_unit}")
+    floors = noise_floors(study, report.featured)
     order = list(report.table["optimizer"])
-    doc.figure(figures.convergence(study, out, report.featured, floors=floors, order=order),
-               "Convergence: median over seeds of the best-so-far loss relative to the noise floor (or the best "
-               "known loss where no floor is known); interquartile band for the best 3")
-    doc.figure(figures.runtime_ecdf(study, out, order=order),
-               "Runtime ECDF: fraction of (specimen, seed, target) triples reached within x evaluations")
+    png = figures.convergence(study, out, report.featured, floors=floors, order=order)
+    drawn = pd.read_csv(png.with_suffix(".csv"))
+    bands = int(drawn.loc[drawn["band"]].groupby("variant", dropna=False)["optimizer"].nunique().max()) \
+        if drawn["band"].any() else 0
+    doc.figure(png, "Convergence: median over seeds of the best-so-far loss relative to "
+               + ("the noise floor" if floors else "the best known loss")
+               + (" (where it is one: the truth's MSE within 1.25× of the stated noise variance; elsewhere the best "
+                  "known loss)" if floors else "")
+               + (f"; interquartile band for the best {bands}" + (" of each column" if report.noun else "")
+                  if bands else ""))
+    doc.figure(ecdf_figures.runtime_distributions(study, out, order=order, noun=report.noun),
+               f"Runtime distributions. Left, fixed target: the fraction of (run, target) pairs reached within x "
+               f"evaluations, {len(ecdf_figures.ECDF_TAUS)} targets log-spaced from 0.1 % to 100× above the best "
+               "known loss of the specimen. Right, fixed budget: the fraction of runs whose final loss is within x "
+               "of the best known" + (f"; one row per {report.noun}" if report.noun else "")
+               + f"; the best {ecdf_figures.HIGHLIGHT} labels of each panel in colour when it has more than "
+               f"{ecdf_figures.MAX_COLOURED}, random search dark grey, the others light grey")
     # One panel per specimen reads well up to a handful; beyond, the featured ones (all in the CSV).
     many = len(study.specimens) > len(report.featured) + 1
     doc.figure(figures.waterfall(study, out, order=order, specimens=report.featured if many else None),
