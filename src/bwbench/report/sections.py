@@ -239,10 +239,10 @@ def limits(report) -> None:
     study, doc = report.study, report.doc
     s = study.settings
     n_spec = len(study.specimens)
-    unit = ("one specimen: the runs of each label are independent samples, so the comparisons say how the "
+    unit = ("the runs of each label are independent samples on one specimen, so the comparisons say how the "
             "backends do on this data set, not on others" if n_spec == 1 else
-            f"{n_spec} specimens, the blocks of every comparison: the verdict holds for these specimens; with few of "
-            "them it need not carry over to others")
+            "the specimens are the blocks of every comparison: the verdict holds for these specimens"
+            + ("; with so few it need not carry over to others" if n_spec < 6 else ""))
     items = [f"{n_spec} specimen{'s' if n_spec != 1 else ''} and {s.get('seeds', '?')} seeds per label; {unit}.",
              f"One budget ({s.get('budget', '?')} evaluations): the ranking can change at another budget "
              "(see the ECDF and convergence figures for how each backend would do with less).",
