@@ -53,9 +53,10 @@ def log_losses(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def blocks(values: pd.DataFrame, label: str) -> dict:
-    """{specimen: array of the label's values} in specimen order."""
+    """{specimen: sorted array of the label's values} in specimen order (sorted, so that the order of
+    the rows cannot change a bootstrap draw)."""
     mine = values[values["optimizer"] == label]
-    return {s: g["value"].to_numpy(dtype=float) for s, g in mine.groupby("specimen", sort=True)}
+    return {s: np.sort(g["value"].to_numpy(dtype=float)) for s, g in mine.groupby("specimen", sort=True)}
 
 
 def _common(a: dict, b: dict) -> list:
