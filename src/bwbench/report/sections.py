@@ -157,7 +157,7 @@ def verdict_frame(report) -> pd.DataFrame:
                "largest success deficit"]
     if len(base):
         columns += [f"final loss / {verdict.baselines[0]}'s [95 % CI]", "Holm p (baseline)"]
-    return pd.DataFrame(rows, columns=columns).fillna("–")
+    return pd.DataFrame(rows, columns=columns).astype(object).fillna("–")
 
 
 def variant_frame(report) -> pd.DataFrame:
