@@ -182,9 +182,12 @@ def _deficit_text(verdict, table, label) -> str:
 
 def power_text(verdict: Verdict, tests) -> str:
     """What the test actually run can show at this size: its name, the design, the smallest p it
-    can give and that p times Holm's factor for the comparisons against the reference."""
-    frame = verdict.vs_reference
-    if frame is None or not len(frame):
+    can give and that p times Holm's factor for the comparisons against the reference (or, with
+    no other candidate, against the baseline)."""
+    families = [(verdict.vs_reference, "the reference"),
+                (verdict.vs_baseline, verdict.baselines[0] if verdict.baselines else "the baseline")]
+    frame, against = next(((f, name) for f, name in families if f is not None and len(f)), (None, ""))
+    if frame is None:
         return f"Test: {tests.test_name}."
     smallest = float(frame["min_p"].min())
     floor = comparisons.holm_floor(frame)
@@ -192,8 +195,7 @@ def power_text(verdict: Verdict, tests) -> str:
               "per label")
     comparisons_ = "comparison" if len(frame) == 1 else f"{len(frame)} comparisons"
     text = (f"Power: every comparison uses {tests.test_name}; with {design} the smallest p it can give is "
-            f"{p_text(smallest)}, and {p_text(floor)} after Holm's factor for the {comparisons_} against "
-            "the reference")
+            f"{p_text(smallest)}, and {p_text(floor)} after Holm's factor for the {comparisons_} against {against}")
     if floor >= ALPHA:
         return text + (f" ≥ α = {ALPHA:g}: no difference can be significant at this size, so the verdict rests on "
                        "the effect sizes and success rates; more seeds (or specimens) would be needed to test it.")
