@@ -218,7 +218,7 @@ def _profile_sentence(result: dict) -> str:
     over the whole range shows the data do not identify the parameter there, whatever the search
     did; a bound is claimed only from converged points above the threshold, and then only for the
     minimum the search found."""
-    from bwbench.problems.switched_vpp.posterior_figures import bounded, threshold_of
+    from bwbench.problems.switched_vpp.posterior_figures import BOUNDED_TEXT, bounded, threshold_of
 
     floor, threshold = threshold_of(result)
     parts = []
@@ -238,7 +238,7 @@ def _profile_sentence(result: dict) -> str:
                          "points are upper bounds, so no bound is shown")
         else:
             worst = float(mse[converged & np.isfinite(mse)].max())
-            parts.append(f"{label}: the 95 % region is {'bounded on both sides' if side == 'both sides' else side}"
+            parts.append(f"{label}: the 95 % region is {BOUNDED_TEXT[side]}, shown"
                          f" by converged re-optimisations (up to {number(worst, 3)} {'N²'}, best "
                          f"{number(floor, 3)} N²); a local result: another minimum could lower the profile")
     return ("Profiles (each point: L-BFGS-B on the other parameters until its own convergence test stops it, at "
