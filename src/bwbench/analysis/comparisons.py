@@ -17,7 +17,7 @@ specimens they are blocks of different difficulty. Hence:
   a Generator seeded by the two labels' names: the same data give the same interval);
 - ``smallest_p``: the smallest p the design can give at all (every run of a below every run of b on
   every specimen), which with Holm's factor says whether a comparison can be significant at all;
-- Holm's step-down correction over a stated family of comparisons (``statistics.holm``).
+- Holm's step-down correction over a stated family of comparisons (``holm``).
 
 Written out because scipy has the two-sample Mann–Whitney test but no stratified version, and
 statsmodels is not a dependency.
@@ -176,8 +176,6 @@ def compare(values: pd.DataFrame, a: str, b: str) -> dict:
 def family(values: pd.DataFrame, pairs, name: str, alpha: float) -> pd.DataFrame:
     """``compare`` for each (a, b) of ``pairs``, Holm-corrected over exactly these comparisons:
     columns of ``compare`` plus ``family`` (= ``name``), ``p_holm`` and ``significant``."""
-    from bwbench.analysis.statistics import holm
-
     rows = [compare(values, a, b) for a, b in pairs]
     columns = ["a", "b", "specimens", "runs_a", "runs_b", "statistic", "p", "min_p", "shift", "shift_low",
                "shift_high", "ratio", "ratio_low", "ratio_high"]
@@ -185,6 +183,22 @@ def family(values: pd.DataFrame, pairs, name: str, alpha: float) -> pd.DataFrame
     out.insert(0, "family", name)
     out["p_holm"] = holm(out["p"].to_numpy()) if len(out) else []
     out["significant"] = out["p_holm"] < alpha
+    return out
+
+
+def holm(pvalues) -> np.ndarray:
+    """Holm–Bonferroni adjusted p-values (step-down, family-wise error control); NaN stays NaN.
+
+    Written out because scipy's ``false_discovery_control`` only offers BH/BY (FDR, not FWER)
+    and statsmodels is not a dependency.
+    """
+    p = np.asarray(pvalues, dtype=float)
+    out = np.full(p.shape, np.nan)
+    valid = np.flatnonzero(~np.isnan(p))
+    m = valid.size
+    order = valid[np.argsort(p[valid], kind="stable")]
+    adjusted = np.maximum.accumulate((m - np.arange(m)) * p[order])
+    out[order] = np.minimum(adjusted, 1.0)
     return out
 
 

@@ -1,4 +1,7 @@
-"""Which backend is better, and how sure are we: success rates, ERT, Friedman, Wilcoxon-Holm, MCMC.
+"""Both views of a benchmark per label: success rates and ERT (fixed target), final losses and their
+ranks with ties within ``TIE`` (fixed budget), the cost of an evaluation, and the omnibus tests
+(Friedman over specimens, Kruskal–Wallis on one). Two labels are compared in
+``bwbench.analysis.comparisons``.
 
 Conventions used throughout:
 
@@ -17,8 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-import scipy.special
 import scipy.stats
+
+from bwbench.analysis.comparisons import holm, log_losses, method_name  # noqa: F401  (holm: used from here too)
 
 TOLERANCES = (0.01, 0.10)  # success at 1 % and 10 % above the best known MSE
 ALPHA = 0.05
@@ -102,8 +106,6 @@ def median_table(runs: pd.DataFrame) -> pd.DataFrame:
     """Blocks × treatments: per specimen (rows) and label (columns) the median across seeds of the
     log10 final loss (a failed run one decade above the worst finished run on its specimen,
     ``comparisons.log_losses``). Specimens missing a label are left out (they cannot be a block)."""
-    from bwbench.analysis.comparisons import log_losses
-
     values = log_losses(runs)
     table = values.pivot_table(index="specimen", columns="optimizer", values="value", aggfunc="median")
     return table.dropna(axis=0, how="any")
@@ -153,22 +155,6 @@ def friedman(table: pd.DataFrame) -> Friedman:
         return Friedman(0.0, 1.0, mean_ranks, n, "every backend ties on every specimen")
     stat, p = scipy.stats.friedmanchisquare(*ranks.to_numpy().T)
     return Friedman(float(stat), float(p), mean_ranks, n, "")
-
-
-def holm(pvalues) -> np.ndarray:
-    """Holm–Bonferroni adjusted p-values (step-down, family-wise error control); NaN stays NaN.
-
-    Written out because scipy's ``false_discovery_control`` only offers BH/BY (FDR, not FWER)
-    and statsmodels is not a dependency.
-    """
-    p = np.asarray(pvalues, dtype=float)
-    out = np.full(p.shape, np.nan)
-    valid = np.flatnonzero(~np.isnan(p))
-    m = valid.size
-    order = valid[np.argsort(p[valid], kind="stable")]
-    adjusted = np.maximum.accumulate((m - np.arange(m)) * p[order])
-    out[order] = np.minimum(adjusted, 1.0)
-    return out
 
 
 def ranking_table(runs: pd.DataFrame, traces: pd.DataFrame, order=None) -> tuple[pd.DataFrame, Friedman]:
@@ -233,8 +219,6 @@ def kruskal_wallis(runs: pd.DataFrame) -> KruskalWallis:
     """Kruskal–Wallis H test of "every label's final loss has the same distribution", the runs of
     each label (its seeds) an independent sample: the omnibus test for one specimen, where there
     are no blocks for Friedman's test."""
-    from bwbench.analysis.comparisons import log_losses
-
     values = log_losses(runs)
     groups = [g["value"].to_numpy() for _, g in values.groupby("optimizer", sort=False)]
     groups = [g for g in groups if len(g)]
@@ -263,8 +247,6 @@ class Comparison:
 def compare_backends(runs: pd.DataFrame) -> Comparison:
     """Friedman over specimens (blocks) when there are ≥ 2 specimens, Kruskal–Wallis with one (the
     seeds of two labels share nothing, so they cannot be blocks); the name of the two-sample test."""
-    from bwbench.analysis.comparisons import method_name
-
     ranking = runs[runs["kind"] == "ranking"]
     n_specimens = int(ranking["specimen"].nunique())
     seeds = int(ranking.groupby(["specimen", "optimizer"]).size().max()) if len(ranking) else 0

@@ -107,6 +107,9 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
 
     title = f"{study.name} ({provisional})" if provisional else study.name
     doc.h(1, f"Optimiser comparison: {title}")
+    if provisional:
+        doc.banner(f"{provisional[0].upper()}{provisional[1:]}: the study is unfinished (still running, or stopped "
+                   "part-way); its recommendation may change when it completes.")
     if problem_type.is_synthetic(study):
         doc.banner("SYNTHETIC DATA — generated from the paper's Tables 6–8, not measured.")
     sections.recommendation(report)

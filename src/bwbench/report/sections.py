@@ -184,8 +184,8 @@ def ranking(report) -> None:
           "counts too). Mean rank: on each specimen the labels are ranked by their median final loss, losses "
           f"within {statistics.TIE:.0%} of each other sharing a rank (round-off does not order them).")
     if 1 < report.tests.n_specimens <= 8:
-        doc.table(per_specimen_rmse(report), f"Median RMSE ({study.problem_type.residual_unit}) over the seeds of "
-                                             "each label, per specimen: specimens of different force levels are "
+        doc.table(per_specimen_rmse(report), f"The median RMSE ({study.problem_type.residual_unit}) over the seeds "
+                                             "of each label, per specimen: specimens of different force levels are "
                                              "not pooled into one median")
     omnibus = report.omnibus
     if np.isfinite(omnibus.pvalue):

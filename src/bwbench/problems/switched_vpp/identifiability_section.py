@@ -6,7 +6,7 @@ singular values, the exact symmetries, each parameter's free range and standard 
 of the good runs across seeds, and profiles of the widest ones on the first specimen
 (``switched_identifiability.analyse``). Only what each tool can show is claimed: the local analysis
 describes the neighbourhood of one point, and a profile bounds a parameter only where its
-re-optimisations converged (``report._profile_sentence``).
+re-optimisations converged (``profile_sentence``).
 """
 
 from __future__ import annotations
@@ -57,7 +57,6 @@ def good_run_spread(study, specimen, formulation, cache, tolerance=GOOD):
 def section(report, formulation: str, paper_data: bool) -> list:
     """Write the section; return the analyses (one dict per specimen analysed)."""
     from bwbench.problems.switched_vpp import figures
-    from bwbench.problems.switched_vpp.report import _profile_sentence
 
     doc, study, log = report.doc, report.study, report.log
     label = switched_identifiability.label
@@ -134,7 +133,7 @@ def section(report, formulation: str, paper_data: bool) -> list:
             doc.figure(png, f"Profile likelihoods on {specimen}: each point re-optimises the other parameters "
                             "(L-BFGS-B until its convergence test stops it; open circles: not converged, an upper "
                             "bound only)")
-            doc.p(_profile_sentence(result))
+            doc.p(profile_sentence(result))
     return results
 
 
@@ -163,3 +162,37 @@ def _spread_text(names, poor, spread, n_good, label) -> str:
                  "different points along the undetermined combinations, so the scatter of these parameters is no "
                  "fault of the optimisers.")
     return text
+
+
+def profile_sentence(result: dict) -> str:
+    """What the profiles can show, in words. A profile point is an upper bound of the true profile
+    (the re-optimisation may stop early or in a local minimum): a profile below the 95 % threshold
+    over the whole range shows the data do not identify the parameter there, whatever the search
+    did; a bound is claimed only from converged points above the threshold, and then only for the
+    minimum the search found."""
+    from bwbench.problems.switched_vpp.posterior_figures import BOUNDED_TEXT, bounded, threshold_of
+
+    floor, threshold = threshold_of(result)
+    parts = []
+    for name, points in result["profiles"].items():
+        mse = np.array([p["mse"] if p["mse"] is not None else math.inf for p in points])
+        converged = np.array([p.get("converged", False) for p in points])
+        values = np.array([p["value"] for p in points])
+        side = bounded(values, mse, threshold, converged)
+        label = switched_identifiability.label(name)
+        if side == "neither":
+            parts.append(f"{label}: below the 95 % threshold over its whole search range, so the data do not "
+                         "identify it at all (the others compensate; an upper-bound profile shows this whether or "
+                         "not every re-optimisation converged)")
+        elif side == "not shown":
+            parts.append(f"{label}: the profile rises above the 95 % threshold only at points whose "
+                         f"re-optimisation did not converge ({int((~converged).sum())} of {len(points)}): those "
+                         "points are upper bounds, so no bound is shown")
+        else:
+            worst = float(mse[converged & np.isfinite(mse)].max())
+            parts.append(f"{label}: the 95 % region is {BOUNDED_TEXT[side]}, shown"
+                         f" by converged re-optimisations (up to {number(worst, 3)} {'N²'}, best "
+                         f"{number(floor, 3)} N²); a local result: another minimum could lower the profile")
+    return ("Profiles (each point: L-BFGS-B on the other parameters until its own convergence test stops it, at "
+            f"most {result.get('profile_maxiter', '?')} iterations, from the neighbouring point and, if that does "
+            "not converge, from the best fit) — " + "; ".join(parts) + ".")

@@ -7,7 +7,6 @@ the data are the paper's (``paper_data``): a user's own data get a report about 
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +15,6 @@ import pandas as pd
 from bwbench.errors import UserError
 from bwbench.problems.switched_vpp import figures, posterior_section
 from bwbench.problems.switched_vpp.figure_common import formulation_of
-from bwbench.problems.switched_vpp.identifiability import label as _label
 from bwbench.report.floors import floors as truth_losses
 from bwbench.report.format import number, unit_of
 from bwbench.report.labels import split_label
@@ -210,37 +208,3 @@ def _section_non_uniqueness(report, paper: bool) -> None:
                   "the identifiable coordinates show as well.")
         doc.figure(non_uniqueness.figure(study, report.out, specimen, order=list(report.table["optimizer"])),
                    f"{specimen}: good fits in the paper's and the identifiable coordinates")
-
-
-def _profile_sentence(result: dict) -> str:
-    """What the profiles can show, in words. A profile point is an upper bound of the true profile
-    (the re-optimisation may stop early or in a local minimum): a profile below the 95 % threshold
-    over the whole range shows the data do not identify the parameter there, whatever the search
-    did; a bound is claimed only from converged points above the threshold, and then only for the
-    minimum the search found."""
-    from bwbench.problems.switched_vpp.posterior_figures import BOUNDED_TEXT, bounded, threshold_of
-
-    floor, threshold = threshold_of(result)
-    parts = []
-    for name, points in result["profiles"].items():
-        mse = np.array([p["mse"] if p["mse"] is not None else math.inf for p in points])
-        converged = np.array([p.get("converged", False) for p in points])
-        values = np.array([p["value"] for p in points])
-        side = bounded(values, mse, threshold, converged)
-        label = _label(name)
-        if side == "neither":
-            parts.append(f"{label}: below the 95 % threshold over its whole search range, so the data do not "
-                         "identify it at all (the others compensate; an upper-bound profile shows this whether or "
-                         "not every re-optimisation converged)")
-        elif side == "not shown":
-            parts.append(f"{label}: the profile rises above the 95 % threshold only at points whose "
-                         f"re-optimisation did not converge ({int((~converged).sum())} of {len(points)}): those "
-                         "points are upper bounds, so no bound is shown")
-        else:
-            worst = float(mse[converged & np.isfinite(mse)].max())
-            parts.append(f"{label}: the 95 % region is {BOUNDED_TEXT[side]}, shown"
-                         f" by converged re-optimisations (up to {number(worst, 3)} {'N²'}, best "
-                         f"{number(floor, 3)} N²); a local result: another minimum could lower the profile")
-    return ("Profiles (each point: L-BFGS-B on the other parameters until its own convergence test stops it, at "
-            f"most {result.get('profile_maxiter', '?')} iterations, from the neighbouring point and, if that does "
-            "not converge, from the best fit) — " + "; ".join(parts) + ".")
