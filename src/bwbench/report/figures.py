@@ -1,4 +1,5 @@
-"""Study figures every problem gets: convergence, runtime ECDF, waterfall.
+"""Study figures every problem gets: convergence and waterfall (the runtime distributions are
+``bwbench.report.ecdf_figures``).
 
 Every function takes a loaded ``bwbench.study.results.Study`` and an output folder and returns the
 PNG's path, with the tidy CSV behind it beside it (same name, ``.csv``). ``order``: the report's

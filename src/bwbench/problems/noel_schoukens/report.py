@@ -12,19 +12,18 @@ statement.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from bwbench.analysis import identifiability, mcmc, statistics
+from bwbench.analysis import identifiability, mcmc
 from bwbench.problems.noel_schoukens import figures as benchmark_figures
 from bwbench.problems.noel_schoukens import problem as bm
 from bwbench.problems.noel_schoukens.analysis import (
     JACOBIAN_STEP, analyse_identifiability, finished, backend_results, load_problem, truth_figures,
 )
 from bwbench.problems.noel_schoukens.problem import TARGET_ERMS_M
-from bwbench.report.format import evals_text, join, number, p_text
+from bwbench.report.format import evals_text, join, number
 
 SOURCE = ("J.P. Noël and M. Schoukens, “Hysteretic benchmark with a dynamic nonlinearity”, Workshop on Nonlinear "
           "System Identification Benchmarks, Brussels, 2016; data and description at www.nonlinearbenchmark.org")
