@@ -128,11 +128,10 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
         return " ".join(out)
     choice, tau = verdict.choice, verdict.tie_target
     row = table.loc[choice]
-    specimens = tests.n_specimens
     named = f"**Use {_pair(choice, noun).replace('**', '')}** ({choice})" if noun else f"**Use {choice}**"
-    out.append(f"{named} at a budget of {budget_text} evaluations: "
-               f"it reached the {TARGET:.0%} target in {_success(table, choice)}, with ERT {evals_text(row[f'ert_{TARGET:.0%}'])} "
-               f"evaluations × {seconds_text(row['s_per_eval'])} per evaluation = "
+    out.append(f"{named} at a budget of {budget_text} evaluations: it reached the {TARGET:.0%} target in "
+               f"{_success(table, choice)}, with ERT {evals_text(row[f'ert_{TARGET:.0%}'])} evaluations × "
+               f"{seconds_text(row['s_per_eval'])} per evaluation = "
                f"{seconds_text(row[f'time_{TARGET:.0%}'])} expected time to the target; its median final loss is "
                f"{_ratio(row['median_ratio'])} × the best known loss.")
     if choice in verdict.avoid:
@@ -153,8 +152,8 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
                    f"{SUCCESS_MARGIN * 100:.0f} points on every specimen).")
     if verdict.less_reliable:
         out.append(f"Final losses within {PRACTICAL:.0%} of the reference's, but less reliable at reaching the "
-                   f"target ({_success(table, verdict.reference)} for {verdict.reference}): " + join([_deficit_text(verdict, table, n)
-                                                                       for n in verdict.less_reliable]) + ".")
+                   f"target ({_success(table, verdict.reference)} for {verdict.reference}): "
+                   + join([_deficit_text(verdict, table, n) for n in verdict.less_reliable]) + ".")
     if verdict.behind:
         items = [f"{n} ({_ratio(ref_rows.loc[n, 'ratio'])}×{'*' if ref_rows.loc[n, 'significant'] else ''})"
                  for n in verdict.behind]

@@ -102,7 +102,8 @@ def section(report, formulation: str, paper_data: bool) -> list:
         doc.p(f"Best fit: {run['optimizer']} ({run['kind']}, seed {int(run['replicate'])}), RMSE "
               f"{result['rmse_N']:.3g} N. The singular values span {math.log10(rel[0] / max(rel[-1], 1e-300)):.1f} "
               f"decades (condition number {number(result['condition_number'], 3)}); {result['numerically_zero']} "
-              f"{'is' if result['numerically_zero'] == 1 else 'are'} below 1e-6 of the largest and {result['undetermined_directions']} directions are undetermined at the "
+              f"{'is' if result['numerically_zero'] == 1 else 'are'} below 1e-6 of the largest and "
+              f"{result['undetermined_directions']} directions are undetermined at the "
               f"noise level ({result['noise_rmse_N']:.3g} N RMSE).")
         doc.bullets([f"σ/σmax = {w['ratio']:.1e}: {w['text']}" for w in result["weakest"]])
         for s in result["symmetries"]:
