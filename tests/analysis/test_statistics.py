@@ -9,7 +9,7 @@ import scipy.stats
 from study_fixture import make_study_db
 
 from bwbench.study import results as results_db
-from bwbench.analysis import mcmc, statistics
+from bwbench.analysis import comparisons, mcmc, statistics
 from bwbench.errors import UserError
 
 
@@ -89,28 +89,16 @@ def test_friedman_needs_three_backends():
     assert result.mean_ranks["a"] == 1.0
 
 
-def test_pairwise_wilcoxon_matches_scipy_and_holm(study):
-    table = statistics.paired_log_mse(study.ranking)
-    out = statistics.pairwise_wilcoxon(study.ranking)
-    assert len(out) == 3
-    raw = []
-    for row in out.itertuples():
-        expected = scipy.stats.wilcoxon(table[row.a], table[row.b]).pvalue
-        assert row.p == pytest.approx(expected)
-        raw.append(expected)
-    assert out["p_holm"].to_numpy() == pytest.approx(statistics.holm(raw))
-    cmaes_random = statistics.compare(out, "random", "cmaes")
-    assert cmaes_random["median_diff"] > 0 and cmaes_random["wins_b"] == 8  # oriented: random is 'a'
-
-
-def test_failed_runs_rank_last_in_the_paired_table(tmp_path):
+def test_failed_runs_rank_last_and_count_as_errors(tmp_path):
     db = make_study_db(tmp_path / "err.sqlite", error=("pom-mt24u01_0.01MPa_r1", "cmaes", 0), posterior=False)
-    runs = results_db.load_study(db).ranking
-    table = statistics.paired_log_mse(runs)
-    row = table.loc[("pom-mt24u01_0.01MPa_r1", 0)]
-    assert row["cmaes"] > row.drop("cmaes").max()
-    ranking, _ = statistics.ranking_table(runs, results_db.load_study(db).traces)
-    assert ranking.set_index("optimizer").loc["cmaes", "errors"] == 1
+    loaded = results_db.load_study(db)
+    values = comparisons.log_losses(loaded.ranking)
+    spec = values[values["specimen"] == "pom-mt24u01_0.01MPa_r1"]
+    is_failed = (spec["optimizer"] == "cmaes") & (spec["replicate"] == 0)
+    assert spec.loc[is_failed, "value"].iloc[0] == pytest.approx(spec.loc[~is_failed, "value"].max() + 1.0)
+    ranking, _ = statistics.ranking_table(loaded.runs, loaded.traces)
+    row = ranking.set_index("optimizer").loc["cmaes"]
+    assert row["errors"] == 1 and row["success_1%"] < 1
 
 
 def test_ranking_table_is_sorted_by_mean_rank(study):
@@ -171,18 +159,32 @@ def test_load_refuses_missing_and_foreign_files(tmp_path):
         results_db.load_study(other)
 
 
-def test_one_specimen_backends_are_compared_as_independent_samples():
+def test_one_specimen_uses_kruskal_wallis_and_names_the_unpaired_test():
     mse = {"a": [1.0, 2.0, 3.0, 4.0, 5.0], "b": [10.0, 11.0, 12.0, 13.0, 14.0], "c": [1.5, 2.5, 3.5, 4.5, np.inf]}
-    runs = pd.DataFrame([{"specimen": "s", "optimizer": o, "replicate": r, "status": "ok", "mse": v}
+    runs = pd.DataFrame([{"kind": "ranking", "specimen": "s", "optimizer": o, "replicate": r, "status": "ok", "mse": v}
                          for o, values in mse.items() for r, v in enumerate(values)])
     runs.loc[(runs["optimizer"] == "c") & (runs["replicate"] == 4), "status"] = "error"
     kw = statistics.kruskal_wallis(runs)
     assert kw.n_groups == 3 and kw.pvalue < 0.05
-    mw = statistics.mann_whitney_vs(runs, "a").set_index("b")
-    assert list(mw.index) == ["b", "c"]
-    # every run of a beats every run of b: the exact test's smallest p, 2 / C(10, 5)
-    assert mw.loc["b", "p"] == pytest.approx(2 / 252) == mw.loc["b", "min_p"]
-    assert mw.loc["b", "p_superiority"] == 1.0 and mw.loc["b", "median_diff"] < 0
-    assert mw.loc["b", "p_holm"] == pytest.approx(2 * 2 / 252)  # Holm: smallest p times 2 comparisons
-    assert mw.loc["c", "p_superiority"] == pytest.approx(0.6)  # a failed run counts as the worst
-    assert mw.loc["b", "better"] == "a" and not mw.loc["c", "significant"]
+    tests = statistics.compare_backends(runs)
+    assert tests.omnibus_name == "Kruskal–Wallis test" and tests.n_specimens == 1 and tests.seeds == 5
+    assert tests.test_name.startswith("the unpaired Mann–Whitney U test")
+    values = comparisons.log_losses(runs)
+    ab = comparisons.compare(values, "a", "b")
+    assert ab["p"] == pytest.approx(2 / 252) == ab["min_p"]  # every run of a beats every run of b
+    assert ab["ratio"] < 1 and ab["ratio_high"] < 1
+
+
+def test_ranking_table_has_the_cost_of_an_evaluation_and_the_expected_time_to_target(study):
+    table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
+    ranking = study.ranking
+    for row in table.itertuples():
+        mine = ranking[ranking["optimizer"] == row.optimizer]
+        assert row.s_per_eval == pytest.approx(mine["wall_s"].sum() / mine["nfev"].sum())
+    rows = table.set_index("optimizer")
+    for name in rows.index:
+        ert, time = rows.loc[name, "ert_1%"], rows.loc[name, "time_1%"]
+        assert time == (ert * rows.loc[name, "s_per_eval"] if np.isfinite(ert) else np.inf)
+    success = statistics.success_by_specimen(study.runs, study.traces, 0.01)
+    assert set(success.columns) == set(study.optimizers) and len(success) == 2
+    assert success.mean().to_dict() == pytest.approx(rows["success_1%"].to_dict())

@@ -114,6 +114,10 @@ def test_the_report_is_the_benchmark_report(tiny, tmp_path):
                        r"(\w+) \d/2 and (\w+) \d/2\.", md)
     assert counts and {counts.group(1), counts.group(2)} == {"cmaes", "random"}
     assert "Noël and M. Schoukens" in md and "SYNTHETIC" not in md
+    # one data set: the seeds are independent samples, and the power statement names the test run
+    assert "Power: every comparison uses the unpaired Mann–Whitney U test" in md
+    assert "1 specimen × up to 2 seeds per label the smallest p it can give is 0.33" in md
+    assert "Wilcoxon signed-rank" not in md and "paired (specimen, seed)" not in md
     assert "β, γ and δ are not separately identifiable" in md and "| βγ (1/m) | βδ (1/m) |" in md
     # the generic Jacobian/SVD finds the exact scaling invariance and names it
     finding = re.search(r"The smallest singular value is σ/σmax = ([0-9.e+-]+), numerically zero.*?"

@@ -17,7 +17,7 @@ from bwbench.problems.switched_vpp import figures as switched_figures
 from bwbench.problems.switched_vpp.figure_common import problem_for
 from bwbench.models import switched_identifiable as fm
 from bwbench.problems.switched_vpp import non_uniqueness
-from bwbench.report import figures, palette
+from bwbench.report import ecdf_figures, figures, palette
 from bwbench.study import results as results_db
 
 ORDER = ["de", "cmaes", "random"]  # not the configuration's order, nor the median loss's
@@ -94,7 +94,7 @@ def test_default_order_is_the_median_final_loss(study):
 def test_every_backend_has_one_style_in_every_figure_in_ranking_order(study, drawn, tmp_path):
     specimen = study.specimens[0]
     figures.convergence(study, tmp_path, order=ORDER)
-    figures.runtime_ecdf(study, tmp_path, order=ORDER)
+    ecdf_figures.runtime_distributions(study, tmp_path, order=ORDER)
     switched_figures.hysteresis_loops(study, tmp_path, specimen, order=ORDER)
     switched_figures.parameter_spread(study, tmp_path, order=ORDER)
     expected = palette.styles(study, ORDER)
@@ -125,7 +125,7 @@ def test_legends_list_only_the_backends_a_figure_draws(study, drawn, tmp_path):
 def test_one_legend_per_figure_and_sized_for_the_page(study, drawn, tmp_path):
     material = study.ranking["material"].iloc[0]
     figures.convergence(study, tmp_path, order=ORDER)
-    figures.runtime_ecdf(study, tmp_path, order=ORDER)
+    ecdf_figures.runtime_distributions(study, tmp_path, order=ORDER)
     figures.waterfall(study, tmp_path, order=ORDER)
     switched_figures.hysteresis_loops(study, tmp_path, study.specimens[0], order=ORDER)
     switched_figures.parameter_spread(study, tmp_path, order=ORDER)
@@ -181,9 +181,36 @@ def test_profiles_say_when_the_profile_found_a_better_fit(drawn, tmp_path):
                 "profiles": {"beta+": [{"value": v, "unit": 0.0, "mse": m, "evaluations": 5}
                                        for v, m in ((0.5, 3.0), (1.0, 2.0), (1.5, 1.5), (2.0, 1.5))]}}
     frame = pd.read_csv(switched_figures.profiles(analysis, tmp_path).with_suffix(".csv"))
-    assert "the profile found a better fit than the analysed one: 1.5 N² vs 2 N²" in drawn[0].texts
+    assert "the profile found a better fit: 1.5 N², 25.00% below the analysed fit's 2 N²" in drawn[0].texts
     assert "95 % region bounded below only" in drawn[0].texts
     assert set(frame["bounded"]) == {"below only"}
+
+
+def test_a_better_fit_callout_shows_the_difference_or_is_left_out():
+    from bwbench.problems.switched_vpp.posterior_figures import better_fit_text
+
+    # the quick report printed "9.7483 vs 9.7483 N²": now enough digits to see the gap, or nothing
+    assert better_fit_text(9.74831, 9.74834) is None  # 3e-6 relative: not a better fit worth a callout
+    text = better_fit_text(9.7041, 9.7483)
+    assert text == "9.7041 N², 0.45% below the analysed fit's 9.7483 N²"
+    close = better_fit_text(9.7473, 9.7483)  # 1e-4: the digits tell them apart
+    assert close == "9.7473 N², 0.01% below the analysed fit's 9.7483 N²"
+
+
+def test_profiles_claim_a_bound_only_from_converged_points(drawn, tmp_path):
+    from bwbench.problems.switched_vpp.posterior_figures import bounded
+
+    values, mse = [0.0, 1.0, 2.0, 3.0], [9.0, 1.0, 1.01, 9.0]
+    assert bounded(values, mse, 2.0) == "both sides"
+    assert bounded(values, mse, 2.0, [True, True, True, False]) == "below only"
+    assert bounded(values, mse, 2.0, [False, True, True, False]) == "not shown"  # upper bounds only
+    assert bounded(values, [1.5, 1.0, 1.2, 1.9], 2.0, [False] * 4) == "neither"  # below: shown either way
+    analysis = {"specimen": "toy", "mse": 1.0, "noise_rmse_N": 1.0, "n_data": 100, "params": {"n+": 1.0},
+                "profiles": {"n+": [{"value": v, "unit": 0.0, "mse": m, "evaluations": 5, "converged": c}
+                                    for v, m, c in zip(values, mse, [False, True, True, False])]}}
+    switched_figures.profiles(analysis, tmp_path)
+    assert "95 % region no bound shown (not converged)" in drawn[0].texts
+    assert "bounded on both sides" not in drawn[0].texts
 
 
 def test_plot_fit_titles_the_formulation_and_shows_the_residual(study, drawn, tmp_path):

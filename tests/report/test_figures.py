@@ -8,7 +8,7 @@ import pytest
 from study_fixture import make_study_db
 
 from bwbench.problems.switched_vpp import figures as switched_figures
-from bwbench.report import figures
+from bwbench.report import ecdf_figures, figures
 from bwbench.study import results as results_db
 from bwbench.analysis import statistics
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
@@ -44,30 +44,49 @@ def test_waterfall_has_one_row_per_ranking_run_sorted_per_specimen_and_backend(s
     assert frame.groupby("specimen")["ratio"].min().to_numpy() == pytest.approx([1.0, 1.0])
 
 
-def test_ecdf_stays_below_one_when_a_run_misses(study, out):
-    frame = _read(figures.runtime_ecdf(study, out))
-    assert len(frame) == 24 * len(figures.ECDF_TAUS)
-    missed = frame[(frame["specimen"] == MISS[0]) & (frame["optimizer"] == MISS[1]) & (frame["replicate"] == MISS[2])]
-    assert len(missed) == len(figures.ECDF_TAUS) and not missed["reached"].any()
-    grid = np.geomspace(1, 1e6, 50)
-    for _, g in frame.groupby("optimizer"):
-        assert figures.ecdf(g["evals"].astype(float), grid).max() < 1.0
-
-
-def test_ecdf_targets_reach_ten_times_the_best_known(study, out):
-    # Targets only up to 2× the best leave most backends flat at 0; 10× separates them.
-    assert max(1 + tau for tau in figures.ECDF_TAUS) >= 10
-    frame = _read(figures.runtime_ecdf(study, out))
+def test_runtime_ecdf_stays_below_one_when_a_run_misses(study, out):
+    frame = _read(ecdf_figures.runtime_distributions(study, out))
+    target = frame[frame["view"] == "fixed target"]
+    assert (target.groupby("label")["fraction"].max() < 1.0).all()  # the missed run misses every target
     best = statistics.best_known(study.runs)
-    ratios = frame["target_mse"] / frame["specimen"].map(best)  # the CSV keeps 6 digits
-    assert ratios.max() >= 10 * (1 - 1e-5) and ratios.min() == pytest.approx(1.01, rel=1e-5)
-    assert frame["reached"].mean() > 0
+    rt = statistics.runtimes(study.ranking, study.traces, ecdf_figures.ECDF_TAUS, best)
+    missed = rt[(rt["specimen"] == MISS[0]) & (rt["optimizer"] == MISS[1]) & (rt["replicate"] == MISS[2])]
+    assert len(missed) == 51 and not missed["reached"].any()
 
 
-def test_ecdf_reaches_one_only_when_every_triple_is_reached():
+def test_runtime_ecdf_has_51_log_spaced_targets_from_a_thousandth_to_a_hundredfold():
+    taus = np.array(ecdf_figures.ECDF_TAUS)
+    assert len(taus) == 51 and taus[0] == pytest.approx(1e-3) and taus[-1] == pytest.approx(100.0)
+    assert np.allclose(np.diff(np.log10(taus)), 0.1)  # ten per decade, as COCO's Δf targets are spaced
+
+
+def test_the_fixed_budget_view_is_the_ecdf_of_final_losses(study, out):
+    frame = _read(ecdf_figures.runtime_distributions(study, out))
+    budget = frame[frame["view"] == "fixed budget"]
+    best = statistics.best_known(study.runs)
+    ranking = study.ranking
+    for label, g in budget.groupby("label"):
+        runs = ranking[ranking["optimizer"] == label]
+        excess = np.sort(np.maximum(runs["mse"] / runs["specimen"].map(best) - 1, ecdf_figures.FLOOR))
+        assert g["x"].to_numpy() == pytest.approx(excess, rel=1e-5)
+        assert g["fraction"].to_numpy() == pytest.approx(np.arange(1, len(runs) + 1) / len(runs))
+
+
+def test_ecdf_reaches_one_only_when_every_pair_is_reached():
     grid = np.array([1, 10, 100, 1000])
-    assert figures.ecdf([5, 50, 500], grid).tolist() == [0, 1 / 3, 2 / 3, 1.0]
-    assert figures.ecdf([5, 50, np.inf], grid).max() == pytest.approx(2 / 3)
+    assert ecdf_figures.ecdf([5, 50, 500], grid).tolist() == [0, 1 / 3, 2 / 3, 1.0]
+    assert ecdf_figures.ecdf([5, 50, np.inf], grid).max() == pytest.approx(2 / 3)
+
+
+def test_many_labels_are_drawn_as_small_multiples_with_the_best_highlighted():
+    order = [f"b{k} [identifiable]" for k in range(11)] + ["random [identifiable]"]
+    coloured, baselines, grey = ecdf_figures.highlighted(order)
+    assert coloured == order[:ecdf_figures.HIGHLIGHT] and baselines == ["random [identifiable]"]
+    assert grey == order[ecdf_figures.HIGHLIGHT:11]
+    few = ["a", "b", "random"]
+    assert ecdf_figures.highlighted(few) == (["a", "b"], ["random"], [])
+    groups = ecdf_figures.by_variant(["a [paper]", "a [identifiable]", "b [paper]"])
+    assert groups == {"paper": ["a [paper]", "b [paper]"], "identifiable": ["a [identifiable]"]}
 
 
 def test_convergence_has_a_median_and_quartiles_per_backend_and_panel(study, out):
@@ -83,10 +102,10 @@ def test_convergence_has_a_median_and_quartiles_per_backend_and_panel(study, out
 
 def test_convergence_panels_in_underpressure_order_and_relative_to_the_noise_floor(study, out):
     low, high = "pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1"
-    floors = {high: (10.0, "noise floor (truth): 10 N²"), low: (5.0, "noise floor (truth): 5 N²")}
+    floors = {high: (10.0, "noise floor"), low: (5.0, "noise floor")}
     frame = _read(figures.convergence(study, out, [high, low], floors=floors))
     assert list(dict.fromkeys(frame["panel"])) == ["all specimens (pooled)", "0.01 MPa, repeat 1", "0.09 MPa, repeat 1"]
-    assert set(frame["y"]) == {"mse_over_noise_floor"}
+    assert set(frame["y"]) == {"mse_over_floor"}
     last = frame[(frame["panel"] == "0.09 MPa, repeat 1") & (frame["nfev"] == frame["nfev"].max())]
     runs = study.ranking[study.ranking["specimen"] == high]
     for optimizer, g in last.groupby("optimizer"):  # the last median is the median final MSE / floor
@@ -113,10 +132,10 @@ def test_a_median_of_best_so_far_curves_never_rises():
 
 def test_convergence_pools_relative_to_the_floor_only_when_every_specimen_has_one(study, out):
     low, high = "pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1"
-    frame = _read(figures.convergence(study, out, floors={high: (10.0, "noise floor (truth): 10 N²")}))
+    frame = _read(figures.convergence(study, out, floors={high: (10.0, "noise floor")}))
     kinds = frame.drop_duplicates("panel").set_index("panel")["y"].to_dict()
     assert kinds == {"all specimens (pooled)": "mse_over_best_known", "0.01 MPa, repeat 1": "mse_over_best_known",
-                     "0.09 MPa, repeat 1": "mse_over_noise_floor"}
+                     "0.09 MPa, repeat 1": "mse_over_floor"}
     pooled = frame[frame["panel"] == "all specimens (pooled)"]
     assert pooled.groupby("optimizer")["median"].min().min() >= 1.0 - 1e-9  # nothing below the best known
 
@@ -240,3 +259,22 @@ def test_panel_titles_name_the_material_when_a_study_has_several(study):
     runs.loc[runs["specimen"] != specimen, "material"] = "PC/ABS C12HF"
     two = specimen_title(dataclasses.replace(study, runs=runs), specimen)
     assert two == f"{study.runs['material'].iloc[0]}, {one}"
+
+
+def test_twenty_labels_in_two_formulations_are_two_columns_with_the_best_four_in_colour(tmp_path):
+    spreads = {f"b{k}": 0.002 * (k + 1) for k in range(9)}
+    labels = {f"{b} [{v}]": s for b, s in spreads.items() for v in ("identifiable", "paper")}
+    labels.update({"random [identifiable]": 0.15, "random [paper]": 0.2})
+    many = results_db.load_study(make_study_db(tmp_path / "many.sqlite", optimizers=labels, replicates=2,
+                                               posterior=False))
+    order = sorted(labels, key=lambda n: (n.startswith("random"), labels[n], n))
+    frame = _read(figures.convergence(many, tmp_path, order=order))
+    assert set(frame["variant"]) == {"identifiable", "paper"}
+    for variant, g in frame.groupby("variant"):
+        coloured = list(dict.fromkeys(g.loc[g["highlighted"], "optimizer"]))
+        mine = [n for n in order if n.endswith(f"[{variant}]")]
+        assert coloured == mine[:4] + [f"random [{variant}]"]  # the best four and the baseline
+        assert set(g.loc[~g["highlighted"], "optimizer"]) == set(mine[4:-1])  # the rest in grey
+        assert list(dict.fromkeys(g.loc[g["band"], "optimizer"])) == mine[:figures.BANDS]
+    target = pd.read_csv(ecdf_figures.runtime_distributions(many, tmp_path, order=order).with_suffix(".csv"))
+    assert set(target["variant"]) == {"identifiable", "paper"} and target["highlighted"].sum() < len(target)

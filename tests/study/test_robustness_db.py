@@ -330,8 +330,7 @@ def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_p
     markdown = (tmp_path / "report" / "report.md").read_text(encoding="utf-8")
     blocks = markdown.split("\n\n")
     assert blocks[0] == "# Optimiser comparison: tiny (provisional: 3 of 6 runs)"
-    first_paragraph = next(b for b in blocks[1:] if not b.startswith(">"))
-    assert first_paragraph.startswith("**Recommendation.** **Provisional: 3 of 6 runs**: the study is unfinished")
+    assert blocks[1].startswith("> **Provisional: 3 of 6 runs: the study is unfinished")  # before anything else
     recommendation = markdown.split("## Recommendation\n\n")[1].split("\n\n")[0]
     assert recommendation.startswith("**Provisional: 3 of 6 runs**")
     html = (tmp_path / "report" / "report.html").read_text(encoding="utf-8")

@@ -18,8 +18,10 @@ Reading the results:
 - a parameter is *poorly determined* when its free range or its standard error exceeds
   ``POOR_SE`` (10 %) of its Table 5 range. All of this is linear: it describes the neighbourhood
   of the point analysed, not other minima;
-- a profile fixes one parameter on a grid and re-optimises the others: a flat profile means the
-  others compensate (the parameter is not identifiable), a sharp minimum that it is.
+- a profile fixes one parameter on a grid and re-optimises the others. The re-optimised loss is an
+  upper bound of the true profile: a profile below the threshold shows the others compensate (the
+  data do not pin the parameter down there); one above it shows a bound only where its points
+  converged (``profile`` records it), and only for the minimum found.
 """
 
 from __future__ import annotations
@@ -220,17 +222,30 @@ def follow_invariance(residual, u, direction, scale: float, length: float = 0.1,
     return {"exact": bool(exact), "max_ratio": max_ratio, "change": change, "length": travelled}
 
 
-def profile(loss_batch, u_best, index: int, grid, maxiter: int = 15, step: float = STEP) -> pd.DataFrame:
+PROFILE_MAXITER = 300  # L-BFGS-B iterations per start of a profile point: enough to converge here
+
+
+def profile(loss_batch, u_best, index: int, grid, maxiter: int = PROFILE_MAXITER, step: float = STEP) -> pd.DataFrame:
     """Profile of the loss along coordinate ``index``: at each grid value (unit coordinates) the
     other coordinates are re-optimised by scipy's L-BFGS-B on [0, 1], and the lowest loss found
     is kept.
 
-    Each point is searched twice, ``maxiter`` iterations each: warm-started from the neighbouring
-    grid point (walking outwards from ``u_best``) and from ``u_best`` itself. L-BFGS-B minimises
-    log(loss), whose scale is uniform over the decades a profile spans, with the gradient by
-    central differences of step ``step`` computed in one ``loss_batch`` call. ``loss_batch(U)``
-    takes (m, d) unit points and returns m losses (inf where the model blows up). Returns columns
-    ``unit``, ``loss`` and ``evaluations`` (loss evaluations spent on the point), sorted by ``unit``.
+    Each point is searched warm-started from the neighbouring grid point (walking outwards from
+    ``u_best``); when that search does not converge, or ends where the model blows up, once more
+    from ``u_best``. L-BFGS-B minimises log(loss), whose scale is uniform over the decades a
+    profile spans, with the gradient by central differences of step ``step`` computed in one
+    ``loss_batch`` call. ``loss_batch(U)`` takes (m, d) unit points and returns m losses (inf where
+    the model blows up). A point is ``converged`` when the search that found its loss stopped on
+    L-BFGS-B's own convergence tests (projected gradient ≤ pgtol or relative reduction of the log
+    loss ≤ factr·eps) within ``maxiter`` iterations at a finite loss.
+
+    What a profile can show: the re-optimised loss is an upper bound of the true profile (the
+    search may stop early or in a local minimum), so a profile below a threshold shows the data do
+    not pin the parameter down there; a profile above it shows a bound only where its points
+    converged, and then only for the minimum the search found.
+
+    Returns columns ``unit``, ``loss``, ``converged``, ``iterations`` and ``evaluations`` (loss
+    evaluations spent on the point), sorted by ``unit``.
     """
     u_best = np.asarray(u_best, dtype=float)
     free = np.array([i for i in range(u_best.size) if i != index])
@@ -257,19 +272,23 @@ def profile(loss_batch, u_best, index: int, grid, maxiter: int = 15, step: float
             grad = (logs[1:1 + free.size] - logs[1 + free.size:]) / np.diag(hi - lo)
             return float(logs[0]), np.where(np.isfinite(grad), grad, 0.0)
 
-        minimize(fun, start, jac=True, method="L-BFGS-B", bounds=[(0.0, 1.0)] * free.size,
-                 options={"maxiter": maxiter})
-        return best[0], best[1], count
+        res = minimize(fun, start, jac=True, method="L-BFGS-B", bounds=[(0.0, 1.0)] * free.size,
+                       options={"maxiter": maxiter})
+        converged = bool(res.success and res.nit < maxiter and np.isfinite(best[0]) and res.fun < 700.0)
+        return best[0], best[1], converged, int(res.nit), count
 
     rows = []
     centre = u_best[index]
     for side in (grid[grid >= centre], grid[grid < centre][::-1]):
         warm = u_best[free]
         for value in side:
-            results = [search(value, warm), search(value, u_best[free])]
-            loss, x, _ = min(results, key=lambda r: r[0])
+            results = [search(value, warm)]
+            if not results[0][2]:
+                results.append(search(value, u_best[free]))
+            loss, x, converged, iterations, _ = min(results, key=lambda r: r[0])
             warm = x
-            rows.append({"unit": float(value), "loss": loss, "evaluations": sum(r[2] for r in results)})
+            rows.append({"unit": float(value), "loss": loss, "converged": converged, "iterations": iterations,
+                         "evaluations": sum(r[4] for r in results)})
     return pd.DataFrame(rows).sort_values("unit").reset_index(drop=True)
 
 

@@ -14,11 +14,13 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bwbench.analysis import statistics
+from bwbench.analysis import comparisons, statistics
 from bwbench.errors import UserError
 from bwbench.report import sections
 from bwbench.report.document import Document
+from bwbench.report.labels import variant_noun
 from bwbench.report.recommend import recommend
+from bwbench.report.verdict import TARGET
 from bwbench.study import results as results_db
 
 
@@ -30,9 +32,9 @@ class Report:
     doc: Document
     out: Path
     log: object
-    table: object  # statistics.ranking_table, best mean rank first
+    table: object  # statistics.ranking_table, in the decision rule's order
     tests: statistics.Comparison
-    recommendation: dict
+    recommendation: dict  # recommend.recommend: verdict, best, choice, order, text
     featured: list  # specimens shown in per-specimen figures: posterior ones first
     options: dict = field(default_factory=dict)  # e.g. profile_params, profile_grid
 
@@ -45,12 +47,19 @@ class Report:
         return self.tests.omnibus
 
     @property
-    def pairwise(self):
-        return self.tests.pairwise
+    def verdict(self):
+        return self.recommendation["verdict"]
 
     @property
     def best_backend(self) -> str:
-        return self.recommendation["best"]
+        """The recommended label (the reference when the rule recommends nothing)."""
+        return self.recommendation["choice"] or self.recommendation["best"]
+
+    @property
+    def noun(self) -> str | None:
+        """What the study's variants are ("formulation", …), None when it compares none."""
+        by_variant = self.verdict.by_variant
+        return variant_noun(self.study.settings) if by_variant is not None and len(by_variant) else None
 
     def progress(self, what: str) -> None:
         print(f"{what} ...", file=self.log, flush=True)
@@ -83,9 +92,10 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     problem_type = study.problem_type
     table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
     tests = statistics.compare_backends(study.runs)
-    n_specimens = len(study.specimens)
-    rec = recommend(table, tests.pairwise, tests.omnibus, study.settings.get("budget", "?"), n_specimens,
-                    tests.omnibus_name, problem_type.residual_unit)
+    success = statistics.success_by_specimen(study.runs, study.traces, TARGET)
+    rec = recommend(table, success, comparisons.log_losses(study.ranking), tests, study.settings.get("budget", "?"),
+                    problem_type.residual_unit, variant_noun(study.settings))
+    table = table.set_index("optimizer").loc[rec["order"]].reset_index()  # the rule's order, everywhere
     provisional = study.provisional  # "provisional: 16 of 36 runs" for an unfinished study
     if provisional:
         rec["text"] = (f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished (still running, "
@@ -97,14 +107,17 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
 
     title = f"{study.name} ({provisional})" if provisional else study.name
     doc.h(1, f"Optimiser comparison: {title}")
+    if provisional:
+        doc.banner(f"{provisional[0].upper()}{provisional[1:]}: the study is unfinished (still running, or stopped "
+                   "part-way); its recommendation may change when it completes.")
     if problem_type.is_synthetic(study):
         doc.banner("SYNTHETIC DATA — generated from the paper's Tables 6–8, not measured.")
-    doc.p("**Recommendation.** " + rec["text"])
+    sections.recommendation(report)
     sections.setup(report)
     problem_type.report_intro(report)
     sections.ranking(report)
-    table.to_csv(out / "ranking.csv", index=False)
-    tests.pairwise.to_csv(out / "pairwise_tests.csv", index=False)
+    table.assign(verdict=[report.verdict.role(n) for n in table["optimizer"]]).to_csv(out / "ranking.csv", index=False)
+    sections.comparisons_frame(report).to_csv(out / "comparisons.csv", index=False)
     report.progress("figures")
     sections.run_figures(report)
     problem_type.report_sections(report)

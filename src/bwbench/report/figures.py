@@ -1,4 +1,5 @@
-"""Study figures every problem gets: convergence, runtime ECDF, waterfall.
+"""Study figures every problem gets: convergence and waterfall (the runtime distributions are
+``bwbench.report.ecdf_figures``).
 
 Every function takes a loaded ``bwbench.study.results.Study`` and an output folder and returns the
 PNG's path, with the tidy CSV behind it beside it (same name, ``.csv``). ``order``: the report's
@@ -23,10 +24,7 @@ from bwbench.report.palette import (  # noqa: F401  (DPI … styles: the shared 
     split_label, styles, theme,
 )
 
-# Targets of the runtime ECDF: best known × (1 + τ) = 1.01×, 1.1×, 2× and 10×. The loosest is what
-# separates the backends that never come near the best from those that merely miss its last percent.
-ECDF_TAUS = (0.01, 0.1, 1.0, 9.0)
-BANDS = 3  # interquartile bands for the best few backends only: more bands hide each other
+BANDS = 3  # interquartile bands for the best few labels of a panel only: more bands hide each other
 
 
 def finished(runs: pd.DataFrame) -> pd.DataFrame:
@@ -83,26 +81,40 @@ def quartiles(curves) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return q25, median, q75
 
 
+def plain_log_axis(axis, span: float) -> None:
+    """Tick labels of a log axis as plain numbers (2, 3, 10, 100), the minor ones only when the axis
+    spans less than a decade (else they crowd)."""
+    plain = matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}")
+    axis.set_major_formatter(plain)
+    axis.set_minor_formatter(plain if span < 10 else matplotlib.ticker.NullFormatter())
+
+
 def _evaluation_grid(max_nfev: float, points: int = 400) -> np.ndarray:
     return np.unique(np.round(np.linspace(1, max(max_nfev, 2), points)).astype(int))
 
 
 def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=None, order=None,
                 bands: int = BANDS) -> Path:
-    """Best-so-far loss against evaluations (the paper's Fig 16, every backend): the median across
-    seeds as a line, the interquartile range as a band for the ``bands`` best backends only. First
-    panel (when there are several specimens): all specimens pooled; then one panel per specimen
-    of ``specimens`` (at most ``max_specimens``, in natural order). ``floors``: {specimen: (loss,
-    label)}, e.g. the truth's MSE: the loss of that specimen is shown relative to its floor (the
-    floor is the line at 1); without one, relative to the best known. Linear evaluation axis: the
-    last stretch of the budget, where the ranking is decided, gets most of the width."""
+    """Best-so-far loss against evaluations (every label): the median across seeds as a line, the
+    interquartile range as a band for the ``bands`` best labels only. First panel (when there are
+    several specimens): all specimens pooled; then one panel per specimen of ``specimens`` (at most
+    ``max_specimens``, in natural order). When the labels carry variants (formulations), one column
+    per variant (and at most two specimens besides the pooled panel). A panel with many labels
+    shows its best ``ecdf_figures.HIGHLIGHT`` in colour, random search in dark grey and the rest in
+    light grey (``ecdf_figures.highlighted``). ``floors``: {specimen: (loss, name)}, e.g. the truth's
+    MSE named "noise floor" where it is one: that specimen's loss is shown relative to it (the line
+    at 1); without one, relative to the best known. Linear evaluation axis: the last stretch of the
+    budget, where the ranking is decided, gets most of the width."""
+    from bwbench.report.ecdf_figures import GREY, by_variant, highlighted
+
     theme()
     floors = floors or {}
     best = statistics.best_known(study.runs)
     ranking = study.ranking
     look = styles(study, order)
-    optimizers = [o for o in look if o in set(ranking["optimizer"])]
-    specimens = specimen_order(study, list(specimens or study.specimens)[:max_specimens])
+    groups = by_variant([o for o in look if o in set(ranking["optimizer"])])
+    columns = len(groups) if len(groups) > 1 else 1
+    specimens = specimen_order(study, list(specimens or study.specimens)[:max_specimens if columns == 1 else 2])
     budget = float(np.nanmax(ranking["nfev"])) if len(ranking) else 1.0
     grid = _evaluation_grid(budget)
     traces = {k: g for k, g in study.traces[study.traces["kind"] == "ranking"].groupby(
@@ -114,15 +126,18 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
                  for s in study.specimens for pooled in (True, False)}
     panels = [("all specimens (pooled)", None)] if len(specimens) > 1 else []
     panels += [(specimen_title(study, s), s) for s in specimens]
-    ncols = 1 if len(panels) == 1 else 2
-    nrows = -(-len(panels) // ncols)
-    fig, axes = figure(MAX_WIDTH_IN, 3.4 * nrows + 1.3, nrows=nrows, ncols=ncols, squeeze=False, sharex=True)
-    rows, drawn = [], []
-    for ax, (title, specimen) in zip(axes.flat, panels):
+    cells = ([(p, v) for p in panels for v in groups] if columns > 1 else [(p, None) for p in panels])
+    ncols = columns if columns > 1 else (1 if len(panels) == 1 else 2)
+    nrows = -(-len(cells) // ncols)
+    fig, axes = figure(MAX_WIDTH_IN, 3.3 * nrows + 1.4, nrows=nrows, ncols=ncols, squeeze=False, sharex=True)
+    rows, drawn, banded, greyed = [], [], set(), False
+    for ax, ((title, specimen), variant) in zip(axes.flat, cells):
+        names = groups[variant] if columns > 1 else [o for g in groups.values() for o in g]
+        coloured, baselines, grey = highlighted([o for o in look if o in set(names)])
+        greyed |= bool(grey)
         on_floor = pooled_floor if specimen is None else specimen in floors
-        shown = []  # what sets the y range: the medians after the first tenth of the budget
-        counts = set()
-        for rank, optimizer in enumerate(optimizers):
+        shown, counts = [], set()  # the y range: the coloured medians after the first tenth of the budget
+        for rank, optimizer in enumerate(coloured + baselines + grey):
             curves = [best_so_far(g["nfev"].to_numpy(), g["mse"].to_numpy(), grid) / reference[s, specimen is None]
                       for (s, o, _), g in traces.items() if o == optimizer and specimen in (None, s)]
             if not curves:
@@ -130,108 +145,64 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
             q25, median, q75 = quartiles(curves)
             counts.add(len(curves))
             style = look[optimizer]
-            zorder = 3 + len(optimizers) - rank  # the best on top
-            ax.plot(grid, median, **style.line(markers=True, ms=5, markevery=(8 + 11 * rank % 37, 60)),
-                    zorder=zorder)
-            if rank < bands and split_label(optimizer)[0] != "random":
+            if optimizer in grey:
+                ax.plot(grid, median, color=GREY, lw=1.0, zorder=2)
+            else:
+                ax.plot(grid, median, **style.line(markers=True, ms=5, markevery=(8 + 11 * rank % 37, 60)),
+                        zorder=3 + len(names) - rank)
+                shown.append(median[grid >= budget / 10])
+                drawn.append(optimizer)
+            if optimizer in coloured[:bands]:
                 ax.fill_between(grid, q25, q75, color=style.colour, alpha=0.13, lw=0, zorder=1)
                 shown.append(q25[grid >= budget / 10])
-            shown.append(median[grid >= budget / 10])
-            drawn.append(optimizer)
-            rows.append(pd.DataFrame({"panel": title, "optimizer": optimizer, "nfev": grid, "median": median,
-                                      "q25": q25, "q75": q75, "runs": len(curves),
-                                      "y": "mse_over_noise_floor" if on_floor else "mse_over_best_known"}))
+                banded.add(optimizer)
+            rows.append(pd.DataFrame({"panel": title, "variant": variant, "optimizer": optimizer, "nfev": grid,
+                                      "median": median, "q25": q25, "q75": q75, "runs": len(curves),
+                                      "highlighted": optimizer not in grey, "band": optimizer in coloured[:bands],
+                                      "y": "mse_over_floor" if on_floor else "mse_over_best_known"}))
         ax.axhline(1.0, color="black", lw=1.1, ls=(0, (5, 3)) if on_floor else ":", zorder=2)
         values = np.concatenate(shown + [np.array([1.0])])
         values = values[np.isfinite(values) & (values > 0)]
         ax.set_yscale("log")
-        ax.set_ylim(min(values.min(), 1.0) / 1.25, values.max() * 1.6)  # earlier, worse points run off the top
+        low, high = min(values.min(), 1.0) / 1.25, values.max() * 1.6
+        ax.set_ylim(low, high)  # earlier, worse points run off the top
+        plain_log_axis(ax.yaxis, high / low)
         ax.set_xlim(0, budget * 1.01)
-        ax.set_ylabel("MSE / noise floor (–)" if on_floor else "MSE / best known (–)")
-        floor_text = (f"; noise floor {floors[specimen][0]:.3g} {study.loss_unit}"
+        floor_name = floors[specimen][1] if specimen is not None and on_floor else (
+            next(iter(floors.values()))[1] if on_floor else "best known")
+        ax.set_ylabel(f"MSE / {floor_name} (–)")
+        floor_text = (f"; {floor_name} {floors[specimen][0]:.3g} {study.loss_unit}"
                       if specimen is not None and on_floor else "")
-        count_text = f" ({counts.pop()} runs per backend)" if len(counts) == 1 else ""
-        ax.set_title(title + floor_text + count_text, loc="left")
-    for k, ax in enumerate(axes.flat[:len(panels)]):
-        if k + ncols >= len(panels):  # the lowest panel of its column carries the axis
+        count_text = f" ({counts.pop()} runs per label)" if len(counts) == 1 else ""
+        where = f"{variant}: " if variant is not None else ""
+        ax.set_title(where + title + floor_text + count_text, loc="left", fontsize=10)
+        if grey:
+            ax.text(0.99, 0.97, "grey: " + ", ".join(split_label(n)[0] for n in grey), transform=ax.transAxes,
+                    va="top", ha="right", fontsize=9, color="0.25",
+                    bbox={"fc": "white", "ec": "0.8", "boxstyle": "round"}, zorder=20)
+    for k, ax in enumerate(axes.flat[:len(cells)]):
+        if k + ncols >= len(cells):  # the lowest panel of its column carries the axis
             ax.xaxis.set_tick_params(labelbottom=True)
             ax.set_xlabel("evaluations")
-    for ax in axes.flat[len(panels):]:
+    for ax in axes.flat[len(cells):]:
         ax.set_visible(False)
     frame = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     handles = backend_handles(look, drawn)
-    if bands:
-        handles.append(Patch(color="0.6", alpha=0.5, label=f"interquartile range over seeds (best {bands})"))
-    kinds = {pooled_floor if s is None else s in floors for _, s in panels}
+    if banded:
+        per_panel = max(len([o for o in g if o in banded]) for g in groups.values())
+        handles.append(Patch(color="0.6", alpha=0.5, label=f"interquartile range over seeds (best {per_panel}"
+                             + (" per column)" if columns > 1 else ")")))
+    if greyed:
+        handles.append(Line2D([], [], color=GREY, lw=1.0, label="other labels (named in the panel)"))
+    kinds = {pooled_floor if s is None else s in floors for (_, s), _ in cells}
     if True in kinds:
-        label = next(iter(floors.values()))[1].split(":")[0]
-        handles.append(Line2D([], [], color="black", lw=1.1, ls=(0, (5, 3)), label=f"{label} = 1"))
+        handles.append(Line2D([], [], color="black", lw=1.1, ls=(0, (5, 3)),
+                              label=f"{next(iter(floors.values()))[1]} = 1"))
     if False in kinds:
         handles.append(Line2D([], [], color="black", lw=1.1, ls=":", label="best known = 1"))
     legend(fig, handles, ncol=4)
-    fig.suptitle("Convergence: median over seeds of the best-so-far MSE (backends best first)")
+    fig.suptitle("Convergence: median over seeds of the best-so-far MSE (labels in the report's order)")
     return save(fig, out_dir, "convergence", frame, study.problem_type.is_synthetic(study))
-
-
-# ------------------------------------------------------------------------------------ runtime ECDF
-
-def ecdf(evals, grid) -> np.ndarray:
-    """Fraction of ``evals`` (inf = never) that are ≤ each value of ``grid``."""
-    evals = np.sort(np.asarray(evals, dtype=float))
-    if evals.size == 0:
-        return np.zeros(len(grid))
-    return np.searchsorted(evals, grid, side="right") / evals.size
-
-
-def runtime_ecdf(study, out_dir, taus=ECDF_TAUS, order=None) -> Path:
-    """ECDF of evaluations to target (COCO/IOHprofiler style): for each backend, the fraction of
-    (specimen, seed, target) triples reached within x evaluations; targets = best known MSE of
-    the specimen × (1 + τ), from 1.01× to 10× by default. A curve reaches 1 only if every run hit
-    every target. Backends that reach no target are named, not drawn (flat lines at 0 would hide
-    each other); the x axis starts where the first target is reached."""
-    theme()
-    best = statistics.best_known(study.runs)
-    rt = statistics.runtimes(study.ranking, study.traces, taus, best)
-    look = styles(study, order)
-    optimizers = [o for o in look if o in set(rt["optimizer"])]
-    budget = float(np.nanmax(study.ranking["nfev"])) if len(study.ranking) else 1.0
-    finite = rt.loc[np.isfinite(rt["evals"]), "evals"]
-    start = max(1.0, float(finite.min()) / 1.5) if len(finite) else 1.0
-    grid = np.unique(np.round(np.geomspace(start, max(budget, start * 2), 400)).astype(int))
-    fig, ax = figure(MAX_WIDTH_IN, 6.0)
-    handles, never = [], []
-    n = len(optimizers)
-    for rank, optimizer in enumerate(optimizers):
-        evals = rt.loc[rt["optimizer"] == optimizer, "evals"]
-        y = ecdf(evals, grid)
-        if y[-1] == 0:
-            never.append(optimizer)
-            continue
-        style = look[optimizer]
-        # Drawn from its first target on: flat stretches at 0 would lie on top of each other.
-        start_at = max(int(np.argmax(y > 0)) - 1, 0)
-        y = np.where(np.arange(len(y)) >= start_at, y, np.nan)
-        # markers at staggered places: two curves on top of each other still show both
-        ax.step(grid, y, where="post", zorder=3 + n - rank,
-                **style.line(markers=True, ms=5.5, markevery=(5 + 23 * rank % 61, 75)))
-        handles.append(style.handle(f"{optimizer}: {y[-1]:.0%}"))
-    ax.set_xscale("log")
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_xlim(start, budget * 1.05)
-    ax.xaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
-    ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:,.0f}"))
-    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-    ax.set_xlabel("evaluations")
-    ax.set_ylabel("fraction of (specimen, seed, target) reached (–)")
-    targets = ", ".join(f"{1 + t:g}×" for t in taus)
-    ax.set_title(f"targets: best known MSE of the specimen × {{{targets}}}", loc="left")
-    if never:
-        ax.text(0.01, 0.97, "reached no target: " + ", ".join(never), transform=ax.transAxes, va="top",
-                ha="left", fontsize=9.5, color="0.2", bbox={"fc": "white", "ec": "0.7", "boxstyle": "round"})
-    legend(fig, handles, ncol=4, title="fraction reached at the budget (backends best first)")
-    fig.suptitle("Runtime ECDF: how many targets each backend reaches within x evaluations")
-    frame = rt.drop(columns=["kind"])
-    return save(fig, out_dir, "ecdf", frame, study.problem_type.is_synthetic(study))
 
 
 # ---------------------------------------------------------------------------------- waterfall

@@ -1,4 +1,4 @@
-"""How the report writes numbers: significant figures, p-values, percentages, evaluation counts."""
+"""How the report writes numbers: significant figures, p-values, evaluation counts, durations."""
 
 from __future__ import annotations
 
@@ -35,22 +35,20 @@ def evals_text(x) -> str:
     return "∞" if np.isinf(x) else f"{x:,.0f}"
 
 
-def percent(x) -> str:
-    return "–" if x is None or not np.isfinite(x) else f"{x:.0%}"
-
-
 def p_text(x) -> str:
     if x is None or not np.isfinite(x):
         return "–"
     return f"{x:.2g}" if x >= 1e-3 else f"{x:.1e}"
 
 
-def spread_text(values) -> str:
-    values = np.asarray(values, dtype=float)
-    values = values[np.isfinite(values)]
-    if values.size == 0:
+def seconds_text(x) -> str:
+    """A duration: '0.42 ms', '3.1 s', '2.5 min'; ∞ for never, – for unknown."""
+    if x is None or np.isnan(x):
         return "–"
-    if values.size == 1:
-        return number(values[0])
-    return f"{number(np.median(values))} [{number(values.min(), 3)}, {number(values.max(), 3)}]"
-
+    if np.isinf(x):
+        return "∞"
+    if x < 0.1:
+        return f"{x * 1000:.2g} ms"
+    if x < 10:
+        return f"{x:.2g} s"
+    return f"{x:,.0f} s" if x < 120 else f"{x / 60:,.1f} min"

@@ -28,6 +28,8 @@ import seaborn as sns  # noqa: E402
 from matplotlib import patheffects  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
+from bwbench.report.labels import split_label  # noqa: E402,F401  (re-exported: figures import it from here)
+
 DPI = 110
 MAX_WIDTH_IN = 11.0  # 1,210 px at DPI: a report's column, shown at 100 %
 MIN_FONT_PT = 9.0
@@ -43,9 +45,6 @@ RANDOM_MARKER = "X"
 VARIANT_LOOK = {"identifiable": ("-", True), "paper": ("--", False)}
 OTHER_VARIANT_LOOK = ((":", True), ("-.", False))
 TRUTH = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
-
-_LABEL = re.compile(r"^(?P<backend>.*?)\s*\[(?P<variant>[^\]]+)\]\s*$")
-
 
 @dataclass(frozen=True)
 class Style:
@@ -84,12 +83,6 @@ class Style:
         if line:
             kw.update(ls=self.linestyle, lw=1.6, path_effects=self.outline(1.6))
         return Line2D([], [], label=self.label if text is None else text, **kw)
-
-
-def split_label(label: str) -> tuple[str, str | None]:
-    """``"cmaes [paper]"`` → ``("cmaes", "paper")``; ``"cmaes"`` → ``("cmaes", None)``."""
-    match = _LABEL.match(str(label))
-    return (match["backend"], match["variant"]) if match else (str(label), None)
 
 
 def median_order(runs: pd.DataFrame) -> list[str]:

@@ -1,155 +1,201 @@
-"""The recommendation: which backend to use, by a rule the report states (``rule``).
-
-It weighs effect size, not only p: a difference that is significant but small (the median paired
-ratio of final losses within ``PRACTICAL`` of 1) is reported as practically equal; and it states its
-power: how many paired comparisons there are, the smallest p the design can reach after Holm's
-correction, and "not enough runs to separate X and Y" when that smallest p cannot reach α. Ties are
-described as ties, with the wall time per run as the tie-breaker, stated.
+"""The recommendation in words: the rule (``rule``), stated before it is applied, and the paragraph
+that applies it (``recommend``). The decision itself is ``bwbench.report.verdict``.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pandas as pd
 
-from bwbench.analysis import statistics
-from bwbench.report.format import evals_text, join, number, p_text, percent
-
-ALPHA = statistics.ALPHA
-BASELINE = "random"  # the baseline: reported, never recommended
-PRACTICAL = 0.10  # final losses within 10 % of each other (median paired ratio): practically equal
-CLOSE = 2.0  # median final RMSE within 2× the best's: close behind, not far behind
-
-
-def rule(pairwise_name: str = "Wilcoxon signed-rank tests on the paired (specimen, seed) runs") -> str:
-    """The recommendation rule in words, naming the pairwise test the design allows."""
-    return (
-        "best = the backend with the lowest mean Friedman rank (ranks of the median final loss across seeds, "
-        f"per specimen; ties broken by the lower median RMSE). Each other backend is compared with it by pairwise "
-        f"{pairwise_name} on log10 final losses, Holm-corrected at α = {ALPHA:g}, and by the effect size, the "
-        f"median paired ratio of final losses: **practically equal** when that ratio is within {PRACTICAL * 100:.0f} % of 1 "
-        "(whatever p says), **tied** when the test cannot tell them apart; among the best and its equals and ties, "
-        "the faster one per run is the better buy (wall time breaks the tie). Of the rest, **close behind** = median "
-        f"RMSE within {CLOSE:g}× the best's, **far behind** = more; **avoid** = significantly worse than random "
-        f"search ('{BASELINE}', when it is in the study), the baseline that is never recommended."
-    )
+from bwbench.analysis import comparisons, statistics
+from bwbench.report.format import evals_text, join, number, p_text, seconds_text
+from bwbench.report.labels import split_label
+from bwbench.report.verdict import (
+    ALPHA, FALLBACK_TARGET, PRACTICAL, SUCCESS_MARGIN, TARGET, Verdict, decide,
+)
 
 
-def power(pairwise: pd.DataFrame) -> dict:
-    """What the design can show: comparisons, pairs per comparison, the smallest raw p of one test and the
-    smallest Holm-corrected p (raw × number of comparisons), and whether that can reach α."""
-    if pairwise is None or not len(pairwise):
-        return {"comparisons": 0, "pairs": 0, "min_p": np.nan, "min_p_holm": np.nan, "can_reach": False}
-    min_p = float(pairwise["min_p"].min())
-    min_holm = min(1.0, min_p * len(pairwise))
-    pairs = int(pairwise["n_a"].min()) if "n_a" in pairwise else 0
-    return {"comparisons": len(pairwise), "pairs": pairs, "min_p": min_p, "min_p_holm": min_holm,
-            "can_reach": min_holm < ALPHA}
+def rule(test_name: str, noun: str | None = None) -> list[str]:
+    """The decision rule as bullets, naming the test the design runs and, when the study compares
+    variants side by side, what they are (``noun``: "formulation", "model", ...)."""
+    items = [
+        f"**Views.** Fixed budget: a run's *final loss* is its best loss when the budget is spent. Fixed target: a "
+        f"run *succeeds* when it gets within {TARGET:.0%} of the best known loss of its specimen (the lowest of any "
+        "run in this database); *ERT* (COCO's expected running time) = evaluations spent by all runs (to the "
+        "target for the successful ones) / number of successful runs; *expected time to the target* = ERT × "
+        "measured seconds per evaluation (all wall time of the label's runs / all their evaluations, one core).",
+        "**Baseline.** Random search, in whichever "
+        + (noun or "variant") + ", is the baseline: compared and described, never recommended.",
+        f"**Order.** Candidates by success rate at the {TARGET:.0%} target (higher first), then by the mean rank "
+        f"over specimens of their median final loss (losses within {statistics.TIE:.0%} of each other share a "
+        "rank), then by expected time to the target. The first is the reference.",
+        f"**As good as the reference** only when both views agree: final losses at most {PRACTICAL:.0%} higher "
+        f"(Hodges–Lehmann ratio ≤ {1 + PRACTICAL:.2f}) **and** on every specimen a success rate at most "
+        f"{SUCCESS_MARGIN * 100:.0f} percentage points lower. Final losses as low but a larger success deficit on "
+        f"some specimen: *less reliable*. Final losses more than {PRACTICAL:.0%} higher: *behind*.",
+        f"**Tie-break.** Among the reference and its equals, the lowest expected time to the {TARGET:.0%} target "
+        f"is recommended (to the {FALLBACK_TARGET:.0%} target when none of them reaches {TARGET:.0%}).",
+        f"**Avoid**: final losses significantly (Holm) and more than {PRACTICAL:.0%} worse than the best baseline's.",
+        f"**Statistics.** Each comparison: {test_name} on log10 final losses (a failed run counts one decade "
+        f"worse than the worst finished run on its specimen); effect size = Hodges–Lehmann ratio of final losses "
+        f"with a {comparisons.LEVEL:.0%} bootstrap interval ({comparisons.BOOTSTRAP:,} resamples of the seeds within "
+        f"each specimen, fixed seed); Holm's correction at α = {ALPHA:g} within each family of comparisons the "
+        "rule uses (against the reference; against the baseline"
+        + (f"; each backend's {noun}s" if noun else "") + "). Significance qualifies a verdict, it never makes one.",
+    ]
+    if noun:
+        items.insert(1, f"**{noun.capitalize()}s first.** Each backend run in several {noun}s: its final losses in "
+                        f"each {noun} against those in the recommended label's {noun}; then one (backend, {noun}) "
+                        "pair is recommended.")
+    return items
 
 
-def recommend(table: pd.DataFrame, pairwise: pd.DataFrame, omnibus, budget, n_specimens: int,
-              omnibus_name: str = "Friedman test over specimens", unit: str = "N") -> dict:
-    """Apply ``rule()`` to the ranking ``table`` (sorted by mean rank) and the pairwise tests.
-
-    Returns ``best``, ``equal`` and ``tied`` [(name, p_holm, ratio)], ``close`` and ``far``
-    [(name, p_holm, ratio)], ``avoid`` [(name, reason)], ``choice`` (the backend to use: the fastest
-    of the best and its equals/ties), ``power`` and the generated ``text`` (markdown).
-    """
-    names = list(table["optimizer"])
-    candidates = [n for n in names if n != BASELINE] or names
-    b = candidates[0]
-    row_of = table.set_index("optimizer")
-    rmse = row_of["median_rmse_N"].astype(float)
-    p_info = power(pairwise)
-    groups = {"equal": [], "tied": [], "close": [], "far": []}
-    avoid = []
-    for name in candidates[1:]:
-        row = statistics.compare(pairwise, b, name)
-        p = float(row["p_holm"]) if row else np.nan
-        ratio = 10 ** abs(float(row["median_diff"])) if row and np.isfinite(row["median_diff"]) else np.nan
-        vs = statistics.compare(pairwise, name, BASELINE) if BASELINE in names else None
-        if vs and vs["significant"] and vs["median_diff"] > 0 and 10 ** vs["median_diff"] > 1 + PRACTICAL:
-            avoid.append((name, f"is significantly worse than random search (Holm p = {p_text(vs['p_holm'])})"))
-        elif np.isfinite(ratio) and ratio <= 1 + PRACTICAL:
-            groups["equal"].append((name, p, ratio))
-        elif not (row and row["significant"]) and rmse[name] <= CLOSE * rmse[b]:
-            groups["tied"].append((name, p, ratio))  # the tests cannot tell, and the effect is moderate
-        elif rmse[name] <= CLOSE * rmse[b]:
-            groups["close"].append((name, p, ratio))
-        else:
-            groups["far"].append((name, p, ratio))
-    wall = row_of["median_wall_s"].astype(float) if "median_wall_s" in row_of else pd.Series(dtype=float)
-    alike = {n for n, _, _ in groups["equal"]}
-    peers = [b] + [n for n in names if n in alike]  # in ranking order
-    choice = min(peers, key=lambda n: wall.get(n, np.inf)) if wall.notna().any() else b
-    text = _text(table, b, choice, groups, avoid, p_info, omnibus, omnibus_name, budget, n_specimens, unit, wall)
-    return {"best": b, "choice": choice, **groups, "avoid": avoid, "power": p_info, "text": text,
-            "tied_names": peers[1:]}
+def ratio_text(row) -> str:
+    """'1.02 [0.99, 1.05]': a Hodges–Lehmann ratio with its interval."""
+    return f"{_ratio(row['ratio'])} [{_ratio(row['ratio_low'])}, {_ratio(row['ratio_high'])}]"
 
 
-def _text(table, b, choice, groups, avoid, p_info, omnibus, omnibus_name, budget, n_specimens, unit, wall) -> str:
-    row_of = table.set_index("optimizer")
-    best = row_of.loc[b]
+def _ratio(x) -> str:
+    """A loss ratio: three decimals near 1 (1.004, 0.982), three figures further out, powers of ten far."""
+    if not np.isfinite(x):
+        return number(x)
+    if 0.9 <= x <= 1.1:
+        return f"{x:.3f}"
+    return f"{x:.3g}" if 0.01 <= x < 1000 else f"{x:.1e}"
+
+
+def _pair(label: str, noun: str | None) -> str:
+    backend, variant = split_label(label)
+    return f"**{backend}** in the **{variant}** {noun}" if variant and noun else f"**{label}**"
+
+
+def _success(table, label, tau=TARGET) -> str:
+    row = table.loc[label]
+    runs = int(row["runs"])
+    return f"{int(round(row[f'success_{tau:.0%}'] * runs))} of {runs} runs"
+
+
+def variant_text(verdict: Verdict, noun: str) -> str:
+    """'In the identifiable formulation 4 of 4 backends end lower than in the paper formulation …'."""
+    frame = verdict.by_variant
+    if frame is None or not len(frame):
+        return ""
+    ref = verdict.reference_variant
+    parts = []
+    for variant, g in frame.groupby("variant", sort=False):
+        better = g[g["ratio"] > 1]  # the other variant's losses above the reference variant's
+        significant = better[better["significant"]]
+        worse = g[g["ratio"] < 1]
+        text = (f"In the {ref} {noun}, {len(better)} of {len(g)} backends end at lower final losses than in the "
+                f"{variant} {noun} ({variant} over {ref}: Hodges–Lehmann ratio "
+                + (f"{_ratio(better['ratio'].min())} to {_ratio(better['ratio'].max())}" if len(better) else "–")
+                + f"), {len(significant)} of them significantly (Holm over the {len(g)} comparisons")
+        quiet = better[~better["significant"]]
+        if len(quiet):
+            text += "; not significant: " + join([f"{b}, ratio {ratio_text(r)}, Holm p = {p_text(r['p_holm'])}"
+                                                  for b, r in zip(quiet["backend"], quiet.to_dict("records"))])
+        text += ")"
+        if len(worse):
+            text += "; " + join([f"{b} ends lower in the {variant} {noun} (ratio {ratio_text(r)}"
+                                 f"{', significant' if r['significant'] else ''})"
+                                 for b, r in zip(worse["backend"], worse.to_dict("records"))])
+        parts.append(text + ".")
+    return " ".join(parts)
+
+
+def recommend(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame, tests, budget,
+              unit: str = "N", noun: str | None = None) -> dict:
+    """Apply the rule to a study: ``table`` (``statistics.ranking_table``), ``success`` (per specimen,
+    at ``TARGET``), ``values`` (``comparisons.log_losses`` of the ranking runs), ``tests``
+    (``statistics.Comparison``). Returns ``verdict``, ``best`` (the reference), ``choice``, ``order``
+    and the paragraph ``text`` (markdown)."""
+    verdict = decide(table, success, values)
+    text = paragraph(verdict, table.set_index("optimizer"), tests, budget, noun)
+    return {"verdict": verdict, "best": verdict.reference or verdict.order[0], "choice": verdict.choice,
+            "order": verdict.order, "text": text}
+
+
+def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
+    """The recommendation paragraph: variants first, then the label to use and why, its equals and
+    the tie-break, those less reliable, behind and to avoid, the baseline, and the design's power."""
     budget_text = f"{budget:,}" if isinstance(budget, (int, float)) else str(budget)
-    alike = {n for n, _, _ in groups["equal"]}
-    peers = [n for n in table["optimizer"] if n in alike]
-    significant = {n for n, p, _ in groups["close"] + groups["far"] if np.isfinite(p) and p < ALPHA}
-
-    def seconds(name):
-        if name not in wall or not np.isfinite(wall[name]):
-            return "–"
-        return f"{wall[name]:,.0f} s" if wall[name] >= 100 else f"{number(wall[name], 2)} s"
-
-    if peers:
-        everyone = [b] + peers
-        text = (f"For this problem at a budget of {budget_text} evaluations, {join([f'**{n}**' for n in everyone])} "
-                f"are as good as each other here: use {'either' if len(everyone) == 2 else 'any of them'}; **{choice}** is "
-                f"the fastest per run ({', '.join(f'{n} {seconds(n)}' for n in everyone)} median wall time on one "
-                "core). ")
+    noun = noun if verdict.by_variant is not None and len(verdict.by_variant) else None
+    out = [variant_text(verdict, noun)] if noun else []
+    if verdict.choice is None:
+        out.append(f"Only the baseline ({join(verdict.baselines)}) ran: there is nothing to recommend.")
+        return " ".join(out)
+    choice, tau = verdict.choice, verdict.tie_target
+    row = table.loc[choice]
+    named = f"**Use {_pair(choice, noun).replace('**', '')}** ({choice})" if noun else f"**Use {choice}**"
+    out.append(f"{named} at a budget of {budget_text} evaluations: it reached the {TARGET:.0%} target in "
+               f"{_success(table, choice)}, with ERT {evals_text(row[f'ert_{TARGET:.0%}'])} evaluations × "
+               f"{seconds_text(row['s_per_eval'])} per evaluation = "
+               f"{seconds_text(row[f'time_{TARGET:.0%}'])} expected time to the target; its median final loss is "
+               f"{_ratio(row['median_ratio'])} × the best known loss.")
+    if choice in verdict.avoid:
+        out.append(f"Even so, its final losses are significantly worse than random search's ({verdict.baselines[0]}): "
+                   "no backend in this study beats the baseline.")
+    peers = [n for n in verdict.peers if n not in verdict.avoid]
+    ref_rows = verdict.vs_reference.set_index("a") if verdict.vs_reference is not None else pd.DataFrame()
+    if len(peers) > 1:
+        alike = [n for n in peers if n != verdict.reference]
+        described = join([f"{n} (final losses {ratio_text(ref_rows.loc[n])}× the reference's, {_success(table, n)} on "
+                          "target)" for n in alike])
+        times = ", ".join(f"{n} {seconds_text(table.loc[n, f'time_{tau:.0%}'])}" for n in peers)
+        out.append(f"By the rule, {described} {'is' if len(alike) == 1 else 'are'} as good as the reference "
+                   f"{verdict.reference} ({_success(table, verdict.reference)} on target); the tie-break, the expected "
+                   f"time to the {tau:.0%} target, picks **{choice}** ({times}).")
     else:
-        text = f"For this problem at a budget of {budget_text} evaluations use **{b}**. "
-    text += (f"{b} has the lowest mean rank ({best['mean_rank']:.2f} over {n_specimens} specimen(s)), a median RMSE of "
-             f"{number(best['median_rmse_N'], 3)} {unit}, and {percent(best['success_10%'])} of its runs came within "
-             f"10 % of the best known loss (ERT {evals_text(best['ert_10%'])} evaluations).")
-    if row_of.loc[b, "success_10%"] == 0:
-        text += f" Even {b} never came within 10 % of the best known fit: consider a larger budget."
-    if len(groups["equal"]) <= 2:
-        for name, p, ratio in groups["equal"]:
-            text += (f" {name}'s final losses are within {PRACTICAL * 100:.0f} % of {b}'s (median ratio {ratio:.2f}, "
-                     f"Holm p = {p_text(p)}): practically equal.")
-    else:  # one sentence for many: a list of a dozen identical sentences hides the rest of the paragraph
-        ratios = [r for _, _, r in groups["equal"]]
-        ps = [p for _, p, _ in groups["equal"] if np.isfinite(p)]
-        p_range = f"; Holm p {p_text(min(ps))} to {p_text(max(ps))}" if ps else ""
-        text += (f" The final losses of the other {len(groups['equal'])} are within {PRACTICAL * 100:.0f} % of {b}'s "
-                 f"(median paired ratios {min(ratios):.2f} to {max(ratios):.2f}{p_range}; each pair in the "
-                 "pairwise matrix below): practically equal, whether or not the difference is significant.")
-    tied = [f"{n} (Holm p = {p_text(p)}, median ratio {ratio:.2f})" for n, p, ratio in groups["tied"]]
-    if tied and not p_info["can_reach"]:
-        text += (f" Not enough runs to separate {b} from {join(tied)}: with {p_info['pairs']} pairs per comparison "
-                 f"and {p_info['comparisons']} comparisons the smallest Holm-corrected p the design can reach is "
-                 f"{p_text(p_info['min_p_holm'])} ≥ α = {ALPHA:g}.")
-    elif tied:
-        text += f" The tests cannot tell {b} from {join(tied)}."
-    for label, key in (("Close behind (median RMSE within {close:g}× the best's)", "close"),
-                       ("Far behind (median RMSE more than {close:g}× the best's)", "far")):
-        if groups[key]:
-            listing = ", ".join(f"{n} ({number(row_of.loc[n, 'median_rmse_N'], 3)} {unit}"
-                                + ("" if n in significant else ", not significant at this size") + ")"
-                                for n, _, _ in groups[key])
-            text += f" {label.format(close=CLOSE)}: {listing}."
-    for name, reason in avoid:
-        text += f" Avoid **{name}**: it {reason}."
-    if BASELINE in row_of.index and BASELINE != b:
-        text += f" Random search, the baseline, ends at a median RMSE of {number(row_of.loc[BASELINE, 'median_rmse_N'], 3)} {unit}."
-    if not p_info["can_reach"] and p_info["comparisons"]:
-        text += (f" Power: {p_info['comparisons']} pairwise comparisons of {p_info['pairs']} paired runs each; the "
-                 f"smallest p the design can reach after Holm's correction is {p_text(p_info['min_p_holm'])}, so no "
-                 "difference can be significant at this size: the order rests on the effect sizes.")
-    if not np.isfinite(omnibus.pvalue):
-        text += f" Caution: {omnibus.note}; the ranking rests on the pairwise comparisons alone."
-    elif omnibus.pvalue >= ALPHA:
-        text += (f" Caution: the {omnibus_name} does not detect a difference between the backends "
-                 f"(p = {p_text(omnibus.pvalue)}, {n_specimens} specimen(s)): the order of the mean ranks may be "
-                 f"chance; more runs would settle it.")
-    return text
+        out.append(f"No other backend is as good by the rule (final losses within {PRACTICAL:.0%} and success within "
+                   f"{SUCCESS_MARGIN * 100:.0f} points on every specimen).")
+    if verdict.less_reliable:
+        out.append(f"Final losses within {PRACTICAL:.0%} of the reference's, but less reliable at reaching the "
+                   f"target ({_success(table, verdict.reference)} for {verdict.reference}): "
+                   + join([_deficit_text(verdict, table, n) for n in verdict.less_reliable]) + ".")
+    if verdict.behind:
+        items = [f"{n} ({_ratio(ref_rows.loc[n, 'ratio'])}×{'*' if ref_rows.loc[n, 'significant'] else ''})"
+                 for n in verdict.behind]
+        out.append(f"Behind (final losses more than {PRACTICAL:.0%} above the reference's; Hodges–Lehmann ratio, "
+                   f"* = significant after Holm): {', '.join(items)}.")
+    avoid = [n for n in verdict.avoid if n != choice]
+    if avoid:
+        base = verdict.vs_baseline.set_index("a")
+        items = [f"**{n}** ({_ratio(base.loc[n, 'ratio'])}× {verdict.baselines[0]}'s final losses, Holm p = "
+                 f"{p_text(base.loc[n, 'p_holm'])})" for n in avoid]
+        out.append(f"Avoid {join(items)}: significantly worse than random search.")
+    if verdict.baselines:
+        out.append("Random search is the baseline, never a candidate: " + join(
+            [f"{n} ends at a median {_ratio(table.loc[n, 'median_ratio'])} × the best known loss "
+             f"({_success(table, n)} on target)" for n in verdict.baselines]) + ".")
+    out.append(power_text(verdict, tests))
+    return " ".join(t for t in out if t)
+
+
+def _deficit_text(verdict, table, label) -> str:
+    specimen, gap = verdict.deficit.get(label, (None, math.nan))
+    where = f"; {gap * 100:.0f} points below the reference on {specimen}" if specimen is not None else ""
+    return f"{label} ({_success(table, label)} on target{where})"
+
+
+def power_text(verdict: Verdict, tests) -> str:
+    """What the test actually run can show at this size: its name, the design, the smallest p it
+    can give and that p times Holm's factor for the comparisons against the reference (or, with
+    no other candidate, against the baseline)."""
+    families = [(verdict.vs_reference, "the reference"),
+                (verdict.vs_baseline, verdict.baselines[0] if verdict.baselines else "the baseline")]
+    frame, against = next(((f, name) for f, name in families if f is not None and len(f)), (None, ""))
+    if frame is None:
+        return f"Test: {tests.test_name}."
+    smallest = float(frame["min_p"].min())
+    floor = comparisons.holm_floor(frame)
+    design = (f"{tests.n_specimens} specimen{'s' if tests.n_specimens != 1 else ''} × up to {tests.seeds} seeds "
+              "per label")
+    comparisons_ = "comparison" if len(frame) == 1 else f"{len(frame)} comparisons"
+    text = (f"Power: every comparison uses {tests.test_name}; with {design} the smallest p it can give is "
+            f"{p_text(smallest)}, and {p_text(floor)} after Holm's factor for the {comparisons_} against {against}")
+    if floor >= ALPHA:
+        return text + (f" ≥ α = {ALPHA:g}: no difference can be significant at this size, so the verdict rests on "
+                       "the effect sizes and success rates; more seeds (or specimens) would be needed to test it.")
+    return text + f" < α = {ALPHA:g}."

@@ -7,10 +7,13 @@ import json
 import numpy as np
 import pandas as pd
 
-from bwbench.report import figures
+from bwbench.report import ecdf_figures, figures
 from bwbench.report.palette import split_label
-from bwbench.report.format import evals_text, number, p_text, percent
-from bwbench.report.recommend import ALPHA, rule
+from bwbench.analysis import statistics
+from bwbench.report.floors import noise_floors
+from bwbench.report.format import evals_text, number, p_text
+from bwbench.report.recommend import ALPHA, ratio_text, rule
+from bwbench.report.verdict import TARGET
 from bwbench.study.timing import compute_time
 
 
@@ -36,22 +39,6 @@ def backends_table(study) -> pd.DataFrame:
                      "options": ", ".join(f"{k}={json.dumps(v)}" for k, v in options.items()) or "defaults",
                      "median wall time per run (s)": number(wall.get(name), 3),
                      "median evaluations": evals_text(nfev.get(name))})
-    return pd.DataFrame(rows)
-
-
-def pairwise_matrix(pairwise: pd.DataFrame, order: list[str]) -> pd.DataFrame:
-    """The pairwise tests as a compact square table in ranking ``order``: row i, column j holds the
-    median log10 loss ratio of i over j, starred when Holm's correction leaves it significant."""
-    cells = {}
-    for r in pairwise.itertuples():
-        star = "*" if r.significant else ""
-        cells[r.a, r.b] = number(r.median_diff, 2) + star
-        cells[r.b, r.a] = number(-r.median_diff if np.isfinite(r.median_diff) else r.median_diff, 2) + star
-    rows = []
-    for i, a in enumerate(order, 1):
-        row = {"backend (rank)": f"{i}. {a}"}
-        row.update({str(j): ("–" if a == b else cells.get((a, b), "")) for j, b in enumerate(order, 1)})
-        rows.append(row)
     return pd.DataFrame(rows)
 
 
@@ -91,71 +78,155 @@ def _compute_time_text(study) -> str:
             + (f", on {machine}" if machine else "") + ". Writing this report is not included.")
 
 
+def recommendation(report) -> None:
+    """The rule, stated first, then the paragraph that applies it."""
+    doc, rec = report.doc, report.recommendation
+    doc.h(2, "How the recommendation is decided")
+    doc.p("The rule below is fixed in the code (`bwbench.report.verdict`) and applied to every study the same "
+          "way; its thresholds are constants, not fitted to this study.")
+    doc.bullets(rule(report.tests.test_name, report.noun))
+    doc.h(2, "Recommendation")
+    doc.p(rec["text"])
+
+
+def ranking_frame(report) -> pd.DataFrame:
+    """The ranking table as shown: the rule's order, its verdict, both views, and the cost."""
+    table, verdict, unit = report.table, report.verdict, report.study.problem_type.residual_unit
+    one = report.tests.n_specimens == 1
+
+    def count(row, tau):
+        return f"{int(round(row[f'success_{tau:.0%}'] * row['runs']))}/{int(row['runs'])}"
+
+    shown = pd.DataFrame({
+        "label": table["optimizer"], "verdict": [verdict.role(n) for n in table["optimizer"]],
+        "failed runs": table["errors"],
+        **{f"success ≤{tau:.0%}": [count(r, tau) for _, r in table.iterrows()] for tau in statistics.TOLERANCES},
+        **{f"ERT {tau:.0%} (evals)": table[f"ert_{tau:.0%}"].map(evals_text) for tau in statistics.TOLERANCES},
+        "ms per evaluation": (1000 * table["s_per_eval"]).map(lambda x: number(x, 2)),
+        f"expected time to {TARGET:.0%} (s)": table[f"time_{TARGET:.0%}"].map(lambda x: number(x, 2)),
+        "median final loss / best known": table["median_ratio"].map(lambda x: f"{x:.3f}" if x < 10 else number(x, 3)),
+        **({f"median RMSE ({unit})": table["median_rmse_N"].map(lambda x: number(x, 3))} if one else {}),
+        f"mean rank (ties within {statistics.TIE:.0%})": table["mean_rank"].map(lambda x: number(x, 3)),
+    })
+    extra = report.problem_type.ranking_columns(report, table)
+    for name, values in extra.items():
+        shown[name] = list(values)
+    return shown
+
+
+def per_specimen_rmse(report) -> pd.DataFrame:
+    """Median RMSE over the seeds of each label (rows) on each specimen (columns)."""
+    ranking = report.study.ranking
+    rmse = np.sqrt(statistics.final_mse(ranking))
+    frame = ranking.assign(rmse=rmse.to_numpy()).pivot_table(index="optimizer", columns="specimen", values="rmse",
+                                                              aggfunc="median")
+    frame = frame.loc[[n for n in report.table["optimizer"] if n in frame.index]]
+    return frame.map(lambda x: number(x, 3)).reset_index().rename(columns={"optimizer": "label"})
+
+
+def comparisons_frame(report) -> pd.DataFrame:
+    """Every comparison the rule used, one family after another (comparisons.csv)."""
+    verdict = report.verdict
+    frames = [f for f in (verdict.vs_reference, verdict.vs_baseline, verdict.by_variant) if f is not None and len(f)]
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+def verdict_frame(report) -> pd.DataFrame:
+    """Per candidate: its comparison with the reference and with the baseline, and its worst
+    success deficit."""
+    verdict = report.verdict
+    ref = verdict.vs_reference.set_index("a") if verdict.vs_reference is not None else pd.DataFrame()
+    base = verdict.vs_baseline.set_index("a") if verdict.vs_baseline is not None else pd.DataFrame()
+    rows = []
+    for label in verdict.candidates:
+        row = {"label": label, "verdict": verdict.role(label)}
+        if label in ref.index:
+            r = ref.loc[label]
+            specimen, gap = verdict.deficit.get(label, (None, np.nan))
+            row.update({f"final loss / {verdict.reference}'s [95 % CI]": ratio_text(r), "p": p_text(r["p"]),
+                        "Holm p": p_text(r["p_holm"]),
+                        "largest success deficit": f"{gap * 100:.0f} points on {specimen}" if specimen else "–"})
+        else:
+            row[f"final loss / {verdict.reference}'s [95 % CI]"] = "reference"
+        if label in base.index:
+            b = base.loc[label]
+            row.update({f"final loss / {verdict.baselines[0]}'s [95 % CI]": ratio_text(b),
+                        "Holm p (baseline)": p_text(b["p_holm"])})
+        rows.append(row)
+    columns = ["label", "verdict", f"final loss / {verdict.reference}'s [95 % CI]", "p", "Holm p",
+               "largest success deficit"]
+    if len(base):
+        columns += [f"final loss / {verdict.baselines[0]}'s [95 % CI]", "Holm p (baseline)"]
+    return pd.DataFrame(rows, columns=columns).astype(object).fillna("–")
+
+
+def variant_frame(report) -> pd.DataFrame:
+    frame = report.verdict.by_variant
+    noun, ref = report.noun, report.verdict.reference_variant
+    return pd.DataFrame({"backend": frame["backend"], noun: frame["variant"],
+                         f"final loss / {ref}'s [95 % CI]": [ratio_text(r) for r in frame.to_dict("records")],
+                         "p": frame["p"].map(p_text), "Holm p": frame["p_holm"].map(p_text),
+                         "significant": np.where(frame["significant"], "yes", "")})
+
+
 def ranking(report) -> None:
-    study, doc, table, rec = report.study, report.doc, report.table, report.recommendation
-    unit = study.problem_type.residual_unit
+    study, doc = report.study, report.doc
     budget = study.settings.get("budget", "?")
     doc.h(2, "Ranking")
-    shown = pd.DataFrame({
-        "backend": table["optimizer"], "runs": table["runs"], "errors": table["errors"],
-        f"median RMSE ({unit})": table["median_rmse_N"].map(lambda x: number(x, 3)),
-        f"best RMSE ({unit})": table["best_rmse_N"].map(lambda x: number(x, 3)),
-        "success ≤1 %": table["success_1%"].map(percent), "success ≤10 %": table["success_10%"].map(percent),
-        "ERT 1 % (evals)": table["ert_1%"].map(evals_text),
-        "ERT 10 % (evals)": table["ert_10%"].map(evals_text),
-        **report.problem_type.ranking_columns(report, table),
-        "mean rank": table["mean_rank"].map(lambda x: number(x, 3)),
-        "median wall time (s)": table["median_wall_s"].map(lambda x: number(x, 2)),
-    })
-    doc.table(shown, f"Ranking runs at a budget of {budget} evaluations, best mean rank first")
+    doc.table(ranking_frame(report), f"Every label at a budget of {budget} evaluations, in the rule's order "
+                                     "(success at the 1 % target, then mean rank, then expected time to the target)")
     doc.p("Success at τ: the run's best loss came within (1 + τ) × the best known loss of its specimen (the lowest "
           "of any run in this database, ranking or posterior). ERT (expected running time, COCO definition) = "
           "evaluations spent by all runs (evaluations to target for the successful ones, all their evaluations for "
-          "the others) / number of successful runs, pooled over specimens; ∞ = no run succeeded. Wall time is "
-          "per run on one core; it is not part of the ranking (the budget is), but equal evaluations do not "
-          "cost equal time: stiff parameter sets need more integration substeps.")
+          "the others) / number of successful runs, pooled over specimens; ∞ = no run succeeded. Seconds per "
+          "evaluation: all wall time of the label's runs / all their evaluations, one core each; equal evaluations "
+          "do not cost equal time (stiff parameter sets need more integration substeps, a backend's own work "
+          "counts too). Mean rank: on each specimen the labels are ranked by their median final loss, losses "
+          f"within {statistics.TIE:.0%} of each other sharing a rank (round-off does not order them).")
+    if 1 < report.tests.n_specimens <= 8:
+        doc.table(per_specimen_rmse(report), f"The median RMSE ({study.problem_type.residual_unit}) over the seeds "
+                                             "of each label, per specimen: specimens of different force levels are "
+                                             "not pooled into one median")
     omnibus = report.omnibus
     if np.isfinite(omnibus.pvalue):
         doc.p(f"{report.tests.omnibus_name} over {report.tests.omnibus_design}: statistic = {omnibus.statistic:.3g}, "
-              f"**p = {p_text(omnibus.pvalue)}**.")
+              f"**p = {p_text(omnibus.pvalue)}** (descriptive: the rule does not use it).")
     else:
         doc.p(f"{omnibus.note}.")
-    if len(report.pairwise):
-        doc.table(pairwise_matrix(report.pairwise, list(table["optimizer"])),
-                  f"Pairwise {report.tests.pairwise_name}: median log10(loss of the row / loss of the column); "
-                  f"negative = the row reaches lower losses; * = significant after Holm's correction "
-                  f"(α = {ALPHA:g}). Columns are numbered by rank; every p, win count and verdict is in "
-                  "pairwise_tests.csv")
-    doc.p(f"The pairwise tests are on log10 of the final loss (a ratio, so a specimen with larger forces does not "
-          f"dominate); a failed run counts as one decade worse than the worst finished run on its specimen. "
-          f"{report.tests.pairwise_note} Holm's step-down correction is written out in "
-          "`bwbench.analysis.statistics.holm` because scipy offers only FDR corrections and statsmodels is not a "
-          "dependency.")
-    floor = float(report.pairwise["min_p"].min()) * len(report.pairwise) if len(report.pairwise) else np.nan
-    if np.isfinite(floor) and floor >= ALPHA:
-        doc.p(f"With these numbers of runs the smallest p a pairwise test can give, times Holm's factor for "
-              f"{len(report.pairwise)} comparisons, is {p_text(floor)} ≥ α = {ALPHA:g}: no comparison can be "
-              "significant however different the backends are. The order rests on the medians and success rates, "
-              "not on significance; more seeds or specimens would be needed to test it.")
-    doc.h(2, "Recommendation")
-    doc.p(rec["text"])
-    doc.p("Rule used: " + rule(report.tests.pairwise_name))
+    if report.verdict.candidates:
+        doc.table(verdict_frame(report), f"The comparisons the rule used: each candidate against the reference "
+                                         f"({report.verdict.reference}) and against the baseline, Hodges–Lehmann "
+                                         "ratios of final losses with 95 % bootstrap intervals, p from "
+                                         f"{report.tests.test_name}, Holm within each family (every number in "
+                                         "comparisons.csv)")
+    if report.noun:
+        doc.table(variant_frame(report), f"The effect of the {report.noun} on each backend: final losses in each "
+                                         f"{report.noun} over those in the {report.verdict.reference_variant} "
+                                         f"{report.noun} (< 1: lower), Holm over these comparisons")
 
 
 def run_figures(report) -> None:
     study, doc, out = report.study, report.doc, report.out
     doc.h(2, "Figures")
-    floors = {}
-    for specimen in report.featured:
-        value = study.problem_type.noise_floor(study, specimen)
-        if value is not None:
-            floors[specimen] = (value, f"noise floor (truth): {value:.3g} {study.loss_unit}")
+    floors = noise_floors(study, report.featured)
     order = list(report.table["optimizer"])
-    doc.figure(figures.convergence(study, out, report.featured, floors=floors, order=order),
-               "Convergence: median over seeds of the best-so-far loss relative to the noise floor (or the best "
-               "known loss where no floor is known); interquartile band for the best 3")
-    doc.figure(figures.runtime_ecdf(study, out, order=order),
-               "Runtime ECDF: fraction of (specimen, seed, target) triples reached within x evaluations")
+    png = figures.convergence(study, out, report.featured, floors=floors, order=order)
+    drawn = pd.read_csv(png.with_suffix(".csv"))
+    bands = int(drawn.loc[drawn["band"]].groupby("variant", dropna=False)["optimizer"].nunique().max()) \
+        if drawn["band"].any() else 0
+    doc.figure(png, "Convergence: median over seeds of the best-so-far loss relative to "
+               + ("the noise floor" if floors else "the best known loss")
+               + (" (where it is one: the truth's MSE within 1.25× of the stated noise variance; elsewhere the best "
+                  "known loss)" if floors else "")
+               + (f"; interquartile band for the best {bands}" + (" of each column" if report.noun else "")
+                  if bands else ""))
+    doc.figure(ecdf_figures.runtime_distributions(study, out, order=order, noun=report.noun),
+               f"Runtime distributions. Left, fixed target: the fraction of (run, target) pairs reached within x "
+               f"evaluations, {len(ecdf_figures.ECDF_TAUS)} targets log-spaced from 0.1 % to 100× above the best "
+               "known loss of the specimen. Right, fixed budget: the fraction of runs whose final loss is within x "
+               "of the best known" + (f"; one row per {report.noun}" if report.noun else "")
+               + f"; the best {ecdf_figures.HIGHLIGHT} labels of each panel in colour when it has more than "
+               f"{ecdf_figures.MAX_COLOURED}, random search dark grey, the others light grey")
     # One panel per specimen reads well up to a handful; beyond, the featured ones (all in the CSV).
     many = len(study.specimens) > len(report.featured) + 1
     doc.figure(figures.waterfall(study, out, order=order, specimens=report.featured if many else None),
@@ -168,7 +239,11 @@ def limits(report) -> None:
     study, doc = report.study, report.doc
     s = study.settings
     n_spec = len(study.specimens)
-    items = [f"{n_spec} specimen(s) and {s.get('seeds', '?')} seeds per backend: {report.tests.power_note}",
+    unit = ("the runs of each label are independent samples on one specimen, so the comparisons say how the "
+            "backends do on this data set, not on others" if n_spec == 1 else
+            "the specimens are the blocks of every comparison: the verdict holds for these specimens"
+            + ("; with so few it need not carry over to others" if n_spec < 6 else ""))
+    items = [f"{n_spec} specimen{'s' if n_spec != 1 else ''} and {s.get('seeds', '?')} seeds per label; {unit}.",
              f"One budget ({s.get('budget', '?')} evaluations): the ranking can change at another budget "
              "(see the ECDF and convergence figures for how each backend would do with less).",
              "The best known loss is the best found in this database, not the global optimum; success rates and "

@@ -16,7 +16,6 @@ from bwbench.problems.noel_schoukens import data as bench_data
 from bwbench.problems.noel_schoukens import problem as bm
 from bwbench.problems.noel_schoukens.problem import TARGET_ERMS_M
 
-TIE_TOLERANCE = 0.01  # medians of training MSE within 1 %: a tie in practice
 NAMES = bm.PARAM_NAMES
 LABELS = {"m": "m", "c": "c", "k": "k", "alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "nu": "ν",
           "beta_gamma": "βγ", "beta_delta": "βδ"}
@@ -49,14 +48,6 @@ def load_problem(study) -> bm.BoucWenBenchmarkProblem:
 
 def finished(runs: pd.DataFrame) -> pd.DataFrame:
     return runs[(runs["status"] == "ok") & np.isfinite(runs["mse"])]
-
-
-def practical_ties(table: pd.DataFrame) -> list[str]:
-    """Backends whose median final training MSE is within ``TIE_TOLERANCE`` of the best's (the
-    ranking table's first row): an order among them is not worth reporting as a difference."""
-    rmse = table["median_rmse_N"].to_numpy(dtype=float)  # sqrt of the median MSE, in m here
-    best = rmse[0] ** 2
-    return [o for o, r in zip(table["optimizer"], rmse) if np.isfinite(r) and r**2 <= best * (1 + TIE_TOLERANCE)]
 
 
 def backend_results(study, order) -> pd.DataFrame:

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from bwbench.analysis.identifiability import (
-    POOR_SE, STEP, ZERO_RATIO, describe_direction, follow_invariance, profile, sensitivity,
+    POOR_SE, PROFILE_MAXITER, STEP, ZERO_RATIO, describe_direction, follow_invariance, profile, sensitivity,
 )
 from bwbench.errors import UserError
 
@@ -22,7 +22,7 @@ def _finite(x):
 
 def analyse(specimen_path, params, state: str = "shared", excitation: str = "measured", *,
             formulation: str = "paper", bounds: dict | None = None, profile_names=(), profile_widest: int = 0,
-            grid: int = 9, maxiter: int = 15, step: float = STEP, weakest: int = 3) -> dict:
+            grid: int = 9, maxiter: int = PROFILE_MAXITER, step: float = STEP, weakest: int = 3) -> dict:
     """Identifiability of the parameters ``params`` (physical units, the formulation's coordinates)
     on one specimen.
 
@@ -93,7 +93,9 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
                         np.append(np.linspace(0.0, 1.0, grid), u[i]), maxiter=maxiter, step=step)
         frame["value"] = [problem.from_unit(_at(u, i, x))[i] for x in frame["unit"]]
         out["profiles"][name] = [{"value": float(r.value), "unit": float(r.unit), "mse": _finite(r.loss),
+                                  "converged": bool(r.converged), "iterations": int(r.iterations),
                                   "evaluations": int(r.evaluations)} for r in frame.itertuples()]
+    out["profile_maxiter"] = maxiter
     return out
 
 
@@ -200,8 +202,10 @@ def format_text(result: dict) -> str:
     else:
         lines.append(f"every parameter is determined to better than {threshold} of its range")
     for name, points in result["profiles"].items():
-        lines += ["", f"profile of {label(name)} (others re-optimised, L-BFGS-B): value -> MSE (N²)"]
-        lines += [f"  {p['value']:12.5g}  {p['mse'] if p['mse'] is not None else math.inf:12.5g}" for p in points]
+        lines += ["", f"profile of {label(name)} (others re-optimised, L-BFGS-B up to {result['profile_maxiter']} "
+                      "iterations): value -> MSE (N²), converged?"]
+        lines += [f"  {p['value']:12.5g}  {p['mse'] if p['mse'] is not None else math.inf:12.5g}  "
+                  f"{'converged' if p.get('converged') else 'NOT converged (an upper bound)'}" for p in points]
     return "\n".join(lines)
 
 

@@ -1,33 +1,31 @@
-"""The switched-model problem's report sections: data and truth, loops, parameter spread, parameters
-against underpressure, the identified parameters per specimen (the paper's Tables 6–8),
-identifiability with profiles, and the emcee posterior."""
+"""The switched-model problem's report sections: data and truth, loops, model adequacy, and the
+parameters in the coordinates the study searched (their spread and values, parameters against
+underpressure, identifiability with profiles), and the emcee posterior.
+
+The paper's vocabulary (its Table 5 box, Tables 6–8, Figs 18–21) is used only where a manifest says
+the data are the paper's (``paper_data``): a user's own data get a report about their data."""
 
 from __future__ import annotations
 
-import dataclasses
-import math
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from bwbench.analysis import mcmc, statistics
-from bwbench.analysis.identifiability import POOR_SE
-from bwbench.data import manifest
-from bwbench.data.parameters import LABELS, LOWER, UPPER
 from bwbench.errors import UserError
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.problems.switched_vpp import figures, posterior_section
-from bwbench.problems.switched_vpp import identifiability as switched_identifiability
-from bwbench.report.format import evals_text, join, number, spread_text, unit_of
-from bwbench.report.palette import split_label
+from bwbench.problems.switched_vpp.figure_common import formulation_of
+from bwbench.report.floors import floors as truth_losses
+from bwbench.report.format import number, unit_of
+from bwbench.report.labels import split_label
 
 
 def setup_text(report) -> str:
     s = report.study.settings
     formulations = s.get("formulation", "paper")
     formulations = [formulations] if isinstance(formulations, str) else list(formulations)
-    boxes = {"paper": "the paper's 14 parameters in its Table 5 box, unit mass",
+    paper_box = "its Table 5 box" if paper_data(report) else "the paper's search box"
+    boxes = {"paper": f"the paper's 14 parameters in {paper_box}, unit mass",
              "identifiable": "the identifiable formulation: hysteretic parameters searched in a box scaled from "
                              "each specimen's data, linear coefficients solved per simulation"
                              + (f" (mass: {s.get('fix_mass', 'auto')})" if s.get("fix_mass", "auto") != "auto" else "")}
@@ -59,6 +57,7 @@ def data_section(report) -> None:
     else:
         doc.p("The specimens are not marked synthetic in their manifest: treated as measured data.")
     entries = {Path(e["file"]).stem: e for e in (document or {}).get("specimens", [])}
+    truths = truth_losses(study, study.specimens)
     rows = []
     for specimen in study.specimens:
         e = entries.get(specimen, {})
@@ -66,12 +65,20 @@ def data_section(report) -> None:
         if e:
             row.update({"material": e.get("material", "–"), "underpressure (MPa)": e.get("underpressure_MPa", "–"),
                         "repeat": e.get("repeat", "–")})
-        truth_mse = report.problem_type.noise_floor(study, specimen)
-        if truth_mse is not None:
-            row["MSE of the truth (N²)"] = number(truth_mse)
+        if specimen in truths:
+            row["MSE of the truth (N²)"] = number(truths[specimen][0])
         rows.append(row)
-    doc.table(pd.DataFrame(rows).fillna("–"), "Specimens of the ranking, as read from their files"
-              + (" (the truth's MSE is the noise floor a perfect fit reaches)" if synthetic_data else ""))
+    floors = {name for _, name in truths.values()}
+    note = ""
+    if floors == {"noise floor"}:
+        note = (" (the truth's MSE is within 1.25× of the stated noise variance: the noise floor a perfect fit "
+                "reaches)")
+    elif truths:
+        note = (" (the truth's MSE is not the stated noise variance"
+                + (" on every specimen" if "noise floor" in floors else "")
+                + ": the model with the data's own signals does not reproduce the truth's force to the noise, so "
+                  "the truth's MSE is no noise floor and losses are measured against the best known)")
+    doc.table(pd.DataFrame(rows).fillna("–"), "Specimens of the ranking, as read from their files" + note)
 
 
 def _describe_file(path) -> dict:
@@ -89,28 +96,56 @@ def _describe_file(path) -> dict:
 
 
 
+def paper_data(report) -> bool:
+    """Whether a manifest says the data are the paper's (synthetic specimens generated from its
+    Tables 6–8): only then may the report speak of the paper's tables and figures."""
+    return report.problem_type.is_synthetic(report.study)
+
+
+def searched(study) -> list[str]:
+    formulations = study.settings.get("formulation", "paper")
+    return [formulations] if isinstance(formulations, str) else list(formulations)
+
+
+def coordinates(report) -> str:
+    """The formulation whose coordinates the parameter sections use: the paper's on the paper's data
+    when the study searched them, else the recommended label's."""
+    if paper_data(report) and "paper" in searched(report.study):
+        return "paper"
+    return formulation_of(report.study, report.best_backend)
+
+
 def add_sections(report) -> None:
+    from bwbench.problems.switched_vpp import adequacy, identifiability_section, parameter_tables
+
     study, doc, out = report.study, report.doc, report.out
-    featured = report.featured
+    featured, paper = report.featured, paper_data(report)
     order = list(report.table["optimizer"])
-    doc.figure(figures.hysteresis_loops(study, out, featured[0], order=order),
-               f"Measured loop on {featured[0]} with the best ranking run's fit, and the residuals of the best 3 "
-               "backends" + (" and random search" if any(split_label(o)[0] == "random" for o in order) else "")
-               + " (the paper's Figs 20–21)")
-    doc.figure(figures.parameter_spread(study, out, featured, order=order),
-               "Parameters of every run within 10 % of the best known MSE, scaled to the Table 5 range")
-    # The paper's view (its 14 parameters, searched in its box) from the best backend of that formulation,
-    # and, when the best backend overall searched the identifiable coordinates, its fits mapped back.
-    shown = [b for b in order if "[identifiable]" not in b][:1]
-    shown += [report.best_backend] if report.best_backend not in shown else []
-    for material in study.ranking["material"].dropna().unique():
-        for backend in shown:
-            doc.figure(figures.parameters_vs_underpressure(study, out, backend, material, order=order),
-                       f"{material}: parameters against underpressure, {backend} (the paper's Figs 18–19)")
-    _section_tables(report)
-    _section_non_uniqueness(report)
+    png = figures.hysteresis_loops(study, out, featured[0], order=order)
+    residuals = pd.read_csv(png.with_suffix(".csv")).drop_duplicates("optimizer")["optimizer"]
+    others = [o for o in residuals if split_label(o)[0] != "random"]
+    doc.figure(png, f"Measured loop on {featured[0]} with the best ranking run's fit, and the residuals of the best "
+                    f"{'run' if len(others) == 1 else f'{len(others)} backends'}"
+                    + (" and random search" if len(others) < len(residuals) else "")
+                    + (" (the paper's Figs 20–21)" if paper else ""))
+    adequacy.section(report)
+    formulation = coordinates(report)
+    if paper:
+        doc.figure(figures.parameter_spread(study, out, featured, order=order),
+                   "Parameters of every run within 10 % of the best known MSE, scaled to the Table 5 range")
+        # The paper's view (its 14 parameters, searched in its box) from the best backend of that formulation,
+        # and, when the recommended backend searched the identifiable coordinates, its fits mapped back.
+        shown = [b for b in order if formulation_of(study, b) == "paper"][:1]
+        shown += [report.best_backend] if report.best_backend not in shown else []
+        for material in study.ranking["material"].dropna().unique():
+            for backend in shown:
+                doc.figure(figures.parameters_vs_underpressure(study, out, backend, material, order=order),
+                           f"{material}: parameters against underpressure, {backend} (the paper's Figs 18–19)")
+    parameter_tables.section(report, formulation, paper)
+    if "paper" in searched(study):
+        _section_non_uniqueness(report, paper)
     report.progress("identifiability")
-    _section_identifiability(report)
+    identifiability_section.section(report, formulation, paper)
     posterior_section.section(report)
 
 
@@ -119,14 +154,15 @@ def limits(report) -> list[str]:
     s = study.settings
     items = []
     if report.problem_type.is_synthetic(study):
-        items.append("The data are synthetic, generated with the same model (shared state) that is fitted: there "
-                     "is no model error, only noise. On real specimens the best MSE will be set by model error and "
-                     "the differences between backends may shrink or change. The truth's MSE (table above) shows "
-                     "how far the best known fit is from the noise floor.")
+        items.append("The data are synthetic, generated with the same model (shared state) that is fitted. On real "
+                     "specimens the best MSE will be set by model error and the differences between backends may "
+                     "shrink or change. The truth's MSE (table above) shows how far the best known fit is from the "
+                     "truth.")
     items.append(f"Model choices fixed for the whole study: state '{s.get('state', '?')}', excitation "
                  f"'{s.get('excitation', '?')}'.")
-    items.append("Identifiability is analysed locally (linearised at the best fit); profiles use a small local "
-                 "re-optimisation budget and can miss a better fit far away, so a profile is an upper bound.")
+    items.append("Identifiability is analysed locally (linearised at the best fit). A profile is an upper bound of "
+                 "the true one (its re-optimisations are local and may stop early): it can show that the data do not "
+                 "pin a parameter down, and bounds one only where its points converged.")
     for chain, d in report.options.get("chain_diagnostics", []):
         if not d["converged"]:
             items.append(f"The posterior chain on {chain.specimen} has not converged ({d['steps']:,} steps; worst "
@@ -134,11 +170,18 @@ def limits(report) -> list[str]:
     return items
 
 
-def _section_non_uniqueness(report) -> None:
+def _section_non_uniqueness(report, paper: bool) -> None:
     from bwbench.problems.switched_vpp import non_uniqueness
 
     doc, study = report.doc, report.study
     doc.h(2, "Non-uniqueness: the exact symmetry, and what is left")
+    if not paper:  # the section measures in the paper's box: about the paper's data, not about these
+        doc.p("The paper formulation's 14 parameters have an exact symmetry: z → s·z with A → s·A, β, γ → "
+              "s^(1−n)·β, s^(1−n)·γ and (1 − α)·ωn² → (1 − α)·ωn²/s leaves the force unchanged, so its fits lie on "
+              "curves of equally good parameter vectors and its parameters cannot be compared between fits; the "
+              "identifiable coordinates have no such curve. The spread of the fits in the coordinates each searched "
+              "is in the identifiability section below.")
+        return
     doc.p("The paper's 14 parameters have an exact symmetry: z → s·z with A → s·A, β, γ → s^(1−n)·β, "
           "s^(1−n)·γ and (1 − α)·ωn² → (1 − α)·ωn²/s leaves the force unchanged (one s for the shared state, "
           "one per branch for the split), so every fit lies on a curve of equally good parameter vectors. "
@@ -165,175 +208,3 @@ def _section_non_uniqueness(report) -> None:
                   "the identifiable coordinates show as well.")
         doc.figure(non_uniqueness.figure(study, report.out, specimen, order=list(report.table["optimizer"])),
                    f"{specimen}: good fits in the paper's and the identifiable coordinates")
-
-
-def _best_runs(study) -> pd.DataFrame:
-    ok = study.runs[(study.runs["status"] == "ok") & np.isfinite(study.runs["mse"])]
-    return ok.loc[ok.groupby("specimen")["mse"].idxmin()].set_index("specimen")
-
-
-def _section_tables(report):
-    doc, study, best_backend = report.doc, report.study, report.best_backend
-    doc.h(2, "Identified parameters per specimen (the paper's Tables 6–8)")
-    doc.p(f"For each specimen: the best run of any backend (F_err = −MSE, N², the paper's eq 6), the spread of the "
-          f"best backend ({best_backend}) across its seeds as median [min, max], and, for synthetic specimens, the "
-          f"truth with its own F_err.")
-    ranking = study.ranking.assign(material=study.ranking["material"].fillna("Specimens"))  # no manifest: one group
-    ok = ranking[(ranking["status"] == "ok") & np.isfinite(ranking["mse"])]
-    best = ok.loc[ok.groupby("specimen")["mse"].idxmin()].set_index("specimen")
-    for material, group in ranking.groupby("material", sort=False):
-        specimens = (group.drop_duplicates("specimen").sort_values(["underpressure_MPa", "repeat"])["specimen"])
-        for half, names in (("tension set (+)", PARAM_NAMES[:7]), ("compression set (−)", PARAM_NAMES[7:])):
-            rows = []
-            for specimen in specimens:
-                first = group[group["specimen"] == specimen].iloc[0]
-                label = (specimen if np.isnan(first["underpressure_MPa"]) else
-                         f"{first['underpressure_MPa']:g} MPa r{int(first['repeat'])}")
-                if specimen not in best.index:  # no run finished on it
-                    continue
-                b = best.loc[specimen]
-                rows.append({"specimen": label, "row": f"best: {b['optimizer']} seed {int(b['replicate'])}",
-                             "F_err (N²)": number(-b["mse"], 5), **{LABELS[n]: number(b[n]) for n in names}})
-                runs = ok[(ok["specimen"] == specimen) & (ok["optimizer"] == best_backend)]
-                rows.append({"specimen": "", "row": f"{best_backend}: median [min, max], {len(runs)} seeds",
-                             "F_err (N²)": spread_text(-runs["mse"]), **{LABELS[n]: spread_text(runs[n]) for n in names}})
-                truth = manifest.truth_params(study.specimen_path(specimen))
-                if truth is not None:
-                    truth_mse = report.problem_type.noise_floor(study, specimen)
-                    rows.append({"specimen": "", "row": "truth (synthetic)", "F_err (N²)": number(-truth_mse, 5),
-                                 **{LABELS[n]: number(truth[PARAM_NAMES.index(n)]) for n in names}})
-            doc.table(pd.DataFrame(rows), f"{material}: {half}")
-
-
-def _good_run_spread(study, specimen, tolerance=figures.SPREAD_TOLERANCE):
-    """Per parameter, (max − min)/(Table 5 range) over the ranking runs within tolerance; None if < 2 runs."""
-    best = statistics.best_known(study.runs)[specimen]
-    ok = study.ranking[(study.ranking["specimen"] == specimen) & (study.ranking["status"] == "ok")]
-    good = ok[ok["mse"] <= best * (1 + tolerance)]
-    if len(good) < 2:
-        return None, len(good)
-    unit = (good[list(PARAM_NAMES)].to_numpy(dtype=float) - LOWER) / (UPPER - LOWER)
-    return dict(zip(PARAM_NAMES, unit.max(axis=0) - unit.min(axis=0))), len(good)
-
-
-def _section_identifiability(report):
-    doc, study, specimens, log = report.doc, report.study, report.featured, report.log
-    profile_params, profile_grid = report.options.get("profile_params", 2), report.options.get("profile_grid", 7)
-    doc.h(2, "Identifiability: what the data cannot pin down")
-    doc.p("At the best fit of each specimen whose paper parameters lie in Table 5: the Jacobian of the force residual (model − measured, N) with respect "
-          "to the 14 parameters scaled to their Table 5 range, by central differences (step 1e-4 of the range); its "
-          "singular values say how strongly the force responds along each direction of parameter space. A direction "
-          "is *undetermined* when even a step across the whole range changes the residual sum of squares by less "
-          "than the 95 % threshold for one parameter (1.96² × the noise variance); moving along the undetermined "
-          "directions inside the box gives each parameter a *free range*. A parameter is *poorly determined* when its "
-          f"free range or its linearised standard error exceeds {POOR_SE:.0%} of its range. This is a "
-          "local, linear analysis at one point; the profiles and the spread across seeds test it further.")
-    # The paper's coordinates are what this section explains: the best run whose 14 parameters lie in
-    # Table 5 (a fit of the identifiable formulation may map outside the box, or not at all).
-    runs = study.runs[(study.runs["status"] == "ok") & np.isfinite(study.runs["mse"])]
-    values = runs[list(PARAM_NAMES)].to_numpy(dtype=float)
-    inside = np.all((values >= LOWER - 1e-9 * (UPPER - LOWER)) & (values <= UPPER + 1e-9 * (UPPER - LOWER)), axis=1)
-    best_runs = _best_runs(dataclasses.replace(study, runs=runs[inside]))
-    results = []
-    for k, specimen in enumerate(specimens):
-        if specimen not in best_runs.index:
-            doc.p(f"{specimen}: no fit with its paper parameters inside Table 5 to analyse.")
-            continue
-        run = best_runs.loc[specimen]
-        params = run[list(PARAM_NAMES)].to_numpy(dtype=float)
-        widest = profile_params if k == 0 else 0
-        if widest:
-            print(f"profiling {widest} parameter(s) on {specimen} ...", file=log, flush=True)
-        try:
-            result = switched_identifiability.analyse(study.specimen_path(specimen), params,
-                                             study.settings.get("state", "shared"),
-                                             study.settings.get("excitation", "measured"),
-                                             profile_widest=widest, grid=profile_grid)
-        except UserError as err:
-            doc.p(f"{specimen}: identifiability analysis not possible: {err}")
-            continue
-        results.append(result)
-        doc.h(3, specimen)
-        rel = result["relative_singular_values"]
-        poor = result["poorly_determined"]
-        well = [n for n in PARAM_NAMES if n not in poor]
-        doc.p(f"Best fit: {run['optimizer']} ({run['kind']}, seed {int(run['replicate'])}), "
-              f"RMSE {result['rmse_N']:.3g} N. "
-              f"The singular values span {math.log10(rel[0] / max(rel[-1], 1e-300)):.1f} decades (condition number "
-              f"{number(result['condition_number'], 3)}); {result['numerically_zero']} are below 1e-6 of the largest and "
-              f"{result['undetermined_directions']} directions are undetermined at the noise level "
-              f"({result['noise_rmse_N']:.3g} N RMSE).")
-        doc.bullets([f"σ/σmax = {w['ratio']:.1e}: {w['text']}" for w in result["weakest"]])
-        for s in result["symmetries"]:
-            doc.p(f"**Exact symmetry {s['name']}**: along s ∈ [0.8, 1.25] the force changes by at most "
-                  f"{s['max_force_change_N']:.1g} N, and {s['in_null_space']:.0%} of its tangent "
-                  f"({s['direction']}) lies in the numerically zero directions: it accounts for one of them. "
-                  + " ".join(f"The other zero direction {d['direction']} is "
-                             + ("invariant to round-off along a finite path at this point (an exact invariance "
-                                "here, e.g. α₊ ≈ 1 switching the '+' hysteretic term off, not a symmetry of the "
-                                "model)." if d["exact"] else "zero here only: weakly determined, not invariant.")
-                             for d in result["null_directions"]))
-        spread, n_good = _good_run_spread(study, specimen)
-        rows = []
-        for n in PARAM_NAMES:
-            lo, hi = result["free_range"][n]
-            rows.append({"parameter": LABELS[n], "best fit": number(result["params"][n]),
-                         "free range": f"{number(lo)} – {number(hi)}",
-                         "free (% of range)": f"{result['free_range_unit'][n]:.0%}",
-                         "s.e. (% of range)": f"{min(result['standard_error_unit'][n], 9.99):.1%}",
-                         f"spread of {n_good} good run{'s' if n_good != 1 else ''} (% of range)":
-                             (f"{spread[n]:.0%}" if spread else "–"),
-                         "poorly determined": "yes" if n in poor else ""})
-        doc.table(pd.DataFrame(rows), f"{specimen}: local identifiability at the best fit")
-        text = (f"The data cannot pin down {', '.join(LABELS[n] for n in poor)}" if poor else
-                "Every parameter is determined to better than 10 % of its range")
-        text += f"; well determined: {', '.join(LABELS[n] for n in well) or 'none'}."
-        if spread:
-            wide = [n for n in PARAM_NAMES if spread[n] > POOR_SE]
-            explained = [n for n in wide if n in poor]
-            unexplained = [n for n in wide if n not in poor]
-            text += (f" Across the {n_good} ranking runs within 10 % of the best known MSE, {len(wide)} parameters "
-                     f"spread over more than {POOR_SE:.0%} of their range; {len(explained)} of them "
-                     "are flagged poorly determined")
-            if unexplained:
-                text += (f", while {join([f'{LABELS[n]} ({spread[n]:.0%})' for n in unexplained])} "
-                         f"{'is' if len(unexplained) == 1 else 'are'} determined locally yet "
-                         f"scatter{'s' if len(unexplained) == 1 else ''}: there the good "
-                         "runs sit in different minima, not along one flat valley")
-            text += "."
-            if wide and len(explained) >= len(wide) / 2:
-                text += (" So most of the scatter across seeds is what the data allow: runs that fit equally well "
-                         "land at different points along the undetermined combinations, so the scatter of these "
-                         "parameters is no fault of the optimisers and cannot be read as a trend in the material.")
-        else:
-            text += (f" Only {n_good} ranking run(s) came within 10 % of the best known MSE, too few to compare the "
-                     "spread across seeds with this analysis.")
-        doc.p(text)
-        if result["profiles"]:
-            png = figures.profiles(result, doc.out_dir, manifest.is_synthetic(study.specimen_path(specimen)))
-            doc.figure(png, f"Profile likelihoods on {specimen}: each point re-optimises the other 13 parameters "
-                            f"(scipy L-BFGS-B on log MSE, two starts, 15 iterations each)")
-            doc.p(_profile_sentence(result))
-    return results
-
-
-def _profile_sentence(result: dict) -> str:
-    """What the profiles say, in words: over the whole range, below the 95 % threshold (not identifiable
-    at all), within 2 × the best MSE (practically equivalent fits), or neither."""
-    values = [p["mse"] for points in result["profiles"].values() for p in points if p["mse"] is not None]
-    floor = min([result["mse"], *values])
-    threshold = floor + 1.96**2 * result["noise_rmse_N"] ** 2 / result["n_data"]
-    parts = []
-    for name, points in result["profiles"].items():
-        worst = max((p["mse"] if p["mse"] is not None else math.inf) for p in points)
-        if worst <= threshold:
-            parts.append(f"{LABELS[name]}: below the 95 % threshold over its whole Table 5 range, so the data do not "
-                         "identify it at all (the others compensate exactly)")
-        elif worst <= 2 * floor:
-            parts.append(f"{LABELS[name]}: statistically identifiable, but every value in its range fits within "
-                         f"2 × the best MSE (worst {number(worst, 3)} N² vs {number(floor, 3)} N²): fits that look "
-                         "equally good")
-        else:
-            parts.append(f"{LABELS[name]}: the profile rises to {number(worst, 3)} N² (best {number(floor, 3)} N²), so the "
-                         "data constrain it away from its best value")
-    return "Profiles — " + "; ".join(parts) + "."

@@ -1,0 +1,179 @@
+"""The decision rule behind the report's recommendation, as data (``decide``); its words are
+``bwbench.report.recommend``.
+
+The rule combines the two views of a benchmark:
+
+- fixed target: does a run get within 1 % of the best known loss of its specimen (``TARGET``), and
+  how long does it take (ERT, COCO's expected running time, in evaluations);
+- fixed budget: the final loss, compared as a Hodges–Lehmann ratio on log losses with specimens as
+  blocks (``bwbench.analysis.comparisons``).
+
+Steps (each threshold a constant here, each stated in the report before the verdict):
+
+1. The baseline is found by backend: every label of random search, in whichever variant, is
+   compared and described, never recommended. The other labels are the candidates.
+2. Order: success rate at ``TARGET`` (higher first), then the mean rank of the median final loss
+   over specimens (losses within ``statistics.TIE`` share a rank), then the expected time to the
+   target, then the name. The first candidate is the reference.
+3. A candidate is *as good as* the reference only when both views agree: its final losses are at
+   most ``PRACTICAL`` above the reference's (Hodges–Lehmann ratio ≤ 1.10) AND on every specimen its
+   success rate is at most ``SUCCESS_MARGIN`` below the reference's. Final losses as low but a
+   larger success deficit somewhere: *less reliable*. Final losses higher: *behind*.
+4. Among the reference and its equals the recommended label is the one with the lowest expected
+   time to the target: ERT × measured seconds per evaluation (the 10 % target when none of them
+   reaches 1 %), then the order of step 2.
+5. *Avoid*: a candidate whose final losses are significantly (Holm) and practically (> ``PRACTICAL``)
+   worse than the best baseline's.
+6. Variants (formulations; models alike): the effect of the variant on each backend's final loss
+   against the recommended label's variant, before the recommendation.
+
+Holm's correction runs within each family of comparisons the rule uses: candidates against the
+reference, candidates against the baseline, and each backend's variants.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from bwbench.analysis import comparisons, statistics
+from bwbench.report.labels import is_baseline, split_label
+
+ALPHA = statistics.ALPHA
+TARGET = 0.01  # the verdict's target: within 1 % of the best known loss of the specimen
+FALLBACK_TARGET = 0.10  # the tie-break's target when none of the tied labels reaches TARGET
+PRACTICAL = 0.10  # final losses at most 10 % higher (Hodges–Lehmann ratio ≤ 1.10): practically equal
+SUCCESS_MARGIN = 0.10  # success rate at most 10 percentage points lower, on every specimen
+
+
+@dataclass
+class Verdict:
+    """What the rule decided. Lists hold labels in the rule's order; ``vs_reference``,
+    ``vs_baseline`` and ``by_variant`` are ``comparisons.family`` frames."""
+
+    order: list  # every label: candidates and baselines by the key of step 2
+    candidates: list
+    baselines: list
+    reference: str | None
+    choice: str | None
+    equal: list = field(default_factory=list)
+    less_reliable: list = field(default_factory=list)
+    behind: list = field(default_factory=list)
+    avoid: list = field(default_factory=list)
+    deficit: dict = field(default_factory=dict)  # label -> (worst specimen, success deficit there)
+    tie_target: float = TARGET
+    reference_variant: str | None = None
+    vs_reference: pd.DataFrame = None
+    vs_baseline: pd.DataFrame = None
+    by_variant: pd.DataFrame = None
+
+    @property
+    def peers(self) -> list:
+        """The reference and its equals, in order."""
+        return [n for n in self.order if n == self.reference or n in self.equal]
+
+    def role(self, label: str) -> str:
+        if label == self.choice:
+            return "recommended"
+        for name, group in (("as good", self.equal), ("avoid", self.avoid), ("less reliable", self.less_reliable),
+                            ("behind", self.behind)):
+            if label in group:
+                return name
+        if label == self.reference:
+            return "as good"
+        return "baseline" if label in self.baselines else ""
+
+
+def sort_key(table: pd.DataFrame):
+    """The order of step 2 as a key over the ranking table's rows (by label)."""
+    rows = table.set_index("optimizer")
+
+    def key(label):
+        r = rows.loc[label]
+        rank = r["mean_rank"] if np.isfinite(r["mean_rank"]) else math.inf
+        return (-float(r[f"success_{TARGET:.0%}"]), rank, _time(r, TARGET), _time(r, FALLBACK_TARGET), label)
+
+    return key
+
+
+def _time(row, tau) -> float:
+    value = float(row.get(f"time_{tau:.0%}", math.nan))
+    return value if np.isfinite(value) else math.inf
+
+
+def worst_deficit(success: pd.DataFrame, label: str, reference: str) -> tuple[str | None, float]:
+    """(specimen, deficit): where ``label``'s success rate falls furthest below ``reference``'s."""
+    if label not in success or reference not in success:
+        return None, math.nan
+    gap = (success[reference] - success[label]).dropna()
+    if not len(gap):
+        return None, math.nan
+    specimen = gap.idxmax()
+    return specimen, float(gap[specimen])
+
+
+def decide(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame) -> Verdict:
+    """Apply the rule. ``table``: ``statistics.ranking_table``; ``success``: its labels' success
+    rates at ``TARGET`` per specimen (``statistics.success_by_specimen``); ``values``: log10 final
+    losses per run (``comparisons.log_losses`` of the ranking runs)."""
+    order = sorted(table["optimizer"], key=sort_key(table))
+    candidates = [n for n in order if not is_baseline(n)]
+    baselines = [n for n in order if is_baseline(n)]
+    verdict = Verdict(order, candidates, baselines, candidates[0] if candidates else None, None)
+    if not candidates:
+        return verdict
+    ref = verdict.reference
+    verdict.vs_reference = comparisons.family(values, [(c, ref) for c in candidates[1:]], "against the reference",
+                                              ALPHA)
+    verdict.vs_baseline = comparisons.family(values, [(c, baselines[0]) for c in candidates] if baselines else [],
+                                             f"against {baselines[0]}" if baselines else "against the baseline",
+                                             ALPHA)
+    against_ref = verdict.vs_reference.set_index("a")
+    against_base = verdict.vs_baseline.set_index("a")
+    for label in candidates:
+        if label != ref:
+            verdict.deficit[label] = worst_deficit(success, label, ref)
+        if label in against_base.index:
+            row = against_base.loc[label]
+            if row["significant"] and row["ratio"] > 1 + PRACTICAL:
+                verdict.avoid.append(label)
+                continue
+        if label == ref:
+            continue
+        ratio = against_ref.loc[label, "ratio"]
+        deficit = verdict.deficit[label][1]
+        if ratio <= 1 + PRACTICAL and not deficit > SUCCESS_MARGIN + 1e-12:
+            verdict.equal.append(label)
+        elif ratio <= 1 + PRACTICAL:
+            verdict.less_reliable.append(label)
+        else:
+            verdict.behind.append(label)
+    peers = [n for n in verdict.peers if n not in verdict.avoid] or [ref]
+    rows = table.set_index("optimizer")
+    reaches = any(np.isfinite(_time(rows.loc[n], TARGET)) for n in peers)
+    verdict.tie_target = TARGET if reaches else FALLBACK_TARGET
+    verdict.choice = min(peers, key=lambda n: (_time(rows.loc[n], verdict.tie_target), order.index(n)))
+    verdict.reference_variant = split_label(verdict.choice)[1]
+    verdict.by_variant = variant_effects(values, candidates + baselines, verdict.reference_variant)
+    return verdict
+
+
+def variant_effects(values: pd.DataFrame, labels, reference_variant: str | None) -> pd.DataFrame:
+    """Each backend run in ``reference_variant`` and in another variant: that variant's label (a)
+    against the reference variant's (b), Holm over all of these; columns of ``comparisons.family``
+    plus ``backend`` and ``variant``. Empty when the labels carry no variants."""
+    if reference_variant is None:
+        return comparisons.family(values, [], "variants", ALPHA).assign(backend=[], variant=[])
+    by_backend = {}
+    for label in labels:
+        backend, variant = split_label(label)
+        by_backend.setdefault(backend, {})[variant] = label
+    pairs = [(variants[v], variants[reference_variant]) for variants in by_backend.values()
+             if reference_variant in variants for v in variants if v != reference_variant]
+    frame = comparisons.family(values, pairs, "variants", ALPHA)
+    frame["backend"] = [split_label(a)[0] for a in frame["a"]]
+    frame["variant"] = [split_label(a)[1] for a in frame["a"]]
+    return frame
