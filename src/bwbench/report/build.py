@@ -15,11 +15,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bwbench.analysis import statistics
+from bwbench.data.output_paths import refuse_inputs_in_folder
 from bwbench.errors import UserError
 from bwbench.report import sections
 from bwbench.report.document import Document
 from bwbench.report.recommend import recommend
 from bwbench.study import results as results_db
+
+
+# What the report writes into its folder: a data file of one of these kinds there could be overwritten.
+REPORT_SUFFIXES = (".csv", ".png", ".md", ".html")
 
 
 @dataclass
@@ -79,6 +84,7 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     if finished.empty:
         raise UserError(f"{db}: no ranking run finished (every one raised or found nothing finite): nothing to report")
     out = Path(out)
+    refuse_inputs_in_folder("--out", out, [db, *report_inputs(study)], REPORT_SUFFIXES)
     out.mkdir(parents=True, exist_ok=True)
     problem_type = study.problem_type
     table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
@@ -114,6 +120,18 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     html_path = out / "report.html"
     html_path.write_text(doc.html(f"bwbench report: {title}"), encoding="utf-8")
     return html_path
+
+
+def report_inputs(study) -> list[Path]:
+    """The data files the report of ``study`` reads: each specimen's file and the manifest beside it,
+    or every file of the data folder of a problem whose data are a folder (the benchmark's)."""
+    from bwbench.data.manifest import MANIFEST
+
+    files = [study.specimen_path(s) for s in study.specimens]
+    if files and all(f.is_file() for f in files):
+        return [*files, *dict.fromkeys(f.parent / MANIFEST for f in files)]
+    folder = Path(study.data_dir)
+    return [p for p in folder.iterdir() if p.is_file()] if folder.is_dir() else []
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

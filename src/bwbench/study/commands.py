@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from bwbench import problems
+from bwbench.data.output_paths import refuse_inputs, same_file
 from bwbench.errors import UserError
 from bwbench.study import failures
 from bwbench.study.config import config_from_arguments, load_study_config
@@ -120,6 +121,7 @@ def main(args) -> int:
         with signals_raise():
             config = study_config(args)
             db = Path(args.db) if args.db else config.default_db
+            refuse_inputs({"--db": db, "--csv": args.csv}, study_inputs(config, args.bounds))
             if args.csv:
                 check_csv_path(args.csv, db)
             outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)
@@ -155,13 +157,30 @@ def _print_results(config, db, outcome, csv) -> None:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
 
 
+def study_inputs(config, bounds=None) -> list[Path]:
+    """Every file the study ``config`` reads: its TOML, the ``--bounds`` file, each specimen file and the
+    manifest beside it, every file of a data folder (the benchmark's): no output may be one of them."""
+    from bwbench.data.manifest import MANIFEST
+
+    files = [Path(p) for p in (None if config.path == "--specimens" else config.path, bounds) if p is not None]
+    entries = [*config.specimens, *config.setup.available.values(),
+               *(config.posterior.specimens if config.posterior else ())]
+    for entry in entries:
+        path = Path(entry.path)
+        if path.is_dir():
+            files += [p for p in path.iterdir() if p.is_file()]
+        else:
+            files += [path, path.parent / MANIFEST]
+    return list(dict.fromkeys(files))
+
+
 def check_csv_path(csv, db) -> None:
     """Check, before any run starts, that the CSV file ``csv`` can be written (creating its folder);
     ``UserError`` naming the file if not."""
     path = Path(csv)
     if path.is_dir():
         raise UserError(f"{path}: is a directory; --csv needs a file name")
-    if path.resolve() == Path(db).resolve():
+    if same_file(path, db):
         raise UserError(f"{path}: is the study database; --csv needs another file name")
     blocking = next((p for p in [path.parent, *path.parent.parents] if p.exists() and not p.is_dir()), None)
     if blocking is not None:
