@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from bwbench import limits
 from bwbench.data.output_paths import check_outputs
 from bwbench.errors import UserError
 
@@ -54,6 +55,7 @@ def fit(args) -> int:
 
     if args.budget < 1:
         raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
+    limits.check("--budget", args.budget, "BWBENCH_MAX_BUDGET")
     if args.seed < 0:
         raise UserError(f"--seed must be a non-negative integer, got {args.seed}")
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).

@@ -83,6 +83,7 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     finished = study.ranking[(study.ranking["status"] == "ok") & study.ranking["mse"].map(float).lt(float("inf"))]
     if finished.empty:
         raise UserError(f"{db}: no ranking run finished (every one raised or found nothing finite): nothing to report")
+    refuse_changed_data(study)
     out = Path(out)
     refuse_inputs_in_folder("--out", out, [db, *report_inputs(study)], REPORT_SUFFIXES)
     out.mkdir(parents=True, exist_ok=True)
@@ -120,6 +121,19 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     html_path = out / "report.html"
     html_path.write_text(doc.html(f"bwbench report: {title}"), encoding="utf-8")
     return html_path
+
+
+def refuse_changed_data(study) -> None:
+    """``UserError`` naming the first specimen file whose bytes are not those the study ran on (its
+    SHA-256 is stored with the configuration): the report would draw edited data against old fits."""
+    from bwbench.data.identity import files_sha256
+
+    stored = study.config.get("specimens", {})
+    for name in study.specimens:
+        digest, path = stored.get(name), study.specimen_path(name)
+        if isinstance(digest, str) and path.is_file() and files_sha256([path], [""]) != digest:
+            raise UserError(f"{path}: changed since the study ran (SHA-256 differs): the report would draw these "
+                            "data against fits made on others; restore the file, or point --data to the original")
 
 
 def report_inputs(study) -> list[Path]:

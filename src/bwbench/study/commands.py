@@ -122,6 +122,7 @@ def main(args) -> int:
             config = study_config(args)
             db = Path(args.db) if args.db else config.default_db
             refuse_inputs({"--db": db, "--csv": args.csv}, study_inputs(config, args.bounds))
+            refuse_blowing_box(config, args.bounds)
             if args.csv:
                 check_csv_path(args.csv, db)
             outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)
@@ -172,6 +173,20 @@ def study_inputs(config, bounds=None) -> list[Path]:
         else:
             files += [path, path.parent / MANIFEST]
     return list(dict.fromkeys(files))
+
+
+def refuse_blowing_box(config, bounds_file=None) -> None:
+    """With a user's search box (``--bounds`` or ``[bounds]``): ``UserError`` if the model blows up at
+    every probed corner of it on some specimen (``bwbench.data.bounds.refuse_if_blows_up``)."""
+    if not config.settings.get("bounds"):
+        return
+    from bwbench.data.bounds import refuse_if_blows_up
+
+    where = f"--bounds {bounds_file}" if bounds_file else f"{config.path}: [bounds]"
+    problem_type = problems.get(config.problem)
+    for _, settings in config.setup.variants or (("", config.settings),):
+        for entry in config.specimens:
+            refuse_if_blows_up(problem_type.make_problem(settings, entry), where)
 
 
 def check_csv_path(csv, db) -> None:

@@ -19,6 +19,7 @@ import time
 from contextlib import closing
 from dataclasses import dataclass
 
+from bwbench import limits
 from bwbench.errors import UserError
 from bwbench.study.cluster import SchedulerLost, on_cluster
 from bwbench.study.config import StudyConfig
@@ -57,6 +58,9 @@ def run_study(config: StudyConfig, db, *, workers: int | None = None, scheduler:
     log = sys.stderr if log is None else log
     if workers is not None and workers < 1:
         raise UserError(f"--workers must be at least 1, got {workers}")
+    if workers is not None:
+        limits.check("--workers", workers, "BWBENCH_MAX_WORKERS",
+                     f" (4 per core: more processes only compete for the {os.cpu_count()} cores, ~0.15 GB each)")
     tasks = plan_tasks(config)
     db = prepare_database_path(db)
     resume = f"finished runs are in {db}, run the same command again to resume"

@@ -8,6 +8,8 @@ import math
 
 from bwbench.optimize.result import finite_or_null
 
+MAX_GRID = 1000  # profile points per parameter: each is a local fit of ~15 iterations
+
 
 def add_model_options(p) -> None:
     p.add_argument("--state", choices=["shared", "split"], default="shared",
@@ -28,7 +30,10 @@ def problem_from_args(args):
     settings = {"state": args.state, "excitation": args.excitation, "formulation": args.formulation}
     if getattr(args, "bounds", None):
         settings["bounds"] = bounds_mod.read_json(args.bounds, bound_names([args.formulation], args.state))
-    return make_problem(read_specimen(args.specimen), settings)
+    problem = make_problem(read_specimen(args.specimen), settings)
+    if "bounds" in settings:
+        bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
+    return problem
 
 
 def read_for(path, problem):
@@ -131,8 +136,8 @@ def identifiability(args) -> int:
     from bwbench.errors import UserError
     from bwbench.problems.switched_vpp.identifiability import analyse, format_text
 
-    if args.grid < 2:
-        raise UserError(f"--grid must be at least 2, got {args.grid}")
+    if not 2 <= args.grid <= MAX_GRID:
+        raise UserError(f"--grid must be 2 to {MAX_GRID} points (each is a local fit), got {args.grid}")
     problem = problem_from_args(args)
     params = read_for(args.params, problem)
     box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
