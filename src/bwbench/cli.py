@@ -12,6 +12,7 @@ import argparse
 import importlib
 import sys
 
+from bwbench import threads
 from bwbench.errors import UserError
 
 # name -> (module, function adding the command's arguments and its ``func``, help)
@@ -46,7 +47,8 @@ def main(argv=None) -> int:
     command = next((a for a in argv if not a.startswith("-")), None)
     args = build_parser(command).parse_args(argv)
     try:
-        return args.func(args)
+        with threads.environment(getattr(args, "threads", 1)):  # one thread per process unless --threads
+            return args.func(args)
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from bwbench import limits
+from bwbench import limits, threads
 from bwbench.data.output_paths import check_outputs
 from bwbench.errors import UserError
 
@@ -61,8 +61,9 @@ def fit(args) -> int:
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     check_outputs({"--out": args.out, "--plot": args.plot}, [args.specimen, getattr(args, "bounds", None)])
-    problem = problem_from_args(args)
-    result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
+    with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
+        problem = problem_from_args(args)
+        result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
     result.write_json(args.out)
     if not math.isfinite(result.mse):
         print(f"error: {args.specimen}: none of the {result.nfev} evaluations gave a finite force: the model blows "
@@ -99,4 +100,6 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
                                                              "(names left out keep the default range)")
     parser.add_argument("--out", required=True, help="result JSON")
     parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="numba/BLAS threads (default 1: many more are slower on a busy machine)")
     parser.set_defaults(func=fit)

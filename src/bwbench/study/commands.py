@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench import problems
+from bwbench import problems, threads
 from bwbench.data.output_paths import refuse_inputs, same_file
 from bwbench.errors import UserError
 from bwbench.study import failures
@@ -98,6 +98,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--db", help="SQLite database (default: <name>.sqlite next to the TOML, or in the current "
                                      "folder with --specimens)")
     parser.add_argument("--workers", type=int, help="local worker processes (default: all cores; 1 = in-process)")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="numba/BLAS threads per worker (default 1: the workers already fill the cores)")
     parser.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT) instead of local workers")
     parser.add_argument("--csv", help="also write the runs (with timings) as a CSV file")
     parser.add_argument("--data", help="data folder, replacing the configuration's [study] data (relative to the "
@@ -116,6 +118,7 @@ def main(args) -> int:
     """
     if args.workers is not None and args.scheduler:
         raise UserError("--workers and --scheduler exclude each other: a cluster brings its own workers")
+    threads.check(getattr(args, "threads", 1))
     db = None
     try:
         with signals_raise():
@@ -125,7 +128,8 @@ def main(args) -> int:
             refuse_blowing_box(config, args.bounds)
             if args.csv:
                 check_csv_path(args.csv, db)
-            outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)
+            outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler,
+                                threads=getattr(args, "threads", 1))
             if args.csv:
                 try:
                     export_csv(db, args.csv)
