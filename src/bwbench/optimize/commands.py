@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 
 from bwbench import limits, threads
-from bwbench.data.output_paths import check_outputs
+from bwbench.data.output_paths import check_outputs, writing
 from bwbench.errors import UserError
 
 
@@ -64,7 +65,11 @@ def fit(args) -> int:
     with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
         problem = problem_from_args(args)
         result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
-    result.write_json(args.out)
+    # The box searched, by name, and the file it came from: a result says where it was looked for.
+    box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}
+    result = dataclasses.replace(result, problem={**result.problem, "bounds_file": args.bounds, "bounds": box})
+    with writing(args.out):
+        result.write_json(args.out)
     if not math.isfinite(result.mse):
         print(f"error: {args.specimen}: none of the {result.nfev} evaluations gave a finite force: the model blows "
               "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
@@ -73,7 +78,8 @@ def fit(args) -> int:
     if args.plot:
         from bwbench.problems.switched_vpp.figures import plot_fit
 
-        plot_fit(problem, result, args.plot, synthetic=manifest.is_synthetic(args.specimen))
+        with writing(args.plot):
+            plot_fit(problem, result, args.plot, synthetic=manifest.is_synthetic(args.specimen))
     print(f"{args.optimizer}: MSE {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE {result.rmse_N:.3g} N) "
           f"in {result.nfev} evaluations, {result.wall_s:.2f} s -> {args.out}")
     for note in getattr(problem, "notes", []):

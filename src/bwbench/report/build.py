@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bwbench.analysis import statistics
-from bwbench.data.output_paths import refuse_inputs_in_folder
+from bwbench.data.output_paths import refuse_inputs_in_folder, writing
 from bwbench.errors import UserError
 from bwbench.report import sections
 from bwbench.report.document import Document
@@ -161,7 +161,8 @@ def cli_main(args) -> int:
     """``bwbench report --db PATH --out reports/NAME``; prints the path of report.html."""
     if args.profiles < 0:
         raise UserError(f"--profiles must be 0 or more, got {args.profiles}")
-    path = build_report(args.db, args.out, data_dir=getattr(args, "data", None),
-                        profile_params=getattr(args, "profiles", 2))
+    with writing(args.out):  # a full disk names the report's folder
+        path = build_report(args.db, args.out, data_dir=getattr(args, "data", None),
+                            profile_params=getattr(args, "profiles", 2))
     print(path)
     return 0
