@@ -56,6 +56,7 @@ def lab(tmp_path_factory):
     (lab / "budget.toml").write_text(toml(budget=9223372036854775807))
     (lab / "wide.toml").write_text(toml() + '[bounds]\n"xi+" = [-1e308, 1e308]\n')
     os.mkfifo(lab / "fifo.csv")
+    os.mkfifo(lab / "fifo.png")
     with open(lab / "huge.csv", "wb") as fh:
         fh.truncate(300 * 2**20)  # sparse: no disk used
     edited = lab / "edited"
@@ -96,6 +97,16 @@ CASES = [
      2, "BWBENCH_MAX_BUDGET="),
     ("fit: a full disk", ["fit", NAME, "--optimizer", "random", "--budget", "20", "--out", "/dev/full"], 2,
      "cannot write /dev/full: No space left on device"),
+    ("fit: --out a FIFO nothing reads", ["fit", NAME, "--optimizer", "random", "--budget", "20", "--out", "fifo.csv"],
+     2, "a named pipe (FIFO) that nothing reads"),
+    ("fit: --plot a FIFO nothing reads", [*FIT, "--plot", "fifo.png"], 2, "a named pipe (FIFO) that nothing reads"),
+    ("simulate: --out a FIFO nothing reads", ["simulate", "--params", "p.json", "--specimen", NAME, "--out",
+                                              "fifo.csv"], 2, "a named pipe (FIFO) that nothing reads"),
+    ("compare: --csv a FIFO nothing reads", [*COMPARE, "--db", "f.sqlite", "--csv", "fifo.csv"], 2,
+     "a named pipe (FIFO) that nothing reads"),
+    ("report: --out a file", ["report", "--db", "edited/study.sqlite", "--data", ".", "--out", "p.json"], 2,
+     "is a file, not a folder"),
+    ("data generate: --out a file", ["data", "generate", "--out", "p.json"], 2, "is a file, not a folder"),
     ("fit: 0 threads", [*FIT, "--threads", "0"], 2, "--threads must be 1 to"),
     ("fit: 999 threads", [*FIT, "--threads", "999"], 2, "--threads must be 1 to"),
     ("compare: specimen a FIFO", ["compare", "--specimens", "fifo.csv", "--optimizers", "random"], 2, "named pipe"),

@@ -7,6 +7,7 @@ device and inode (a hard link): either way writing the output would destroy the 
 
 from __future__ import annotations
 
+import errno
 import os
 from contextlib import contextmanager
 from pathlib import Path
@@ -55,15 +56,32 @@ def check_writable(*paths) -> None:
             raise UserError(f"cannot write {path}: folder {folder} does not exist")
         if path.is_dir():
             raise UserError(f"cannot write {path}: it is a folder")
-        # Try it: permission bits say little to root, on network folders or on /proc.
-        existed = path.exists()
-        try:
-            with open(path, "a" if existed else "x", encoding="utf-8"):
-                pass
-        except OSError as err:
-            raise UserError(f"cannot write {path}: {err.strerror or err}") from None
-        if not existed:
-            path.unlink()
+        try_writing(path)
+
+
+def try_writing(path) -> None:
+    """Open ``path`` for appending and close it, changing nothing (a new file is removed again);
+    ``UserError`` naming it if that fails. Permission bits say little to root, on network folders or
+    on /proc: only trying tells. A named pipe is opened without blocking, so one with no reader is
+    refused at once instead of waiting for a reader forever (``>(gzip > x.gz)`` has one, and works)."""
+    path = Path(path)
+    existed = path.exists()
+    flags = os.O_WRONLY | os.O_APPEND | (0 if existed else os.O_CREAT | os.O_EXCL)
+    try:
+        os.close(os.open(path, flags | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0), 0o666))
+    except OSError as err:
+        if err.errno == errno.ENXIO:
+            raise UserError(f"cannot write {path}: a named pipe (FIFO) that nothing reads") from None
+        raise UserError(f"cannot write {path}: {err.strerror or err}") from None
+    if not existed:
+        path.unlink()
+
+
+def check_folder(flag: str, folder) -> None:
+    """``UserError`` if the output folder ``folder`` exists and is not a folder."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise UserError(f"{flag} {folder}: is a file, not a folder; name a folder for the output")
 
 
 def check_outputs(outputs: dict, inputs=()) -> None:

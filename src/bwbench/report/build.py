@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bwbench.analysis import statistics
-from bwbench.data.output_paths import refuse_inputs_in_folder, writing
+from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder, writing
 from bwbench.errors import UserError
 from bwbench.report import sections
 from bwbench.report.document import Document
@@ -86,6 +86,7 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     refuse_changed_data(study)
     out = Path(out)
     refuse_inputs_in_folder("--out", out, [db, *report_inputs(study)], REPORT_SUFFIXES)
+    check_folder("--out", out)
     out.mkdir(parents=True, exist_ok=True)
     problem_type = study.problem_type
     table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from bwbench import problems, threads
-from bwbench.data.output_paths import refuse_inputs, same_file
+from bwbench.data.output_paths import refuse_inputs, same_file, try_writing
 from bwbench.errors import UserError
 from bwbench.study import failures
 from bwbench.study.config import config_from_arguments, load_study_config
@@ -139,7 +139,8 @@ def main(args) -> int:
             _print_results(config, db, outcome, args.csv)
     except (KeyboardInterrupt, Interrupted) as stop:
         what = "interrupted" if isinstance(stop, KeyboardInterrupt) else f"terminated ({stop})"
-        where = f"finished runs are in {db}" if db is not None else "no run had started"
+        # Only a database that exists holds runs: a stop while the study is planned names none.
+        where = f"finished runs are in {db}" if db is not None and Path(db).is_file() else "no run had started"
         print(f"{what}: {where}; run the same command again to resume", file=sys.stderr)
         return 130 if isinstance(stop, KeyboardInterrupt) else stop.status
     except StudyStopped as stop:
@@ -204,15 +205,11 @@ def check_csv_path(csv, db) -> None:
     blocking = next((p for p in [path.parent, *path.parent.parents] if p.exists() and not p.is_dir()), None)
     if blocking is not None:
         raise UserError(f"{path}: cannot create its folder: {blocking} is a file")
-    existed = path.exists()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "a", encoding="utf-8"):  # opening for append changes nothing in an existing file
-            pass
     except OSError as err:
-        raise UserError(f"{path}: cannot write the CSV: {err.strerror or err}") from None
-    if not existed:
-        path.unlink()  # written for real once the runs are done
+        raise UserError(f"{path}: cannot create its folder: {err.strerror or err}") from None
+    try_writing(path)  # changes nothing; written for real once the runs are done
 
 
 def study_config(args):
@@ -245,11 +242,15 @@ def run_cli(argv=None, prog: str | None = None) -> int:
     add_arguments(parser)
     args = parser.parse_args(argv)
     try:
-        return main(args)
+        with threads.environment(getattr(args, "threads", 1)):  # as bwbench's own entry point does
+            return main(args)
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     except OSError as err:  # as bwbench's own entry point does
         where = f"{err.filename}: " if err.filename else ""
         print(f"error: {where}{err.strerror or err}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("error: not enough memory for this study on this machine", file=sys.stderr)
         return 2
