@@ -20,7 +20,7 @@ import numpy as np
 # Displacement amplitudes (mm) outside this range are more likely metres or micrometres.
 AMPLITUDE_RANGE_MM = (0.01, 1000.0)
 # A loading cycle longer than this (s), or samples further apart than this (s), more likely means a time
-# column in milliseconds: the paper's quasi-static tests take 480 s a cycle at 1 Hz, an MR-damper test
+# column in milliseconds: the synthetic quasi-static specimens take 480 s a cycle at 1 Hz, an MR-damper test
 # recorded in ms at 1 kHz reads as 1 Hz with cycles of 1,000 s and more.
 SLOWEST_CYCLE_S = 1000.0
 SPARSEST_STEP_S = 10.0
