@@ -7,6 +7,8 @@ fast anything is.
 from __future__ import annotations
 
 import io
+import os
+import signal
 import sqlite3
 import subprocess
 import sys
@@ -106,3 +108,19 @@ def tiny_db(tmp_path_factory):
     assert run_study(load_study_config(config), db, workers=1, log=io.StringIO()).complete
     return config, db
 
+
+
+class KeyOnly:
+    """A stand-in task for the pool's own tests: only a key."""
+
+    def __init__(self, key):
+        self.key = key
+
+
+def die_or_echo(task, threads):
+    """A stand-in ``run_task`` (module level, so a spawned worker can import it): SIGKILLs its own
+    worker for a task whose optimizer is "killer", else returns the key after 0.1 s."""
+    if task.key[2] == "killer":
+        os.kill(os.getpid(), signal.SIGKILL)
+    time.sleep(0.1)
+    return {"key": task.key, "echo": threads}

@@ -11,7 +11,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 
+from bwbench import threads
 from bwbench.errors import UserError
 
 # name -> (module, function adding the command's arguments and its ``func``, help)
@@ -42,16 +44,24 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    # ArviZ 0.2x announces its coming refactor once a day at import: nothing a bwbench user can act on.
+    warnings.filterwarnings("ignore", message=r"\s*ArviZ is undergoing a major refactor", category=FutureWarning)
     argv = sys.argv[1:] if argv is None else list(argv)
     command = next((a for a in argv if not a.startswith("-")), None)
     args = build_parser(command).parse_args(argv)
     try:
-        return args.func(args)
+        with threads.environment(getattr(args, "threads", 1)):  # one thread per process unless --threads
+            return args.func(args)
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     except OSError as err:  # a disk full or a permission refused while writing: still one line
-        print(f"error: {err.filename or ''}: {err.strerror or err}", file=sys.stderr)
+        where = f"{err.filename}: " if err.filename else ""  # the commands name their files; a safety net
+        print(f"error: {where}{err.strerror or err}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("error: not enough memory for this command (a file or a study too large for this machine?)",
+              file=sys.stderr)
         return 2
 
 

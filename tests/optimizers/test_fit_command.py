@@ -45,7 +45,17 @@ def test_bad_outputs_are_refused_before_the_fit(folder, capsys, args, message):
     assert (folder / "s.csv").read_bytes() == SPECIMEN.read_bytes()
 
 
-def test_a_fit_that_finds_nothing_finite_exits_1_with_strict_json(folder, capsys):
+def test_a_box_that_blows_up_at_every_probed_corner_is_refused_before_the_fit(folder, capsys):
+    (folder / "box.json").write_text(json.dumps(RUNAWAY))
+    assert main(["fit", "s.csv", "--optimizer", "random", "--budget", "30", "--bounds", "box.json",
+                 "--out", "r.json"]) == 2
+    assert "blows up (force not finite) at every one of 32 corners" in one_error_line(capsys)
+    assert not (folder / "r.json").exists()
+
+
+def test_a_fit_that_finds_nothing_finite_exits_1_with_strict_json(folder, capsys, monkeypatch):
+    # The probe of the box's corners refuses RUNAWAY before the fit; without it, the fit itself says so.
+    monkeypatch.setattr("bwbench.data.bounds.refuse_if_blows_up", lambda problem, where: None)
     (folder / "box.json").write_text(json.dumps(RUNAWAY))
     assert main(["fit", "s.csv", "--optimizer", "random", "--budget", "30", "--bounds", "box.json",
                  "--out", "r.json", "--plot", "r.png"]) == 1

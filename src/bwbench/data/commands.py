@@ -33,8 +33,12 @@ def check(args) -> int:
 
 def generate(args) -> int:
     from bwbench.data import manifest, synthetic
+    from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder, writing
 
-    written = synthetic.generate(args.out)
+    refuse_inputs_in_folder("--out", args.out, [synthetic.PAPER_PARAMETERS], (".csv", ".json"))
+    check_folder("--out", args.out)
+    with writing(args.out):
+        written = synthetic.generate(args.out)
     print(f"wrote {len(written) - 1} specimens and {manifest.MANIFEST} to {args.out}")
     return 0
 

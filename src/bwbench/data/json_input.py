@@ -4,16 +4,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from bwbench.data.input_files import read_text
 from bwbench.errors import InputFileError
 
 
 def read_json_file(path):
     """The parsed content of ``path``; ``InputFileError`` if it cannot be read or is not JSON."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputFileError(path, None, f"cannot read: {getattr(err, 'strerror', None) or err}") from None
+    text = read_text(path)  # a regular file of bounded size, or one line naming it
     try:
         return json.loads(text)
     except json.JSONDecodeError as err:

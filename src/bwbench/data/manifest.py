@@ -20,7 +20,9 @@ def load_manifest(directory) -> dict | None:
     path = Path(directory) / MANIFEST
     if not path.exists():
         return None
-    return json.loads(path.read_text(encoding="utf-8"))
+    from bwbench.data.input_files import read_text  # a regular file of bounded size: a FIFO would block
+
+    return json.loads(read_text(path))
 
 
 def read_manifest(directory):

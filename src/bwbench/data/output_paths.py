@@ -1,14 +1,48 @@
 """Output files a command will write: checked before any work is done, so a long fit never ends in an
-unwritable path, and an input is never overwritten by an output."""
+unwritable path, and an input is never overwritten by an output.
+
+"The same file" means the same resolved path (``./s.csv``, ``../x/s.csv``, a symlink) or the same
+device and inode (a hard link): either way writing the output would destroy the input.
+"""
 
 from __future__ import annotations
 
+import errno
+import os
+from contextlib import contextmanager
 from pathlib import Path
 
 from bwbench.errors import UserError
 
 # What matplotlib writes (savefig's format comes from the file's extension).
 FIGURE_FORMATS = (".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp")
+
+
+def same_file(a, b) -> bool:
+    """True if the paths ``a`` and ``b`` name one file: equal once resolved, or one device and inode."""
+    a, b = Path(a), Path(b)
+    try:
+        if a.resolve() == b.resolve():
+            return True
+        sa, sb = os.stat(a), os.stat(b)
+    except (OSError, RuntimeError):  # one does not exist (or a symlink loop): not the same existing file
+        return False
+    return (sa.st_dev, sa.st_ino) == (sb.st_dev, sb.st_ino)
+
+
+def refuse_inputs(outputs: dict, inputs) -> None:
+    """``UserError`` (one line, naming the flag and the file) if an output (flag -> path; None = not
+    asked for) is one of ``inputs`` (paths; None entries ignored) by any spelling."""
+    sources = [Path(p) for p in inputs if p is not None]
+    for flag, path in outputs.items():
+        if path is None:
+            continue
+        path = Path(path)
+        for source in sources:
+            if same_file(path, source):
+                spelled = "" if source == path else f" (= {source})"
+                raise UserError(f"{flag} {path} is an input of this command{spelled}: it would be overwritten; "
+                                "choose another file name")
 
 
 def check_writable(*paths) -> None:
@@ -22,29 +56,71 @@ def check_writable(*paths) -> None:
             raise UserError(f"cannot write {path}: folder {folder} does not exist")
         if path.is_dir():
             raise UserError(f"cannot write {path}: it is a folder")
-        # Try it: permission bits say little to root, on network folders or on /proc.
-        existed = path.exists()
-        try:
-            with open(path, "a" if existed else "x", encoding="utf-8"):
-                pass
-        except OSError as err:
-            raise UserError(f"cannot write {path}: {err.strerror or err}") from None
-        if not existed:
-            path.unlink()
+        try_writing(path)
+
+
+def try_writing(path) -> None:
+    """Open ``path`` for appending and close it, changing nothing (a new file is removed again);
+    ``UserError`` naming it if that fails. Permission bits say little to root, on network folders or
+    on /proc: only trying tells. A named pipe is opened without blocking, so one with no reader is
+    refused at once instead of waiting for a reader forever (``>(gzip > x.gz)`` has one, and works)."""
+    path = Path(path)
+    existed = path.exists()
+    flags = os.O_WRONLY | os.O_APPEND | (0 if existed else os.O_CREAT | os.O_EXCL)
+    try:
+        os.close(os.open(path, flags | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0), 0o666))
+    except OSError as err:
+        if err.errno == errno.ENXIO:
+            raise UserError(f"cannot write {path}: a named pipe (FIFO) that nothing reads") from None
+        raise UserError(f"cannot write {path}: {err.strerror or err}") from None
+    if not existed:
+        path.unlink()
+
+
+def check_folder(flag: str, folder) -> None:
+    """``UserError`` if the output folder ``folder`` exists and is not a folder."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise UserError(f"{flag} {folder}: is a file, not a folder; name a folder for the output")
 
 
 def check_outputs(outputs: dict, inputs=()) -> None:
-    """``outputs``: flag -> path (None = not asked for). Each must be writable, none may be one of the
-    ``inputs`` (the same file by any spelling), and a ``--plot`` must name a figure format."""
+    """``outputs``: flag -> path (None = not asked for). None may be one of the ``inputs`` (the same
+    file by any spelling), no two may be the same file, each must be writable, and a ``--plot`` must
+    name a figure format."""
+    refuse_inputs(outputs, inputs)
     given = {flag: Path(p) for flag, p in outputs.items() if p is not None}
     for flag, path in given.items():
-        for source in inputs:
-            if source is not None and Path(source).exists() and path.exists() and path.samefile(source):
-                raise UserError(f"{flag} {path} is an input of this command: it would be overwritten")
         if flag == "--plot" and path.suffix.lower() not in FIGURE_FORMATS:
             raise UserError(f"--plot {path}: the figure format comes from the extension; use one of "
                             f"{', '.join(FIGURE_FORMATS)}")
-    resolved = [p.resolve() for p in given.values()]
-    if len(set(resolved)) != len(resolved):
-        raise UserError("two outputs name the same file: " + ", ".join(f"{f} {p}" for f, p in given.items()))
+    flags = list(given)
+    for i, first in enumerate(flags):
+        if any(same_file(given[first], given[second]) for second in flags[i + 1:]):
+            raise UserError("two outputs name the same file: " + ", ".join(f"{f} {p}" for f, p in given.items()))
     check_writable(*given.values())
+
+
+def refuse_inputs_in_folder(flag: str, folder, inputs, suffixes) -> None:
+    """For an output folder (``report --out``): ``UserError`` if an input file lies in ``folder`` with
+    one of ``suffixes`` (the kinds of file written there), since its name could be one the command
+    writes; or if ``folder`` is itself an input file."""
+    folder = Path(folder)
+    for source in (Path(p) for p in inputs if p is not None):
+        if same_file(folder, source):
+            raise UserError(f"{flag} {folder} is an input of this command: it needs a folder for its output")
+        if source.suffix.lower() in suffixes and same_file(source.parent, folder):
+            raise UserError(f"{flag} {folder} holds {source.name}, an input of this command, and it writes "
+                            f"{'/'.join(suffixes)} files there: choose another folder")
+
+
+@contextmanager
+def writing(path):
+    """Turn an ``OSError`` of writing ``path`` into a ``UserError`` that names it: a full disk raises
+    ``OSError`` with no file name (``write`` and ``close`` do not know it)."""
+    try:
+        yield
+    except OSError as err:
+        if err.filename:  # the error knows its file (which may be another one than ``path``)
+            raise UserError(f"{err.filename}: {err.strerror or err}") from None
+        raise UserError(f"cannot write {path}: {err.strerror or err}") from None

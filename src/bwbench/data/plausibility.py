@@ -19,6 +19,13 @@ import numpy as np
 
 # Displacement amplitudes (mm) outside this range are more likely metres or micrometres.
 AMPLITUDE_RANGE_MM = (0.01, 1000.0)
+# A loading cycle longer than this (s), or samples further apart than this (s), more likely means a time
+# column in milliseconds: the synthetic quasi-static specimens take 480 s a cycle at 1 Hz, an MR-damper test
+# recorded in ms at 1 kHz reads as 1 Hz with cycles of 1,000 s and more.
+SLOWEST_CYCLE_S = 1000.0
+SPARSEST_STEP_S = 10.0
+# Force varying by less than this fraction of its magnitude is flat: nothing to fit.
+FLAT_FORCE_FRACTION = 1e-6
 # |∮F dx| below this fraction of (2·amplitude × force range × cycles) is too small a loop to call its sign.
 LOOP_SIGN_FRACTION = 0.01
 
@@ -32,9 +39,33 @@ def loop_work(x, f) -> tuple[float, float]:
     return (work / cycles if cycles > 0 else 0.0), cycles
 
 
+def time_unit_warnings(spec) -> list[str]:
+    """A sentence when the time column looks like milliseconds (see ``SLOWEST_CYCLE_S``)."""
+    step = spec.duration_s / (spec.n_samples - 1)
+    _, cycles = loop_work(spec.x, spec.f)
+    period = spec.duration_s / cycles if cycles >= 0.5 else None
+    if step <= SPARSEST_STEP_S and (period is None or period <= SLOWEST_CYCLE_S):
+        return []
+    what = (f"samples are {step:.4g} s apart ({1 / step:.3g} Hz)" if step > SPARSEST_STEP_S else
+            f"one loading cycle takes {period:.4g} s ({cycles:.3g} cycles in {spec.duration_s / 3600:.3g} h)")
+    return [f"{what}: is time_s in milliseconds? the header promises seconds (divide by 1000 if so)"]
+
+
+def force_warnings(spec) -> list[str]:
+    """A sentence when the force is zero, constant or flat: no hysteresis loop to fit."""
+    f = spec.f
+    span, size = float(f.max() - f.min()), float(np.abs(f).max())
+    if size == 0.0:
+        return ["force_N is 0 in every row: no force was recorded (load cell off, or an empty column?)"]
+    if span <= FLAT_FORCE_FRACTION * size:
+        return [f"force_N is flat ({float(f.mean()):.6g} N, varying by {span:.3g} N): no loop to fit "
+                "(load cell off, or the wrong column?)"]
+    return []
+
+
 def warnings(spec, synthetic: bool = False) -> list[str]:
     """Plain sentences about ``spec`` (a ``Specimen``) that deserve a look; [] when nothing does."""
-    out = []
+    out = [*time_unit_warnings(spec), *force_warnings(spec)]
     amplitude = 0.5 * float(spec.x.max() - spec.x.min())
     low, high = AMPLITUDE_RANGE_MM
     if amplitude < low:

@@ -101,15 +101,10 @@ def read_specimen(path) -> Specimen:
 
 
 def _read_bytes(path: str) -> bytes:
-    try:
-        with open(path, "rb") as fh:
-            return fh.read()
-    except FileNotFoundError:
-        raise InputFileError(path, None, "no such file") from None
-    except IsADirectoryError:
-        raise InputFileError(path, None, "is a directory, not a file") from None
-    except OSError as err:
-        raise InputFileError(path, None, f"cannot read file: {err.strerror or err}") from None
+    # Only a regular file, up to a stated size: a FIFO would block, /dev/zero would never end.
+    from bwbench.data.input_files import read_bytes
+
+    return read_bytes(path, "BWBENCH_MAX_INPUT_MB")
 
 
 def _line_at(data: bytes, offset: int) -> int:

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 
-from bwbench.data.output_paths import check_outputs
+from bwbench import limits, threads
+from bwbench.data.output_paths import check_outputs, writing
 from bwbench.errors import UserError
 
 
@@ -54,14 +56,20 @@ def fit(args) -> int:
 
     if args.budget < 1:
         raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
+    limits.check("--budget", args.budget, "BWBENCH_MAX_BUDGET")
     if args.seed < 0:
         raise UserError(f"--seed must be a non-negative integer, got {args.seed}")
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     check_outputs({"--out": args.out, "--plot": args.plot}, [args.specimen, getattr(args, "bounds", None)])
-    problem = problem_from_args(args)
-    result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
-    result.write_json(args.out)
+    with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
+        problem = problem_from_args(args)
+        result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
+    # The box searched, by name, and the file it came from: a result says where it was looked for.
+    box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}
+    result = dataclasses.replace(result, problem={**result.problem, "bounds_file": args.bounds, "bounds": box})
+    with writing(args.out):
+        result.write_json(args.out)
     if not math.isfinite(result.mse):
         print(f"error: {args.specimen}: none of the {result.nfev} evaluations gave a finite force: the model blows "
               "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
@@ -70,7 +78,8 @@ def fit(args) -> int:
     if args.plot:
         from bwbench.problems.switched_vpp.figures import plot_fit
 
-        plot_fit(problem, result, args.plot, synthetic=manifest.is_synthetic(args.specimen))
+        with writing(args.plot):
+            plot_fit(problem, result, args.plot, synthetic=manifest.is_synthetic(args.specimen))
     print(f"{args.optimizer}: MSE {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE {result.rmse_N:.3g} N) "
           f"in {result.nfev} evaluations, {result.wall_s:.2f} s -> {args.out}")
     for note in getattr(problem, "notes", []):
@@ -97,4 +106,6 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
                                                              "(names left out keep the default range)")
     parser.add_argument("--out", required=True, help="result JSON")
     parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="numba/BLAS threads (default 1: many more are slower on a busy machine)")
     parser.set_defaults(func=fit)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bwbench.analysis import comparisons, statistics
+from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder, writing
 from bwbench.errors import UserError
 from bwbench.report import sections
 from bwbench.report.document import Document
@@ -22,6 +23,10 @@ from bwbench.report.labels import variant_noun
 from bwbench.report.recommend import recommend
 from bwbench.report.verdict import TARGET
 from bwbench.study import results as results_db
+
+
+# What the report writes into its folder: a data file of one of these kinds there could be overwritten.
+REPORT_SUFFIXES = (".csv", ".png", ".md", ".html")
 
 
 @dataclass
@@ -87,7 +92,10 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     finished = study.ranking[(study.ranking["status"] == "ok") & study.ranking["mse"].map(float).lt(float("inf"))]
     if finished.empty:
         raise UserError(f"{db}: no ranking run finished (every one raised or found nothing finite): nothing to report")
+    refuse_changed_data(study)
     out = Path(out)
+    refuse_inputs_in_folder("--out", out, [db, *report_inputs(study)], REPORT_SUFFIXES)
+    check_folder("--out", out)
     out.mkdir(parents=True, exist_ok=True)
     problem_type = study.problem_type
     table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
@@ -129,6 +137,31 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     return html_path
 
 
+def refuse_changed_data(study) -> None:
+    """``UserError`` naming the first specimen file whose bytes are not those the study ran on (its
+    SHA-256 is stored with the configuration): the report would draw edited data against old fits."""
+    from bwbench.data.identity import files_sha256
+
+    stored = study.config.get("specimens", {})
+    for name in study.specimens:
+        digest, path = stored.get(name), study.specimen_path(name)
+        if isinstance(digest, str) and path.is_file() and files_sha256([path], [""]) != digest:
+            raise UserError(f"{path}: changed since the study ran (SHA-256 differs): the report would draw these "
+                            "data against fits made on others; restore the file, or point --data to the original")
+
+
+def report_inputs(study) -> list[Path]:
+    """The data files the report of ``study`` reads: each specimen's file and the manifest beside it,
+    or every file of the data folder of a problem whose data are a folder (the benchmark's)."""
+    from bwbench.data.manifest import MANIFEST
+
+    files = [study.specimen_path(s) for s in study.specimens]
+    if files and all(f.is_file() for f in files):
+        return [*files, *dict.fromkeys(f.parent / MANIFEST for f in files)]
+    folder = Path(study.data_dir)
+    return [p for p in folder.iterdir() if p.is_file()] if folder.is_dir() else []
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--db", required=True, help="study database (SQLite, written by bwbench compare)")
     parser.add_argument("--out", required=True, help="output folder, e.g. reports/NAME")
@@ -142,7 +175,8 @@ def cli_main(args) -> int:
     """``bwbench report --db PATH --out reports/NAME``; prints the path of report.html."""
     if args.profiles < 0:
         raise UserError(f"--profiles must be 0 or more, got {args.profiles}")
-    path = build_report(args.db, args.out, data_dir=getattr(args, "data", None),
-                        profile_params=getattr(args, "profiles", 2))
+    with writing(args.out):  # a full disk names the report's folder
+        path = build_report(args.db, args.out, data_dir=getattr(args, "data", None),
+                            profile_params=getattr(args, "profiles", 2))
     print(path)
     return 0

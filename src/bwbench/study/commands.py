@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench import problems
+from bwbench import problems, threads
+from bwbench.data.output_paths import refuse_inputs, same_file, try_writing
 from bwbench.errors import UserError
 from bwbench.study import failures
 from bwbench.study.config import config_from_arguments, load_study_config
@@ -97,6 +98,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--db", help="SQLite database (default: <name>.sqlite next to the TOML, or in the current "
                                      "folder with --specimens)")
     parser.add_argument("--workers", type=int, help="local worker processes (default: all cores; 1 = in-process)")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="numba/BLAS threads per worker (default 1: the workers already fill the cores)")
     parser.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT) instead of local workers")
     parser.add_argument("--csv", help="also write the runs (with timings) as a CSV file")
     parser.add_argument("--data", help="data folder, replacing the configuration's [study] data (relative to the "
@@ -115,14 +118,18 @@ def main(args) -> int:
     """
     if args.workers is not None and args.scheduler:
         raise UserError("--workers and --scheduler exclude each other: a cluster brings its own workers")
+    threads.check(getattr(args, "threads", 1))
     db = None
     try:
         with signals_raise():
             config = study_config(args)
             db = Path(args.db) if args.db else config.default_db
+            refuse_inputs({"--db": db, "--csv": args.csv}, study_inputs(config, args.bounds))
+            refuse_blowing_box(config, args.bounds)
             if args.csv:
                 check_csv_path(args.csv, db)
-            outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler)
+            outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler,
+                                threads=getattr(args, "threads", 1))
             if args.csv:
                 try:
                     export_csv(db, args.csv)
@@ -132,7 +139,8 @@ def main(args) -> int:
             _print_results(config, db, outcome, args.csv)
     except (KeyboardInterrupt, Interrupted) as stop:
         what = "interrupted" if isinstance(stop, KeyboardInterrupt) else f"terminated ({stop})"
-        where = f"finished runs are in {db}" if db is not None else "no run had started"
+        # Only a database that exists holds runs: a stop while the study is planned names none.
+        where = f"finished runs are in {db}" if db is not None and Path(db).is_file() else "no run had started"
         print(f"{what}: {where}; run the same command again to resume", file=sys.stderr)
         return 130 if isinstance(stop, KeyboardInterrupt) else stop.status
     except StudyStopped as stop:
@@ -155,26 +163,53 @@ def _print_results(config, db, outcome, csv) -> None:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
 
 
+def study_inputs(config, bounds=None) -> list[Path]:
+    """Every file the study ``config`` reads: its TOML, the ``--bounds`` file, each specimen file and the
+    manifest beside it, every file of a data folder (the benchmark's): no output may be one of them."""
+    from bwbench.data.manifest import MANIFEST
+
+    files = [Path(p) for p in (None if config.path == "--specimens" else config.path, bounds) if p is not None]
+    entries = [*config.specimens, *config.setup.available.values(),
+               *(config.posterior.specimens if config.posterior else ())]
+    for entry in entries:
+        path = Path(entry.path)
+        if path.is_dir():
+            files += [p for p in path.iterdir() if p.is_file()]
+        else:
+            files += [path, path.parent / MANIFEST]
+    return list(dict.fromkeys(files))
+
+
+def refuse_blowing_box(config, bounds_file=None) -> None:
+    """With a user's search box (``--bounds`` or ``[bounds]``): ``UserError`` if the model blows up at
+    every probed corner of it on some specimen (``bwbench.data.bounds.refuse_if_blows_up``)."""
+    if not config.settings.get("bounds"):
+        return
+    from bwbench.data.bounds import refuse_if_blows_up
+
+    where = f"--bounds {bounds_file}" if bounds_file else f"{config.path}: [bounds]"
+    problem_type = problems.get(config.problem)
+    for _, settings in config.setup.variants or (("", config.settings),):
+        for entry in config.specimens:
+            refuse_if_blows_up(problem_type.make_problem(settings, entry), where)
+
+
 def check_csv_path(csv, db) -> None:
     """Check, before any run starts, that the CSV file ``csv`` can be written (creating its folder);
     ``UserError`` naming the file if not."""
     path = Path(csv)
     if path.is_dir():
         raise UserError(f"{path}: is a directory; --csv needs a file name")
-    if path.resolve() == Path(db).resolve():
+    if same_file(path, db):
         raise UserError(f"{path}: is the study database; --csv needs another file name")
     blocking = next((p for p in [path.parent, *path.parent.parents] if p.exists() and not p.is_dir()), None)
     if blocking is not None:
         raise UserError(f"{path}: cannot create its folder: {blocking} is a file")
-    existed = path.exists()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "a", encoding="utf-8"):  # opening for append changes nothing in an existing file
-            pass
     except OSError as err:
-        raise UserError(f"{path}: cannot write the CSV: {err.strerror or err}") from None
-    if not existed:
-        path.unlink()  # written for real once the runs are done
+        raise UserError(f"{path}: cannot create its folder: {err.strerror or err}") from None
+    try_writing(path)  # changes nothing; written for real once the runs are done
 
 
 def study_config(args):
@@ -207,11 +242,15 @@ def run_cli(argv=None, prog: str | None = None) -> int:
     add_arguments(parser)
     args = parser.parse_args(argv)
     try:
-        return main(args)
+        with threads.environment(getattr(args, "threads", 1)):  # as bwbench's own entry point does
+            return main(args)
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     except OSError as err:  # as bwbench's own entry point does
         where = f"{err.filename}: " if err.filename else ""
         print(f"error: {where}{err.strerror or err}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("error: not enough memory for this study on this machine", file=sys.stderr)
         return 2

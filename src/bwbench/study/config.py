@@ -36,7 +36,8 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from bwbench import problems
+from bwbench import limits, problems
+from bwbench.data.input_files import read_text
 from bwbench.errors import UserError
 from bwbench.optimize import registry
 from bwbench.problems.base import ProblemSetup, integer
@@ -119,17 +120,11 @@ def canonical_json(value) -> str:
 
 def read_toml(path) -> dict:
     where = str(path)
+    text = read_text(path)  # a regular file of bounded size, or one line naming it (a FIFO would block)
     try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise UserError(f"{where}: no such file") from None
-    except IsADirectoryError:
-        raise UserError(f"{where}: is a directory, not a study TOML") from None
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise UserError(f"{where}: invalid TOML: {err}") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise UserError(f"{where}: cannot read file: {err}") from None
 
 
 def load_study_config(path, data=None) -> StudyConfig:
@@ -173,8 +168,8 @@ def load_study_config(path, data=None) -> StudyConfig:
     if not isinstance(name, str) or not _NAME.fullmatch(name):
         fail("[study] name must be a non-empty string of letters, digits, '.', '_' or '-' (it names a folder)")
     seed = integer(fail, "[study] seed", study["seed"], minimum=0, what="a non-negative integer")
-    budget = integer(fail, "[study] budget", study["budget"])
-    seeds = integer(fail, "[study] seeds", study["seeds"])
+    budget = bounded(fail, "[study] budget", integer(fail, "[study] budget", study["budget"]), "BWBENCH_MAX_BUDGET")
+    seeds = bounded(fail, "[study] seeds", integer(fail, "[study] seeds", study["seeds"]), "BWBENCH_MAX_SEEDS")
     root = Path(path).resolve().parent
 
     optimizers_table = document["optimizers"]
@@ -189,8 +184,41 @@ def load_study_config(path, data=None) -> StudyConfig:
     posterior = None
     if "posterior" in document:
         posterior = _posterior(fail, document["posterior"], setup)
-    return StudyConfig(path=where, root=root, name=name, seed=seed, budget=budget, seeds=seeds,
-                       problem=problem_name, setup=setup, optimizers=optimizers, posterior=posterior)
+    return check_plan_size(fail, StudyConfig(path=where, root=root, name=name, seed=seed, budget=budget, seeds=seeds,
+                                             problem=problem_name, setup=setup, optimizers=optimizers,
+                                             posterior=posterior))
+
+
+def bounded(fail, label: str, value: int, variable: str) -> int:
+    """``value``, or ``fail`` if it is above the limit ``variable`` (``bwbench.limits``)."""
+    try:
+        limits.check(label, value, variable)
+    except UserError as err:
+        fail(str(err))
+    return value
+
+
+def planned_runs(config: StudyConfig) -> int:
+    """How many runs ``config`` has, counted without listing them."""
+    variants = max(1, len(config.setup.variants))
+    runs = config.seeds * len(config.specimens) * len(config.optimizers) * variants
+    if config.posterior is not None:
+        runs += config.posterior.seeds * len(config.posterior.specimens)
+    return runs
+
+
+def check_plan_size(fail, config: StudyConfig) -> StudyConfig:
+    """``config``, or ``fail`` when it has more runs than ``BWBENCH_MAX_RUNS``: checked before the runs
+    are listed, which for a mistyped seed count would take minutes and gigabytes."""
+    variants = max(1, len(config.setup.variants))
+    shape = (f" ({config.seeds:,} seeds × {len(config.specimens)} specimens × {len(config.optimizers)} backends"
+             + (f" × {variants} formulations" if variants > 1 else "") + (" + posterior" if config.posterior else "")
+             + ")")
+    try:
+        limits.check("the study's number of runs", planned_runs(config), "BWBENCH_MAX_RUNS", shape)
+    except UserError as err:
+        fail(str(err))
+    return config
 
 
 def _check_backend(fail, label, optimizer) -> None:
@@ -243,8 +271,10 @@ def _posterior(fail, table, setup: ProblemSetup) -> PosteriorConfig:
     return PosteriorConfig(
         specimens=tuple(available[stem] for stem in names),
         optimizer=optimizer,
-        budget=integer(fail, "[posterior] budget", table["budget"]),
-        seeds=integer(fail, "[posterior] seeds", table.get("seeds", 1)),
+        budget=bounded(fail, "[posterior] budget", integer(fail, "[posterior] budget", table["budget"]),
+                       "BWBENCH_MAX_BUDGET"),
+        seeds=bounded(fail, "[posterior] seeds", integer(fail, "[posterior] seeds", table.get("seeds", 1)),
+                      "BWBENCH_MAX_SEEDS"),
         options=_resolve_options(fail, "[posterior] options", optimizer, table.get("options", {})),
     )
 
@@ -276,8 +306,8 @@ def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *
 
     if not _NAME.fullmatch(name):
         fail("--name must be letters, digits, '.', '_' or '-' (it names the database)")
-    integer(fail, "--seeds", seeds)
-    integer(fail, "--budget", budget)
+    bounded(fail, "--seeds", integer(fail, "--seeds", seeds), "BWBENCH_MAX_SEEDS")
+    bounded(fail, "--budget", integer(fail, "--budget", budget), "BWBENCH_MAX_BUDGET")
     integer(fail, "--seed", seed, minimum=0, what="a non-negative integer")
     names = [o.strip() for o in optimizers.split(",") if o.strip()]
     if not names:
@@ -291,5 +321,6 @@ def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *
     setup = problems.get(problems.DEFAULT).setup_from_files(fail, list(specimens), root, state=state,
                                                              excitation=excitation, bounds=bounds,
                                                              formulation=formulation)
-    return StudyConfig(path="--specimens", root=root, name=name, seed=seed, budget=budget, seeds=seeds,
-                       problem=problems.DEFAULT, setup=setup, optimizers=resolved, posterior=None)
+    return check_plan_size(fail, StudyConfig(path="--specimens", root=root, name=name, seed=seed, budget=budget,
+                                             seeds=seeds, problem=problems.DEFAULT, setup=setup,
+                                             optimizers=resolved, posterior=None))

@@ -19,6 +19,7 @@ import time
 from contextlib import closing
 from dataclasses import dataclass
 
+from bwbench import limits
 from bwbench.errors import UserError
 from bwbench.study.cluster import SchedulerLost, on_cluster
 from bwbench.study.config import StudyConfig
@@ -45,11 +46,12 @@ class StudyOutcome:
 
 
 def run_study(config: StudyConfig, db, *, workers: int | None = None, scheduler: str | None = None,
-              log=None) -> StudyOutcome:
+              log=None, threads: int = 1) -> StudyOutcome:
     """Run every unfinished run of ``config`` and record it in the database ``db``.
 
     ``workers``: local processes (default ``os.cpu_count()``; 1 runs in this process);
-    ``scheduler``: a Dask scheduler address instead. Progress goes to ``log`` (default stderr).
+    ``scheduler``: a Dask scheduler address instead; ``threads``: numba/BLAS threads of each local run
+    (``bwbench.threads``; a Dask worker runs one). Progress goes to ``log`` (default stderr).
     Raises ``UserError`` before any run starts if ``db`` cannot be used (another study's, read-only,
     being written by another ``compare``, ...), and ``StudyStopped`` if the study cannot go on (the
     database fails mid-study, the cluster is lost): the runs recorded so far stay.
@@ -57,19 +59,22 @@ def run_study(config: StudyConfig, db, *, workers: int | None = None, scheduler:
     log = sys.stderr if log is None else log
     if workers is not None and workers < 1:
         raise UserError(f"--workers must be at least 1, got {workers}")
+    if workers is not None:
+        limits.check("--workers", workers, "BWBENCH_MAX_WORKERS",
+                     f" (4 per core: more processes only compete for the {os.cpu_count()} cores, ~0.15 GB each)")
     tasks = plan_tasks(config)
     db = prepare_database_path(db)
     resume = f"finished runs are in {db}, run the same command again to resume"
     with StudyLock(db), closing(open_database(db, config, planned_runs=len(tasks))) as conn:
         try:
-            return _run_pending(config, db, conn, tasks, workers, scheduler, log)
+            return _run_pending(config, db, conn, tasks, workers, scheduler, log, threads)
         except sqlite3.Error as err:  # a full disk, an I/O error: what was committed stays
             raise StudyStopped(f"{database_fault(db, err)}; {resume}", status=2) from None
         except SchedulerLost as err:
             raise StudyStopped(f"{err}; {resume}", status=1) from None
 
 
-def _run_pending(config, db, conn, tasks, workers, scheduler, log) -> StudyOutcome:
+def _run_pending(config, db, conn, tasks, workers, scheduler, log, threads=1) -> StudyOutcome:
     done = finished_keys(conn)
     pending = [t for t in tasks if t.key not in done]
     already = len(tasks) - len(pending)
@@ -84,9 +89,13 @@ def _run_pending(config, db, conn, tasks, workers, scheduler, log) -> StudyOutco
     recorded = errors = 0
     lost = []
     # closing(): leaving early (an error, Ctrl-C, SIGTERM) stops the workers at once.
-    with closing(execute_tasks(pending, workers=workers, scheduler=scheduler)) as outcomes, \
+    with closing(execute_tasks(pending, workers=workers, scheduler=scheduler, threads=threads)) as outcomes, \
             _Progress(len(pending), config.name, log) as progress:
         for outcome in outcomes:
+            if "retried" in outcome:  # not a result: its run is queued again
+                progress.note(f"a worker died ({outcome['retried']}) during run {_describe(outcome['key'])}; "
+                              "running it again")
+                continue
             if "lost" in outcome:
                 lost.append((outcome["key"], outcome["lost"]))
             elif record_run(conn, outcome):
@@ -96,7 +105,12 @@ def _run_pending(config, db, conn, tasks, workers, scheduler, log) -> StudyOutco
     return StudyOutcome(len(tasks), already, recorded, errors, tuple(lost), tuple(failed_runs(conn)))
 
 
-def execute_tasks(tasks, *, workers: int = 1, scheduler: str | None = None):
+def _describe(key) -> str:
+    kind, specimen, optimizer, replicate = key
+    return f"{optimizer} on {specimen}, replicate {replicate}" + (f" ({kind})" if kind != "ranking" else "")
+
+
+def execute_tasks(tasks, *, workers: int = 1, scheduler: str | None = None, threads: int = 1):
     """Yield ``run_task(task)`` of every task as it finishes, in completion order.
 
     On a Dask cluster if ``scheduler`` is given; else in this process (``workers=1``) or in a pool
@@ -106,8 +120,8 @@ def execute_tasks(tasks, *, workers: int = 1, scheduler: str | None = None):
     if scheduler:
         return on_cluster(tasks, scheduler)
     if workers == 1:
-        return (run_task(t) for t in tasks)  # a generator, like the others: closing() works on all
-    return in_pool(tasks, workers)
+        return (run_task(t, threads) for t in tasks)  # a generator, like the others: closing() works on all
+    return in_pool(tasks, workers, threads)
 
 
 class _Progress:
@@ -127,6 +141,13 @@ class _Progress:
 
     def __exit__(self, *exc):
         self.bar.close()
+
+    def note(self, text: str) -> None:
+        """A line between the progress updates (above the bar on a terminal)."""
+        if self.interactive:
+            self.bar.write(text, file=self.log)
+        else:
+            print(text, file=self.log, flush=True)
 
     def update(self, errors: int, lost: int) -> None:
         self.count += 1

@@ -1,14 +1,17 @@
-"""The local process pool of a study, whose workers never outlive it.
+"""The local process pool of a study: a dead worker costs only its own run, and no worker outlives it.
 
-A worker of a plain ``ProcessPoolExecutor`` outlives a killed parent: it blocks forever on its call
-queue, whose write end it holds itself, and it keeps the multiprocessing resource tracker alive
-too, because every spawned worker inherits the tracker's pipe (``tracker_fd``) and the tracker only
-exits when the last holder of that pipe has closed it. So on Linux each worker asks the kernel to
+Each worker is a spawned process with a pipe of its own, sent one task at a time, so the pool knows
+which run a worker had when it died. ``concurrent.futures.ProcessPoolExecutor`` cannot: one worker
+killed (by the OOM killer, by hand) breaks it whole and fails every pending run of the call. Here the
+dead worker is replaced and its run tried again; the others never notice.
+
+A worker must not outlive a killed study either: it would block forever on its pipe and keep the
+multiprocessing resource tracker alive (every spawned worker inherits the tracker's pipe, and the
+tracker only exits when the last holder has closed it). So on Linux each worker asks the kernel to
 SIGKILL it when the study process dies (``PR_SET_PDEATHSIG``), and so does every process a worker
-forks with ``os.fork`` (``subprocess`` children are not covered: no backend starts one); once the
-workers are gone the tracker reads end-of-file and exits on its own. When the study stops early
-(an exception, Ctrl-C, SIGTERM) the workers are killed at once instead of being waited for: a run
-in flight is not a result anyway, and a posterior run can take minutes.
+forks with ``os.fork`` (``subprocess`` children are not covered: no backend starts one). When the
+study stops early (an exception, Ctrl-C, SIGTERM) the workers are killed at once instead of being
+waited for: a run in flight is not a result anyway, and a posterior run can take minutes.
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ import multiprocessing
 import os
 import signal
 import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections import Counter, deque
+from multiprocessing.connection import wait
 
 from bwbench.study.tasks import run_task
 
@@ -51,39 +55,132 @@ def _init_worker(parent_pid: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def in_pool(tasks, workers: int):
-    """Yield ``run_task(task)`` of every task as it finishes, on ``workers`` spawned processes.
+# Tries of one run whose worker died under it, in one call: a SIGKILL from outside or the OOM killer
+# takes one, a run that kills its worker every time (a crash in a library) is left after the second.
+TRIES = 2
 
-    A task whose worker died yields ``{"key": ..., "lost": why}``. Closing the generator early (or
-    an exception while it waits) kills the workers rather than waiting for the runs in flight.
+
+class _Worker:
+    """One spawned worker process and the pipe to it; ``task`` is the run it has, or None."""
+
+    def __init__(self, context, threads: int, run):
+        self.conn, child = context.Pipe()
+        self.process = context.Process(target=_serve, args=(child, os.getpid(), threads, run))
+        self.process.start()
+        child.close()  # the worker holds the only other end: a dead worker reads as end-of-file
+        self.task = None
+
+    def kill(self) -> None:
+        try:
+            self.process.kill()
+            self.process.join(timeout=5)
+        except (OSError, ValueError, AssertionError):  # already gone, closed, or never started
+            pass
+        self.conn.close()
+
+
+def _serve(conn, parent_pid: int, threads: int, run) -> None:
+    """A worker's loop: run each task it is sent, send back the outcome; stop at None or end-of-file."""
+    from bwbench.threads import limited
+
+    _init_worker(parent_pid)
+    with limited(threads):
+        while True:
+            try:
+                task = conn.recv()
+            except EOFError:
+                return
+            if task is None:
+                return
+            try:
+                outcome = run(task, threads)
+            except Exception as err:  # run_task records a run's own failure: this is the infrastructure's
+                outcome = {"key": task.key, "lost": " ".join(f"{type(err).__name__}: {err}".split())}
+            conn.send(outcome)
+
+
+def in_pool(tasks, workers: int, threads: int = 1, run=run_task):
+    """Yield ``run(task, threads)`` (default ``run_task``, a module-level function) of every task as it
+    finishes, on ``workers`` spawned processes of ``threads`` threads each.
+
+    A worker that dies (SIGKILL, the OOM killer, a crash) costs only the run it had: a new worker
+    takes its place, the other runs go on, and the run is tried again in this call (yielding
+    ``{"key": ..., "retried": why}`` to say so); after ``TRIES`` deaths it yields
+    ``{"key": ..., "lost": why}`` (left for the next call). Closing the generator
+    early (or an exception while it waits) kills the workers rather than waiting for the runs in flight.
     """
     # spawn, not fork: numba's OpenMP threading layer kills a child forked from a process that has
     # already run parallel code (a test session, a notebook). It costs each worker ~2.5 s of imports.
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_init_worker, initargs=(os.getpid(),))
+    context = multiprocessing.get_context("spawn")
+    pending, deaths = deque(tasks), Counter()
+    pool: list[_Worker] = []
     finished = False
     try:
-        futures = {pool.submit(run_task, t): t for t in tasks}
-        for future in as_completed(futures):
-            yield result_or_lost(future, futures.pop(future))  # pop: don't keep every result
+        while pending or any(w.task is not None for w in pool):
+            while len(pool) < min(workers, len(pool) + len(pending)):
+                pool.append(_Worker(context, threads, run))
+            for worker in pool:
+                _give(worker, pending)
+            ready = set(wait([w.conn for w in pool if w.task is not None] + [w.process.sentinel for w in pool]))
+            for worker in list(pool):
+                outcome = _outcome(worker) if worker.conn in ready or worker.process.sentinel in ready else None
+                if outcome is not None:
+                    worker.task = None
+                    _give(worker, pending)  # before the caller records the outcome: no worker waits for it
+                    yield outcome
+                elif worker.process.sentinel in ready:  # dead with no result: replace it, retry its run
+                    pool.remove(worker)
+                    worker.process.join(timeout=5)  # reaped: its exit code is known
+                    task, why = worker.task, _death(worker.process)
+                    worker.kill()
+                    if task is None:
+                        continue
+                    deaths[task.key] += 1
+                    if deaths[task.key] < TRIES:
+                        pending.appendleft(task)
+                        yield {"key": task.key, "retried": why}
+                    else:
+                        yield {"key": task.key, "lost": f"its worker died {TRIES} times ({why})"}
         finished = True
     finally:
-        if not finished:
-            kill_workers(pool)
-        pool.shutdown(wait=True, cancel_futures=True)
+        for worker in pool:
+            if finished:  # idle: let it leave on its own
+                try:
+                    worker.conn.send(None)
+                    worker.process.join(timeout=10)
+                except OSError:
+                    pass
+            worker.kill()
 
 
-def kill_workers(pool: ProcessPoolExecutor) -> None:
-    """SIGKILL every worker of ``pool`` now (its runs in flight are lost; the pool becomes broken)."""
-    kill = getattr(pool, "kill_workers", None)  # Python 3.14+
-    if kill is not None:
-        kill()
+def _give(worker: _Worker, pending: deque) -> None:
+    """Send an idle worker the next pending task, if any."""
+    if worker.task is not None or not pending:
         return
-    for process in list((getattr(pool, "_processes", None) or {}).values()):
+    worker.task = pending.popleft()
+    try:
+        worker.conn.send(worker.task)
+    except OSError:  # it died while idle: it is replaced when its sentinel is seen, the run is not charged
+        pending.appendleft(worker.task)
+        worker.task = None
+
+
+def _outcome(worker: _Worker):
+    """The outcome the worker has sent, or None (nothing there, or the pipe is closed)."""
+    try:
+        return worker.conn.recv() if worker.conn.poll() else None
+    except (EOFError, OSError):
+        return None
+
+
+def _death(process) -> str:
+    code = process.exitcode
+    if code is not None and code < 0:
         try:
-            process.kill()
-        except (OSError, ValueError):  # already gone, or already closed
-            pass
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit status {code}"
 
 
 def result_or_lost(future, task) -> dict:

@@ -23,6 +23,7 @@ from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.data.parameters import LOWER, UPPER
 from bwbench import problems
+from bwbench.data.input_files import not_regular
 from bwbench.data.manifest import load_manifest
 from bwbench.study.failures import is_transient_text
 
@@ -177,8 +178,9 @@ def _count(value) -> int:
 def _connect(path: Path) -> sqlite3.Connection:
     if not path.exists():
         raise UserError(f"{path}: no such study database")
-    if not path.is_file():
-        raise UserError(f"{path}: is a directory, not a study database")
+    kind = not_regular(path.stat().st_mode)
+    if kind:  # opening a FIFO read-only would block until a writer comes
+        raise UserError(f"{path}: is {kind}, not a study database")
     try:
         conn = sqlite3.connect(f"file:{path.resolve()}?mode=ro", uri=True)
         tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}

@@ -37,6 +37,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from bwbench import __version__
+from bwbench.data.input_files import not_regular
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.study.config import StudyConfig, describe_differences
@@ -82,6 +83,9 @@ def prepare_database_path(path) -> Path:
     path = Path(path)
     if path.is_dir():
         raise UserError(f"{path}: is a directory, not a study database; pass --db with a file name")
+    kind = not_regular(os.stat(path).st_mode) if path.exists() else None
+    if kind:  # SQLite would block on a FIFO forever
+        raise UserError(f"{path}: is {kind}, not a study database; pass --db with a file name")
     folder = path.parent
     blocking = next((p for p in [folder, *folder.parents] if p.exists() and not p.is_dir()), None)
     if blocking is not None:

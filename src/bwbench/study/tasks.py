@@ -86,8 +86,8 @@ def run_label(backend: str, variant: str) -> str:
     return f"{backend} [{variant}]" if variant else backend
 
 
-def run_task(task: Task) -> dict:
-    """Run one task; never raises for a failed run.
+def run_task(task: Task, threads: int = 1) -> dict:
+    """Run one task on ``threads`` threads (``bwbench.threads``); never raises for a failed run.
 
     Returns a plain dict: ``key``, ``row`` (the ``runs`` columns), ``timing``, ``trace``
     (list of (nfev, mse)) and ``chain`` (None, or the ``chains`` columns: posterior runs only).
@@ -95,10 +95,8 @@ def run_task(task: Task) -> dict:
     environment's (``bwbench.study.failures``): then the dict is ``{"key": ..., "lost": why}``, not a
     result, and the run is left for the next call.
     """
-    import numba
-    from threadpoolctl import threadpool_limits
-
     from bwbench.optimize import fitting
+    from bwbench.threads import limited
 
     row = dict.fromkeys(RUN_COLUMNS)
     row.update(kind=task.kind, specimen=task.specimen, optimizer=task.optimizer, replicate=task.replicate,
@@ -107,37 +105,33 @@ def run_task(task: Task) -> dict:
     problem_type = problems.get(task.problem)
     _fill(row, problem_type.record_columns(task.settings, task.entry, None))
     trace, chain, transient = [], None, False
-    # One thread per worker, numba's and BLAS/OpenMP's alike: the workers already fill the cores, a
-    # BLAS-heavy backend's result must not depend on the thread count, and the wall time recorded is
-    # then one core's.
-    threads = numba.get_num_threads()
-    numba.set_num_threads(1)
-    limits = threadpool_limits(limits=1)
+    # One thread per worker by default, numba's and BLAS/OpenMP's alike: the workers already fill the
+    # cores, a BLAS-heavy backend's result must not depend on the thread count, and the wall time
+    # recorded is then one core's.
     started = time.perf_counter()
-    try:
-        problem = problem_type.make_problem(task.settings, task.entry)
-        # The seed follows the backend, not the label: the variants of a run share its random stream.
-        seed = task_seed(task.entropy, task.kind, task.specimen, task.backend_name, task.replicate)
-        result = fitting.run(problem, task.backend_name, task.budget, seed, task.options)
-        # Only posterior runs keep their chain: nothing reads a ranking run's, and at the paper's
-        # budget it would be ~0.5 MB per emcee run, more than every other table together.
-        chain = _chain_columns(result.extras) if task.kind == "posterior" else None
-        metrics = problem_type.run_metrics(problem, result)
-        columns = problem_type.record_columns(task.settings, task.entry, result)
-    except Exception as err:  # a deterministic failure is a result: record it, keep the study going
-        transient = failures.is_transient(err)
-        row.update(status="error", error=failures.one_line(err))
-    else:
-        _fill(row, columns)
-        row.update(status="ok", nfev=result.nfev, mse=result.mse, f_err=result.f_err,
-                   success=int(result.success), message=result.message,
-                   params_json=canonical_json({k: json_number(v) for k, v in result.params.items()}),
-                   metrics_json=canonical_json(metrics))
-        trace = list(zip(result.trace_nfev, result.trace_mse, strict=True))
-    finally:
-        wall = time.perf_counter() - started
-        limits.restore_original_limits()
-        numba.set_num_threads(threads)
+    with limited(threads):
+        try:
+            problem = problem_type.make_problem(task.settings, task.entry)
+            # The seed follows the backend, not the label: the variants of a run share its random stream.
+            seed = task_seed(task.entropy, task.kind, task.specimen, task.backend_name, task.replicate)
+            result = fitting.run(problem, task.backend_name, task.budget, seed, task.options)
+            # Only posterior runs keep their chain: nothing reads a ranking run's, and at the paper's
+            # budget it would be ~0.5 MB per emcee run, more than every other table together.
+            chain = _chain_columns(result.extras) if task.kind == "posterior" else None
+            metrics = problem_type.run_metrics(problem, result)
+            columns = problem_type.record_columns(task.settings, task.entry, result)
+        except Exception as err:  # a deterministic failure is a result: record it, keep the study going
+            transient = failures.is_transient(err)
+            row.update(status="error", error=failures.one_line(err))
+        else:
+            _fill(row, columns)
+            row.update(status="ok", nfev=result.nfev, mse=result.mse, f_err=result.f_err,
+                       success=int(result.success), message=result.message,
+                       params_json=canonical_json({k: json_number(v) for k, v in result.params.items()}),
+                       metrics_json=canonical_json(metrics))
+            trace = list(zip(result.trace_nfev, result.trace_mse, strict=True))
+        finally:
+            wall = time.perf_counter() - started
     if transient:  # the environment's fault, not the run's: retry it later
         return {"key": task.key, "lost": row["error"]}
     timing = {"wall_s": wall, "worker": f"{socket.gethostname()}:{os.getpid()}", "finished_utc": utc_now()}

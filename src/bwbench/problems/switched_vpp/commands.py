@@ -8,6 +8,8 @@ import math
 
 from bwbench.optimize.result import finite_or_null
 
+MAX_GRID = 1000  # profile points per parameter: each is a local fit of ~15 iterations
+
 
 def add_model_options(p) -> None:
     p.add_argument("--state", choices=["shared", "split"], default="shared",
@@ -28,7 +30,10 @@ def problem_from_args(args):
     settings = {"state": args.state, "excitation": args.excitation, "formulation": args.formulation}
     if getattr(args, "bounds", None):
         settings["bounds"] = bounds_mod.read_json(args.bounds, bound_names([args.formulation], args.state))
-    return make_problem(read_specimen(args.specimen), settings)
+    problem = make_problem(read_specimen(args.specimen), settings)
+    if "bounds" in settings:
+        bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
+    return problem
 
 
 def read_for(path, problem):
@@ -54,7 +59,7 @@ def fit_metrics(mse: float, n: int) -> dict:
 def simulate(args) -> int:
     import pandas as pd
 
-    from bwbench.data.output_paths import check_outputs
+    from bwbench.data.output_paths import check_outputs, writing
 
     check_outputs({"--out": args.out}, [args.specimen, args.params])
     problem = problem_from_args(args)
@@ -65,7 +70,8 @@ def simulate(args) -> int:
         "time_s": s.t, "displacement_mm": s.x, "velocity_mm_per_s": s.v,
         "acceleration_mm_per_s2": s.a, "force_model_N": force, "force_measured_N": problem.specimen.f,
     })
-    frame.to_csv(args.out, index=False, float_format="%.6g")
+    with writing(args.out):
+        frame.to_csv(args.out, index=False, float_format="%.6g")
     mse = float(problem.loss_batch(params[None, :])[0])
     print(json.dumps(finite_or_null({"out": str(args.out), **fit_metrics(mse, len(force))})))
     return _not_finite(args, mse)
@@ -128,19 +134,22 @@ def identifiability(args) -> int:
     import sys
 
     from bwbench.data import bounds as bounds_mod
+    from bwbench.data import plausibility
     from bwbench.errors import UserError
     from bwbench.problems.switched_vpp.identifiability import analyse, format_text
 
-    if args.grid < 2:
-        raise UserError(f"--grid must be at least 2, got {args.grid}")
+    if not 2 <= args.grid <= MAX_GRID:
+        raise UserError(f"--grid must be 2 to {MAX_GRID} points (each is a local fit), got {args.grid}")
     problem = problem_from_args(args)
+    flat = plausibility.force_warnings(problem.specimen)
+    if flat:  # every sensitivity is 0 against a force of 0: nothing to identify, only NaN to report
+        raise UserError(f"{args.specimen}: {flat[0]}; nothing to identify")
     params = read_for(args.params, problem)
     box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
     result = analyse(args.specimen, params, args.state, args.excitation, formulation=args.formulation, bounds=box,
                      profile_names=args.profile, grid=args.grid)
-    if args.json:
-        json.dump(result, sys.stdout, indent=2, allow_nan=False)
-        sys.stdout.write("\n")
+    if args.json:  # strict JSON, whole or nothing: a value that is not finite is null
+        sys.stdout.write(json.dumps(finite_or_null(result), indent=2, allow_nan=False) + "\n")
     else:
         print(format_text(result))
     return 0

@@ -180,7 +180,7 @@ def specimens_from_files(fail, patterns, base_dir: Path, label: str) -> list[Spe
     for pattern in patterns:
         full = Path(pattern).expanduser()
         full = full if full.is_absolute() else base_dir / full
-        if glob.has_magic(str(full)):
+        if glob.has_magic(str(full)) and not full.exists():  # an existing run[1].csv is a file, not a glob
             found = sorted(Path(p) for p in glob.glob(str(full)) if Path(p).is_file())
             if not found:
                 fail(f"{label}: {pattern!r} matches no file (relative to {base_dir})")

@@ -1,0 +1,71 @@
+"""One thread per process by default (numba and BLAS), in ``fit`` as in a study's runs; ``--threads N``
+opts in; the settings are restored afterwards."""
+
+import os
+import shutil
+from pathlib import Path
+
+import numba
+import pytest
+from threadpoolctl import threadpool_info
+
+from bwbench import threads
+from bwbench.cli import main
+from bwbench.optimize import fitting
+
+SPECIMEN = Path(__file__).resolve().parents[1] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
+
+
+@pytest.fixture
+def seen(monkeypatch, tmp_path):
+    """The thread counts in force while the fit runs."""
+    shutil.copy(SPECIMEN, tmp_path / "s.csv")
+    monkeypatch.chdir(tmp_path)
+    found = {}
+    real = fitting.run
+
+    def spy(*args, **kwargs):
+        found["numba"] = numba.get_num_threads()
+        found["blas"] = {pool["num_threads"] for pool in threadpool_info()}
+        found["env"] = os.environ.get("OMP_NUM_THREADS")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fitting, "run", spy)
+    return found
+
+
+def test_fit_runs_on_one_thread_by_default_and_restores_the_settings(seen):
+    before = numba.get_num_threads()
+    assert main(["fit", "s.csv", "--optimizer", "random", "--budget", "20", "--out", "r.json"]) == 0
+    assert seen["numba"] == 1 and seen["blas"] <= {1}
+    if "OMP_NUM_THREADS" not in os.environ:
+        assert seen["env"] == "1"  # what a library loaded later, or a spawned worker, starts with
+    assert numba.get_num_threads() == before
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2 or numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 cores")
+def test_threads_opts_in_to_more(seen):
+    assert main(["fit", "s.csv", "--optimizer", "random", "--budget", "20", "--out", "r.json", "--threads", "2"]) == 0
+    assert seen["numba"] == 2
+
+
+def test_a_study_run_uses_the_threads_it_is_given(monkeypatch):
+    from bwbench.study import tasks
+
+    found = []
+    monkeypatch.setattr(fitting, "run", lambda *a, **k: found.append(numba.get_num_threads()) or 1 / 0)
+    task = tasks.Task("ranking", "random", 0, 1, 10, {}, "switched-bouc-wen", {"state": "shared", "excitation": "measured"},
+                      tasks.SpecimenEntry("s", str(SPECIMEN)))
+    row = tasks.run_task(task)["row"]
+    assert row["status"] == "error" and "ZeroDivisionError" in row["error"]  # the spy raised: recorded
+    if numba.config.NUMBA_NUM_THREADS >= 2:
+        tasks.run_task(task, threads=2)
+        assert found == [1, 2]
+
+
+def test_environment_fills_only_what_the_user_left_unset_and_restores_it(monkeypatch):
+    monkeypatch.setenv("MKL_NUM_THREADS", "3")
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    with threads.environment(1):
+        assert os.environ["MKL_NUM_THREADS"] == "3" and os.environ["OPENBLAS_NUM_THREADS"] == "1"
+    assert "OPENBLAS_NUM_THREADS" not in os.environ and os.environ["MKL_NUM_THREADS"] == "3"
