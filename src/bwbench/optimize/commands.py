@@ -61,7 +61,8 @@ def fit(args) -> int:
     check_outputs({"--out": args.out, "--plot": args.plot}, [args.specimen, getattr(args, "bounds", None)])
     problem = problem_from_args(args)
     result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
-    result.write_json(args.out)
+    checks = problem.fit_checks(result, manifest.is_synthetic(args.specimen)) if hasattr(problem, "fit_checks") else None
+    result.write_json(args.out, extra=checks.json if checks else None)
     if not math.isfinite(result.mse):
         print(f"error: {args.specimen}: none of the {result.nfev} evaluations gave a finite force: the model blows "
               "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
@@ -75,6 +76,10 @@ def fit(args) -> int:
           f"in {result.nfev} evaluations, {result.wall_s:.2f} s -> {args.out}")
     for note in getattr(problem, "notes", []):
         print(f"  linear solve: {note}")
+    for line in checks.notes if checks else []:
+        print(f"  {line}")
+    for text in fitting.edge_warnings(problem, result, checks.explained if checks else ()) + (checks.warnings if checks else []):
+        print(f"warning: {args.specimen}: {text}", file=sys.stderr)
     return 0
 
 

@@ -70,7 +70,6 @@ def hysteretic_names(state: str) -> tuple:
 
 
 LABELS = {"xy+": "x_y₊", "n+": "n₊", "eta+": "η₊", "xy-": "x_y₋", "n-": "n₋", "eta-": "η₋", "rho": "ρ"}
-UNITS = {"xy+": "mm", "xy-": "mm"}  # the others have none
 
 
 def scale_paper(params, s_plus: float, s_minus: float) -> np.ndarray:
