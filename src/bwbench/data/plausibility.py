@@ -92,7 +92,11 @@ def signal_warnings(spec) -> list[str]:
     for column, what, columns in checks:
         coef, misfit = _fit_displacement(columns, x)
         gain = float(coef[-1])
-        if not SIGNAL_GAIN_RANGE[0] <= gain <= SIGNAL_GAIN_RANGE[1]:
+        if misfit > SIGNAL_MISFIT * span:  # the shape is wrong: no gain can fix it
+            out.append(f"column {column} does not follow the displacement: its integral leaves {misfit:.3g} mm rms "
+                       f"({misfit / span:.0%} of the displacement range) unexplained (another channel, or shifted in "
+                       f"time?); bwbench drives the model with the recorded {what}")
+        elif not SIGNAL_GAIN_RANGE[0] <= gain <= SIGNAL_GAIN_RANGE[1]:
             factor = 1.0 / gain if gain != 0 else np.inf
             hint = "the opposite sign convention" if factor < 0 else ""
             for slip, unit in _UNIT_SLIPS.items():
@@ -101,8 +105,4 @@ def signal_warnings(spec) -> list[str]:
             out.append(f"column {column} does not match the displacement: the {what} recorded is "
                        f"{factor:.3g} × the one the displacement implies" + (f" ({hint}?)" if hint else "")
                        + f"; bwbench drives the model with the recorded {what}")
-        elif misfit > SIGNAL_MISFIT * span:
-            out.append(f"column {column} does not follow the displacement: its integral leaves {misfit:.3g} mm rms "
-                       f"({misfit / span:.0%} of the displacement range) unexplained (another channel, or shifted in "
-                       f"time?); bwbench drives the model with the recorded {what}")
     return out
