@@ -17,7 +17,8 @@ from bwbench.data import manifest
 from bwbench.data.parameters import LABELS, LOWER, UPPER
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.switched_vpp import figures, posterior_section
+from bwbench.problems.switched_vpp import figures, posterior_section, signals_section
+from bwbench.problems.switched_vpp.figure_common import axis_label
 from bwbench.problems.switched_vpp import identifiability as switched_identifiability
 from bwbench.report.format import evals_text, join, number, spread_text, unit_of
 from bwbench.report.palette import split_label
@@ -97,6 +98,7 @@ def add_sections(report) -> None:
                f"Measured loop on {featured[0]} with the best ranking run's fit, and the residuals of the best 3 "
                "backends" + (" and random search" if any(split_label(o)[0] == "random" for o in order) else "")
                + " (the paper's Figs 20–21)")
+    signals_section.paragraph(report)
     doc.figure(figures.parameter_spread(study, out, featured, order=order),
                "Parameters of every run within 10 % of the best known MSE, scaled to the Table 5 range")
     # The paper's view (its 14 parameters, searched in its box) from the best backend of that formulation,
@@ -193,15 +195,15 @@ def _section_tables(report):
                     continue
                 b = best.loc[specimen]
                 rows.append({"specimen": label, "row": f"best: {b['optimizer']} seed {int(b['replicate'])}",
-                             "F_err (N²)": number(-b["mse"], 5), **{LABELS[n]: number(b[n]) for n in names}})
+                             "F_err (N²)": number(-b["mse"], 5), **{axis_label(n): number(b[n]) for n in names}})
                 runs = ok[(ok["specimen"] == specimen) & (ok["optimizer"] == best_backend)]
                 rows.append({"specimen": "", "row": f"{best_backend}: median [min, max], {len(runs)} seeds",
-                             "F_err (N²)": spread_text(-runs["mse"]), **{LABELS[n]: spread_text(runs[n]) for n in names}})
+                             "F_err (N²)": spread_text(-runs["mse"]), **{axis_label(n): spread_text(runs[n]) for n in names}})
                 truth = manifest.truth_params(study.specimen_path(specimen))
                 if truth is not None:
                     truth_mse = report.problem_type.noise_floor(study, specimen)
                     rows.append({"specimen": "", "row": "truth (synthetic)", "F_err (N²)": number(-truth_mse, 5),
-                                 **{LABELS[n]: number(truth[PARAM_NAMES.index(n)]) for n in names}})
+                                 **{axis_label(n): number(truth[PARAM_NAMES.index(n)]) for n in names}})
             doc.table(pd.DataFrame(rows), f"{material}: {half}")
 
 
@@ -277,7 +279,7 @@ def _section_identifiability(report):
         rows = []
         for n in PARAM_NAMES:
             lo, hi = result["free_range"][n]
-            rows.append({"parameter": LABELS[n], "best fit": number(result["params"][n]),
+            rows.append({"parameter": axis_label(n), "best fit": number(result["params"][n]),
                          "free range": f"{number(lo)} – {number(hi)}",
                          "free (% of range)": f"{result['free_range_unit'][n]:.0%}",
                          "s.e. (% of range)": f"{min(result['standard_error_unit'][n], 9.99):.1%}",
