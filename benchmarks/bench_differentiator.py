@@ -7,7 +7,10 @@ noise N(0, σ) and is rounded to 10 nm as the files are written. Every estimator
 samples; its x, ẋ, ẍ then drive the switched model with each of the 15 parameter sets of Tables 6–8,
 compared with the same model driven by the exact x, ẋ, ẍ at the same samples (which is within
 1e-3 N of the continuous truth). Printed per motion, rate (Hz), noise (µm) and estimator:
-RMS and max velocity error (mm/s) and the force RMSE (N) it causes, median and max over the 15 sets.
+RMS and max velocity error (mm/s) and the force RMSE (N) it causes, median and max over the 15 sets,
+the time the estimator took, and for the chosen estimator its own error estimate
+(``derivatives.velocity_error``); then, per estimator over all cases, how often it is within 1.5× of
+the best one's force error, the geometric mean of its ratio to the best, and its worst case.
 
 Run: `.venv/bin/python benchmarks/bench_differentiator.py [--quick]`.
 """
@@ -89,6 +92,7 @@ def main():
     rates = (1.0, 2.0) if args.quick else (0.5, 1.0, 2.0, 10.0)
     noises_um = (0.0, 0.1, 1.0) if args.quick else (0.0, 0.1, 1.0, 5.0)
     rng = np.random.default_rng(2024)
+    cases = []  # per (motion, rate, noise): {estimator: median force RMSE}
     print(f"{'motion':<7} {'Hz':>4} {'noise µm':>8}  {'estimator':<12} {'v rms mm/s':>10} {'v max mm/s':>10} "
           f"{'F rms N med':>11} {'F rms N max':>11} {'ms':>6}  {'v rms predicted':>15}")
     for motion, (duration, exact) in motions(rng).items():
@@ -99,6 +103,7 @@ def main():
             x, v, a = exact(t)
             reference = [model.simulate(p, t, x, v, a) for p in truths]
             for noise in noises_um:
+                cases.append({})
                 x_rec = np.round((x + rng.normal(0.0, noise * 1e-3, x.shape)) / RESOLUTION_MM) * RESOLUTION_MM
                 for name, estimator in ESTIMATORS.items():
                     started = time.perf_counter()
@@ -107,10 +112,17 @@ def main():
                     err = vs - v
                     force = [np.sqrt(np.mean((model.simulate(p, t, xs, vs, acc) - f) ** 2))
                              for p, f in zip(truths, reference)]
+                    cases[-1][name] = float(np.median(force))
                     predicted = (f"{derivatives.velocity_error(t, x_rec):15.2e}" if name == "chosen" else "")
                     print(f"{motion:<7} {rate:4g} {noise:8g}  {name:<12} {np.sqrt(np.mean(err**2)):10.2e} "
                           f"{np.max(np.abs(err)):10.2e} {np.median(force):11.3f} {np.max(force):11.3f} {ms:6.1f}  "
                           f"{predicted}", flush=True)
+    print(f"\nover the {len(cases)} cases: {'within 1.5× of the best':>24} {'geometric mean / best':>22} "
+          f"{'worst median F rms N':>21}")
+    for name in ESTIMATORS:
+        ratios = np.array([case[name] / min(case.values()) for case in cases])
+        print(f"{name:<12} {int(np.sum(ratios <= 1.5)):>17} of {len(cases):<4} {np.exp(np.mean(np.log(ratios))):22.2f} "
+              f"{max(case[name] for case in cases):21.2f}")
 
 
 if __name__ == "__main__":

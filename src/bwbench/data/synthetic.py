@@ -13,10 +13,10 @@ identified parameters. What is simulated is the test machine, not the model's si
 - noise: load-cell noise N(0, 1 N) on the force, encoder noise N(0, 1 µm) on the displacement;
 - the commanded crosshead velocity is logged beside them (``velocity_mm_s``, exact, printed to
   1e-8 mm/s), as a test machine logs it: with it the model sees the velocity the force was made
-  with, so the truth's MSE is the force noise (≤ 1.25 σ² on every specimen; with the velocity
-  estimated from the noisy displacement it was 2.6–46 σ²). The acceleration is not logged (machines
-  rarely do): its inertia force is ≤ 0.03 N here, and bwbench's estimate of it from the logged
-  velocity is off by far less.
+  with, so the truth's MSE is the force noise (0.92–1.07 σ² on the 45 specimens; with the former
+  Savitzky–Golay estimate from the noisy displacement it was 2.6–46 σ²). The acceleration is not logged (machines
+  rarely do): its inertia force is ≤ 0.033 N here, and bwbench's estimate of it from the logged
+  velocity is off by 7·10⁻⁵ mm/s² rms.
 
 Every draw comes from ``SeedSequence(SEED)`` spawned per specimen, and numbers are written with
 fixed formats, so ``bwbench data generate`` reproduces the committed files byte for byte.
