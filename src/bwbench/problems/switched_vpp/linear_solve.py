@@ -241,6 +241,9 @@ class LinearDesign:
         m, q, nw = len(Z), self.Q.shape[1], len(self.w_names)
         fit_res = np.full((m, self.L), -np.inf) if residual else np.empty((0, self.L))
         C, Rw, qwy, h, rss, full = _w_solve(Zg, good, self._col, self.Q, self.r0, nw, residual, fit_res)
+        # A finite but huge trajectory (|w| ~ 1e300) can overflow the solve: a blow-up, not a crash.
+        good &= np.isfinite(rss) & np.all(np.isfinite(h), axis=1) & np.all(np.isfinite(C), axis=(1, 2))
+        C, h = np.where(good[:, None, None], C, 0.0), np.where(good[:, None], h, 0.0)
         g = scipy.linalg.solve_triangular(self.RG, (self.Qty[None, :] - np.einsum("mqk,mk->mq", C, h)).T).T
         p = q + nw
         R = np.zeros((m, p, p))
@@ -249,7 +252,7 @@ class LinearDesign:
         R[:, q:, q:] = Rw
         diag = np.abs(np.diagonal(R, axis1=1, axis2=2))
         with np.errstate(divide="ignore"):
-            logdet = np.where(full, 2.0 * np.sum(np.log(diag), axis=1), -np.inf)
+            logdet = np.where(full & good, 2.0 * np.sum(np.log(diag), axis=1), -np.inf)
         beta = np.concatenate([g, h], axis=1)
         coef = np.full((m, len(LINEAR_NAMES)), np.nan)
         for b, mask in self.masks.items():  # fixed and dropped coefficients of present branches
