@@ -22,10 +22,10 @@ def edge_bands(ax) -> None:
 
 
 def pretty_unit(unit: str) -> str:
-    """A unit as figures and tables print it: "–" for none, "mm^-n+" as "mm⁻ⁿ⁺"."""
+    """A unit as figures and tables print it: "–" for none, "mm^-n+" as "mm^(−n₊)"."""
     if unit == "-":
         return "–"
-    return unit.replace("^-n+", "⁻ⁿ⁺").replace("^-n-", "⁻ⁿ⁻")
+    return unit.replace("^-n+", "^(−n₊)").replace("^-n-", "^(−n₋)")
 
 
 def axis_label(name: str) -> str:

@@ -10,7 +10,7 @@ import pandas as pd
 from bwbench.models.derivatives import SPLINE_NAME
 from bwbench.optimize.fitting import on_box_edge
 from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for
-from bwbench.problems.switched_vpp.fit_checks import expected_force_error
+from bwbench.problems.switched_vpp.fit_checks import expected_force_error, linear_branches
 from bwbench.report.format import number
 
 
@@ -41,7 +41,11 @@ def paragraph(report) -> None:
                               "expected force error (N)": number(error["expected_force_error_N"], 3),
                               "velocity error (mm/s)": f"{error['velocity_error_mm_s']:.2g}",
                               "∂F/∂ẋ rms (N·s/mm)": number(error["sensitivity_N_s_per_mm"], 4)})
-        edges += [f"{specimen} ({name} {side})" for name, side in on_box_edge(problem, params).items()]
+        linear = linear_branches(problem, params)
+        edges += [f"{specimen} ({name} {side}" + (f": branch {name[-1]} linear, no yield within the stroke)"
+                                                  if side == "upper" and name.startswith("xy") and linear.get(name[-1])
+                                                  else ")")
+                  for name, side in on_box_edge(problem, params).items()]
     text = []
     if recorded:
         text.append(f"The velocity of {len(recorded)} of {len(recorded) + len(estimated)} specimens is recorded in "
