@@ -78,8 +78,9 @@ def test_data_check_says_which_signals_are_measured_and_which_estimated(tmp_path
     t, x, v, _, f = _motion()
     measured = _write(tmp_path, "measured.csv", em.render_csv(t, x, f, v=v))
     estimated = _write(tmp_path, "estimated.csv", em.render_csv(t, x, f))
+    only_a = _write(tmp_path, "only_a.csv", em.render_csv(t, x, f, a=_motion()[3]))
     capsys.readouterr()
-    assert main(["data", "check", str(measured), str(estimated)]) == 0
+    assert main(["data", "check", str(measured), str(estimated), str(only_a)]) == 0
     out, err = capsys.readouterr()
     lines = out.splitlines()
     assert lines[1] == ("  signals: displacement and velocity measured (velocity_mm_s), acceleration estimated "
@@ -87,6 +88,8 @@ def test_data_check_says_which_signals_are_measured_and_which_estimated(tmp_path
     assert lines[3].startswith("  signals: displacement measured, velocity and acceleration estimated from it "
                                "(quintic smoothing spline; displacement noise ")
     assert "expected velocity error" in lines[3] and "per 1000 N·s/mm" in lines[3]
+    assert lines[5].startswith("  signals: displacement measured, velocity estimated from it, acceleration measured "
+                               "(acceleration_mm_s2) (quintic smoothing spline")
     assert err == ""
 
 

@@ -43,17 +43,17 @@ def signals_text(spec) -> str:
     expected error (mm/s rms) and the force error that makes per ``REFERENCE_VISCOUS`` of ∂F/∂ẋ."""
     from bwbench.models import derivatives
 
-    acceleration = "acceleration measured" if spec.a is not None else "acceleration estimated"
     if spec.v is not None:
-        return (f"signals: displacement and velocity measured (velocity_mm_s), {acceleration}"
-                + ("" if spec.a is not None else " from the velocity"))
+        return ("signals: displacement and velocity measured (velocity_mm_s), acceleration "
+                + ("measured (acceleration_mm_s2)" if spec.a is not None else "estimated from the velocity"))
     estimate = derivatives.estimate(spec.t, spec.x)
     error = derivatives.velocity_error(spec.t, spec.x, estimate)
-    return (f"signals: displacement measured, velocity and {acceleration.split()[0]} estimated from it "
-            f"({derivatives.SPLINE_NAME}; displacement noise {estimate.noise * 1e3:.3g} µm): expected velocity error "
-            f"{error:.2g} mm/s rms, a force error of {error * REFERENCE_VISCOUS:.2g} N rms per "
-            f"{REFERENCE_VISCOUS:g} N·s/mm of viscous coefficient ∂F/∂ẋ; a recorded velocity column "
-            "(velocity_mm_s) removes it")
+    estimated = ("velocity estimated from it, acceleration measured (acceleration_mm_s2)" if spec.a is not None
+                 else "velocity and acceleration estimated from it")
+    return (f"signals: displacement measured, {estimated} ({derivatives.SPLINE_NAME}; displacement noise "
+            f"{estimate.noise * 1e3:.3g} µm): expected velocity error {error:.2g} mm/s rms, a force error of "
+            f"{error * REFERENCE_VISCOUS:.2g} N rms per {REFERENCE_VISCOUS:g} N·s/mm of viscous coefficient ∂F/∂ẋ; "
+            "a recorded velocity column (velocity_mm_s) removes it")
 
 
 def generate(args) -> int:

@@ -61,7 +61,7 @@ def warnings(spec, synthetic: bool = False) -> list[str]:
 # or channel. Commanded and measured motion of a servo machine agree far better than 10 %.
 SIGNAL_GAIN_RANGE = (0.9, 1.1)
 SIGNAL_MISFIT = 0.05
-_UNIT_SLIPS = {60.0: "mm/min", 1000.0: "µm/s (or m/s read as mm/s the other way)", 1e-3: "m/s", 1 / 60.0: "mm/min"}
+_UNIT_SLIPS = {60.0: "mm/min", 1000.0: "µm/s", 1e-3: "m/s"}  # recorded / implied -> the unit it was in
 
 
 def _integral(t, y):

@@ -8,16 +8,18 @@ sines and random motions at 0.5–10 Hz with 0–5 µm encoder noise; README "Si
    print resolution of a noise-free file as the noise it is.
 2. A quintic smoothing spline (FITPACK's ``UnivariateSpline``, k = 5) with the classical smoothing
    condition Σ residual² ≤ L·σ̂²: it puts knots where the motion needs them (reversals) and few on
-   ramps, so the velocity is exact on straight ramps and the noise is averaged away there; with
-   σ̂ → 0 it becomes the interpolating spline. x̂, ẋ and ẍ are the spline and its derivatives.
+   straight ramps, whose velocity it then averages over many noisy samples; with σ̂ → 0 it becomes
+   the interpolating spline. x̂, ẋ and ẍ are the spline and its derivatives. Over the benchmark's
+   48 cases it is within 1.5× of the best candidate's force error in 42 (Savitzky–Golay (9, 4),
+   the former estimator: 6; interpolating splines: 6–7), never worse than 14 N (SG: 111 N).
 3. Its weak spot is the record's ends, where the last polynomial piece is pinned by nothing beyond
    the data (measured: 2 mm/s off on a 0.08 mm/s ramp sampled at 0.5 Hz). Within 2k samples of each
    end, a velocity that differs from the interpolating spline's by more than 4 of that spline's
    noise standard deviations (σ̂ times its noise gain at that position) is replaced by the
    interpolating spline's values.
 
-``velocity_error`` estimates the RMS error of the estimated velocity (a parametric bootstrap). scipy.interpolate is imported only here, when a velocity is estimated:
-it costs 0.3–0.8 s of start-up.
+``velocity_error`` estimates the RMS error of the estimated velocity (a parametric bootstrap).
+scipy.interpolate is imported only here, when a velocity is estimated: it costs 0.3–0.8 s of start-up.
 """
 
 from __future__ import annotations

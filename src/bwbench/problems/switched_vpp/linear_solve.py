@@ -29,11 +29,11 @@ m is fitted only when both hold; otherwise fixed at m_ref, and k_b absorbs any (
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from math import comb
-
 import numba
 import numpy as np
 import scipy.linalg
+
+from bwbench.models.derivatives import robust_noise
 
 LINEAR_NAMES = ("m", "c+", "k+", "h+", "f+", "c-", "k-", "h-", "f-")
 LINEAR_UNITS = {"m": "N·s²/mm", "c+": "N·s/mm", "k+": "N/mm", "h+": "N", "f+": "N",
@@ -51,9 +51,7 @@ def force_noise(f) -> float:
     the median ignores. Floored at 1e-12·max|F| so a noise-free record gives a tiny positive σ.
     """
     f = np.asarray(f, dtype=float)
-    d = np.diff(f, 4)
-    mad = 1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(comb(8, 4))
-    return float(max(mad, 1e-12 * np.max(np.abs(f)), np.finfo(float).tiny))
+    return float(max(robust_noise(f), 1e-12 * np.max(np.abs(f)), np.finfo(float).tiny))
 
 
 @dataclass(frozen=True)
