@@ -38,7 +38,7 @@ from bwbench.models.derivatives import robust_noise
 LINEAR_NAMES = ("m", "c+", "k+", "h+", "f+", "c-", "k-", "h-", "f-")
 LINEAR_UNITS = {"m": "N·s²/mm", "c+": "N·s/mm", "k+": "N/mm", "h+": "N", "f+": "N",
                 "c-": "N·s/mm", "k-": "N/mm", "h-": "N", "f-": "N"}
-M_REF = 1.0  # N·s²/mm: the paper's F = ẍ + ... in the specimens' units
+M_REF = 1.0  # N·s²/mm = 1 t (1000 kg): the paper's F = ẍ + ... in the specimens' units
 KAPPA = 10.0  # signal/noise (as norms over the record) needed to call a column excited
 COLLINEAR = 1e-3  # ‖ẍ⊥‖/‖ẍ_c‖ below this: condition number > 1000, m and k_b not separable
 RANK_TOL = 1e-9  # a unit-norm column this close to the span of the others is dependent
@@ -115,7 +115,7 @@ def inertia_check(signal, f, offsets: bool = True, m_ref: float = M_REF, kappa: 
     excited = m_ref * n_c >= kappa * sigma
     separable = m_ref * n_o >= kappa * sigma and n_o >= COLLINEAR * n_c
     rms = 1.0 / np.sqrt(L)
-    head = (f"inertia force at m = {m_ref:g} N·s²/mm: {m_ref * n_c * rms:.3g} N rms, "
+    head = (f"inertia force at m = {m_ref:g} N·s²/mm (= {m_ref:g} t): {m_ref * n_c * rms:.3g} N rms, "
             f"{m_ref * n_o * rms:.3g} N rms outside span(ẋ, x, 1 per branch); force noise {sigma:.3g} N")
     if not excited:
         reason = f"inertia not excited ({head}): m fixed at {m_ref:g}"
