@@ -6,8 +6,7 @@ from an independent solver (``tests/reference.py``: LSODA in time between the an
 The specimens are written as CSV files and read back through ``bwbench.data.specimen``, as a user's
 files would be, then the truth is evaluated through bwbench's problem:
 
-1. noise-free, no velocity column: the truth's RMS error (target ≤ 0.5 N; 1.55 N with the former
-   Savitzky–Golay (9, 4) differentiator);
+1. noise-free, no velocity column: the truth's RMS error (target ≤ 0.5 N);
 2. 2 N force noise, 1 µm encoder noise, with a ``velocity_mm_s`` column: the truth's MSE against the
    force-noise variance, 4 N² (target within 10 %), and against the realised noise's own MSE;
    and the same file without the column.

@@ -35,7 +35,7 @@ def _truth_mse(tmp_path, name, text, problem=SwitchedBoucWenProblem):
 def test_a_noise_free_ramp_test_without_velocity_is_reproduced_by_its_truth(machine, tmp_path):
     t, x, _, _, force = machine
     rms = np.sqrt(_truth_mse(tmp_path, "ramps.csv", em.render_csv(t, x, force)))
-    assert rms <= 0.5  # N; 0.21 N here, 1.55 N with the former Savitzky-Golay (9, 4) estimate
+    assert rms <= 0.5  # N; 0.21 N here
 
 
 def test_a_velocity_column_makes_the_truth_the_noise_floor(machine, tmp_path):
