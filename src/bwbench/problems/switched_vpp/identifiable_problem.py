@@ -37,7 +37,7 @@ class IdentifiableProblem(SpecimenFit):
         if state not in model.STATES:
             raise ValueError(f"state must be one of {model.STATES}, got {state!r}")
         self.specimen, self.state, self.excitation = specimen, state, excitation
-        self.signal = excitation_mod.build(excitation, specimen.t, specimen.x)
+        self.signal = excitation_mod.of_specimen(excitation, specimen)
         self.model = fm.IdentifiableModel(self.signal, specimen.f, state, fix_mass=fix_mass, offsets=offsets)
         box = self.model.bounds
         self.param_names = tuple(box.names)

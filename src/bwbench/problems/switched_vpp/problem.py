@@ -34,6 +34,19 @@ class SpecimenFit:
         """Number of force samples the loss averages over (the L of eq 6)."""
         return self.specimen.n_samples
 
+    def units(self, names) -> dict:
+        """The unit of each parameter name (paper, identifiable or linear) a result of this fit reports."""
+        from bwbench.problems.switched_vpp.fit_checks import units
+
+        return units(names)
+
+    def fit_checks(self, result, synthetic: bool = False):
+        """``fit_checks.check`` at the best parameters of ``result`` (a ``Result`` of this problem)."""
+        from bwbench.problems.switched_vpp import fit_checks
+
+        params = [result.params.get(name, np.nan) for name in self.param_names]
+        return fit_checks.check(self, params, synthetic, result.at_bound)
+
 
 @dataclass
 class SwitchedBoucWenProblem(SpecimenFit):
@@ -49,7 +62,7 @@ class SwitchedBoucWenProblem(SpecimenFit):
     def __post_init__(self):
         if self.state not in model.STATES:
             raise ValueError(f"state must be one of {model.STATES}, got {self.state!r}")
-        self.signal = excitation_mod.build(self.excitation, self.specimen.t, self.specimen.x)
+        self.signal = excitation_mod.of_specimen(self.excitation, self.specimen)
 
     formulation = "paper"
 
