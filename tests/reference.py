@@ -60,3 +60,33 @@ def reference_force(params, t, amplitude, period, state="shared", rtol=1e-10):
         A, n, alpha, beta, gamma, xi, wn = s
         F[i] = a[i] + 2 * xi * wn * v[i] + alpha * wn**2 * x[i] + (1 - alpha) * wn**2 * z_at[i]
     return F
+
+
+def reference_force_of_motion(params, t, motion, reversals, state="shared", rtol=1e-9):
+    """The switched model's force (N) at times t (s) for any exact motion ``motion(t) -> (x, v, a)``
+    whose velocity changes sign only at ``reversals`` (s): z integrated in time by LSODA between them.
+
+    Shared state only; a sample exactly on a reversal takes the branch of its own velocity.
+    """
+    if state != "shared":
+        raise ValueError("reference_force_of_motion: shared state only")
+    p = np.asarray(params, dtype=float)
+    x, v, a = motion(t)
+    edges = np.concatenate([[t[0]], [r for r in reversals if t[0] < r < t[-1]], [t[-1]]])
+    z, z_at = 0.0, np.empty_like(t)
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        plus = motion(np.array([0.5 * (lo + hi)]))[1][0] >= 0
+        A, n, _, beta, gamma, _, _ = p[:7] if plus else p[7:]
+
+        def rhs(tt, zz):
+            xdot = motion(np.array([tt]))[1][0]
+            return [xdot * (A - (beta + gamma * np.sign(zz[0] * xdot)) * abs(zz[0]) ** n)]
+
+        sol = solve_ivp(rhs, (lo, hi), [z], method="LSODA", rtol=rtol, atol=1e-12, dense_output=True)
+        assert sol.success, sol.message
+        inside = (t >= lo) & (t <= hi)
+        z_at[inside] = sol.sol(t[inside])[0]
+        z = sol.y[0, -1]
+    branch = np.where(v[:, None] >= 0, p[None, :7], p[None, 7:])
+    _, _, alpha, _, _, xi, wn = branch.T
+    return a + 2 * xi * wn * v + alpha * wn**2 * x + (1 - alpha) * wn**2 * z_at

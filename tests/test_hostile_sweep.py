@@ -41,9 +41,11 @@ def lab(tmp_path_factory):
     lab = tmp_path_factory.mktemp("hostile")
     shutil.copy(REPO / "data" / "specimens" / NAME, lab / NAME)
     lines = (lab / NAME).read_text().splitlines()
-    rows = [[float(c) for c in line.split(",")] for line in lines[1:]]
+    # Time, displacement and force only (the shipped files also log the velocity; a unit trap needs only these).
+    columns = [lines[0].split(",").index(c) for c in ("time_s", "displacement_mm", "force_N")]
+    rows = [[float(line.split(",")[j]) for j in columns] for line in lines[1:]]
     write = lambda name, f: (lab / name).write_text(  # noqa: E731
-        lines[0] + "\n" + "".join(f"{t:.6f},{x:.6f},{v:.4f}\n" for (t, x, v) in map(f, rows)))
+        "time_s,displacement_mm,force_N\n" + "".join(f"{t:.6f},{x:.6f},{v:.4f}\n" for (t, x, v) in map(f, rows)))
     write("ms.csv", lambda r: (r[0] * 1000, r[1], r[2]))
     write("zero.csv", lambda r: (r[0], r[1], 0.0))
     shutil.copy(lab / NAME, lab / "run[1].csv")

@@ -103,3 +103,23 @@ def test_bad_arguments_are_refused():
         mr_damper.sine_test(frequency_hz=0.0)
     with pytest.raises(ValueError):
         mr_damper.sine_test(cycles=0)
+
+
+def test_a_velocity_channel_can_be_written_and_matches_the_displacement(tmp_path):
+    from bwbench.data.plausibility import signal_warnings
+    from bwbench.data.specimen import read_specimen
+
+    path = tmp_path / "mr.csv"
+    test = mr_damper.write_test(path, frequency_hz=2.0, rate_hz=500.0, cycles=2, rng=5, velocity=True,
+                                velocity_noise_mm_s=0.5)
+    spec = read_specimen(path)
+    assert spec.measured_signals == ("velocity",)
+    w = 2 * np.pi * 2.0
+    np.testing.assert_allclose(spec.v, 25.0 * w * np.cos(w * spec.t), atol=0.5 * 5 + 1e-3)
+    assert np.std(spec.v - 25.0 * w * np.cos(w * spec.t)) == pytest.approx(0.5, rel=0.1)
+    assert signal_warnings(spec) == []
+    # without the channel the bytes are those of the files written before it existed
+    plain = mr_damper.render(mr_damper.sine_test(frequency_hz=2.0, rate_hz=500.0, cycles=2, rng=5))
+    assert plain.splitlines()[1:] == [",".join(line.split(",")[i] for i in (0, 1, 3))
+                                      for line in path.read_text().splitlines()[1:]]
+    assert test.v is not None

@@ -50,19 +50,39 @@ def test_repeats_differ_by_at_most_7_percent_in_peak_force():
     assert spread.min() > 0.0  # repeats are not copies
 
 
-def test_truth_parameters_fit_their_specimen_to_near_the_noise_floor():
-    # Load-cell noise is 1 N (1 N² MSE); the measured-excitation differentiator adds a few N² at
-    # the reversals. The sine approximation of the paper is two to four orders worse.
-    manifest = manifest_mod.read_manifest(DATA)
-    measured, sine = [], []
-    for file in manifest.file[::4]:
-        spec = read_specimen(DATA / file)
-        truth = manifest_mod.truth_params(DATA / file)
-        measured.append(SwitchedBoucWenProblem(spec).loss_batch(truth[None])[0])
-        sine.append(SwitchedBoucWenProblem(spec, excitation="sine").loss_batch(truth[None])[0])
-    assert np.median(measured) < 20.0 and max(measured) < 100.0
-    assert min(measured) > 0.5  # noise is really there
+def _truth_mse(file, **problem_options):
+    spec = read_specimen(DATA / file)
+    truth = manifest_mod.truth_params(DATA / file)
+    return SwitchedBoucWenProblem(spec, **problem_options).loss_batch(truth[None])[0]
+
+
+NOISE_FORCE_N = synthetic.Settings().noise_force_n
+
+
+def test_truth_parameters_fit_their_specimen_to_the_noise_floor():
+    # Driven by the logged (commanded) velocity, the truth's MSE is the load-cell noise variance
+    # (1 N²) up to the sampling spread of a variance over 1,921 samples (±3 %); it was 2.6–46 σ² with
+    # the velocity estimated from the noisy displacement. The paper's sine approximation is orders worse.
+    files = manifest_mod.read_manifest(DATA).file[::4]
+    measured = np.array([_truth_mse(file) for file in files]) / NOISE_FORCE_N**2
+    assert np.all(measured <= 1.25) and np.all(measured >= 0.85)  # the noise is really there
+    assert np.median(measured) == pytest.approx(1.0, abs=0.05)
+    sine = [_truth_mse(file, excitation="sine") for file in files[::3]]
     assert np.median(sine) > 100 * np.median(measured)
+
+
+@pytest.mark.slow  # all 45 specimens; the test above covers every 4th
+def test_every_specimen_truth_is_within_the_noise_floor():
+    measured = np.array([_truth_mse(file) for file in manifest_mod.read_manifest(DATA).file]) / NOISE_FORCE_N**2
+    assert measured.max() <= 1.25 and measured.min() >= 0.85
+
+
+def test_specimens_log_the_commanded_velocity():
+    spec = read_specimen(DATA / "pom-c9021_0.05MPa_r1.csv")
+    assert spec.measured_signals == ("velocity",)
+    s = synthetic.Settings()
+    np.testing.assert_allclose(spec.v, synthetic.triangular_motion(spec.t, s)[1], atol=5e-9)
+    assert np.max(np.abs(spec.v)) == pytest.approx(s.speed_mm_per_min / 60.0, abs=1e-8)
 
 
 def test_triangular_motion_is_continuous_and_at_constant_speed_between_reversals():

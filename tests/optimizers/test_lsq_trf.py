@@ -20,7 +20,7 @@ SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
 # lsq-trf at 1,500 evaluations on that specimen's identifiable problem reached MSE/truth 0.9153 with
 # seeds 0-5 alike (first within 5 % after 58, 932, 501, 361, 49, 25 evaluations); seed 5 is the
 # quickest. The identifiable fit goes below the truth's MSE: it also fits m and two offsets.
-SEED, RATIO = 5, 0.91528
+SEED, RATIO = 5, 0.99243
 
 
 def test_registered_as_a_batched_least_squares_backend():
@@ -113,10 +113,11 @@ def test_bad_options_are_refused():
 
 
 def test_reaches_the_noise_floor_on_the_identifiable_problem():
-    """The truth MSE (noise floor) is 10.60 N² here; lsq-trf gets within 5 % of it (below, in fact)."""
+    """The truth MSE (noise floor) is 1.011 N² here (1 N force noise); lsq-trf gets within 5 % of it
+    (0.8 % below: what the ~16 fitted numbers absorb of 1,921 noisy samples, p/n)."""
     specimen = read_specimen(SPECIMEN)
     floor = SwitchedBoucWenProblem(specimen).loss_batch(truth_params(SPECIMEN)[None, :])[0]
-    assert floor == pytest.approx(10.6024, abs=1e-3)  # N²: the generating parameters' MSE
+    assert floor == pytest.approx(1.0107, abs=1e-3)  # N²: the generating parameters' MSE
     result = fitting.run(IdentifiableProblem(specimen), "lsq-trf", 1500, seed=SEED)
     assert result.nfev == 1500
     assert result.mse <= 1.05 * floor

@@ -320,3 +320,19 @@ def test_residual_vector_is_model_minus_measured_and_finite_on_blow_up():
     r_bad = M.residual(runaway)
     assert np.all(np.isfinite(r_bad)) and np.mean(r_bad**2) > np.mean(f**2)
     np.testing.assert_allclose(M.residual_unit(M.bounds.to_unit(theta)), r, rtol=0, atol=1e-6 * np.ptp(f))
+
+
+def test_a_finite_but_huge_trajectory_is_a_blow_up_not_a_crash():
+    # Found by lsq-trf on this specimen: w reaches 1.5e277 (finite), and the linear solve overflowed
+    # into "array must not contain infs or NaNs" from scipy instead of a loss of +inf.
+    from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
+
+    problem = IdentifiableProblem(read_specimen(DATA / "pc-abs-c12hf_0.01MPa_r1.csv"))
+    theta = np.array([0.50669315, 1.14039746, 0.88825619, 0.00194327, 0.99384954, 0.80172319, 0.23632528])
+    assert np.all(np.isfinite(problem.model.trajectories(theta[None], problem.signal, problem.state)))
+    assert problem.loss_batch(theta[None])[0] == np.inf
+    assert np.all(problem.residual_batch(theta[None]) == np.inf)
+    on_signal = IdentifiableModel(problem.signal, problem.specimen.f)
+    assert np.all(on_signal.residual(theta) == on_signal.penalty)
+    mse, log_marginal = problem.log_likelihood_batch(np.vstack([theta, problem.lower + 0.5 * (problem.upper - problem.lower)]))
+    assert mse[0] == np.inf and log_marginal[0] == -np.inf and np.isfinite(mse[1])

@@ -114,7 +114,7 @@ def test_a_study_is_extended_and_edited_data_are_refused(lab, tmp_path):
     assert changed.returncode == 2 and "study.budget" in changed.stderr.replace("60 -> 61", "")
     # the same path with other bytes is other data
     with open(data / "a.csv", "a", encoding="utf-8") as fh:
-        fh.write("1921.0,0.1,0.2\n")
+        fh.write("1921.0,0.1,0.0,0.2\n")  # time, displacement, velocity, force
     edited = bwbench(*base, "--optimizers", "random", "--seeds", "1", cwd=data)
     assert edited.returncode == 2 and "specimen a: its data changed" in edited.stderr
     assert runs(data / "study.sqlite") == after  # nothing written

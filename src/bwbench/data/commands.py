@@ -25,10 +25,35 @@ def check(args) -> int:
             rate = (spec.n_samples - 1) / spec.duration_s
             print(f"ok: {path}: {spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s, displacement "
                   f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N")
-            for text in plausibility.warnings(spec, synthetic=manifest.is_synthetic(path)):
+            print(f"  {signals_text(spec)}")
+            texts = plausibility.warnings(spec, synthetic=manifest.is_synthetic(path)) + plausibility.signal_warnings(spec)
+            for text in texts:
                 print(text if text.startswith("note:") else f"warning: {path}: {text}",
                       file=sys.stdout if text.startswith("note:") else sys.stderr)
     return status
+
+
+# A viscous coefficient to express a velocity error as a force: round, and of the order of the paper's
+# identified 2·ξ·ωn (Tables 6–8: 20–18,000 N·s/mm).
+REFERENCE_VISCOUS = 1000.0  # N·s/mm
+
+
+def signals_text(spec) -> str:
+    """Which signals drive the model measured and which estimated, and for an estimated velocity its
+    expected error (mm/s rms) and the force error that makes per ``REFERENCE_VISCOUS`` of ∂F/∂ẋ."""
+    from bwbench.models import derivatives
+
+    if spec.v is not None:
+        return ("signals: displacement and velocity measured (velocity_mm_s), acceleration "
+                + ("measured (acceleration_mm_s2)" if spec.a is not None else "estimated from the velocity"))
+    estimate = derivatives.estimate(spec.t, spec.x)
+    error = derivatives.velocity_error(spec.t, spec.x, estimate)
+    estimated = ("velocity estimated from it, acceleration measured (acceleration_mm_s2)" if spec.a is not None
+                 else "velocity and acceleration estimated from it")
+    return (f"signals: displacement measured, {estimated} ({derivatives.SPLINE_NAME}; displacement noise "
+            f"{estimate.noise * 1e3:.3g} µm): expected velocity error {error:.2g} mm/s rms, a force error of "
+            f"{error * REFERENCE_VISCOUS:.2g} N rms per {REFERENCE_VISCOUS:g} N·s/mm of viscous coefficient ∂F/∂ẋ; "
+            "a recorded velocity column (velocity_mm_s) removes it")
 
 
 def generate(args) -> int:

@@ -43,7 +43,10 @@ the opposite sign; negate ``f`` to compare with them.
 
 Measurement: the load cell adds a constant offset (``force_offset_N``) and Gaussian noise of
 ``force_noise_frac`` × the scaled peak; the encoder adds Gaussian noise of ``displacement_noise_mm``.
-Force noise is drawn first, then displacement noise, from one ``numpy.random.Generator``.
+Measured damper tests also carry a velocity channel: ``v`` is the exact ẋ plus Gaussian noise of
+``velocity_noise_mm_s``, written as a ``velocity_mm_s`` column by ``render(test, velocity=True)``.
+Force noise is drawn first, then displacement noise, then (when not zero) velocity noise, from one
+``numpy.random.Generator``.
 """
 
 from __future__ import annotations
@@ -72,7 +75,7 @@ _H_LAMBDA = 0.25
 class SineTest:
     """One simulated test. Times in s, displacements in mm, forces in N.
 
-    ``x``/``f`` are what the instruments record (noise, offset); ``x_true``/``f_true`` are the
+    ``x``/``f``/``v`` are what the instruments record (noise, offset); ``x_true``/``f_true`` are the
     noise-free displacement and scaled damper force; ``scale`` is the force factor (–) and
     ``peak_unscaled_N`` the noise-free peak |F| of Spencer's damper itself.
     """
@@ -85,6 +88,7 @@ class SineTest:
     scale: float
     peak_unscaled_N: float
     substeps: int
+    v: np.ndarray | None = None
 
 
 @numba.njit(cache=True)
@@ -181,7 +185,8 @@ def sine_test(amplitude_mm: float = 25.0, frequency_hz: float = 1.0, voltage: fl
               rate_hz: float = 500.0, cycles: int = 3, peak_force_N: float | None = 1200.0,
               force_noise_frac: float = 0.005, displacement_noise_mm: float = 0.001,
               force_offset_N: float = 8.0, rng: np.random.Generator | int | None = 0,
-              substeps: int | None = None, params: dict = SPENCER_1997) -> SineTest:
+              substeps: int | None = None, params: dict = SPENCER_1997,
+              velocity_noise_mm_s: float = 0.0) -> SineTest:
     """A recorded sine test (s, mm, N). ``peak_force_N=None`` keeps Spencer's damper unscaled.
 
     ``rng``: a ``numpy.random.Generator`` or a seed for ``numpy.random.default_rng``.
@@ -193,20 +198,29 @@ def sine_test(amplitude_mm: float = 25.0, frequency_hz: float = 1.0, voltage: fl
     f_true = scale * force
     f = f_true + force_offset_N + rng.normal(0.0, force_noise_frac * scale * peak, t.shape)
     x = x_true + rng.normal(0.0, displacement_noise_mm, t.shape)
+    w = 2 * math.pi * frequency_hz
+    v = amplitude_mm * w * np.cos(w * t)
+    if velocity_noise_mm_s > 0:
+        v = v + rng.normal(0.0, velocity_noise_mm_s, t.shape)
     return SineTest(t=t, x=x, f=f, x_true=x_true, f_true=f_true, scale=scale, peak_unscaled_N=peak,
-                    substeps=m)
+                    substeps=m, v=v)
 
 
-def render(test: SineTest) -> str:
-    """The project's CSV text: fixed formats (µs, 10 nm, 0.1 mN) so bytes depend only on the values."""
+def render(test: SineTest, velocity: bool = False) -> str:
+    """The project's CSV text: fixed formats (µs, 10 nm, 0.1 mN, velocity 1 µm/s) so bytes depend only on
+    the values; ``velocity``: with the recorded velocity as a ``velocity_mm_s`` column."""
+    if velocity:
+        rows = [f"{ti:.6f},{xi:.5f},{vi:.3f},{fi:.4f}\n" for ti, xi, vi, fi in zip(test.t, test.x, test.v, test.f)]
+        return "time_s,displacement_mm,velocity_mm_s,force_N\n" + "".join(rows)
     rows = [f"{ti:.6f},{xi:.5f},{fi:.4f}\n" for ti, xi, fi in zip(test.t, test.x, test.f)]
     return "time_s,displacement_mm,force_N\n" + "".join(rows)
 
 
-def write_test(path, **kwargs) -> SineTest:
-    """Simulate ``sine_test(**kwargs)`` and write it to ``path`` as a specimen CSV; returns the test."""
+def write_test(path, velocity: bool = False, **kwargs) -> SineTest:
+    """Simulate ``sine_test(**kwargs)`` and write it to ``path`` as a specimen CSV (``velocity``: with a
+    velocity column); returns the test."""
     test = sine_test(**kwargs)
-    Path(path).write_text(render(test), encoding="utf-8")
+    Path(path).write_text(render(test, velocity), encoding="utf-8")
     return test
 
 

@@ -22,7 +22,11 @@ TABLE5 = {
 LOWER = np.array([TABLE5[name][0] for name in PARAM_NAMES])
 UPPER = np.array([TABLE5[name][1] for name in PARAM_NAMES])
 
-UNITS = {name: ("rad/s" if name.startswith("wn") else "-") for name in PARAM_NAMES}
+# Units with x and z in mm, t in s, F in N and the paper's implicit mass 1 N·s²/mm: ωn in rad/s, ξ, α,
+# A and n dimensionless (dz/dx = A − (β + γ·sign(z·dx))·|z|^n has no unit), so β and γ carry mm^-n of
+# their own branch's n (β₊ in mm^-n₊).
+UNITS = {name: ("rad/s" if name.startswith("wn") else f"mm^-n{name[-1]}" if name[:-1] in ("beta", "gamma") else "-")
+         for name in PARAM_NAMES}
 LABELS = {
     "A+": "A₊", "n+": "n₊", "alpha+": "α₊", "beta+": "β₊", "gamma+": "γ₊", "xi+": "ξ₊", "wn+": "ωn₊",
     "A-": "A₋", "n-": "n₋", "alpha-": "α₋", "beta-": "β₋", "gamma-": "γ₋", "xi-": "ξ₋", "wn-": "ωn₋",

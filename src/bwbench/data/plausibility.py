@@ -85,3 +85,55 @@ def warnings(spec, synthetic: bool = False) -> list[str]:
                        "dissipates energy (∮F·dx > 0 with force positive in tension and displacement positive in "
                        "elongation), so force or displacement is probably flipped")
     return out
+
+
+# A recorded velocity whose integral follows the displacement with a gain outside this range, or that
+# leaves more than SIGNAL_MISFIT of the displacement range unexplained, is probably another unit, sign
+# or channel. Commanded and measured motion of a servo machine agree far better than 10 %.
+SIGNAL_GAIN_RANGE = (0.9, 1.1)
+SIGNAL_MISFIT = 0.05
+_UNIT_SLIPS = {60.0: "mm/min", 1000.0: "µm/s", 1e-3: "m/s"}  # recorded / implied -> the unit it was in
+
+
+def _integral(t, y):
+    """Cumulative trapezoid integral of y over t, starting at 0."""
+    return np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(t))])
+
+
+def _fit_displacement(columns, x):
+    """Least-squares fit of x on ``columns`` (a list of arrays); (coefficients, residual RMS)."""
+    design = np.column_stack(columns)
+    coef, *_ = np.linalg.lstsq(design, x, rcond=None)
+    return coef, float(np.sqrt(np.mean((x - design @ coef) ** 2)))
+
+
+def signal_warnings(spec) -> list[str]:
+    """Sentences about recorded velocity (mm/s) and acceleration (mm/s²) columns that do not match the
+    displacement: the displacement is fitted by x₀ + g·∫v dt (and x₀ + v₀·t + g·∬a dt²); a gain g far
+    from 1 is a wrong sign or unit, a large residual another channel or a time shift. [] when fine."""
+    out = []
+    t, x = spec.t, spec.x
+    span = float(x.max() - x.min())
+    one = np.ones_like(t)
+    checks = []
+    if spec.v is not None:
+        checks.append(("velocity_mm_s", "velocity", [one, _integral(t, spec.v)]))
+    if spec.a is not None:
+        checks.append(("acceleration_mm_s2", "acceleration", [one, t - t[0], _integral(t, _integral(t, spec.a))]))
+    for column, what, columns in checks:
+        coef, misfit = _fit_displacement(columns, x)
+        gain = float(coef[-1])
+        if misfit > SIGNAL_MISFIT * span:  # the shape is wrong: no gain can fix it
+            out.append(f"column {column} does not follow the displacement: its integral leaves {misfit:.3g} mm rms "
+                       f"({misfit / span:.0%} of the displacement range) unexplained (another channel, or shifted in "
+                       f"time?); bwbench drives the model with the recorded {what}")
+        elif not SIGNAL_GAIN_RANGE[0] <= gain <= SIGNAL_GAIN_RANGE[1]:
+            factor = 1.0 / gain if gain != 0 else np.inf
+            hint = "the opposite sign convention" if factor < 0 else ""
+            for slip, unit in _UNIT_SLIPS.items():
+                if abs(abs(factor) / slip - 1) < 0.1:
+                    hint = (hint + " and " if hint else "") + f"{unit} instead of the header's unit"
+            out.append(f"column {column} does not match the displacement: the {what} recorded is "
+                       f"{factor:.3g} × the one the displacement implies" + (f" ({hint}?)" if hint else "")
+                       + f"; bwbench drives the model with the recorded {what}")
+    return out

@@ -9,7 +9,9 @@ Format::
 
 - Line 1 is the header: the three names, in any order (columns are matched by name, so a
   re-ordered export still reads correctly); whitespace around names and a UTF-8 BOM are allowed.
-  No other columns.
+  Optionally also ``velocity_mm_s`` (mm/s) and ``acceleration_mm_s2`` (mm/s²), what a test machine
+  logs beside the displacement (commanded or measured): when present they drive the model instead
+  of being estimated from the displacement (DESIGN.md §9). No other columns.
 - If the header contains ``;`` the file is a European spreadsheet export: cells are separated by
   ``;`` and a decimal comma (``1,25``) is read as a decimal point.
 - One row per sample, at least ``MIN_SAMPLES`` rows, time strictly increasing and uniformly
@@ -32,11 +34,11 @@ import numpy as np
 from bwbench.errors import InputFileError
 
 COLUMNS = ("time_s", "displacement_mm", "force_N")
+OPTIONAL_COLUMNS = ("velocity_mm_s", "acceleration_mm_s2")
 MIN_SAMPLES = 20
 # Steps may differ from the median by this fraction (timestamps printed with a few decimals); more is a
-# gap or a change of rate. Refused rather than resampled: the velocity and acceleration the model is
-# driven by come from a Savitzky-Golay filter on an even grid, and resampling silently would change
-# the data the loss is computed on.
+# gap or a change of rate. Refused rather than resampled: a velocity and acceleration estimated from the
+# displacement assume an even grid, and resampling silently would change the data the loss is computed on.
 SAMPLING_TOLERANCE = 0.01
 # Below this the test did not move: no hysteresis loop to fit, and velocities are pure noise.
 MIN_DISPLACEMENT_RANGE_MM = 1e-6
@@ -49,13 +51,21 @@ _INF = {"inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
 
 @dataclass(frozen=True, eq=False)  # eq=False: comparing/hashing ndarray fields would raise
 class Specimen:
-    """One specimen: sample times (s), displacement (mm) and force (N), all the same length."""
+    """One specimen: sample times (s), displacement (mm) and force (N), all the same length; the
+    velocity (mm/s) and acceleration (mm/s²) the file records, or None when it has no such column."""
 
     path: str
     name: str
     t: np.ndarray
     x: np.ndarray
     f: np.ndarray
+    v: np.ndarray | None = None
+    a: np.ndarray | None = None
+
+    @property
+    def measured_signals(self) -> tuple[str, ...]:
+        """Which of "velocity" and "acceleration" the file records (the others are estimated)."""
+        return tuple(name for name, values in (("velocity", self.v), ("acceleration", self.a)) if values is not None)
 
     @property
     def n_samples(self) -> int:
@@ -75,14 +85,14 @@ def read_specimen(path) -> Specimen:
         raise InputFileError(path, 1, "empty file: expected the header " + ",".join(COLUMNS))
 
     header, _, rest = text.partition("\n")
-    sep, order = _parse_header(path, header)
+    sep, order, n_columns = _parse_header(path, header)
     if not rest or rest.isspace():
         raise InputFileError(path, 1, "header only, no data rows")
 
     # Fast path: the C parser over the bytes after the header. It is only an optimisation: if it
     # fails or yields anything non-finite, the line-by-line pass below decides what is wrong and
     # on which line (it also accepts the rare valid file the C parser refuses).
-    values = _fast_parse(data[data.index(b"\n") + 1:], sep)
+    values = _fast_parse(data[data.index(b"\n") + 1:], sep, n_columns)
     line_nos = None
     if values is None or not np.isfinite(values).all():
         values, line_nos = _slow_parse(path, text, sep)
@@ -93,11 +103,12 @@ def read_specimen(path) -> Specimen:
             line_nos = _slow_parse(path, text, sep)[1]
         return int(line_nos[row])
 
-    t, x, f = (np.ascontiguousarray(values[:, j]) for j in order)
+    t, x, f, v, a = (None if j is None else np.ascontiguousarray(values[:, j]) for j in order)
     _check_values(path, t, x, line_of)
-    for a in (t, x, f):
-        a.flags.writeable = False  # a frozen Specimen should not change under its users
-    return Specimen(path=path, name=Path(path).stem, t=t, x=x, f=f)
+    for column in (t, x, f, v, a):
+        if column is not None:
+            column.flags.writeable = False  # a frozen Specimen should not change under its users
+    return Specimen(path=path, name=Path(path).stem, t=t, x=x, f=f, v=v, a=a)
 
 
 def _read_bytes(path: str) -> bytes:
@@ -129,8 +140,9 @@ def _decode(path: str, data: bytes) -> str:
         ) from None
 
 
-def _parse_header(path: str, header: str) -> tuple[str, list[int]]:
-    """Separator and, for each of COLUMNS, the index of its cell in a row."""
+def _parse_header(path: str, header: str) -> tuple[str, list, int]:
+    """Separator, the index of each of COLUMNS + OPTIONAL_COLUMNS in a row (None for an absent optional
+    column), and the number of columns."""
     sep = ";" if ";" in header else ","
     names = [name.strip().strip('"').strip() for name in header.strip().split(sep)]
     missing = [c for c in COLUMNS if c not in names]
@@ -143,16 +155,17 @@ def _parse_header(path: str, header: str) -> tuple[str, list[int]]:
             f"missing column{'s' if len(missing) > 1 else ''} {which} in header "
             f"(expected {','.join(COLUMNS)}, found {found!r})",
         )
-    extra = [n for n in names if n not in COLUMNS]
+    extra = [n for n in names if n not in COLUMNS + OPTIONAL_COLUMNS]
     if extra:
-        raise InputFileError(path, 1, f"unexpected column {extra[0]!r} in header (expected {','.join(COLUMNS)})")
-    if len(names) != len(COLUMNS):
-        dup = next(n for n in names if names.count(n) > 1)
+        raise InputFileError(path, 1, f"unexpected column {extra[0]!r} in header (expected {','.join(COLUMNS)}, "
+                                      f"optionally also {' and '.join(OPTIONAL_COLUMNS)})")
+    dup = next((n for n in names if names.count(n) > 1), None)
+    if dup is not None:
         raise InputFileError(path, 1, f"column {dup!r} appears twice in header")
-    return sep, [names.index(c) for c in COLUMNS]
+    return sep, [names.index(c) if c in names else None for c in COLUMNS + OPTIONAL_COLUMNS], len(names)
 
 
-def _fast_parse(body: bytes, sep: str) -> np.ndarray | None:
+def _fast_parse(body: bytes, sep: str, n_columns: int) -> np.ndarray | None:
     if sep == ";":
         body = body.replace(b",", b".")  # with ';' as separator a comma can only be a decimal mark
     # numpy's C reader (not pandas: importing pandas alone costs ~0.5 s of every command); a quoted
@@ -162,7 +175,7 @@ def _fast_parse(body: bytes, sep: str) -> np.ndarray | None:
                             encoding="utf-8")
     except ValueError:
         return None
-    return values if values.ndim == 2 and values.shape[1] == len(COLUMNS) else None
+    return values if values.ndim == 2 and values.shape[1] == n_columns else None
 
 
 def _slow_parse(path: str, text: str, sep: str) -> tuple[np.ndarray, np.ndarray]:
@@ -177,12 +190,12 @@ def _slow_parse(path: str, text: str, sep: str) -> tuple[np.ndarray, np.ndarray]
     for line_no in range(2, len(lines) + 1):
         raw = numeric[line_no - 1]
         cells = raw.split(sep)
-        if len(cells) != len(COLUMNS):
+        if len(cells) != len(header):
             if not raw.strip():
                 continue  # blank line
             raise InputFileError(
                 path, line_no, f"{len(cells)} cell{'s' if len(cells) != 1 else ''} on this row, "
-                f"expected {len(COLUMNS)} separated by {sep!r}",
+                f"expected {len(header)} separated by {sep!r}",
             )
         try:
             if screen and (not raw.isascii() or "_" in raw):
@@ -191,7 +204,7 @@ def _slow_parse(path: str, text: str, sep: str) -> tuple[np.ndarray, np.ndarray]
         except ValueError:
             _refuse_row(path, line_no, lines[line_no - 1], header, sep)
         line_nos.append(line_no)
-    values = np.array(flat, dtype=np.float64).reshape(-1, len(COLUMNS))
+    values = np.array(flat, dtype=np.float64).reshape(-1, len(header))
     bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
     if bad.size:
         line_no = line_nos[bad[0]]

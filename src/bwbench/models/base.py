@@ -176,6 +176,18 @@ class Model:
         """(θ, coefficients by name) of one direct parameter vector P; the inverse of ``to_direct``."""
         raise NotImplementedError
 
+    # -- checks of a fit (optional) -----------------------------------------------------------
+    def viscous_coefficients(self, values: dict, state=None) -> dict | None:
+        """∂F/∂ẋ (N·s/mm) of a fit whose parameters are ``values`` (by name, any formulation), per
+        branch ({"+": .., "-": ..} for a model that switches with the sign of ẋ, else {"": ..}); None
+        when the model cannot say. Used to turn a velocity error into a force error."""
+        return None
+
+    def linear_branches(self, theta, trajectory, signal, state=None) -> dict:
+        """{branch: True when the fitted branch is linear in x (no yield within the stroke)} for the
+        identifiable θ and its trajectory; {} when the model has no such notion."""
+        return {}
+
 
 def amplitude(x) -> float:
     """Half the displacement range (mm): the scale of every displacement-like bound."""

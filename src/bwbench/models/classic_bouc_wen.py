@@ -119,4 +119,12 @@ class ClassicBoucWen(Model):
         return theta, {"m": 1.0, "c": 2 * xi * wn, "k": alpha * wn**2, "h": (1 - alpha) * wn**2 * z_s, "f": 0.0}
 
 
+    def viscous_coefficients(self, values: dict, state=None) -> dict | None:
+        if "c" in values:
+            return {"": values["c"]}
+        if "xi" in values:
+            return {"": 2 * values["xi"] * values["wn"]}
+        return None
+
+
 MODEL = ClassicBoucWen()

@@ -1,38 +1,56 @@
 """Excitation signals x, ẋ, ẍ for the displacement-driven model.
 
-- ``measured`` (default): the specimen's own displacement samples, smoothed and differentiated
-  with a Savitzky–Golay filter so that encoder noise does not make ẋ (and with it the branch)
-  chatter near a reversal.
+- ``measured`` (default): the specimen's own signals. A velocity (and acceleration) the file records
+  drives the model as recorded, with the displacement as recorded; what the file does not record
+  is estimated (``derivatives``: the displacement smoothed by a noise-scaled quintic spline and
+  differentiated; the acceleration from a recorded velocity the same way).
 - ``sine``: the paper's approximation of the triangular excitation, x = x0 + a·sin(2πt/T + φ),
-  with amplitude, period, offset and phase fitted to the displacement record.
+  with amplitude, period, offset and phase fitted to the displacement record (recorded velocity
+  and acceleration are not used: the paper's method).
+
+The branch (ẋ ≥ 0: '+', ẋ < 0: '−') follows the ẋ of the excitation, whatever its source.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
-from bwbench.models.savitzky_golay import savgol
 
 EXCITATIONS = ("measured", "sine")
-
-# 9 samples, quartic. At the specimens' 1 Hz sampling a quartic follows the crosshead's 8 s
-# reversal blend; lower orders bias ẋ there, and with 2·ξ·ωn up to ~13,000 N·s/mm in Tables 6–8
-# a 0.001 mm/s bias is 13 N. Measured on the 15 truth sets (benchmarks/bench_differentiator.py):
-# truth-parameter MSE median 7 N² with SG(9,4), 94 N² with SG(7,2), 1 N² being the force noise.
-SAVGOL_WINDOW = 9
-SAVGOL_POLYORDER = 4
+MEASURED, ESTIMATED, SINE = "measured", "estimated", "sine fit"  # where a signal comes from
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # eq=False: comparing ndarray fields would raise
 class Excitation:
-    """Sampled excitation: t (s), x (mm), v = ẋ (mm/s), a = ẍ (mm/s²), all of one length."""
+    """Sampled excitation: t (s), x (mm), v = ẋ (mm/s), a = ẍ (mm/s²), all of one length.
+
+    ``sources`` says where velocity and acceleration come from (``MEASURED``, ``ESTIMATED`` or
+    ``SINE``); ``displacement_noise`` is σ̂ (mm) of the displacement when the velocity was estimated
+    from it (else NaN); ``x_recorded`` the displacement as the file has it.
+    """
 
     kind: str
     t: np.ndarray
     x: np.ndarray
     v: np.ndarray
     a: np.ndarray
+    sources: dict = field(default_factory=dict)
+    displacement_noise: float = float("nan")
+    x_recorded: np.ndarray | None = None
+
+    @property
+    def velocity_estimated(self) -> bool:
+        return self.sources.get("velocity") == ESTIMATED
+
+    def velocity_error(self) -> float:
+        """Estimated RMS error (mm/s) of an estimated velocity (``derivatives.velocity_error``); 0 when
+        the velocity is recorded (its own error is unknown to bwbench) or a sine fit."""
+        if not self.velocity_estimated:
+            return 0.0
+        from bwbench.models import derivatives
+
+        return derivatives.velocity_error(self.t, self.x_recorded)
 
 
 @dataclass(frozen=True)
@@ -53,26 +71,25 @@ class SineFit:
         return x, v, a
 
 
-def _uniform_step(t: np.ndarray) -> float:
-    dt = np.diff(t)
-    step = float(np.median(dt))
-    # The specimen reader refuses worse (``bwbench.data.specimen.SAMPLING_TOLERANCE``, one line with the
-    # file and line); this guards arrays that did not come through it.
-    if np.max(np.abs(dt - step)) > 0.01 * step:
-        raise ValueError("Savitzky-Golay differentiation needs uniformly sampled time")
-    return step
+def measured(t, x, v=None, a=None) -> Excitation:
+    """The excitation of recorded signals: t (s), x (mm) and, when recorded, v (mm/s) and a (mm/s²).
 
+    With v recorded, x and v drive the model as recorded and a missing a is the derivative of v;
+    without it, x̂, v and (unless recorded) a come from ``derivatives.estimate`` on x.
+    """
+    from bwbench.models import derivatives
 
-def measured(t, x, window: int = SAVGOL_WINDOW, polyorder: int = SAVGOL_POLYORDER) -> Excitation:
-    """Smoothed displacement and its first two derivatives from uniformly sampled data."""
     t = np.asarray(t, dtype=float)
     x = np.asarray(x, dtype=float)
-    step = _uniform_step(t)
-    window = min(window, len(x) - (1 - len(x) % 2))
-    xs = savgol(x, window, polyorder)
-    v = savgol(x, window, polyorder, deriv=1, delta=step)
-    a = savgol(x, window, polyorder, deriv=2, delta=step)
-    return Excitation("measured", t, xs, v, a)
+    if v is not None:
+        v = np.asarray(v, dtype=float)
+        acc = derivatives.estimate(t, v).v if a is None else np.asarray(a, dtype=float)
+        sources = {"velocity": MEASURED, "acceleration": ESTIMATED if a is None else MEASURED}
+        return Excitation("measured", t, x, v, acc, sources, x_recorded=x)
+    e = derivatives.estimate(t, x)
+    acc = e.a if a is None else np.asarray(a, dtype=float)
+    sources = {"velocity": ESTIMATED, "acceleration": ESTIMATED if a is None else MEASURED}
+    return Excitation("measured", t, e.x, e.v, acc, sources, e.noise, x_recorded=x)
 
 
 def fit_sine(t, x) -> SineFit:
@@ -103,12 +120,19 @@ def fit_sine(t, x) -> SineFit:
 def sine(t, x) -> Excitation:
     """The paper's sine approximation of the displacement record, sampled at ``t``."""
     xs, v, a = fit_sine(t, x).evaluate(t)
-    return Excitation("sine", np.asarray(t, dtype=float), xs, v, a)
+    return Excitation("sine", np.asarray(t, dtype=float), xs, v, a, {"velocity": SINE, "acceleration": SINE},
+                      x_recorded=np.asarray(x, dtype=float))
 
 
-def build(kind: str, t, x) -> Excitation:
+def build(kind: str, t, x, v=None, a=None) -> Excitation:
+    """The excitation ``kind`` of recorded t (s), x (mm) and optionally v (mm/s), a (mm/s²)."""
     if kind == "measured":
-        return measured(t, x)
+        return measured(t, x, v, a)
     if kind == "sine":
         return sine(t, x)
     raise ValueError(f"excitation must be one of {EXCITATIONS}, got {kind!r}")
+
+
+def of_specimen(kind: str, specimen) -> Excitation:
+    """The excitation ``kind`` of a ``Specimen`` (its recorded velocity and acceleration used if any)."""
+    return build(kind, specimen.t, specimen.x, specimen.v, specimen.a)

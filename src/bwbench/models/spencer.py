@@ -165,12 +165,24 @@ class Spencer(Model):
     def to_direct(self, theta, coef: dict, state=None):
         return direct_from_theta(theta, [coef[n] for n in LAYOUT.names])
 
+    def viscous_coefficients(self, values: dict, state=None) -> dict | None:
+        return _series_damping(values)
+
     def from_direct(self, P, state=None):
         """(θ, coefficients) of a direct vector with k₀ = 0; ``ValueError`` otherwise (no identifiable twin)."""
         theta, coef = theta_from_direct(np.asarray(P, dtype=float)[None, :])
         if theta[0, 5] != 0.0:
             raise ValueError("k0 ≠ 0 has no counterpart in the identifiable formulation (κ₀ = 0)")
         return theta[0, :5], dict(zip(LAYOUT.names, map(float, coef[0])))
+
+
+def _series_damping(values: dict) -> dict | None:
+    """∂F/∂ẋ of the two dashpots in series, c₁·c₀/(c₀ + c₁) = c₁·r₀/(1 + r₀) (N·s/mm)."""
+    if "r0" in values:
+        return {"": values["c1"] * values["r0"] / (1.0 + values["r0"])}
+    if "c0" in values:
+        return {"": values["c1"] * values["c0"] / (values["c0"] + values["c1"])}
+    return None
 
 
 def _ydot(theta6, signal) -> np.ndarray:

@@ -22,6 +22,7 @@ LAYOUT = LinearLayout(
     fixed=(("c", "v"), ("k", "x"), ("f", "1")), varying="h", branched=True, mass="m",
 )
 LINEAR_NAMES = ("m", "c+", "k+", "h+", "f+", "c-", "k-", "h-", "f-")  # = coefficient_names(LAYOUT)
+LINEAR_TOLERANCE = 0.05  # see SwitchedBoucWen.linear_branches
 
 
 class SwitchedBoucWen(Model):
@@ -104,6 +105,37 @@ class SwitchedBoucWen(Model):
 
         theta, linear = fm.from_paper(P, self.check_state(state))
         return theta, dict(zip(LINEAR_NAMES, map(float, linear)))
+
+
+    def viscous_coefficients(self, values: dict, state=None) -> dict | None:
+        if "c+" in values:
+            return {"+": values["c+"], "-": values["c-"]}
+        if "xi+" in values:
+            return {b: 2 * values[f"xi{b}"] * values[f"wn{b}"] for b in "+-"}
+        return None
+
+    def linear_branches(self, theta, trajectory, signal, state=None) -> dict:
+        """A branch is linear when c·|w/w_sat|^n — the relative change of its rate dw/dx — stays below
+        ``LINEAR_TOLERANCE`` on all its samples: its loop differs from a straight line by less than 5 %
+        of its slope ("no yield within the stroke"; its n and η are not determined, only h/x_y)."""
+        from bwbench.models import switched_identifiable as fm
+
+        w = np.asarray(trajectory, dtype=float)
+        if not np.all(np.isfinite(w)):
+            return {}
+        theta = np.asarray(theta, dtype=float)
+        names = fm.hysteretic_names(self.check_state(state))
+        rho = theta[names.index("rho")] if "rho" in names else 1.0
+        plus = np.asarray(signal.v) >= 0
+        out = {}
+        for b, mask, scale, direction in (("+", plus, 1.0, 1.0), ("-", ~plus, rho, -1.0)):
+            if not mask.any():
+                continue
+            n, eta = theta[names.index(f"n{b}")], theta[names.index(f"eta{b}")]
+            ws = w[mask] / scale
+            c = np.where(ws * direction > 0, 1.0, eta)  # loading (moving away from w = 0) or unloading
+            out[b] = bool(np.max(np.abs(c) * np.abs(ws) ** n) < LINEAR_TOLERANCE)
+        return out
 
 
 MODEL = SwitchedBoucWen()

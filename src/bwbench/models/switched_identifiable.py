@@ -30,14 +30,22 @@ that depend on it (u = Table 5 unit coordinates), a 1-D search in log s (grid, t
 the interval where every ωn_b² > 0; split: one independent search per branch. m ≠ 1 or f ≠ 0
 has no paper equivalent: ``to_paper`` then returns params None and the reason.
 
-Bounds (``scaled_bounds``), amplitude a = ½·ptp(x): x_y log-uniform in [1e-4, 1e2]·a (the
-paper's Tables 6–8 reach x_y₊ ≈ 22·a; an MR damper yields within ~1e-3·a (Spencer et al. 1997:
-x_y ≈ 0.02 mm at ±25 mm, where fits reached the 1e-3·a edge); well below w is a sign function, above 1e2·a nearly
-linear in x in split state); n log-uniform in [0.2, 10.75] (Table 5's union); η in [−2, 1]:
-η ≤ 1 (γ ≥ 0) is needed, else unloading from saturation runs away (η·|w|^n > 1 at |w| = 1), and
-η < −1 (β < 0 < β + γ) is stable and means unloading from saturation up to 3× stiffer than at
-w = 0 (Table 5: at most 2×; the truths have η₋ ≈ −0.99, so −1 must not be an edge); ρ
-log-uniform in [1e-2, 1e2], symmetric under exchanging the branches (truths: 0.5–4.5).
+Bounds (``scaled_bounds``), amplitude a = ½·ptp(x) (README "The identifiable box"):
+- x_y log-uniform in [1e-4, 50]·a. Lower end: an MR damper yields within ~1e-3·a (Spencer et al. 1997:
+  x_y ≈ 0.02 mm at ±25 mm, where fits reached the 1e-3·a edge); below 1e-4·a w is a sign function at
+  any sampling of a test. Upper end, the cap (``XY_CAP``): Tables 6–8 reach x_y₊ ≈ 22·a; from w = 0 a
+  branch at x_y = 50·a moves w by at most 2a/x_y = 0.04 over a whole stroke, so for n ≥ 1 its rate
+  changes by less than 4 %: it is linear, "no yield within the stroke", and its n and η mean nothing.
+  Beyond the cap only h/x_y (a stiffness) would change, so the search stops there instead of
+  wandering to 100·a and more. Whether a fitted branch is linear is decided on its trajectory
+  (``fit_checks.linear_branches``: the rate varies by < 5 % over the branch's samples), not on x_y
+  alone: in the shared state a branch can start far from w = 0 (where the other branch left it) and
+  be strongly non-linear even at a large x_y, and with n < 1 |w|^n is not small at small w.
+- n log-uniform in [0.2, 10.75] (Table 5's union).
+- η in [−2, 1]: η ≤ 1 (γ ≥ 0) is needed, else unloading from saturation runs away (η·|w|^n > 1 at
+  |w| = 1), and η < −1 (β < 0 < β + γ) is stable and means unloading from saturation up to 3×
+  stiffer than at w = 0 (Table 5: at most 2×; the truths have η₋ ≈ −0.99, so −1 must not be an edge).
+- ρ log-uniform in [1e-2, 1e2], symmetric under exchanging the branches (truths: 0.5–4.5).
 """
 
 from __future__ import annotations
@@ -57,7 +65,8 @@ HYSTERETIC_NAMES = {
     "split": ("xy+", "n+", "eta+", "xy-", "n-", "eta-"),
 }
 HYSTERETIC_UNITS = {"xy+": "mm", "n+": "-", "eta+": "-", "xy-": "mm", "n-": "-", "eta-": "-", "rho": "-"}
-XY_RANGE = (1e-4, 1e2)  # × displacement amplitude
+XY_CAP = 50.0  # × displacement amplitude: above it a branch started at w = 0 is linear (module docstring)
+XY_RANGE = (1e-4, XY_CAP)  # × displacement amplitude
 N_RANGE = (0.2, 10.75)
 ETA_RANGE = (-2.0, 1.0)
 RHO_RANGE = (1e-2, 1e2)
@@ -71,7 +80,6 @@ def hysteretic_names(state: str) -> tuple:
 
 
 LABELS = {"xy+": "x_y₊", "n+": "n₊", "eta+": "η₊", "xy-": "x_y₋", "n-": "n₋", "eta-": "η₋", "rho": "ρ"}
-UNITS = {"xy+": "mm", "xy-": "mm"}  # the others have none
 
 
 def scale_paper(params, s_plus: float, s_minus: float) -> np.ndarray:

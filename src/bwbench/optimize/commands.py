@@ -65,11 +65,12 @@ def fit(args) -> int:
     with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
         problem = problem_from_args(args)
         result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
+        checks = problem.fit_checks(result, manifest.is_synthetic(args.specimen)) if hasattr(problem, "fit_checks") else None
     # The box searched, by name, and the file it came from: a result says where it was looked for.
     box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}
     result = dataclasses.replace(result, problem={**result.problem, "bounds_file": args.bounds, "bounds": box})
     with writing(args.out):
-        result.write_json(args.out)
+        result.write_json(args.out, extra=checks.json if checks else None)
     if not math.isfinite(result.mse):
         print(f"error: {args.specimen}: none of the {result.nfev} evaluations gave a finite force: the model blows "
               "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
@@ -84,6 +85,10 @@ def fit(args) -> int:
           f"in {result.nfev} evaluations, {result.wall_s:.2f} s -> {args.out}")
     for note in getattr(problem, "notes", []):
         print(f"  linear solve: {note}")
+    for line in checks.notes if checks else []:
+        print(f"  {line}")
+    for text in fitting.edge_warnings(problem, result, checks.explained if checks else ()) + (checks.warnings if checks else []):
+        print(f"warning: {args.specimen}: {text}", file=sys.stderr)
     return 0
 
 

@@ -50,4 +50,40 @@ def run(problem, optimizer: str, budget: int, seed, options: dict | None = None)
         message=message, wall_s=wall, options=opts,
         trace_nfev=tuple(objective.trace_nfev), trace_mse=tuple(objective.trace_mse),
         problem=dict(problem.info), extras=extras,
+        units=problem.units(params) if hasattr(problem, "units") else {},
+        at_bound=on_box_edge(problem, objective.best_params) if objective.best_u is not None else {},
     )
+
+
+# A searched parameter within this fraction of its range (in the box's own, possibly log, coordinates)
+# of a bound ended on it: the optimum may lie beyond the box.
+EDGE_TOLERANCE = 1e-3
+
+
+def on_box_edge(problem, params) -> dict:
+    """{name: "lower" | "upper"} for each searched parameter of ``params`` (problem coordinates) that
+    lies on an edge of the problem's box (``EDGE_TOLERANCE``); {} when none does."""
+    u = np.asarray(problem.to_unit(np.asarray(params, dtype=float)), dtype=float)
+    out = {}
+    for name, ui in zip(problem.param_names, u):
+        if ui <= EDGE_TOLERANCE:
+            out[name] = "lower"
+        elif ui >= 1.0 - EDGE_TOLERANCE:
+            out[name] = "upper"
+    return out
+
+
+def edge_warnings(problem, result, explained=()) -> list[str]:
+    """One sentence per parameter of ``result.at_bound`` not in ``explained`` (names another check
+    accounts for, e.g. x_y on its cap of a linear branch)."""
+    out = []
+    for name, side in result.at_bound.items():
+        if name in explained:
+            continue
+        i = list(problem.param_names).index(name)
+        unit = result.units.get(name, "")
+        unit = "" if unit in ("", "-") else f" {unit}"
+        out.append(f"{name} = {result.params[name]:.6g}{unit} ended on the {side} edge of its search box "
+                   f"[{problem.lower[i]:.6g}, {problem.upper[i]:.6g}]: the best fit may lie beyond it "
+                   "(widen it with --bounds, or see the README on the box)")
+    return out

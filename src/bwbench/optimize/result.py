@@ -25,6 +25,8 @@ class Result:
     trace_mse: tuple = ()
     problem: dict = field(default_factory=dict)  # e.g. specimen, state, excitation
     extras: dict = field(default_factory=dict)  # backend-specific (emcee chain, ...)
+    units: dict = field(default_factory=dict)  # unit of each entry of params the problem knows
+    at_bound: dict = field(default_factory=dict)  # searched parameter -> "lower"/"upper" edge it ended on
 
     @property
     def f_err(self) -> float:
@@ -57,13 +59,17 @@ class Result:
         scalars = {k: v for k, v in self.extras.items() if isinstance(v, (int, float, str, bool))}
         if scalars:
             out["extras"] = scalars
+        if self.units:
+            out["units"] = self.units
+        out["at_bound"] = self.at_bound
         return out
 
-    def write_json(self, path) -> None:
-        """The result as strict JSON: a value that is not finite (a fit that never found a finite
-        loss) is written as null, never as NaN or Infinity."""
+    def write_json(self, path, extra: dict | None = None) -> None:
+        """The result as strict JSON, with ``extra`` entries added (e.g. the checks of a fit): a value
+        that is not finite (a fit that never found a finite loss) is written as null, never as NaN or
+        Infinity."""
         with open(path, "w", encoding="utf-8") as fh:
-            json.dump(finite_or_null(self.to_json_dict()), fh, indent=2, allow_nan=False)
+            json.dump(finite_or_null({**self.to_json_dict(), **(extra or {})}), fh, indent=2, allow_nan=False)
             fh.write("\n")
 
 

@@ -32,14 +32,13 @@ m is fitted only when both hold; otherwise fixed at m_ref, and k_b absorbs any (
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from math import comb
-
 import numpy as np
 import scipy.linalg
 
+from bwbench.models.derivatives import robust_noise
 from bwbench.problems.linear_solve_kernel import w_solve
 
-M_REF = 1.0  # N·s²/mm: the paper's F = ẍ + ... in the specimens' units
+M_REF = 1.0  # N·s²/mm = 1 t (1000 kg): the paper's F = ẍ + ... in the specimens' units
 KAPPA = 10.0  # signal/noise (as norms over the record) needed to call a column excited
 COLLINEAR = 1e-3  # ‖ẍ⊥‖/‖ẍ_c‖ below this: condition number > 1000, m and k_b not separable
 RANK_TOL = 1e-9  # a unit-norm column this close to the span of the others is dependent
@@ -52,9 +51,7 @@ def force_noise(f) -> float:
     the median ignores. Floored at 1e-12·max|F| so a noise-free record gives a tiny positive σ.
     """
     f = np.asarray(f, dtype=float)
-    d = np.diff(f, 4)
-    mad = 1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(comb(8, 4))
-    return float(max(mad, 1e-12 * np.max(np.abs(f)), np.finfo(float).tiny))
+    return float(max(robust_noise(f), 1e-12 * np.max(np.abs(f)), np.finfo(float).tiny))
 
 
 @dataclass(frozen=True)
@@ -140,7 +137,7 @@ def inertia_check(signal, f, layout, offsets: bool = True, m_ref: float = M_REF,
     excited = m_ref * n_c >= kappa * sigma
     separable = m_ref * n_o >= kappa * sigma and n_o >= COLLINEAR * n_c
     rms = 1.0 / np.sqrt(L)
-    head = (f"inertia force at m = {m_ref:g} N·s²/mm: {m_ref * n_c * rms:.3g} N rms, "
+    head = (f"inertia force at m = {m_ref:g} N·s²/mm (= {m_ref:g} t): {m_ref * n_c * rms:.3g} N rms, "
             f"{m_ref * n_o * rms:.3g} N rms outside the span of the other fixed columns; force noise {sigma:.3g} N")
     if not excited:
         reason = f"inertia not excited ({head}): m fixed at {m_ref:g}"
@@ -272,6 +269,9 @@ class LinearDesign:
         m, q, nw = len(Z), self.Q.shape[1], len(self.w_names)
         fit_res = np.full((m, self.L), -np.inf) if residual else np.empty((0, self.L))
         C, Rw, qwy, h, rss, full = w_solve(Zg, good, self._col, self.Q, self.r0, nw, residual, fit_res)
+        # A finite but huge trajectory (|w| ~ 1e300) can overflow the solve: a blow-up, not a crash.
+        good &= np.isfinite(rss) & np.all(np.isfinite(h), axis=1) & np.all(np.isfinite(C), axis=(1, 2))
+        C, h = np.where(good[:, None, None], C, 0.0), np.where(good[:, None], h, 0.0)
         g = scipy.linalg.solve_triangular(self.RG, (self.Qty[None, :] - np.einsum("mqk,mk->mq", C, h)).T).T
         p = q + nw
         R = np.zeros((m, p, p))
@@ -280,7 +280,7 @@ class LinearDesign:
         R[:, q:, q:] = Rw
         diag = np.abs(np.diagonal(R, axis1=1, axis2=2))
         with np.errstate(divide="ignore"):
-            logdet = np.where(full, 2.0 * np.sum(np.log(diag), axis=1), -np.inf)
+            logdet = np.where(full & good, 2.0 * np.sum(np.log(diag), axis=1), -np.inf)
         beta = np.concatenate([g, h], axis=1)
         coef = np.full((m, len(self.names)), np.nan)
         for b, mask in self.masks.items():  # fixed and dropped coefficients of present branches

@@ -25,7 +25,7 @@ class ModelFit:
     def _setup(self, model, specimen, state, excitation):
         self.model, self.specimen, self.excitation = model, specimen, excitation
         self.state = model.check_state(state)
-        self.signal = excitation_mod.build(excitation, specimen.t, specimen.x)
+        self.signal = excitation_mod.of_specimen(excitation, specimen)
 
     @property
     def name(self) -> str:
@@ -48,10 +48,18 @@ class ModelFit:
             out["state"] = self.state
         return out
 
-    @property
-    def units(self) -> dict:
-        """Unit of every parameter this fit reports, by name."""
-        return {p.name: p.unit for p in self.parameter_list}
+    def units(self, names) -> dict:
+        """The unit of each parameter name a result of this fit reports (searched, solved, direct)."""
+        from bwbench.problems.fit_checks import units
+
+        return units(self, names)
+
+    def fit_checks(self, result, synthetic: bool = False):
+        """``fit_checks.check`` at the best parameters of ``result`` (a ``Result`` of this problem)."""
+        from bwbench.problems import fit_checks
+
+        params = [result.params.get(name, np.nan) for name in self.param_names]
+        return fit_checks.check(self, params, synthetic, result.at_bound)
 
     def from_unit(self, U) -> np.ndarray:
         return box_from_unit(U, self.lower, self.upper, self.log_scaled)
@@ -111,8 +119,6 @@ class IdentifiableProblem(ModelFit):
         self.linear_units = coefficient_units(layout)
         self.parameter_list = model.hysteretic_parameters(self.state)
         self._box(model.hysteretic_box(self.signal, specimen.f, self.state), bounds)
-        # Residual of a blown-up trajectory for least squares: 10·max|F| everywhere, worse than F = 0.
-        self.penalty = 10.0 * max(float(np.max(np.abs(specimen.f))), 1.0)
 
     @property
     def notes(self) -> list[str]:
@@ -122,10 +128,6 @@ class IdentifiableProblem(ModelFit):
     @property
     def info(self) -> dict:
         return {**super().info, "linear_solve": "; ".join(self.notes)}
-
-    @property
-    def units(self) -> dict:
-        return {**super().units, **self.linear_units}
 
     def solve(self, P, residual: bool = False):
         """The linear solve (``LinearSolution``) of each θ row of P (m, d)."""

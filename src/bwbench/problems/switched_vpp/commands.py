@@ -67,8 +67,8 @@ def simulate(args) -> int:
     force = problem.simulate(params)
     s = problem.signal
     frame = pd.DataFrame({
-        "time_s": s.t, "displacement_mm": s.x, "velocity_mm_per_s": s.v,
-        "acceleration_mm_per_s2": s.a, "force_model_N": force, "force_measured_N": problem.specimen.f,
+        "time_s": s.t, "displacement_mm": s.x, "velocity_mm_s": s.v,
+        "acceleration_mm_s2": s.a, "force_model_N": force, "force_measured_N": problem.specimen.f,
     })
     with writing(args.out):
         frame.to_csv(args.out, index=False, float_format="%.6g")

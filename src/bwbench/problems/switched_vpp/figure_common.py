@@ -21,13 +21,25 @@ def edge_bands(ax) -> None:
         ax.axhspan(*band, color="0.9", lw=0, zorder=0)
 
 
+def pretty_unit(unit: str) -> str:
+    """A unit as figures and tables print it: "–" for none, "mm^-n+" as "mm^(−n₊)"."""
+    if unit == "-":
+        return "–"
+    return unit.replace("^-n+", "^(−n₊)").replace("^-n-", "^(−n₋)")
+
+
 def axis_label(name: str) -> str:
-    """``"ωn₊ (rad/s)"``: symbol and unit of a paper or identifiable parameter."""
+    """``"ωn₊ (rad/s)"``: symbol and unit of a paper, identifiable or linear parameter."""
+    from bwbench.models.switched import LAYOUT
+    from bwbench.problems.linear_solve import coefficient_units
+
+    LINEAR_UNITS = coefficient_units(LAYOUT)
     if name in LABELS:
-        unit = UNITS[name]
-        return f"{LABELS[name]} ({'–' if unit == '-' else unit})"
+        return f"{LABELS[name]} ({pretty_unit(UNITS[name])})"
+    if name in LINEAR_UNITS:
+        return f"{name} ({LINEAR_UNITS[name]})"
     label = fm.LABELS.get(name, name)
-    return f"{label} ({fm.UNITS.get(name, '–')})"
+    return f"{label} ({pretty_unit(fm.HYSTERETIC_UNITS.get(name, '-'))})"
 
 
 def synthetic(study, specimens) -> bool:

@@ -157,7 +157,7 @@ def parameters_vs_underpressure(study, out_dir, optimizer: str, material: str, o
     for ax in axes[:, 0]:
         ax.set_ylabel("position in range (–)")
     for ax in axes[-1]:
-        ax.set_xlabel("MPa")
+        ax.set_xlabel("underpressure (MPa)")
     seeds = int(runs.groupby("specimen").size().max()) if len(runs) else 0
     repeats = int(runs.groupby("underpressure_MPa")["specimen"].nunique().max()) if len(runs) else 0
     handles = [style.handle(f"{optimizer}: each run", line=False),

@@ -104,8 +104,15 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
                  REVERSAL], ncol=3)
     fig.suptitle(f"{spec.name} — {result.optimizer} ({formulation} formulation), seed {result.seed}, "
                  f"{result.nfev} evaluations: RMSE {result.rmse_N:.3g} N, F_err {result.f_err:.4g} N²\n"
-                 f"{problem.state} state, {problem.excitation} excitation")
+                 f"{problem.state} state, {problem.excitation} excitation, {_velocity_source(problem)}")
     write_png(fig, path, synthetic)
+
+
+def _velocity_source(problem) -> str:
+    """"velocity recorded", "velocity estimated from the displacement" or "velocity of the sine fit"."""
+    source = problem.signal.sources.get("velocity", "")
+    return {"measured": "velocity recorded", "estimated": "velocity estimated from the displacement"}.get(
+        source, f"velocity of the {source}" if source else "velocity")
 
 
 def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = BACKENDS) -> Path:

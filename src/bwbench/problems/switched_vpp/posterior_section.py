@@ -42,9 +42,9 @@ def coordinates(study, chain):
 def summary(problem, samples: np.ndarray, rng) -> pd.DataFrame:
     """Median and 90 % interval of every parameter over ``samples`` (physical, (n, d)); for the
     identifiable formulation also the linear coefficients, drawn from their conditional Gaussian."""
-    from bwbench.problems.switched_vpp.identifiability import label
+    from bwbench.problems.switched_vpp.figure_common import axis_label
 
-    columns = {n: samples[:, j] for j, n in enumerate(problem.param_names)}
+    columns = {axis_label(n): samples[:, j] for j, n in enumerate(problem.param_names)}
     if getattr(problem, "formulation", "paper") == "identifiable":
         from bwbench.problems.marginal import draw_linear
 
@@ -62,8 +62,7 @@ def summary(problem, samples: np.ndarray, rng) -> pd.DataFrame:
         values = values[np.isfinite(values)]
         if values.size:
             q5, q50, q95 = np.quantile(values, [0.05, 0.5, 0.95])
-            rows.append({"parameter": label(name.split(" ")[0]) + name[len(name.split(" ")[0]):],
-                         "median": number(q50), "5 %": number(q5), "95 %": number(q95)})
+            rows.append({"parameter": name, "median": number(q50), "5 %": number(q5), "95 %": number(q95)})
     return pd.DataFrame(rows)
 
 
