@@ -11,7 +11,7 @@ import pytest
 from bwbench.cli import main
 from bwbench.data.parameters import UNITS
 from bwbench.data.specimen import read_specimen
-from bwbench.problems.switched_vpp import fit_checks
+from bwbench.problems import fit_checks
 from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
@@ -22,7 +22,8 @@ def test_units_of_the_paper_parameters_follow_from_z_in_mm():
     # dz/dx = A − (β + γ·sign(z·dx))·|z|^n is dimensionless: A has no unit, β and γ carry mm^-n.
     assert UNITS["A+"] == "-" and UNITS["n-"] == "-" and UNITS["xi+"] == "-" and UNITS["alpha-"] == "-"
     assert UNITS["beta+"] == "mm^-n+" and UNITS["gamma-"] == "mm^-n-" and UNITS["wn+"] == "rad/s"
-    units = fit_checks.units(["m", "c+", "h-", "xy+", "rho", "beta-"])
+    problem = IdentifiableProblem(read_specimen(SPECIMEN))
+    units = fit_checks.units(problem, ["m", "c+", "h-", "xy+", "rho", "beta-"])
     assert units == {"m": "N·s²/mm (1 N·s²/mm = 1 t = 1000 kg)", "c+": "N·s/mm", "h-": "N", "xy+": "mm",
                      "rho": "-", "beta-": "mm^-n-"}
 
@@ -79,7 +80,7 @@ def test_an_estimated_velocity_and_a_clockwise_loop_of_own_data_are_reported(fol
 
 def test_a_linear_branch_is_named_and_its_cap_is_not_an_edge_warning():
     problem = IdentifiableProblem(read_specimen(SPECIMEN))
-    a = problem.model.bounds.amplitude_mm
+    a = 0.5 * float(np.ptp(problem.specimen.x))
     names = problem.param_names
     theta = dict(zip(names, [50 * a, 2.0, 0.0, 0.1 * a, 2.0, 0.0, 0.01]))  # '+' at the cap, tiny ρ
     params = [theta[n] for n in names]
@@ -90,6 +91,6 @@ def test_a_linear_branch_is_named_and_its_cap_is_not_an_edge_warning():
     assert any(n.startswith("branch + is linear (no yield within the stroke)") for n in checks.notes)
     # the truth's '+' branch has x_y₊ = 5·a but starts where the '−' branch left w: it is not linear
     from bwbench.data.manifest import truth_params
-    from bwbench.problems.switched_vpp.identifiable import from_paper
+    from bwbench.models.switched_identifiable import from_paper
 
     assert fit_checks.linear_branches(problem, from_paper(truth_params(SPECIMEN))[0]) == {"+": False, "-": False}

@@ -10,9 +10,11 @@ from scipy.special import logsumexp
 from bwbench.data import manifest
 from bwbench.models import excitation
 from bwbench.models import switched_bouc_wen as model
-from bwbench.problems.switched_vpp import identifiable as fm
-from bwbench.problems.switched_vpp import linear_solve as ls
-from bwbench.problems.switched_vpp import marginal as mg
+from bwbench.models import switched_identifiable as fm
+from bwbench.models.switched import LAYOUT
+from bwbench.problems import linear_solve as ls
+from bwbench.problems import marginal as mg
+from bwbench.problems.switched_vpp.identifiable import IdentifiableModel
 from bwbench.data.specimen import read_specimen
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
@@ -91,7 +93,7 @@ def test_identifiable_to_paper_to_identifiable_round_trips(state):
         linear = np.zeros(9)
         linear[0] = 1.0
         for b in "+-":  # c of either sign, k and h > 0: ωn² > 0 for every gauge
-            linear[[ls.LINEAR_NAMES.index(f"{n}{b}") for n in "ckh"]] = [
+            linear[[fm.LINEAR_NAMES.index(f"{n}{b}") for n in "ckh"]] = [
                 rng.uniform(-5e3, 5e3), rng.uniform(1.0, 100.0), rng.uniform(10.0, 1e3)]
         back = fm.to_paper(theta, linear, state)
         assert back.params is not None, back.reason
@@ -106,9 +108,9 @@ def test_to_paper_says_why_it_cannot():
     heavy = linear.copy()
     heavy[0] = 2.0
     offset = linear.copy()
-    offset[ls.LINEAR_NAMES.index("f-")] = 3.0
+    offset[fm.LINEAR_NAMES.index("f-")] = 3.0
     soft = linear.copy()
-    soft[[ls.LINEAR_NAMES.index("k+"), ls.LINEAR_NAMES.index("h+")]] = [-1.0, -1.0]
+    soft[[fm.LINEAR_NAMES.index("k+"), fm.LINEAR_NAMES.index("h+")]] = [-1.0, -1.0]
     for lin, word in ((heavy, "m = 2"), (offset, "f-"), (soft, "ωn²")):
         out = fm.to_paper(theta, lin)
         assert out.params is None and word in out.reason
@@ -134,7 +136,7 @@ def test_noise_free_identifiable_optimum_is_the_paper_optimum(state, fix_mass):
     e, _, p = load("pom-mt24u01_0.05MPa_r1")
     f = paper_force(p, e, state)  # noise-free data on the measured excitation: paper MSE = 0
     theta, linear = fm.from_paper(p, state)
-    M = fm.IdentifiableModel(e, f, state, fix_mass=fix_mass, offsets=True)
+    M = IdentifiableModel(e, f, state, fix_mass=fix_mass, offsets=True)
     sol = M.solve(theta[None])
     assert sol.mse[0] <= 1e-18 * np.ptp(f) ** 2  # RMS error ≤ 1e-9 of the force range
     scale = np.array([1.0, 1e3, 10.0, 100.0, 100.0, 1e3, 10.0, 100.0, 100.0])
@@ -154,7 +156,7 @@ def explicit_design(e, w, names):
 def test_batched_solve_equals_lstsq_on_the_written_out_design(fix_mass):
     e, f, _ = load("pc-abs-c12hf_0.07MPa_r3")
     f = f + 40.0 * e.a * 1e3  # a visible inertia term, so a free m is not at its bound
-    M = fm.IdentifiableModel(e, f, "shared", fix_mass=fix_mass, mass_min=None)
+    M = IdentifiableModel(e, f, "shared", fix_mass=fix_mass, mass_min=None)
     rng = np.random.default_rng(3)
     theta = M.bounds.from_unit(rng.uniform(size=(12, 7)))
     theta[0] = M.bounds.from_unit(np.array([0.9, 0.9, 0.99, 0.1, 0.9, 0.99, 0.01]))  # runs away
@@ -181,9 +183,9 @@ def test_a_negative_free_mass_is_held_at_its_bound():
     e, f, _ = load("pom-mt24u01_0.01MPa_r1")
     f = f - 5e4 * e.a  # pulls the least-squares mass far below 0
     theta = fm.from_paper(load("pom-mt24u01_0.01MPa_r1")[2])[0][None]
-    free = fm.IdentifiableModel(e, f, fix_mass=None, mass_min=None).solve(theta)
-    bounded = fm.IdentifiableModel(e, f, fix_mass=None, mass_min=0.0).solve(theta)
-    at_zero = fm.IdentifiableModel(e, f, fix_mass=0.0).solve(theta)
+    free = IdentifiableModel(e, f, fix_mass=None, mass_min=None).solve(theta)
+    bounded = IdentifiableModel(e, f, fix_mass=None, mass_min=0.0).solve(theta)
+    at_zero = IdentifiableModel(e, f, fix_mass=0.0).solve(theta)
     assert free.coef[0, 0] < -1e4 and bounded.bound_active[0]
     assert bounded.coef[0, 0] == 0.0 and bounded.mse[0] == pytest.approx(at_zero.mse[0], rel=1e-12)
     assert bounded.mse[0] > free.mse[0]
@@ -195,11 +197,11 @@ def test_a_test_that_only_moves_one_way_drops_the_idle_branch():
     e = excitation.measured(t, x)
     w = np.tanh(x)
     f = 3.0 * e.x + 50.0 * w + 7.0 + np.random.default_rng(0).normal(0, 0.1, len(t))
-    design = ls.LinearDesign(e, f)
+    design = ls.LinearDesign(e, f, LAYOUT)
     sol = design.solve(w[None], residual=True)
     assert any("branch - has no samples" in note for note in design.notes)
     assert "h-" not in sol.free_names and np.all(np.isnan(sol.coef[0, 5:]))
-    k, h, off = (sol.coef[0, ls.LINEAR_NAMES.index(n)] for n in ("k+", "h+", "f+"))
+    k, h, off = (sol.coef[0, fm.LINEAR_NAMES.index(n)] for n in ("k+", "h+", "f+"))
     assert k == pytest.approx(3.0, rel=0.05) and h == pytest.approx(50.0, rel=0.01) and off == pytest.approx(7.0, abs=0.5)
     assert np.sqrt(sol.mse[0]) < 0.12
 
@@ -207,7 +209,7 @@ def test_a_test_that_only_moves_one_way_drops_the_idle_branch():
 @pytest.mark.parametrize("path", sorted(glob.glob(str(DATA / "*.csv"))), ids=lambda p: Path(p).stem)
 def test_inertia_is_not_excited_by_the_quasi_static_specimens(path):
     sp = read_specimen(path)
-    check = ls.inertia_check(excitation.measured(sp.t, sp.x), sp.f)
+    check = ls.inertia_check(excitation.measured(sp.t, sp.x), sp.f, LAYOUT)
     assert not check.excited and not check.fit and "not excited" in check.reason
     assert check.inertia_rms_N < 0.01 * check.noise_N
 
@@ -222,18 +224,18 @@ def fast_test(x_of_t):
 
 def test_inertia_of_a_fast_sine_is_excited_but_confounded_with_stiffness():
     e, f = fast_test(lambda t: 25.0 * np.sin(2 * np.pi * 5.0 * t))
-    check = ls.inertia_check(e, f)
+    check = ls.inertia_check(e, f, LAYOUT)
     assert check.excited and check.inertia_rms_N > 1e3 * check.noise_N
     # ẍ = −ω²x: m and k are one combination on a sine, so m stays fixed at 1 and k absorbs it.
     assert not check.separable and "not separable" in check.reason
-    assert ls.LinearDesign(e, f).mass == 1.0
+    assert ls.LinearDesign(e, f, LAYOUT).mass == 1.0
 
 
 def test_inertia_of_a_two_tone_test_is_fitted():
     e, f = fast_test(lambda t: 20.0 * np.sin(2 * np.pi * 5.0 * t) + 5.0 * np.sin(2 * np.pi * 13.0 * t + 0.3))
-    check = ls.inertia_check(e, f)
+    check = ls.inertia_check(e, f, LAYOUT)
     assert check.excited and check.separable and check.fit
-    design = ls.LinearDesign(e, f)
+    design = ls.LinearDesign(e, f, LAYOUT)
     assert design.mass is None and "m" in design.free_names
 
 
@@ -259,7 +261,7 @@ def small_case():
     e = excitation.Excitation("test", t, x, 0.5 * np.cos(0.5 * t) + 0.3, -0.25 * np.sin(0.5 * t))
     w = np.tanh(2 * x)
     f = 3 * e.v + 2 * x + 5 * w + np.random.default_rng(3).normal(0, 0.5, len(t))
-    design = ls.LinearDesign(e, f, fix_mass=0.0, offsets=False)
+    design = ls.LinearDesign(e, f, LAYOUT, fix_mass=0.0, offsets=False)
     sol = design.solve(w[None])
     X = np.column_stack([{"c+": e.v, "k+": x, "h+": w}[n] for n in sol.free_names])
     return f, X, sol
@@ -303,11 +305,11 @@ def test_conditional_draws_have_the_posterior_mean_and_covariance():
 
 def test_residual_vector_is_model_minus_measured_and_finite_on_blow_up():
     e, f, p = load("pom-mt24u01_0.05MPa_r1")
-    M = fm.IdentifiableModel(e, f, "shared")
+    M = IdentifiableModel(e, f, "shared")
     theta = fm.from_paper(p)[0]
     r = M.residual(theta)
     sol = M.solve(theta[None])
-    c = dict(zip(ls.LINEAR_NAMES, sol.coef[0]))
+    c = dict(zip(fm.LINEAR_NAMES, sol.coef[0]))
     w = M.trajectories(theta[None])[0]
     plus = e.v >= 0
     F = c["m"] * e.a + np.where(plus, c["c+"] * e.v + c["k+"] * e.x + c["h+"] * w + c["f+"],
@@ -327,9 +329,10 @@ def test_a_finite_but_huge_trajectory_is_a_blow_up_not_a_crash():
 
     problem = IdentifiableProblem(read_specimen(DATA / "pc-abs-c12hf_0.01MPa_r1.csv"))
     theta = np.array([0.50669315, 1.14039746, 0.88825619, 0.00194327, 0.99384954, 0.80172319, 0.23632528])
-    assert np.all(np.isfinite(problem.model.trajectories(theta[None])))
+    assert np.all(np.isfinite(problem.model.trajectories(theta[None], problem.signal, problem.state)))
     assert problem.loss_batch(theta[None])[0] == np.inf
     assert np.all(problem.residual_batch(theta[None]) == np.inf)
-    assert np.all(problem.model.residual(theta) == problem.model.penalty)
+    on_signal = IdentifiableModel(problem.signal, problem.specimen.f)
+    assert np.all(on_signal.residual(theta) == on_signal.penalty)
     mse, log_marginal = problem.log_likelihood_batch(np.vstack([theta, problem.lower + 0.5 * (problem.upper - problem.lower)]))
     assert mse[0] == np.inf and log_marginal[0] == -np.inf and np.isfinite(mse[1])

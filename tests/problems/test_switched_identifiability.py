@@ -67,7 +67,7 @@ def test_the_exact_symmetry_is_named_and_verified_along_its_orbit(state, names):
 
 
 def test_the_identifiable_coordinates_have_no_symmetry(tmp_path):
-    from bwbench.problems.switched_vpp.identifiable import from_paper
+    from bwbench.models.switched_identifiable import from_paper
 
     theta, _ = from_paper(manifest.truth_params(SPECIMEN), "shared")
     result = identifiability.analyse(SPECIMEN, theta, "shared", formulation="identifiable")

@@ -15,7 +15,7 @@ from bwbench.data.specimen import read_specimen
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.problems.switched_vpp import figures as switched_figures
 from bwbench.problems.switched_vpp.figure_common import problem_for
-from bwbench.problems.switched_vpp import identifiable as fm
+from bwbench.models import switched_identifiable as fm
 from bwbench.problems.switched_vpp import non_uniqueness
 from bwbench.report import ecdf_figures, figures, palette
 from bwbench.study import results as results_db

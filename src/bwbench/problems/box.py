@@ -13,7 +13,7 @@ def box_from_unit(U, lower, upper, log_scaled) -> np.ndarray:
     """Unit coordinates (shape (..., d)) → physical units; log-scaled entries linear in log10."""
     lo, hi = _box_span(lower, upper, log_scaled)
     x = lo + np.asarray(U, dtype=float) * (hi - lo)
-    return np.where(log_scaled, 10.0 ** x, x)
+    return np.where(log_scaled, 10.0 ** np.where(log_scaled, x, 0.0), x)
 
 
 def box_to_unit(P, lower, upper, log_scaled) -> np.ndarray:

@@ -47,7 +47,7 @@ def read_for(path, problem):
     except InputFileError:
         if getattr(problem, "formulation", "paper") != "identifiable":
             raise
-    from bwbench.problems.switched_vpp.identifiable import from_paper
+    from bwbench.models.switched_identifiable import from_paper
 
     return from_paper(read_json(path), problem.state)[0]
 

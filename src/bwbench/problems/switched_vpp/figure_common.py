@@ -7,7 +7,7 @@ import numpy as np
 
 from bwbench.data import manifest
 from bwbench.data.parameters import LABELS, UNITS
-from bwbench.problems.switched_vpp import identifiable as fm
+from bwbench.models import switched_identifiable as fm
 from bwbench.report.palette import split_label
 
 EDGE = 0.06  # values beyond a parameter's Table 5 range are drawn this far beyond it (fraction of the range)
@@ -30,8 +30,10 @@ def pretty_unit(unit: str) -> str:
 
 def axis_label(name: str) -> str:
     """``"ωn₊ (rad/s)"``: symbol and unit of a paper, identifiable or linear parameter."""
-    from bwbench.problems.switched_vpp.linear_solve import LINEAR_UNITS
+    from bwbench.models.switched import LAYOUT
+    from bwbench.problems.linear_solve import coefficient_units
 
+    LINEAR_UNITS = coefficient_units(LAYOUT)
     if name in LABELS:
         return f"{LABELS[name]} ({pretty_unit(UNITS[name])})"
     if name in LINEAR_UNITS:

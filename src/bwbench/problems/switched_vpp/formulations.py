@@ -7,6 +7,7 @@ coefficients solved (``identifiable_problem.IdentifiableProblem``).
 
 from __future__ import annotations
 
+from bwbench.data import bounds as bounds_mod
 from bwbench.models import switched_bouc_wen as model
 from bwbench.problems.base import choice
 
@@ -14,29 +15,30 @@ FORMULATIONS = ("paper", "identifiable")
 
 
 def make_problem(specimen, settings: dict):
-    """The problem of one specimen for settings with state, excitation and optionally formulation,
-    fix_mass and bounds (names the formulation does not have are left to the other one)."""
-    from bwbench.data import bounds as bounds_mod
+    """The problem of one specimen for settings with model (default: the switched model), state,
+    excitation and optionally formulation (default: the model's own), fix_mass and bounds (names
+    the formulation does not have are left to the other one)."""
+    from bwbench.models import registry
+    from bwbench.problems.model_problem import DirectProblem, IdentifiableProblem
 
-    formulation = settings.get("formulation", "paper")
-    box = {k: tuple(v) for k, v in settings.get("bounds", {}).items()}
+    model = registry.get(settings.get("model", registry.DEFAULT))
+    formulation = settings.get("formulation", model.default_formulation)
+    state = settings.get("state") if model.states else None
+    excitation = settings.get("excitation", "measured")
+    if formulation not in model.formulations:
+        raise ValueError(f"model {model.name!r} has no formulation {formulation!r}; it has {model.formulations}")
     if formulation == "identifiable":
-        from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
-
-        problem = IdentifiableProblem(specimen, settings["state"], settings["excitation"],
-                                      fix_mass=settings.get("fix_mass", "auto"))
+        problem = IdentifiableProblem(model, specimen, state, excitation, fix_mass=settings.get("fix_mass", "auto"))
     else:
-        from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
-
-        problem = SwitchedBoucWenProblem(specimen, settings["state"], settings["excitation"])
-    box = {k: v for k, v in box.items() if k in problem.param_names}
+        problem = DirectProblem(model, specimen, state, excitation)
+    box = {k: tuple(v) for k, v in settings.get("bounds", {}).items() if k in problem.param_names}
     problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
     return problem
 
 
 def bound_names(formulations, state: str) -> tuple:
     """The parameter names a search box may set for these formulations."""
-    from bwbench.problems.switched_vpp.identifiable import hysteretic_names
+    from bwbench.models.switched_identifiable import hysteretic_names
 
     names = list(model.PARAM_NAMES) if "paper" in formulations else []
     if "identifiable" in formulations:

@@ -107,7 +107,7 @@ def _at(u, i, value):
 
 def label(name: str) -> str:
     from bwbench.data.parameters import LABELS
-    from bwbench.problems.switched_vpp.identifiable import LABELS as IDENTIFIABLE
+    from bwbench.models.switched_identifiable import LABELS as IDENTIFIABLE
 
     return LABELS.get(name) or IDENTIFIABLE.get(name, name)
 
@@ -118,7 +118,7 @@ def classify_null_space(problem, params, sens, residual, step) -> dict:
     checked along a finite orbit s ∈ [0.8, 1.25] and measured against the numerical null space;
     then what is left of the null space, followed over a finite path (``follow_invariance``):
     invariant to round-off there, or only a flat spot (weakly determined)."""
-    from bwbench.problems.switched_vpp.identifiable import scale_paper
+    from bwbench.models.switched_identifiable import scale_paper
 
     zero = sens.ratios < ZERO_RATIO
     null = sens.directions[zero]  # orthonormal rows

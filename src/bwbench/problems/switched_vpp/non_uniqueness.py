@@ -17,7 +17,7 @@ import pandas as pd
 from bwbench.analysis import statistics
 from bwbench.data.parameters import LABELS, LOWER, UPPER
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.switched_vpp import identifiable as fm
+from bwbench.models import switched_identifiable as fm
 from bwbench.report.palette import split_label
 
 TOLERANCE = 0.10  # good fits: final MSE within 10 % of the best known for the specimen

@@ -40,8 +40,7 @@ def column_groups(formulation: str, state: str) -> list[tuple[str, list[str]]]:
     """(title, parameter names) of each table for a formulation."""
     if formulation == "paper":
         return [("tension set (+)", list(PARAM_NAMES[:7])), ("compression set (−)", list(PARAM_NAMES[7:]))]
-    from bwbench.problems.switched_vpp.identifiable import hysteretic_names
-    from bwbench.problems.switched_vpp.linear_solve import LINEAR_NAMES
+    from bwbench.models.switched_identifiable import LINEAR_NAMES, hysteretic_names
 
     return [("hysteretic parameters (searched)", list(hysteretic_names(state))),
             ("linear coefficients (solved per simulation)", list(LINEAR_NAMES))]
@@ -50,9 +49,11 @@ def column_groups(formulation: str, state: str) -> list[tuple[str, list[str]]]:
 def heading(name: str, formulation: str) -> str:
     if formulation == "paper":
         return LABELS[name]
-    from bwbench.problems.switched_vpp.linear_solve import LINEAR_UNITS
+    from bwbench.models.switched import LAYOUT
+    from bwbench.problems.linear_solve import coefficient_units
 
-    return f"{name} ({LINEAR_UNITS[name]})" if name in LINEAR_UNITS else axis_label(name)
+    units = coefficient_units(LAYOUT)
+    return f"{name} ({units[name]})" if name in units else axis_label(name)
 
 
 def section(report, formulation: str, paper_data: bool) -> None:

@@ -17,7 +17,7 @@ from matplotlib.patches import Patch
 from bwbench.analysis import mcmc
 from bwbench.data.parameters import LOWER, UPPER
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.switched_vpp import identifiable as fm
+from bwbench.models import switched_identifiable as fm
 from bwbench.problems.switched_vpp.figure_common import axis_label, synthetic, truth
 from bwbench.report.palette import MAX_WIDTH_IN, OKABE_ITO, TRUTH, canvas, figure, legend, save, slug, styles, theme
 

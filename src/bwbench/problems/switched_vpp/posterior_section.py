@@ -46,17 +46,17 @@ def summary(problem, samples: np.ndarray, rng) -> pd.DataFrame:
 
     columns = {axis_label(n): samples[:, j] for j, n in enumerate(problem.param_names)}
     if getattr(problem, "formulation", "paper") == "identifiable":
-        from bwbench.problems.switched_vpp.linear_solve import LINEAR_NAMES
-        from bwbench.problems.switched_vpp.marginal import draw_linear
+        from bwbench.problems.marginal import draw_linear
 
-        solution = problem.model.solve(samples)
-        coef = np.full((len(samples), len(LINEAR_NAMES)), np.nan)
+        solution = problem.solve(samples)
+        names, units = problem.linear_names, problem.linear_units
+        coef = np.full((len(samples), len(names)), np.nan)
         for i in range(len(samples)):
             try:
                 coef[i] = draw_linear(solution.row(i), rng, 1)["coef"][0]
             except ValueError:  # a sample whose design is not of full rank: no draw
                 pass
-        columns.update({axis_label(n): coef[:, j] for j, n in enumerate(LINEAR_NAMES)})
+        columns.update({f"{n} ({units[n]})": coef[:, j] for j, n in enumerate(names)})
     rows = []
     for name, values in columns.items():
         values = values[np.isfinite(values)]

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.linalg import solve_triangular
 from scipy.special import gammaln
 
-from bwbench.problems.switched_vpp.linear_solve import LINEAR_NAMES, LinearSolution
+from bwbench.problems.linear_solve import LinearSolution
 
 
 def log_marginal(sol: LinearSolution, sigma: float | None = None) -> np.ndarray:
@@ -54,7 +54,7 @@ def draw_linear(sol: LinearSolution, rng: np.random.Generator, size: int, sigma:
     """Exact draws of (σ, β) given θ for a one-row solution (``sol.row(i)``).
 
     Returns ``sigma`` (size,) N — drawn from Inv-Gamma((L−p)/2, RSS/2) unless given — and
-    ``coef`` (size, 9) in ``LINEAR_NAMES`` order: free coefficients drawn from N(β̂, σ²(XᵀX)⁻¹),
+    ``coef`` (size, k) in ``sol.names`` order: free coefficients drawn from N(β̂, σ²(XᵀX)⁻¹),
     fixed ones at their fixed value.
     """
     if len(sol.mse) != 1:
@@ -71,4 +71,4 @@ def draw_linear(sol: LinearSolution, rng: np.random.Generator, size: int, sigma:
     beta = sol.coef_ls[0][:, None] + solve_triangular(sol.R[0], eps) * np.sqrt(s2)
     coef = np.repeat(sol.coef[:1], size, axis=0)
     coef[:, sol.free_index] = beta.T
-    return {"sigma": np.sqrt(s2), "coef": coef, "names": LINEAR_NAMES}
+    return {"sigma": np.sqrt(s2), "coef": coef, "names": sol.names}

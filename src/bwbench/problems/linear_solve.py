@@ -1,21 +1,24 @@
-"""The linear part of the identifiable formulation: one least-squares solve per z trajectory.
+"""The linear part of an identifiable formulation: one least-squares solve per trajectory.
 
-Given the dimensionless hysteretic trajectory w (see ``formulation``), the force is, per branch b
-(b = '+' where ẋ ≥ 0, '−' where ẋ < 0; DESIGN.md §8)
+A model with a linear part (``bwbench.models.base.LinearLayout``) writes its force as
+F = Σ_j β_j·g_j, where the columns g_j are signals of the excitation (x, ẋ, ẍ, 1) or one column
+w(θ) that depends on the searched parameters θ (the switched model's z/z_s, Spencer's ẏ). A
+branched model (the switched Bouc-Wen) has a '+' copy of each column where ẋ ≥ 0 and a '−' copy
+where ẋ < 0 (DESIGN.md §8):
 
     F = m·ẍ + c_b·ẋ + k_b·x + h_b·w + f_b
 
-Units: m in N·s²/mm, c in N·s/mm, k in N/mm, h in N (w has no unit), f in N. The design matrix is
-X = [G | W]: G holds the columns that do not depend on w (ẍ when m is fitted, and per branch the
-masked ẋ, x, 1), W the masked w (one column per branch). G = Q·R_G is factorised once (pivoted
-QR on unit-norm columns, so dependent columns are found and dropped) and r0 = y − Q·Qᵀy kept; per
-trajectory only W is orthogonalised against Q (Gram-Schmidt with one re-orthogonalisation, in a
-numba kernel of 2–3 passes over the row), then X = [Q | Q_w]·[[R_G, QᵀW], [0, R_w]]: O(L·q) per
-row instead of a fresh O(L·p²) factorisation. log|XᵀX| = 2·Σ log|R_ii| of that factor.
+The design matrix is X = [G | W]: G holds the columns that do not depend on θ (ẍ when m is fitted,
+and per branch the masked signals), W the masked w (one column per branch). G = Q·R_G is factorised
+once (pivoted QR on unit-norm columns, so dependent columns are found and dropped) and
+r0 = y − Q·Qᵀy kept; per trajectory only W is orthogonalised against Q (Gram-Schmidt with one
+re-orthogonalisation, in a numba kernel of 2–3 passes over the row), then
+X = [Q | Q_w]·[[R_G, QᵀW], [0, R_w]]: O(L·q) per row instead of a fresh O(L·p²) factorisation.
+log|XᵀX| = 2·Σ log|R_ii| of that factor.
 
-Inertia rule (``inertia_check``), data only. σ̂ = robust force noise from 4th differences of F
-(polynomial trends of degree < 4 cancel; Var Δ⁴ε = 70·σ²). With m_ref = 1 N·s²/mm (the paper's
-implicit m, the value m is fixed at when not fitted):
+Inertia rule (``inertia_check``, models with an inertia coefficient), data only. σ̂ = robust force
+noise from 4th differences of F (polynomial trends of degree < 4 cancel; Var Δ⁴ε = 70·σ²). With
+m_ref = 1 N·s²/mm (the paper's implicit m, the value m is fixed at when not fitted):
 
 - excited   ⇔ m_ref·‖ẍ_c‖ ≥ κ·σ̂, ẍ_c = ẍ minus what the offsets absorb: the inertia force of the
   reference mass stands out of the noise over the record (κ = 10);
@@ -29,15 +32,12 @@ m is fitted only when both hold; otherwise fixed at m_ref, and k_b absorbs any (
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-import numba
 import numpy as np
 import scipy.linalg
 
 from bwbench.models.derivatives import robust_noise
+from bwbench.problems.linear_solve_kernel import w_solve
 
-LINEAR_NAMES = ("m", "c+", "k+", "h+", "f+", "c-", "k-", "h-", "f-")
-LINEAR_UNITS = {"m": "N·s²/mm", "c+": "N·s/mm", "k+": "N/mm", "h+": "N", "f+": "N",
-                "c-": "N·s/mm", "k-": "N/mm", "h-": "N", "f-": "N"}
 M_REF = 1.0  # N·s²/mm = 1 t (1000 kg): the paper's F = ẍ + ... in the specimens' units
 KAPPA = 10.0  # signal/noise (as norms over the record) needed to call a column excited
 COLLINEAR = 1e-3  # ‖ẍ⊥‖/‖ẍ_c‖ below this: condition number > 1000, m and k_b not separable
@@ -70,22 +70,43 @@ class InertiaCheck:
         return self.excited and self.separable
 
 
-def _branch_masks(v):
+def branch_masks(layout, v) -> dict:
+    """{suffix: samples of that branch}: '+' (ẋ ≥ 0) and '−' for a branched layout, else one ''."""
+    if not layout.branched:
+        return {"": np.ones(len(v), dtype=bool)}
     plus = np.asarray(v) >= 0.0
     return {"+": plus, "-": ~plus}
 
 
-def _fixed_columns(signal, masks, offsets):
+def coefficient_names(layout) -> tuple:
+    """Every coefficient of ``layout``, the mass first, then per branch in the layout's order."""
+    suffixes = ("+", "-") if layout.branched else ("",)
+    return tuple(n for n in layout.names if n == layout.mass) + tuple(
+        f"{n}{b}" for b in suffixes for n in layout.names if n != layout.mass)
+
+
+def coefficient_units(layout) -> dict:
+    names = coefficient_names(layout)
+    return {n: layout.units[n.rstrip("+-") if layout.branched else n] for n in names}
+
+
+def _signal_column(signal, name, mask):
+    if name == "1":
+        return mask.astype(float)
+    return np.where(mask, np.asarray(getattr(signal, name), dtype=float), 0.0)
+
+
+def _fixed_columns(signal, layout, masks, offsets):
     """Names and columns (L,) of the w-independent per-branch columns of present branches."""
     names, cols = [], []
     for b, mask in masks.items():
         if not mask.any():
             continue
-        names += [f"c{b}", f"k{b}"]
-        cols += [np.where(mask, signal.v, 0.0), np.where(mask, signal.x, 0.0)]
-        if offsets:
-            names.append(f"f{b}")
-            cols.append(mask.astype(float))
+        for name, source in layout.fixed:
+            if source == "1" and not offsets:
+                continue
+            names.append(f"{name}{b}")
+            cols.append(_signal_column(signal, source, mask))
     return names, cols
 
 
@@ -100,15 +121,16 @@ def _pivoted_qr(cols):
     return Q[:, :rank], R[:rank, :rank], perm, rank, scale
 
 
-def inertia_check(signal, f, offsets: bool = True, m_ref: float = M_REF, kappa: float = KAPPA) -> InertiaCheck:
+def inertia_check(signal, f, layout, offsets: bool = True, m_ref: float = M_REF, kappa: float = KAPPA) -> InertiaCheck:
     """Apply the inertia rule of the module docstring to an excitation (t, x, v, a) and force f (N)."""
-    masks = _branch_masks(signal.v)
+    masks = branch_masks(layout, signal.v)
     sigma = force_noise(f)
     L = len(signal.a)
-    base = [m.astype(float) for m in masks.values() if m.any()] if offsets else []
+    base = ([m.astype(float) for m in masks.values() if m.any()]
+            if offsets and any(source == "1" for _, source in layout.fixed) else [])
     a = np.asarray(signal.a, dtype=float)
     a_c = a - (Q := _pivoted_qr(base)[0]) @ (Q.T @ a) if base else a.copy()
-    Q = _pivoted_qr(_fixed_columns(signal, masks, offsets)[1])[0]
+    Q = _pivoted_qr(_fixed_columns(signal, layout, masks, offsets)[1])[0]
     a_o = a - Q @ (Q.T @ a)
     a_o -= Q @ (Q.T @ a_o)  # second pass: ẍ⊥ may be 1e-6 of ẍ (a sine)
     n_c, n_o = np.linalg.norm(a_c), np.linalg.norm(a_o)
@@ -116,7 +138,7 @@ def inertia_check(signal, f, offsets: bool = True, m_ref: float = M_REF, kappa: 
     separable = m_ref * n_o >= kappa * sigma and n_o >= COLLINEAR * n_c
     rms = 1.0 / np.sqrt(L)
     head = (f"inertia force at m = {m_ref:g} N·s²/mm (= {m_ref:g} t): {m_ref * n_c * rms:.3g} N rms, "
-            f"{m_ref * n_o * rms:.3g} N rms outside span(ẋ, x, 1 per branch); force noise {sigma:.3g} N")
+            f"{m_ref * n_o * rms:.3g} N rms outside the span of the other fixed columns; force noise {sigma:.3g} N")
     if not excited:
         reason = f"inertia not excited ({head}): m fixed at {m_ref:g}"
     elif not separable:
@@ -132,13 +154,13 @@ def inertia_check(signal, f, offsets: bool = True, m_ref: float = M_REF, kappa: 
 class LinearSolution:
     """Per-row results of the linear solve for a batch of m trajectories on L samples.
 
-    ``coef`` (m, 9) follows ``LINEAR_NAMES``; fixed coefficients carry their fixed value, those of
-    a branch without samples NaN. ``mse`` (m,) N²; ``residual`` (m, L) F_model − F_measured (N),
+    ``coef`` (m, k) follows ``names`` (the design's ``names``: every coefficient of the layout);
+    fixed coefficients carry their fixed value, those of a branch without samples NaN. ``mse`` (m,) N²; ``residual`` (m, L) F_model − F_measured (N),
     only when asked for. Rows with a non-finite trajectory have mse = +inf, coef NaN.
     The Gaussian-posterior quantities (unbounded flat prior on the p free coefficients, in the
     order ``free_names``): ``coef_ls`` (m, p), ``rss_ls`` (m,) N², ``R`` (m, p, p) with
     XᵀX = RᵀR, ``logdet`` (m,) = log|XᵀX|; ``full_rank`` False where a w-column lies in the
-    span of the others (then that h is set to 0 and logdet = −inf). They differ from
+    span of the others (then its coefficient is set to 0 and logdet = −inf). They differ from
     ``coef``/``mse`` only where the bound m ≥ mass_min is active (``bound_active``).
     """
 
@@ -154,6 +176,7 @@ class LinearSolution:
     free_index: np.ndarray
     n_data: int
     residual: np.ndarray | None = None
+    names: tuple = ()
 
     @property
     def n_free(self) -> int:
@@ -165,7 +188,7 @@ class LinearSolution:
         return LinearSolution(
             self.mse[s], self.coef[s], self.coef_ls[s], self.rss_ls[s], self.R[s], self.logdet[s],
             self.full_rank[s], self.bound_active[s], self.free_names, self.free_index, self.n_data,
-            None if self.residual is None else self.residual[s])
+            None if self.residual is None else self.residual[s], self.names)
 
 
 @dataclass(eq=False)  # eq=False: comparing ndarray fields would raise
@@ -173,13 +196,15 @@ class LinearDesign:
     """Everything of the linear solve that does not depend on w, for one excitation and force.
 
     ``signal``: excitation with t (s), x (mm), v (mm/s), a (mm/s²), each (L,); ``f``: measured
-    force (N), (L,). ``fix_mass``: "auto" (the inertia rule decides), None (fitted) or a value
-    (N·s²/mm). ``offsets``: fit f₊ and f₋ (else they are 0, as in the paper). ``mass_min``: lower
-    bound on a fitted m (None: unbounded). ``notes`` says what was fixed or dropped and why.
+    force (N), (L,); ``layout``: the model's ``LinearLayout``. ``fix_mass`` (layouts with a mass):
+    "auto" (the inertia rule decides), None (fitted) or a value (N·s²/mm). ``offsets``: fit the
+    constant-force columns (else they are 0, as in the paper). ``mass_min``: lower bound on a fitted
+    m (None: unbounded). ``notes`` says what was fixed or dropped and why.
     """
 
     signal: object
     f: np.ndarray
+    layout: object
     fix_mass: object = "auto"
     offsets: bool = True
     mass_min: float | None = 0.0
@@ -190,12 +215,17 @@ class LinearDesign:
         s = self.signal
         self.f = np.asarray(self.f, dtype=float)
         self.L = len(self.f)
-        self.masks = _branch_masks(s.v)
+        layout = self.layout
+        self.names = coefficient_names(layout)
+        self.masks = branch_masks(layout, s.v)
         for b, mask in self.masks.items():
             if not mask.any():
-                self.notes.append(f"branch {b} has no samples: c{b} k{b} h{b} f{b} dropped (NaN)")
-        self.inertia = inertia_check(s, self.f, self.offsets, self.m_ref)
-        if isinstance(self.fix_mass, str):
+                dropped = " ".join(f"{n}{b}" for n in layout.names if n != layout.mass)
+                self.notes.append(f"branch {b} has no samples: {dropped} dropped (NaN)")
+        self.inertia = inertia_check(s, self.f, layout, self.offsets, self.m_ref) if layout.mass else None
+        if not layout.mass:
+            self.mass = 0.0  # no inertia term in this model
+        elif isinstance(self.fix_mass, str):
             if self.fix_mass != "auto":
                 raise ValueError(f"fix_mass must be 'auto', None or a number, got {self.fix_mass!r}")
             self.mass = None if self.inertia.fit else self.m_ref
@@ -203,16 +233,16 @@ class LinearDesign:
         else:
             self.mass = None if self.fix_mass is None else float(self.fix_mass)
             self.notes.append("m fitted (fix_mass=None)" if self.mass is None else f"m fixed at {self.mass:g} by the caller")
-        names, cols = _fixed_columns(s, self.masks, self.offsets)
+        names, cols = _fixed_columns(s, layout, self.masks, self.offsets)
         if self.mass is None:
-            names, cols = ["m"] + names, [np.asarray(s.a, dtype=float)] + cols
+            names, cols = [layout.mass] + names, [np.asarray(s.a, dtype=float)] + cols
             self.y = self.f.copy()
         else:
-            self.y = self.f - self.mass * np.asarray(s.a, dtype=float)
+            self.y = self.f - self.mass * np.asarray(s.a, dtype=float) if layout.mass else self.f.copy()
         self._factor(names, cols)
-        self.w_names = tuple(f"h{b}" for b, mask in self.masks.items() if mask.any())
+        self.w_names = tuple(f"{layout.varying}{b}" for b, mask in self.masks.items() if mask.any())
         self.free_names = tuple(self.g_names) + self.w_names
-        self.free_index = np.array([LINEAR_NAMES.index(n) for n in self.free_names])
+        self.free_index = np.array([self.names.index(n) for n in self.free_names], dtype=np.int64)
         self._bound_design = None
         # For each sample, the index of its w-column (its branch among the present ones).
         self._col = np.zeros(self.L, dtype=np.int64)
@@ -238,7 +268,7 @@ class LinearDesign:
         Zg = np.where(good[:, None], Z, 0.0)
         m, q, nw = len(Z), self.Q.shape[1], len(self.w_names)
         fit_res = np.full((m, self.L), -np.inf) if residual else np.empty((0, self.L))
-        C, Rw, qwy, h, rss, full = _w_solve(Zg, good, self._col, self.Q, self.r0, nw, residual, fit_res)
+        C, Rw, qwy, h, rss, full = w_solve(Zg, good, self._col, self.Q, self.r0, nw, residual, fit_res)
         # A finite but huge trajectory (|w| ~ 1e300) can overflow the solve: a blow-up, not a crash.
         good &= np.isfinite(rss) & np.all(np.isfinite(h), axis=1) & np.all(np.isfinite(C), axis=(1, 2))
         C, h = np.where(good[:, None, None], C, 0.0), np.where(good[:, None], h, 0.0)
@@ -252,17 +282,18 @@ class LinearDesign:
         with np.errstate(divide="ignore"):
             logdet = np.where(full & good, 2.0 * np.sum(np.log(diag), axis=1), -np.inf)
         beta = np.concatenate([g, h], axis=1)
-        coef = np.full((m, len(LINEAR_NAMES)), np.nan)
+        coef = np.full((m, len(self.names)), np.nan)
         for b, mask in self.masks.items():  # fixed and dropped coefficients of present branches
             if mask.any():
-                coef[:, [LINEAR_NAMES.index(f"{n}{b}") for n in "ckhf"]] = 0.0
-        coef[:, 0] = self.mass if self.mass is not None else 0.0
+                coef[:, [self.names.index(f"{n}{b}") for n in self.layout.names if n != self.layout.mass]] = 0.0
+        if self.layout.mass:
+            coef[:, self.names.index(self.layout.mass)] = self.mass if self.mass is not None else 0.0
         coef[:, self.free_index] = beta
         coef[~good] = np.nan
         rss = np.where(good, rss, np.inf)
         out = LinearSolution(rss / self.L, coef, np.where(good[:, None], beta, np.nan), rss, R, logdet,
                              full, np.zeros(m, bool), self.free_names, self.free_index, self.L,
-                             -fit_res if residual else None)
+                             -fit_res if residual else None, self.names)
         if self.mass is None and self.mass_min is not None:
             self._apply_mass_bound(out, Z, residual)
         return out
@@ -270,114 +301,13 @@ class LinearDesign:
     def _apply_mass_bound(self, out, Z, residual):
         """Rows with m < mass_min: the constrained optimum of a convex quadratic with one violated
         bound lies on that bound, so re-solve them with m fixed at mass_min."""
-        bad = out.coef[:, 0] < self.mass_min
+        bad = out.coef[:, self.names.index(self.layout.mass)] < self.mass_min
         if not bad.any():
             return
         if self._bound_design is None:
-            self._bound_design = LinearDesign(self.signal, self.f, self.mass_min, self.offsets, None, self.m_ref)
+            self._bound_design = LinearDesign(self.signal, self.f, self.layout, self.mass_min, self.offsets, None,
+                                              self.m_ref)
         sub = self._bound_design.solve(Z[bad], residual)
         out.mse[bad], out.coef[bad], out.bound_active[bad] = sub.mse, sub.coef, True
         if residual:
             out.residual[bad] = sub.residual
-
-
-@numba.njit(cache=True, parallel=True, error_model="numpy")
-def _w_solve(Z, good, col, Q, r0, nw, want_residual, residual):
-    """The per-trajectory part of the solve, two or three passes over each row of Z (m, L).
-
-    Pass 1: c1 = QᵀW and ‖W‖² (W: the nw masked w-columns). Pass 2: W̃ = W − Q·c1 on the fly,
-    accumulating W̃ᵀW̃, c2 = QᵀW̃ (re-orthogonalisation: W̃' = W̃ − Q·c2 has W̃'ᵀW̃' = W̃ᵀW̃ − c2ᵀc2
-    and W̃'ᵀr0 = W̃ᵀr0 since Qᵀr0 = 0) and W̃ᵀr0. Then a Cholesky factor Rw of the small Gram
-    matrix, qwy = Rw⁻ᵀ·W̃'ᵀr0, h = Rw⁻¹·qwy and RSS = ‖r0‖² − ‖qwy‖². Pass 3, only when that
-    subtraction would lose more than 4 digits or residuals are wanted: the residual explicitly.
-    A w-column within 1e-10 of the span of the others gets h = 0 and ``full`` False.
-    """
-    m, L = Z.shape
-    q = Q.shape[1]
-    C = np.zeros((m, q, nw))
-    Rw = np.zeros((m, nw, nw))
-    qwy = np.zeros((m, nw))
-    h = np.zeros((m, nw))
-    rss = np.full(m, np.inf)
-    full = np.zeros(m, dtype=np.bool_)
-    r0_2 = 0.0
-    for l in range(L):
-        r0_2 += r0[l] * r0[l]
-    for i in numba.prange(m):
-        if not good[i]:
-            continue
-        c1 = np.zeros((nw, q))
-        norm2 = np.zeros(nw)
-        for l in range(L):
-            k, z = col[l], Z[i, l]
-            norm2[k] += z * z
-            for j in range(q):
-                c1[k, j] += z * Q[l, j]
-        G = np.zeros((nw, nw))
-        c2 = np.zeros((nw, q))
-        b = np.zeros(nw)
-        t = np.zeros(nw)
-        for l in range(L):
-            for k in range(nw):
-                s = Z[i, l] if col[l] == k else 0.0
-                for j in range(q):
-                    s -= Q[l, j] * c1[k, j]
-                t[k] = s
-                b[k] += s * r0[l]
-                for j in range(q):
-                    c2[k, j] += s * Q[l, j]
-            for k in range(nw):
-                for k2 in range(k, nw):
-                    G[k, k2] += t[k] * t[k2]
-        for k in range(nw):
-            for k2 in range(k, nw):
-                for j in range(q):
-                    G[k, k2] -= c2[k, j] * c2[k2, j]
-            for j in range(q):
-                C[i, j, k] = c1[k, j] + c2[k, j]
-        # Cholesky of the (at most 2×2) Gram matrix; a dependent column is dropped (h = 0).
-        ok = True
-        for k in range(nw):
-            d = G[k, k]
-            for k0 in range(k):
-                d -= Rw[i, k0, k] * Rw[i, k0, k]
-            if d > 1e-20 * norm2[k] and d > 0.0:
-                Rw[i, k, k] = np.sqrt(d)
-                for k2 in range(k + 1, nw):
-                    e = G[k, k2]
-                    for k0 in range(k):
-                        e -= Rw[i, k0, k] * Rw[i, k0, k2]
-                    Rw[i, k, k2] = e / Rw[i, k, k]
-                e = b[k]
-                for k0 in range(k):
-                    e -= Rw[i, k0, k] * qwy[i, k0]
-                qwy[i, k] = e / Rw[i, k, k]
-            else:
-                ok = False
-                Rw[i, k, k] = 1.0
-                for k2 in range(k + 1, nw):
-                    Rw[i, k, k2] = 0.0
-        for k in range(nw - 1, -1, -1):
-            e = qwy[i, k]
-            for k2 in range(k + 1, nw):
-                e -= Rw[i, k, k2] * h[i, k2]
-            h[i, k] = e / Rw[i, k, k]
-        full[i] = ok
-        r = r0_2
-        for k in range(nw):
-            r -= qwy[i, k] * qwy[i, k]
-        if want_residual or r < 1e-4 * r0_2:
-            ceff = np.zeros(q)  # Σ_k h_k·(c1_k + c2_k): the Q-part of the fitted w-columns
-            for k in range(nw):
-                for j in range(q):
-                    ceff[j] += h[i, k] * C[i, j, k]
-            r = 0.0
-            for l in range(L):
-                e = r0[l] - h[i, col[l]] * Z[i, l]
-                for j in range(q):
-                    e += Q[l, j] * ceff[j]
-                r += e * e
-                if want_residual:
-                    residual[i, l] = e
-        rss[i] = r
-    return C, Rw, qwy, h, rss, full

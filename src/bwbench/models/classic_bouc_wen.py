@@ -1,0 +1,130 @@
+"""The classic, symmetric Bouc-Wen model as a model plug-in: one parameter set for both directions.
+
+Bouc (1967), Wen (1976); the paper's eq 1 with ωn² in the z term (DESIGN.md §1), in mm, s, N:
+
+    F  = ẍ + 2·ξ·ωn·ẋ + α·ωn²·x + (1 − α)·ωn²·z
+    dz = (A − (β + γ·sign(z·dx))·|z|^n)·dx
+
+It is the switched model with equal '+' and '−' sets, and is simulated by the switched model's
+kernel (``bwbench.models.switched_bouc_wen``), so both share one tested integration path.
+
+Direct parameters (A, n, α, β, γ, ξ, ωn) searched in the paper's Table 5 ranges of the tension
+('+') set: a box for specimens like the paper's; for anything else use the identifiable
+formulation, whose box is scaled from the data. Identifiable: θ = (x_y, n, η) as in the switched
+model (x_y = z_s/A in mm, η = (β − γ)/(β + γ)) and F = m·ẍ + c·ẋ + k·x + h·w + f solved by least
+squares (w = z/z_s); m follows the inertia rule of the linear solve (fitted only when the data
+excite it, else the paper's 1 N·s²/mm).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bwbench.models import switched_bouc_wen as switched
+from bwbench.models.base import Box, LinearLayout, Model, Parameter, amplitude
+
+DIRECT = (
+    Parameter("A", "-", "A"), Parameter("n", "-", "n"), Parameter("alpha", "-", "α"),
+    Parameter("beta", "mm⁻ⁿ", "β"), Parameter("gamma", "mm⁻ⁿ", "γ"), Parameter("xi", "-", "ξ"),
+    Parameter("wn", "rad/s", "ωn"),
+)
+HYSTERETIC = (
+    Parameter("xy", "mm", "x_y", "yield displacement z_s/A"), Parameter("n", "-", "n", "smoothness of the yield"),
+    Parameter("eta", "-", "η", "unloading ratio (β − γ)/(β + γ)"),
+)
+LAYOUT = LinearLayout(
+    names=("m", "c", "k", "h", "f"),
+    units={"m": "N·s²/mm", "c": "N·s/mm", "k": "N/mm", "h": "N", "f": "N"},
+    fixed=(("c", "v"), ("k", "x"), ("f", "1")), varying="h", mass="m",
+)
+# Table 5's tension ranges (DESIGN.md §2), the paper's box for eq 1.
+TABLE5_PLUS = {"A": (0.001, 0.025), "n": (0.43, 10.75), "alpha": (0.07, 1.75), "beta": (0.1, 2.5),
+               "gamma": (0.3, 7.5), "xi": (20.0, 500.0), "wn": (0.3, 7.5)}
+# As the switched model's identifiable box (bwbench.models.switched_identifiable).
+XY_RANGE = (1e-4, 1e2)
+N_RANGE = (0.2, 10.75)
+ETA_RANGE = (-2.0, 1.0)
+
+
+class ClassicBoucWen(Model):
+    name = "bouc-wen"
+    title = "classic symmetric Bouc-Wen model"
+    reference = ("R. Bouc, Forced vibration of mechanical systems with hysteresis, Proc. 4th Conf. on "
+                 "Nonlinear Oscillation, Prague, 1967; Y.-K. Wen, Method for random vibration of hysteretic "
+                 "systems, J. Eng. Mech. Div. 102(2):249-263, 1976")
+    default_formulation = "identifiable"
+
+    def direct_parameters(self, state=None) -> tuple:
+        return DIRECT
+
+    def direct_box(self, signal, f, state=None) -> Box:
+        names = tuple(p.name for p in DIRECT)
+        return Box(names, [TABLE5_PLUS[n][0] for n in names], [TABLE5_PLUS[n][1] for n in names], [False] * 7)
+
+    def force_batch(self, P, signal, state=None) -> np.ndarray:
+        P = np.atleast_2d(np.asarray(P, dtype=float))
+        s = signal
+        return np.stack([switched.simulate(np.concatenate([p, p]), s.t, s.x, s.v, s.a) for p in P])
+
+    def mse_batch(self, P, signal, f, state=None) -> np.ndarray:
+        P = np.atleast_2d(np.asarray(P, dtype=float))
+        s = signal
+        return switched.mse_batch(np.concatenate([P, P], axis=1), s.t, s.x, s.v, s.a, f)
+
+    def hysteretic_parameters(self, state=None) -> tuple:
+        return HYSTERETIC
+
+    def hysteretic_box(self, signal, f, state=None) -> Box:
+        a = amplitude(signal.x)
+        return Box(("xy", "n", "eta"), [XY_RANGE[0] * a, N_RANGE[0], ETA_RANGE[0]],
+                   [XY_RANGE[1] * a, N_RANGE[1], ETA_RANGE[1]], [True, True, False])
+
+    def linear_layout(self, state=None) -> LinearLayout:
+        return LAYOUT
+
+    def trajectories(self, theta, signal, state=None) -> np.ndarray:
+        """w = z/z_s (–) at the samples for θ rows (m, 3) = (x_y, n, η); +inf rows on blow-up."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        xy, n, eta = theta.T
+        # w obeys the model's equation with A' = 1/x_y and β' + γ' = 1/x_y (z_s' = 1).
+        half = np.column_stack([1.0 / xy, n, (1 + eta) / (2 * xy), (1 - eta) / (2 * xy)])
+        s = signal
+        return switched.hysteretic_state_batch(np.concatenate([half, half], axis=1), s.t, s.x, s.v)
+
+    def to_direct(self, theta, coef: dict, state=None):
+        """(A, n, α, β, γ, ξ, ωn) of the same loops, in the gauge z_s = x_y (A = 1) or, where that makes
+        ωn² = k + h/z_s ≤ 0, one that does not; None when no gauge gives ωn² > 0. Eq 1 has unit mass
+        and no offset: m and f are left out (reported beside)."""
+        xy, n, eta = np.asarray(theta, dtype=float)
+        c, k, h = coef["c"], coef["k"], coef["h"]
+        if not np.all(np.isfinite([xy, n, eta, c, k, h])):
+            return None
+        z_s = xy
+        if not k + h / z_s > 0:
+            if h > 0 and k < 0:
+                z_s = 0.5 * h / -k
+            elif h < 0 and k > 0:
+                z_s = 2.0 * -h / k
+            else:
+                return None
+        A = z_s / xy
+        bg = A * z_s**-n
+        wn = np.sqrt(k + h / z_s)
+        return np.array([A, n, k / wn**2, bg * (1 + eta) / 2, bg * (1 - eta) / 2, c / (2 * wn), wn])
+
+    def from_direct(self, P, state=None):
+        A, n, alpha, beta, gamma, xi, wn = np.asarray(P, dtype=float)
+        z_s = (A / (beta + gamma)) ** (1.0 / n)
+        theta = np.array([z_s / A, n, (beta - gamma) / (beta + gamma)])
+        return theta, {"m": 1.0, "c": 2 * xi * wn, "k": alpha * wn**2, "h": (1 - alpha) * wn**2 * z_s, "f": 0.0}
+
+
+    def viscous_coefficients(self, values: dict, state=None) -> dict | None:
+        if "c" in values:
+            return {"": values["c"]}
+        if "xi" in values:
+            return {"": 2 * values["xi"] * values["wn"]}
+        return None
+
+
+MODEL = ClassicBoucWen()
