@@ -188,6 +188,20 @@ class Model:
         identifiable θ and its trajectory; {} when the model has no such notion."""
         return {}
 
+    def linear_limits(self, state=None) -> dict:
+        """{branch: {identifiable parameter name: value}}: for each branch (the keys of
+        ``linear_branches``), the values of its shape parameters that make it linear until it yields,
+        whatever its other parameters — what a posterior holds fixed when the data cannot tell the
+        branch's shape from that (a reduced model, ``bwbench.optimize.mcmc_reduce``); {} when the
+        model has no such notion."""
+        return {}
+
+    def symmetries(self, params, state=None) -> list:
+        """The exact symmetries of the direct formulation at ``params``: a list of (name, orbit), orbit(s)
+        giving the direct parameters moved by the scale s > 0 (s = 1: ``params``) with the force
+        unchanged; [] when the model has none (or none is known)."""
+        return []
+
 
 def amplitude(x) -> float:
     """Half the displacement range (mm): the scale of every displacement-like bound."""

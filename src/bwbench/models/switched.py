@@ -137,5 +137,23 @@ class SwitchedBoucWen(Model):
             out[b] = bool(np.max(np.abs(c) * np.abs(ws) ** n) < LINEAR_TOLERANCE)
         return out
 
+    def linear_limits(self, state=None) -> dict:
+        """Per branch η = 0 and n at the top of its box: unloading at the constant rate 1/x_y and loading
+        at (1 − |w|ⁿ)/x_y, constant to 5 % while |w| < 0.76 of saturation — a branch linear until it
+        yields, x_y setting where (beyond the stroke: never)."""
+        from bwbench.models import switched_identifiable as fm
+
+        return {b: {f"n{b}": fm.N_RANGE[1], f"eta{b}": 0.0} for b in "+-"}
+
+    def symmetries(self, params, state=None) -> list:
+        """z → s·z (``switched_identifiable.scale_paper``): one scale for both branches in the shared
+        state, one per branch in the split state."""
+        from bwbench.models.switched_identifiable import scale_paper
+
+        if self.check_state(state) == "shared":
+            return [("z → s·z in both branches", lambda s: scale_paper(params, s, s))]
+        return [("z₊ → s·z₊", lambda s: scale_paper(params, s, 1.0)),
+                ("z₋ → s·z₋", lambda s: scale_paper(params, 1.0, s))]
+
 
 MODEL = SwitchedBoucWen()

@@ -59,7 +59,6 @@ def section(report, formulation: str, paper_data: bool) -> list:
     from bwbench.problems.switched_vpp import figures
 
     doc, study, log = report.doc, report.study, report.log
-    label = switched_identifiability.label
     box = box_name(formulation, paper_data)
     profile_params, profile_grid = report.options.get("profile_params", 2), report.options.get("profile_grid", 7)
     coordinates = "the paper's 14 parameters" if formulation == "paper" else "the identifiable hysteretic parameters"
@@ -91,12 +90,13 @@ def section(report, formulation: str, paper_data: bool) -> list:
                 study.specimen_path(specimen), run[list(problem.param_names)].to_numpy(dtype=float),
                 study.settings.get("state", "shared"), study.settings.get("excitation", "measured"),
                 formulation=formulation, bounds=study.settings.get("bounds"), profile_widest=widest,
-                grid=profile_grid)
+                grid=profile_grid, model=study.settings.get("model"))
         except UserError as err:
             doc.p(f"{specimen}: identifiability analysis not possible: {err}")
             continue
         results.append(result)
         names = result["names"]
+        label = result["labels"].get  # the model's own labels (x_y₊, ωn₋, c₁, ...)
         doc.h(3, specimen)
         rel = result["relative_singular_values"]
         doc.p(f"Best fit: {run['optimizer']} ({run['kind']}, seed {int(run['replicate'])}), RMSE "
@@ -180,7 +180,7 @@ def profile_sentence(result: dict) -> str:
         converged = np.array([p.get("converged", False) for p in points])
         values = np.array([p["value"] for p in points])
         side = bounded(values, mse, threshold, converged)
-        label = switched_identifiability.label(name)
+        label = result.get("labels", {}).get(name) or switched_identifiability.label(name)
         if side == "neither":
             parts.append(f"{label}: below the 95 % threshold over its whole search range, so the data do not "
                          "identify it at all (the others compensate; an upper-bound profile shows this whether or "
