@@ -16,7 +16,7 @@ import pandas as pd
 from bwbench.data import manifest
 from bwbench.data.parameters import LABELS
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for, variant_of
+from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for, study_variants, variant_of
 from bwbench.report.format import number
 
 
@@ -63,8 +63,9 @@ def section(report, formulation: str, paper_data: bool) -> None:
     variant = variant_of(study, shown)
     paper = paper_data and formulation == "paper" and variant[1] == "switched-bouc-wen"
     doc.h(2, "Identified parameters per specimen" + (" (the paper's Tables 6–8)" if paper else ""))
-    coordinates = ("the paper's 14 parameters" if paper else
-                   f"the {formulation} coordinates of the {variant[1]} model")
+    several_models = len({m for _, m, _ in study_variants(study)}) > 1
+    coordinates = ("the paper's 14 parameters" if paper else f"the {formulation} coordinates"
+                   + (f" of the {variant[1]} model" if several_models else ""))
     doc.p(f"In {coordinates}, the coordinates the study searched. For each specimen: the best run that searched "
           f"them (loss = MSE, N²), the runs of {shown} across its seeds"
           + (", and the truth the synthetic specimen was generated from" if paper else "") + ".")
