@@ -38,7 +38,7 @@ def read_runs(db):
 def export_csv(db, path) -> None:
     """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
     each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
-    from bwbench.study.results import connect_read_only, read_runs as read_all
+    from bwbench.store.reader import connect_read_only, read_runs as read_all
 
     with closing(connect_read_only(Path(db))) as conn:
         read_all(conn).to_csv(path, index=False)
