@@ -1,5 +1,6 @@
 """Speed of Spencer's MR-damper model: bwbench's compiled kernel against scipy's LSODA on the same
-simulation (same parameters, same excitation: the cubic Hermite interpolant of the samples).
+simulation (same parameters, same excitation: ẋ the cubic Hermite interpolant of (ẋ, ẍ) at the samples,
+x the sample before plus its integral).
 
 One evaluation = one simulation of one parameter set over a record. Prints milliseconds per
 evaluation of each and their ratio, for three tests of the MR-damper generator's kind, and the
@@ -23,9 +24,14 @@ P = {"c0": 2.45, "c1": 28.595, "k0": 4.69, "k1": 0.5, "x0": 143.0, "alpha": 83.5
 CASES = [(10.0, 1.0, 1000.0), (25.0, 0.25, 200.0), (2.0, 5.0, 500.0)]  # amplitude mm, Hz, sampling Hz
 
 
-def lsoda(t, x, v):
-    spline = CubicHermiteSpline(t, x, v)
-    speed = spline.derivative()
+def lsoda(t, x, v, a):
+    speed = CubicHermiteSpline(t, v, a)
+    integral = speed.antiderivative()
+
+    def spline(tt):  # the position: the sample before tt plus the integral of the velocity since it
+        k = np.clip(np.searchsorted(t, tt, side="right") - 1, 0, len(t) - 1)
+        return x[k] + integral(tt) - integral(t[k])
+
     c0, c1, k0, k1, x0 = P["c0"], P["c1"], P["k0"], P["k1"], P["x0"]
     alpha, beta, gamma, A, n = P["alpha"], P["beta"], P["gamma"], P["A"], P["n"]
 
@@ -50,8 +56,8 @@ def main():
         # starts at rest: x = amplitude·(1 − cos), so both integrate from rest without a warm-up cycle
         t = np.arange(0.0, 3.0 / frequency, 1.0 / rate)
         w = 2 * np.pi * frequency
-        x, v = amplitude * (1 - np.cos(w * t)), amplitude * w * np.sin(w * t)
-        signal = SimpleNamespace(t=t, x=x, v=v, a=np.zeros_like(t))
+        x, v, a = amplitude * (1 - np.cos(w * t)), amplitude * w * np.sin(w * t), amplitude * w * w * np.cos(w * t)
+        signal = SimpleNamespace(t=t, x=x, v=v, a=a)
         MODEL.force_batch(p[None], signal)  # compile
         repeats = 20
         start = time.perf_counter()
@@ -59,7 +65,7 @@ def main():
             ours = MODEL.force_batch(p[None], signal)[0]
         ours_ms = (time.perf_counter() - start) / repeats * 1e3
         start = time.perf_counter()
-        ref = lsoda(t, x, v)
+        ref = lsoda(t, x, v, a)
         ref_ms = (time.perf_counter() - start) * 1e3
         name = f"{amplitude:g} mm, {frequency:g} Hz, {rate:g} Hz"
         print(f"{name:>24} {len(t):>8} {ours_ms:>11.2f} {ref_ms:>9.0f} {ref_ms / ours_ms:>7.0f}× "

@@ -6,8 +6,11 @@ In the symmetry-free coordinates of ``bwbench.models.spencer`` (mm, s, N), per u
     ẇ = ((ẋ − ẏ)/x_y)·(1 − c·|w|^n),   c = 1 if w·(ẋ − ẏ) > 0 (loading), η otherwise
 
 and the force is F = c₁·ẏ + k₁·x + f₀. y (mm) is the internal displacement, w = z/z_s the
-evolutionary variable in units of its saturation value. The excitation between two samples is the
-cubic Hermite interpolant of (x, ẋ) at the samples, so ẋ is continuous and x exact at every sample.
+evolutionary variable in units of its saturation value. The excitation between two samples: ẋ is
+the cubic Hermite interpolant of (ẋ, ẍ) at the samples, x the sample's x plus its integral. The
+velocity, recorded or estimated, drives the model: a derivative of the noisy displacement between
+samples would not (with 1 µm of encoder noise at 500 Hz it wiggles by ~1 mm/s inside each interval,
+and an MR damper's pre-yield damping of ~20 N·s/mm turns that into ~20 N of force).
 
 Integration: Dormand–Prince 5(4) with step-size control (tolerance 1e-9 per step on w and on y
 relative to the record's amplitude), the step carried from one sample interval to the next. The
@@ -32,12 +35,15 @@ _XY, _N, _ETA, _VY, _R0, _K0 = range(6)
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _hermite(tau, h, x0, x1, v0, v1):
-    """x and ẋ of the cubic Hermite interpolant at fraction tau of an interval of length h (s)."""
+def _excitation(tau, h, x0, v0, v1, a0, a1):
+    """x (mm) and ẋ (mm/s) at fraction tau of an interval of length h (s): ẋ is the cubic Hermite
+    interpolant of (ẋ, ẍ) at its ends, x the sample x0 plus its integral."""
     t2 = tau * tau
     t3 = t2 * tau
-    x = (2 * t3 - 3 * t2 + 1) * x0 + (t3 - 2 * t2 + tau) * h * v0 + (-2 * t3 + 3 * t2) * x1 + (t3 - t2) * h * v1
-    xd = ((6 * t2 - 6 * tau) * (x0 - x1)) / h + (3 * t2 - 4 * tau + 1) * v0 + (3 * t2 - 2 * tau) * v1
+    t4 = t3 * tau
+    xd = (2 * t3 - 3 * t2 + 1) * v0 + (t3 - 2 * t2 + tau) * h * a0 + (-2 * t3 + 3 * t2) * v1 + (t3 - t2) * h * a1
+    x = x0 + h * ((tau - t3 + 0.5 * t4) * v0 + (0.5 * t2 - 2 * t3 / 3 + 0.25 * t4) * h * a0
+                  + (t3 - 0.5 * t4) * v1 + (0.25 * t4 - t3 / 3) * h * a1)
     return x, xd
 
 
@@ -104,7 +110,7 @@ _MAX_STEPS = 4096  # per sample interval; beyond it the interval is finished by 
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _interval(y, w, t0, t1, x0, x1, v0, v1, p, h, y_scale):
+def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale):
     """Advance (y, w) over [t0, t1] with Dormand–Prince 5(4) and step-size control; ``h`` is the
     step (s) to try first (the last accepted one of the previous interval). Returns (y, w, h).
 
@@ -115,7 +121,7 @@ def _interval(y, w, t0, t1, x0, x1, v0, v1, p, h, y_scale):
     s = 0.0
     ky = np.empty(7)
     kw = np.empty(7)
-    x, xd = _hermite(0.0, span, x0, x1, v0, v1)
+    x, xd = _excitation(0.0, span, x0, v0, v1, a0, a1)
     ky[0], kw[0] = _rates(y, w, x, xd, p)
     steps = 0
     while s < span:
@@ -123,7 +129,7 @@ def _interval(y, w, t0, t1, x0, x1, v0, v1, p, h, y_scale):
             # Too stiff even for this: the rest of the interval by the L-stable implicit step.
             rest = span - s
             for i in range(_IMPLICIT_SUBSTEPS):
-                x, xd = _hermite((s + rest * (i + 1.0) / _IMPLICIT_SUBSTEPS) / span, span, x0, x1, v0, v1)
+                x, xd = _excitation((s + rest * (i + 1.0) / _IMPLICIT_SUBSTEPS) / span, span, x0, v0, v1, a0, a1)
                 y, w = _backward_euler(y, w, x, xd, rest / _IMPLICIT_SUBSTEPS, p)
                 if not np.isfinite(w):
                     break
@@ -136,7 +142,7 @@ def _interval(y, w, t0, t1, x0, x1, v0, v1, p, h, y_scale):
             for m in range(j):
                 dy += _A[j, m] * ky[m]
                 dw += _A[j, m] * kw[m]
-            x, xd = _hermite((s + _C[j] * h) / span, span, x0, x1, v0, v1)
+            x, xd = _excitation((s + _C[j] * h) / span, span, x0, v0, v1, a0, a1)
             ky[j], kw[j] = _rates(y + h * dy, w + h * dw, x, xd, p)
         y_new = y + h * (_A[6, 0] * ky[0] + _A[6, 2] * ky[2] + _A[6, 3] * ky[3] + _A[6, 4] * ky[4] + _A[6, 5] * ky[5])
         w_new = w + h * (_A[6, 0] * kw[0] + _A[6, 2] * kw[2] + _A[6, 3] * kw[3] + _A[6, 4] * kw[4] + _A[6, 5] * kw[5])
@@ -178,7 +184,7 @@ def preroll_end(x, v) -> int:
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run(p, t, x, v, y, w, stop, out):
+def _run(p, t, x, v, a, y, w, stop, out):
     """Integrate from (y, w) at sample 0 to sample ``stop``, writing ẏ into ``out`` when it is not
     empty; returns the final (y, w) (NaN on blow-up)."""
     if out.shape[0]:
@@ -186,7 +192,7 @@ def _run(p, t, x, v, y, w, stop, out):
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
-        y, w, h = _interval(y, w, t[k], t[k + 1], x[k], x[k + 1], v[k], v[k + 1], p, h, y_scale)
+        y, w, h = _interval(y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale)
         if not (np.isfinite(y) and np.isfinite(w)):
             return np.nan, np.nan
         if out.shape[0]:
@@ -195,7 +201,7 @@ def _run(p, t, x, v, y, w, stop, out):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_into(p, t, x, v, preroll, out):
+def _ydot_into(p, t, x, v, a, preroll, out):
     """ẏ (mm/s) at every sample into ``out``; False when the state is not finite.
 
     Initial state: a record that starts at rest starts from rest (y = x, w = 0). A record that starts
@@ -207,20 +213,20 @@ def _ydot_into(p, t, x, v, preroll, out):
     """
     y, w = x[0], 0.0
     if preroll > 0:
-        y, w = _run(p, t, x, v, y, w, preroll, out[:0])
+        y, w = _run(p, t, x, v, a, y, w, preroll, out[:0])
         y += x[0] - x[preroll]
     if not np.isfinite(w):
         return False
-    y, w = _run(p, t, x, v, y, w, x.shape[0] - 1, out)
+    y, w = _run(p, t, x, v, a, y, w, x.shape[0] - 1, out)
     return bool(np.isfinite(w))
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def ydot_batch(TH, t, x, v):
+def ydot_batch(TH, t, x, v, a):
     """ẏ (mm/s) of each parameter row of TH (m, 6) at the samples: (m, L); +inf rows on blow-up."""
     out = np.empty((TH.shape[0], x.shape[0]))
     preroll = preroll_end(x, v)
     for i in numba.prange(TH.shape[0]):
-        if not _ydot_into(TH[i], t, x, v, preroll, out[i]):
+        if not _ydot_into(TH[i], t, x, v, a, preroll, out[i]):
             out[i, :] = np.inf
     return out
