@@ -38,7 +38,7 @@ def read_runs(db):
 def export_csv(db, path) -> None:
     """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
     each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
-    from bwbench.study.results import connect_read_only, read_runs as read_all
+    from bwbench.store.reader import connect_read_only, read_runs as read_all
 
     with closing(connect_read_only(Path(db))) as conn:
         read_all(conn).to_csv(path, index=False)
@@ -236,18 +236,9 @@ def study_config(args):
         raise UserError("--specimens needs --optimizers NAME,NAME (see `bwbench optimizers`)")
     if getattr(args, "data", None) is not None:
         raise UserError("--data goes with --config; with --specimens the files are given")
-    bounds = None
-    if args.bounds is not None:
-        from bwbench.data import bounds as bounds_mod
-        from bwbench.models.registry import DEFAULT
-        from bwbench.problems.switched_vpp.formulations import bound_names
-
-        formulations = args.formulation.split(",") if args.formulation else None
-        models = (args.model or DEFAULT).split(",")
-        bounds = bounds_mod.read_json(args.bounds, bound_names(formulations, args.state or "shared", models))
     return config_from_arguments(args.specimens, args.optimizers, _given(args.seeds, 5), _given(args.budget, 4100),
                                  name=_given(args.name, "study"), seed=_given(args.seed, 0), state=args.state,
-                                 excitation=_given(args.excitation, "measured"), bounds=bounds,
+                                 excitation=_given(args.excitation, "measured"), bounds_file=args.bounds,
                                  formulation=args.formulation, model=args.model)
 
 

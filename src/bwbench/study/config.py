@@ -297,11 +297,12 @@ def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
 
 
 def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *, name: str = "study", seed: int = 0,
-                          state: str | None = None, excitation: str = "measured", bounds=None,
+                          state: str | None = None, excitation: str = "measured", bounds_file=None,
                           formulation: str | None = None, model: str | None = None) -> StudyConfig:
     """A study over the files ``specimens`` (paths or globs, relative to the current folder) with no
     TOML and no manifest: ``bwbench compare --specimens ...``. ``model`` and ``formulation``: a name
-    or comma-separated names (None: the switched model, and each model's own formulation)."""
+    or comma-separated names (None: the switched model, and each model's own formulation);
+    ``bounds_file``: a JSON search box, read by the problem type (it knows the parameter names)."""
     def fail(message):
         raise UserError(message)
 
@@ -320,7 +321,7 @@ def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *
     resolved = {backend: _resolve_options(fail, f"--optimizers {backend}", backend, {}) for backend in names}
     root = Path.cwd()
     setup = problems.get(problems.DEFAULT).setup_from_files(fail, list(specimens), root, state=state,
-                                                             excitation=excitation, bounds=bounds,
+                                                             excitation=excitation, bounds_file=bounds_file,
                                                              formulation=formulation, model=model)
     return check_plan_size(fail, StudyConfig(path="--specimens", root=root, name=name, seed=seed, budget=budget,
                                              seeds=seeds, problem=problems.DEFAULT, setup=setup,

@@ -91,7 +91,7 @@ class SwitchedVPP(ProblemType):
                 fail(err.problem if err.problem.startswith("[") else f"[bounds] {err.problem}")
         return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass, model_names)
 
-    def setup_from_files(self, fail, files, base_dir, state=None, excitation="measured", bounds=None,
+    def setup_from_files(self, fail, files, base_dir, state=None, excitation="measured", bounds_file=None,
                          formulation=None, model=None):
         model_names = parse_models(fail, model.split(",") if isinstance(model, str) else model or model_registry.DEFAULT)
         if state is not None and not any(model_registry.get(m).states for m in model_names):
@@ -101,6 +101,11 @@ class SwitchedVPP(ProblemType):
         formulations = (_formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
                         if formulation else None)
         check_pairs(fail, model_names, formulations)
+        bounds = None
+        if bounds_file is not None:
+            from bwbench.data import bounds as bounds_mod
+
+            bounds = bounds_mod.read_json(bounds_file, bound_names(formulations, state, model_names))
         return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"),
                           bounds=bounds, formulations=formulations, models=model_names)
 
