@@ -28,6 +28,7 @@ BUILTIN = {
 _REGISTERED: dict[str, Model] = {}
 _LOCK = threading.RLock()  # a Dask worker runs tasks in threads
 _plugins_loaded = False
+_FROM_ENTRY_POINTS: set[str] = set()  # names of the models the installed plug-ins gave
 
 
 def register(model: Model) -> Model:
@@ -51,7 +52,7 @@ def _load_plugins() -> None:
         if _plugins_loaded:
             return
         for ep in entry_points(group=ENTRY_POINT_GROUP):
-            register(_as_model(ep.load()))
+            _FROM_ENTRY_POINTS.add(register(_as_model(ep.load())).name)
         _plugins_loaded = True
 
 
@@ -67,6 +68,14 @@ def get(name: str) -> Model:
         if name in _REGISTERED:
             return _REGISTERED[name]
     raise UserError(f"unknown model {name!r}; known: {', '.join(names())}")
+
+
+def only_in_this_process(name: str) -> bool:
+    """True for a model ``register``-ed in this process that is neither built in nor an installed
+    plug-in: a fresh process (a spawned worker, a Dask worker) would not find it."""
+    _load_plugins()
+    with _LOCK:
+        return name in _REGISTERED and name not in BUILTIN and name not in _FROM_ENTRY_POINTS
 
 
 def names() -> list[str]:
