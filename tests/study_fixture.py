@@ -41,8 +41,7 @@ CREATE TABLE runs (
     {_KEY}, seed_entropy TEXT, status TEXT, error TEXT, budget INTEGER, nfev INTEGER,
     mse REAL, f_err REAL, rmse_N REAL, success INTEGER, message TEXT, state TEXT, excitation TEXT,
     material TEXT, underpressure_MPa REAL, repeat INTEGER, options_json TEXT,
-    {", ".join(f'"{name}" REAL' for name in PARAM_NAMES)},
-    problem TEXT, params_json TEXT, metrics_json TEXT, {_PK});
+    problem TEXT, params_json TEXT, metrics_json TEXT, model TEXT, formulation TEXT, variant TEXT, {_PK});
 CREATE TABLE timings ({_KEY}, wall_s REAL, worker TEXT, finished_utc TEXT, {_PK});
 CREATE TABLE traces ({_KEY}, nfev INTEGER, mse REAL);
 CREATE TABLE chains ({_KEY}, steps INTEGER, walkers INTEGER, dim INTEGER, chain BLOB, log_prob BLOB,
@@ -51,7 +50,8 @@ CREATE TABLE chains ({_KEY}, steps INTEGER, walkers INTEGER, dim INTEGER, chain 
 RUN_COLUMNS = (
     "kind", "specimen", "optimizer", "replicate", "seed_entropy", "status", "error", "budget",
     "nfev", "mse", "f_err", "rmse_N", "success", "message", "state", "excitation", "material",
-    "underpressure_MPa", "repeat", "options_json", *PARAM_NAMES, "problem", "params_json", "metrics_json",
+    "underpressure_MPa", "repeat", "options_json", "problem", "params_json", "metrics_json", "model",
+    "formulation", "variant",
 )
 
 
@@ -125,10 +125,11 @@ def make_study_db(
                    seed_entropy=str(seed), status=status, budget=budget if kind == "ranking" else nfev,
                    state="shared", excitation="measured", material=entry["material"],
                    underpressure_MPa=entry["underpressure_MPa"], repeat=entry["repeat"],
-                   options_json=json.dumps(options, sort_keys=True), success=0, problem="switched-bouc-wen")
+                   options_json=json.dumps(options, sort_keys=True), success=0, problem="switched-bouc-wen",
+                   model="switched-bouc-wen", formulation="paper")
         if status == "ok":
             row.update(nfev=nfev, mse=mse, f_err=-mse, rmse_N=float(np.sqrt(mse)), success=1,
-                       message="budget exhausted", **dict(zip(PARAM_NAMES, map(float, params))),
+                       message="budget exhausted",
                        params_json=json.dumps(dict(zip(PARAM_NAMES, map(float, params))), sort_keys=True),
                        metrics_json="{}")
         else:

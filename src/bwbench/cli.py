@@ -24,6 +24,7 @@ COMMANDS = {
     "evaluate": ("bwbench.problems.switched_vpp.commands", "add_evaluate_arguments",
                  "MSE, F_err and RMSE of a parameter set on a specimen"),
     "optimizers": ("bwbench.optimize.commands", "add_list_arguments", "list the registered optimiser backends"),
+    "models": ("bwbench.models.commands", "add_arguments", "list the registered hysteresis models"),
     "fit": ("bwbench.optimize.commands", "add_fit_arguments", "fit one specimen with one optimiser"),
     "compare": ("bwbench.study.commands", "add_arguments", "run or resume a study: specimens × backends × seeds"),
     "report": ("bwbench.report.build", "add_arguments", "figures, statistics and recommendation of a study"),

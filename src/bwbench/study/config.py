@@ -299,10 +299,11 @@ def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
 
 
 def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *, name: str = "study", seed: int = 0,
-                          state: str = "shared", excitation: str = "measured", bounds=None,
-                          formulation: str = "paper") -> StudyConfig:
-    """A study of the switched model over the files ``specimens`` (paths or globs, relative to the
-    current folder) with no TOML and no manifest: ``bwbench compare --specimens ...``."""
+                          state: str | None = None, excitation: str = "measured", bounds=None,
+                          formulation: str | None = None, model: str | None = None) -> StudyConfig:
+    """A study over the files ``specimens`` (paths or globs, relative to the current folder) with no
+    TOML and no manifest: ``bwbench compare --specimens ...``. ``model`` and ``formulation``: a name
+    or comma-separated names (None: the switched model, and each model's own formulation)."""
     def fail(message):
         raise UserError(message)
 
@@ -322,7 +323,7 @@ def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *
     root = Path.cwd()
     setup = problems.get(problems.DEFAULT).setup_from_files(fail, list(specimens), root, state=state,
                                                              excitation=excitation, bounds=bounds,
-                                                             formulation=formulation)
+                                                             formulation=formulation, model=model)
     return check_plan_size(fail, StudyConfig(path="--specimens", root=root, name=name, seed=seed, budget=budget,
                                              seeds=seeds, problem=problems.DEFAULT, setup=setup,
                                              optimizers=resolved, posterior=None))

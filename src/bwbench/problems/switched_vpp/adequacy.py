@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for, reversals
+from bwbench.problems.switched_vpp.figure_common import problem_for, reversals
 from bwbench.report.floors import FACTOR, stated_noise_variance
 from bwbench.report.format import join, number
 
@@ -68,7 +68,7 @@ def table(study, specimens) -> pd.DataFrame:
         if runs.empty:
             continue
         run = runs.loc[runs["mse"].idxmin()]
-        problem = problem_for(study, specimen, formulation_of(study, run["optimizer"]), cache)
+        problem = problem_for(study, specimen, run["optimizer"], cache)
         fitted = problem.simulate(run[list(problem.param_names)].to_numpy(dtype=float))
         if not np.all(np.isfinite(fitted)):
             continue

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import math
 
+import numpy as np
+
 from bwbench.data import strict_json
 
 MAX_GRID = 1000  # profile points per parameter: each is a local fit of ~15 iterations
@@ -13,24 +15,41 @@ WALK_BLOWS_UP = "the walk along this direction reached parameters where the mode
 
 
 def add_model_options(p) -> None:
-    p.add_argument("--state", choices=["shared", "split"], default="shared",
-                   help="hysteretic state convention (default: shared)")
+    p.add_argument("--model", help="the model (default switched-bouc-wen; see `bwbench models`)")
+    p.add_argument("--state", choices=["shared", "split"],
+                   help="hysteretic state convention of the switched model (default: shared)")
     p.add_argument("--excitation", choices=["measured", "sine"], default="measured",
                    help="measured: the specimen's own displacement (default); sine: the paper's fit")
-    p.add_argument("--formulation", choices=["paper", "identifiable"], default="paper",
-                   help="paper: the 14 parameters in Table 5 (default); identifiable: symmetry-free hysteretic "
-                        "parameters in a box scaled from the data, linear coefficients solved")
+    p.add_argument("--formulation", choices=["paper", "direct", "identifiable"],
+                   help="paper/direct: the model's own parameters in its box; identifiable: symmetry-free "
+                        "parameters in a box scaled from the data, linear coefficients solved (default: the "
+                        "model's own: paper for the switched model, identifiable for the others)")
+
+
+def model_settings(args) -> dict:
+    """Model, formulation, state and excitation of a command's arguments, checked (``UserError``)."""
+    from bwbench.errors import UserError
+    from bwbench.models import registry
+    from bwbench.problems.switched_vpp.formulations import resolve_formulation
+
+    model = registry.get(args.model or registry.DEFAULT)
+    if args.state is not None and not model.states:
+        raise UserError(f"--state does not apply to model {model.name!r} (no state convention to choose)")
+    return {"model": model.name, "formulation": resolve_formulation(model, args.formulation),
+            "state": args.state or "shared", "excitation": args.excitation}
 
 
 def problem_from_args(args):
-    """The problem of ``args.specimen`` with the command's state, excitation and ``--bounds``."""
+    """The problem of ``args.specimen`` with the command's model, formulation, state, excitation and
+    ``--bounds``."""
     from bwbench.data import bounds as bounds_mod
     from bwbench.data.specimen import read_specimen
     from bwbench.problems.switched_vpp.formulations import bound_names, make_problem
 
-    settings = {"state": args.state, "excitation": args.excitation, "formulation": args.formulation}
+    settings = model_settings(args)
     if getattr(args, "bounds", None):
-        settings["bounds"] = bounds_mod.read_json(args.bounds, bound_names([args.formulation], args.state))
+        names = bound_names([settings["formulation"]], settings["state"], [settings["model"]])
+        settings["bounds"] = bounds_mod.read_json(args.bounds, names)
     problem = make_problem(read_specimen(args.specimen), settings)
     if "bounds" in settings:
         bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
@@ -38,19 +57,25 @@ def problem_from_args(args):
 
 
 def read_for(path, problem):
-    """The parameters of ``path`` in ``problem``'s coordinates: its own names, or the paper's 14
-    mapped into the identifiable formulation when that is the problem's."""
+    """The parameters of ``path`` in ``problem``'s coordinates: its own names, or the model's direct
+    parameters mapped into the identifiable formulation when that is the problem's."""
     from bwbench.data.parameters import read_json
-    from bwbench.errors import InputFileError
+    from bwbench.errors import InputFileError, UserError
 
     try:
         return read_json(path, problem.param_names)
-    except InputFileError:
+    except InputFileError as err:
         if getattr(problem, "formulation", "paper") != "identifiable":
             raise
-    from bwbench.models.switched_identifiable import from_paper
-
-    return from_paper(read_json(path), problem.state)[0]
+        direct_names = [p.name for p in problem.model.direct_parameters(problem.state)]
+        try:
+            direct = read_json(path, direct_names)
+        except InputFileError:
+            raise err from None
+    try:
+        return np.asarray(problem.model.from_direct(direct, problem.state)[0], dtype=float)
+    except ValueError as why:
+        raise UserError(f"{path}: {why}") from None
 
 
 def fit_metrics(mse: float, n: int) -> dict:
@@ -116,12 +141,7 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
 def add_identifiability_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("specimen", help="specimen CSV")
     parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
-    parser.add_argument("--state", choices=["shared", "split"], default="shared",
-                        help="hysteretic state convention (default: shared)")
-    parser.add_argument("--excitation", choices=["measured", "sine"], default="measured",
-                        help="measured (default) or sine")
-    parser.add_argument("--formulation", choices=["paper", "identifiable"], default="paper",
-                        help="the coordinates to analyse in (default: paper)")
+    add_model_options(parser)
     parser.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
     parser.add_argument("--profile", action="append", default=[], metavar="NAME",
                         help="also profile this parameter (repeatable; e.g. wn-)")
@@ -147,7 +167,9 @@ def identifiability(args) -> int:
         raise UserError(f"{args.specimen}: {flat[0]}; nothing to identify")
     params = read_for(args.params, problem)
     box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
-    result = analyse(args.specimen, params, args.state, args.excitation, formulation=args.formulation, bounds=box,
+    settings = model_settings(args)
+    result = analyse(args.specimen, params, settings["state"], settings["excitation"],
+                     formulation=settings["formulation"], model=settings["model"], bounds=box,
                      profile_names=args.profile, grid=args.grid)
     if args.json:  # strict JSON, whole or nothing: a value that is not finite is null
         sys.stdout.write(strict_json.dumps(result, why={"null_directions": WALK_BLOWS_UP}, indent=2) + "\n")

@@ -17,7 +17,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from bwbench.problems.switched_vpp.figure_common import (
-    formulation_of, problem_for, reversals, synthetic, travel_arrows, truth,
+    problem_for, reversals, synthetic, travel_arrows, truth,
 )
 from bwbench.report.palette import (
     MAX_WIDTH_IN, OKABE_ITO, Style, backend_handles, figure, legend, save, slug, split_label, styles, theme,
@@ -137,7 +137,7 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     spec = None
     for optimizer in shown:
         run = runs[runs["optimizer"] == optimizer].sort_values("mse").iloc[0]
-        problem = problem_for(study, specimen, formulation_of(study, optimizer), cache)
+        problem = problem_for(study, specimen, optimizer, cache)
         spec = problem.specimen
         force = problem.simulate(run[list(problem.param_names)].to_numpy(dtype=float))
         fits[optimizer] = (run, force, problem)

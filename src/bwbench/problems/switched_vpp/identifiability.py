@@ -21,7 +21,8 @@ def _finite(x):
 
 
 def analyse(specimen_path, params, state: str = "shared", excitation: str = "measured", *,
-            formulation: str = "paper", bounds: dict | None = None, profile_names=(), profile_widest: int = 0,
+            formulation: str = "paper", model: str | None = None, bounds: dict | None = None, profile_names=(),
+            profile_widest: int = 0,
             grid: int = 9, maxiter: int = PROFILE_MAXITER, step: float = STEP, weakest: int = 3) -> dict:
     """Identifiability of the parameters ``params`` (physical units, the formulation's coordinates)
     on one specimen.
@@ -41,8 +42,11 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
     from bwbench.problems.switched_vpp.formulations import make_problem
 
     settings = {"state": state, "excitation": excitation, "formulation": formulation, "bounds": bounds or {}}
+    if model is not None:
+        settings["model"] = model
     problem = make_problem(read_specimen(specimen_path), settings)
-    names, labels = list(problem.param_names), [label(n) for n in problem.param_names]
+    names = list(problem.param_names)
+    labels = [p.label or p.name for p in problem.parameter_list]
     params = np.asarray(params, dtype=float)
     u = problem.to_unit(params)
     outside = [n for n, x in zip(names, u) if not -1e-9 <= x <= 1 + 1e-9]
@@ -66,7 +70,8 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
     mse = sens.residual_norm2 / sens.n_data
     params = problem.from_unit(u)
     out = {
-        "specimen": problem.specimen.name, "state": state, "excitation": excitation, "formulation": formulation,
+        "specimen": problem.specimen.name, "model": problem.model.name, "state": problem.state,
+        "excitation": excitation, "formulation": problem.formulation,
         "n_data": sens.n_data, "mse": mse, "rmse_N": math.sqrt(mse), "params": dict(zip(names, map(float, params))),
         "step_unit": step, "names": names,
         "singular_values": [float(s) for s in sens.singular_values],
@@ -124,7 +129,7 @@ def classify_null_space(problem, params, sens, residual, step) -> dict:
     null = sens.directions[zero]  # orthonormal rows
     scale = float(np.linalg.norm(problem.specimen.f))
     symmetries, tangents = [], []
-    if getattr(problem, "formulation", "paper") == "paper":
+    if getattr(problem, "formulation", "paper") == "paper" and problem.model.name == "switched-bouc-wen":
         orbits = {"shared": [("z → s·z in both branches", lambda s: scale_paper(params, s, s))],
                   "split": [("z₊ → s·z₊", lambda s: scale_paper(params, s, 1.0)),
                             ("z₋ → s·z₋", lambda s: scale_paper(params, 1.0, s))]}[problem.state]
@@ -155,9 +160,12 @@ def classify_null_space(problem, params, sens, residual, step) -> dict:
 def format_text(result: dict) -> str:
     """The plain-text report of ``analyse`` (what ``bwbench identifiability`` prints)."""
     names = result["names"]
-    box = "Table 5" if result["formulation"] == "paper" else "the box scaled from the data"
+    paper = result["formulation"] == "paper" and result.get("model", "switched-bouc-wen") == "switched-bouc-wen"
+    box = "Table 5" if paper else "the search box"
+    state = f", {result['state']} state" if result.get("state") else ""
     lines = [
-        f"identifiability of {result['specimen']} ({result['formulation']} formulation, {result['state']} state, "
+        f"identifiability of {result['specimen']} ({result.get('model', 'switched-bouc-wen')}, "
+        f"{result['formulation']} formulation{state}, "
         f"{result['excitation']} excitation): MSE {result['mse']:.4g} N² (RMSE {result['rmse_N']:.3g} N) on "
         f"{result['n_data']} samples",
         f"Jacobian of the force residual (N) with respect to the unit-scaled parameters "

@@ -1,9 +1,13 @@
-"""The switched Bouc-Wen specimen fit as a study problem (``problem = "switched-bouc-wen"``, the default).
+"""A hysteresis model fitted to force-displacement specimens, as a study problem
+(``problem = "switched-bouc-wen"``, the default: the name is the paper's model, but any model of
+``bwbench models`` can be fitted and several compared).
 
 Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` tables::
 
     [study]
-    state = "shared"          # or "split"
+    model = "switched-bouc-wen"   # or "spencer", "bouc-wen", a plug-in, or a list compared side by side
+    formulation = "paper"     # "paper"/"direct", "identifiable", or a list; default: each model's own
+    state = "shared"          # or "split" (the switched model's state convention)
     excitation = "measured"   # or "sine"
     data = "../data/specimens"   # only with manifest filters: a folder with manifest.json
 
@@ -31,13 +35,12 @@ import glob
 import math
 from pathlib import Path
 
-import numpy as np
-
 from bwbench.data import manifest as manifest_mod
-from bwbench.models import switched_bouc_wen as model
+from bwbench.models import registry as model_registry
+from bwbench.models.switched_bouc_wen import STATES
 from bwbench.models.excitation import EXCITATIONS
 from bwbench.problems.base import ProblemSetup, ProblemType, SpecimenEntry, choice
-from bwbench.problems.switched_vpp.formulations import bound_names, make_problem
+from bwbench.problems.switched_vpp.formulations import bound_names, check_pairs, make_problem, parse_models
 from bwbench.problems.switched_vpp.formulations import parse as _formulations
 
 FILTER_KEYS = ("material", "table", "underpressure_MPa", "repeat")
@@ -45,17 +48,22 @@ FILTER_KEYS = ("material", "table", "underpressure_MPa", "repeat")
 
 class SwitchedVPP(ProblemType):
     name = "switched-bouc-wen"
-    description = "the paper's switched Bouc-Wen model fitted to force-displacement specimens (loss: MSE in N²)"
+    description = ("a hysteresis model (default: the paper's switched Bouc-Wen) fitted to force-displacement "
+                   "specimens (loss: MSE in N²)")
     loss_unit = "N²"
     residual_unit = "N"
-    study_keys = ("state", "excitation", "data", "formulation", "fix_mass")
+    study_keys = ("model", "state", "excitation", "data", "formulation", "fix_mass")
     tables = ("specimens", "bounds")
 
     # ------------------------------------------------------------------------ configuration
     def configure(self, fail, study, document, base_dir, data_override=None) -> ProblemSetup:
-        state = choice(fail, "[study] state", study.get("state", "shared"), model.STATES)
+        model_names = parse_models(fail, study.get("model", model_registry.DEFAULT))
+        state = choice(fail, "[study] state", study.get("state", "shared"), STATES)
+        if "state" in study and not any(model_registry.get(m).states for m in model_names):
+            fail(f"[study] state does not apply to {', '.join(model_names)} (no state convention to choose)")
         excitation = choice(fail, "[study] excitation", study.get("excitation", "measured"), EXCITATIONS)
-        formulations = _formulations(fail, study.get("formulation", "paper"))
+        formulations = _formulations(fail, study["formulation"]) if "formulation" in study else None
+        check_pairs(fail, model_names, formulations)
         fix_mass = study.get("fix_mass", "auto")
         if not (fix_mass == "auto" or (isinstance(fix_mass, (int, float)) and not isinstance(fix_mass, bool)
                                        and fix_mass >= 0)):
@@ -78,30 +86,42 @@ class SwitchedVPP(ProblemType):
             from bwbench.errors import InputFileError
 
             try:
-                bounds = validate(document["bounds"], bound_names(formulations, state), "[bounds]")
+                bounds = validate(document["bounds"], bound_names(formulations, state, model_names), "[bounds]")
             except InputFileError as err:
                 fail(err.problem if err.problem.startswith("[") else f"[bounds] {err.problem}")
-        return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass)
+        return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass, model_names)
 
-    def setup_from_files(self, fail, files, base_dir, state="shared", excitation="measured", bounds=None,
-                         formulation="paper"):
-        choice(fail, "--state", state, model.STATES)
+    def setup_from_files(self, fail, files, base_dir, state=None, excitation="measured", bounds=None,
+                         formulation=None, model=None):
+        model_names = parse_models(fail, model.split(",") if isinstance(model, str) else model or model_registry.DEFAULT)
+        if state is not None and not any(model_registry.get(m).states for m in model_names):
+            fail(f"--state does not apply to {', '.join(model_names)} (no state convention to choose)")
+        state = choice(fail, "--state", state or "shared", STATES)
         choice(fail, "--excitation", excitation, EXCITATIONS)
-        formulations = _formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
+        formulations = (_formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
+                        if formulation else None)
+        check_pairs(fail, model_names, formulations)
         return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"),
-                          bounds=bounds, formulations=formulations)
+                          bounds=bounds, formulations=formulations, models=model_names)
 
-    def setup(self, state, excitation, entries, available=None, bounds=None, formulations=("paper",),
-              fix_mass="auto") -> ProblemSetup:
+    def setup(self, state, excitation, entries, available=None, bounds=None, formulations=None,
+              fix_mass="auto", models=(model_registry.DEFAULT,)) -> ProblemSetup:
         """The ``ProblemSetup`` of these specimens (``SpecimenEntry`` with ``meta["sha256"]``); several
-        formulations are variants compared side by side."""
+        models or formulations are variants compared side by side."""
+        from bwbench.problems.switched_vpp.formulations import variants as variant_list
+
         bounds = {k: list(v) for k, v in (bounds or {}).items()}
         settings = {"state": state, "excitation": excitation, **({"bounds": bounds} if bounds else {})}
         identity = dict(settings)
-        if list(formulations) != ["paper"]:  # absent for the paper's: studies stored before stay the same
-            identity["formulation"] = formulations[0] if len(formulations) == 1 else list(formulations)
+        pairs = variant_list(models, formulations)
+        if list(models) != [model_registry.DEFAULT]:  # absent for the paper's model: stored studies stay the same
+            identity["model"] = models[0] if len(models) == 1 else list(models)
+        resolved = list(dict.fromkeys(f for _, _, f in pairs))
+        if resolved != ["paper"]:  # absent for the paper's formulation: studies stored before stay the same
+            identity["formulation"] = resolved[0] if len(resolved) == 1 else resolved
             identity["fix_mass"] = fix_mass
-        variants = [(f, {**settings, "formulation": f, "fix_mass": fix_mass}) for f in formulations]
+        variants = [(label, {**settings, "model": m, "formulation": f, "fix_mass": fix_mass, "variant": label})
+                    for label, m, f in pairs]
         return ProblemSetup(
             settings=variants[0][1], study_json=identity,
             specimens_json={e.name: e.meta["sha256"] for e in entries},
@@ -116,7 +136,11 @@ class SwitchedVPP(ProblemType):
         return make_problem(read_specimen(entry.path), settings)
 
     def record_columns(self, settings, entry, result=None) -> dict:
-        columns = {"state": settings.get("state"), "excitation": settings.get("excitation"), **entry.meta}
+        model_name = settings.get("model", model_registry.DEFAULT)
+        columns = {"state": settings.get("state") if model_registry.get(model_name).states else None,
+                   "excitation": settings.get("excitation"), "model": model_name,
+                   "formulation": settings.get("formulation", "paper"), "variant": settings.get("variant"),
+                   **entry.meta}
         if result is not None:
             columns.update(rmse_N=result.rmse_N, **result.params)
         return columns
