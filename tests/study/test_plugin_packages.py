@@ -147,26 +147,22 @@ def test_a_dask_cluster_without_the_plugin_is_refused_before_any_run(plugin_env,
 
 # ------------------------------------------------------------------------------ a model plug-in
 
-MODEL_RUNS = """
-import json, sys
+DAMPER = """
+[study]
+name = "damper"
+seed = 3
+budget = 200
+seeds = 2
+model = ["linear-damper", "bouc-wen"]
 
-from bwbench.models import registry
-from bwbench.problems import SpecimenEntry
-from bwbench.study.execute import execute_tasks
-from bwbench.study.tasks import Task
+[specimens]
+files = ["damper.csv"]
 
-if __name__ == "__main__":  # spawned workers import this file again
-    specimen, scheduler = sys.argv[1], sys.argv[2] or None
-    settings = {"model": "linear-damper", "formulation": "direct", "excitation": "measured"}
-    entry = SpecimenEntry("damper", specimen)
-    tasks = [Task("ranking", "lsq-trf", r, 7, 200, {}, "switched-bouc-wen", settings, entry) for r in range(4)]
-    print(json.dumps({"models": registry.names()}))
-    for outcome in execute_tasks(tasks, workers=2, scheduler=scheduler):
-        row = outcome.get("row", {})
-        print(json.dumps({"lost": outcome.get("lost"), "status": row.get("status"), "error": row.get("error"),
-                          "params": row.get("params_json"), "rmse_N": row.get("rmse_N"),
-                          "worker": outcome.get("timing", {}).get("worker")}))
+[optimizers]
+lsq-trf = {}
+random = {}
 """
+DAMPER_RUNS = 2 * 2 * 2  # models x backends x seeds
 
 
 @pytest.fixture(scope="module")
@@ -182,23 +178,44 @@ def damper_specimen(tmp_path_factory) -> Path:
     return path
 
 
+def test_installed_model_plugin_is_listed_and_fitted(plugin_env, damper_specimen, tmp_path):
+    listing = bwbench(plugin_env, "models")
+    assert listing.returncode == 0, listing.stderr
+    assert "linear-damper: linear viscous damper and spring (example plug-in)" in listing.stdout
+    assert "direct parameters: c (N·s/mm), k (N/mm)" in listing.stdout
+    fit = bwbench(plugin_env, "fit", damper_specimen, "--model", "linear-damper", "--optimizer", "lsq-trf",
+                  "--budget", "200", "--out", tmp_path / "fit.json")
+    assert fit.returncode == 0, fit.stderr
+    result = strict_json.loads((tmp_path / "fit.json").read_text(encoding="utf-8"))
+    assert result["model"] == "linear-damper" and result["units"] == {"c": "N·s/mm", "k": "N/mm"}
+    assert result["params"]["c"] == pytest.approx(C_TRUE, rel=1e-6)
+    assert result["params"]["k"] == pytest.approx(K_TRUE, rel=1e-6)
+
+
 @pytest.mark.parametrize("where", ["workers", "dask"])
-def test_installed_model_plugin_is_fitted_on_spawned_and_dask_workers(plugin_env, cluster, damper_specimen, tmp_path,
-                                                                     where):
-    script = tmp_path / "runs.py"
-    script.write_text(MODEL_RUNS, encoding="utf-8")
-    run = subprocess.run([sys.executable, str(script), str(damper_specimen), cluster if where == "dask" else ""],
-                         env=plugin_env, capture_output=True, text=True, timeout=HANG, cwd=tmp_path)
+def test_installed_model_plugin_is_compared_on_spawned_and_dask_workers(plugin_env, cluster, damper_specimen,
+                                                                       tmp_path, where):
+    """``model = [...]`` with a plugged-in model beside a built-in one: every run of both finishes in
+    the workers, and least squares gives the damper's exact coefficients back."""
+    shutil.copy(damper_specimen, tmp_path / "damper.csv")
+    (tmp_path / "damper.toml").write_text(DAMPER, encoding="utf-8")
+    db = tmp_path / "damper.sqlite"
+    flags = ["--workers", "2"] if where == "workers" else ["--scheduler", cluster]
+    run = bwbench(plugin_env, "compare", "--config", "damper.toml", "--db", db, *flags, cwd=tmp_path)
     assert run.returncode == 0, run.stderr
-    lines = [strict_json.loads(line) for line in run.stdout.splitlines()]
-    assert "linear-damper" in lines[0]["models"]
-    outcomes = lines[1:]
-    assert len(outcomes) == 4 and all(o["lost"] is None and o["status"] == "ok" for o in outcomes), outcomes
-    for o in outcomes:  # least squares on an exact linear force: the coefficients come back
-        params = strict_json.loads(o["params"])
-        assert params["c"] == pytest.approx(C_TRUE, rel=1e-6) and params["k"] == pytest.approx(K_TRUE, rel=1e-6)
-        assert o["rmse_N"] < 1e-6 * K_TRUE * 5.0
-    assert all(not o["worker"].endswith(f":{os.getpid()}") for o in outcomes)
+    assert "not finished" not in run.stderr
+    with closing(sqlite3.connect(db)) as conn:
+        rows = conn.execute("SELECT optimizer, model, status, params_json, rmse_N FROM runs").fetchall()
+        workers = {w for (w,) in conn.execute("SELECT worker FROM timings")}
+    assert len(rows) == DAMPER_RUNS and {r[2] for r in rows} == {"ok"}
+    assert {r[1] for r in rows} == {"linear-damper", "bouc-wen"}
+    exact = [strict_json.loads(r[3]) for r in rows if r[0] == "lsq-trf [linear-damper]"]
+    assert len(exact) == 2 and all(set(p) == {"c", "k"} for p in exact)
+    for p in exact:
+        assert p["c"] == pytest.approx(C_TRUE, rel=1e-6) and p["k"] == pytest.approx(K_TRUE, rel=1e-6)
+    assert not any(w.endswith(f":{os.getpid()}") for w in workers)
+    if where == "workers":
+        assert len(workers) == 2
 
 
 def test_a_model_registered_in_this_process_only_is_refused_for_other_processes(monkeypatch):
