@@ -244,3 +244,31 @@ def test_a_model_registered_in_this_process_only_is_refused_for_other_processes(
     refuse_plugins_only_here([task("spencer"), task("no-such-model")], "2 workers")  # built in; unknown: the run says
     assert missing_plugins([("model", "no-such-model")])[0].startswith(
         "model 'no-such-model' (unknown model 'no-such-model'")
+
+
+def test_a_broken_plugin_is_one_line_and_breaks_only_itself(plugin_env, damper_specimen, tmp_path):
+    """An installed plug-in whose module is missing: asking for it is one line naming the entry point
+    and the error; the other plug-ins and the built-ins still work."""
+    info = tmp_path / "site" / "broken_plugin-0.1.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: broken-plugin\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[bwbench.problems]\nbroken-problem = no_such_module:PROBLEM_TYPE\n\n"
+                                           "[bwbench.models]\nbroken-model = no_such_module:MODEL\n")
+    env = {**plugin_env, "PYTHONPATH": os.pathsep.join([str(tmp_path / "site"), plugin_env["PYTHONPATH"]])}
+    (tmp_path / "b.toml").write_text('[study]\nname = "b"\nproblem = "broken-problem"\nseed = 1\nbudget = 10\n'
+                                     'seeds = 1\n[optimizers]\nrandom = {}\n')
+    run = bwbench(env, "compare", "--config", "b.toml", "--db", "b.sqlite", cwd=tmp_path)
+    assert run.returncode == 2 and run.stderr == (
+        "error: problem plug-in 'broken-problem' (entry point 'no_such_module:PROBLEM_TYPE' of group "
+        "'bwbench.problems') failed to load: ModuleNotFoundError: No module named 'no_such_module'\n")
+    assert not (tmp_path / "b.sqlite").exists()
+    fit = bwbench(env, "fit", damper_specimen, "--model", "broken-model", "--optimizer", "random", "--budget", "10",
+                  "--out", tmp_path / "f.json")
+    assert fit.returncode == 2 and len(fit.stderr.splitlines()) == 1
+    assert "unknown model 'broken-model'" in fit.stderr and "plug-in 'broken-model' failed to load (entry point " \
+        "'no_such_module:MODEL': ModuleNotFoundError: No module named 'no_such_module')" in fit.stderr
+    listing = bwbench(env, "models")
+    assert listing.returncode == 0 and "linear-damper:" in listing.stdout and "spencer:" in listing.stdout
+    good = bwbench(env, "fit", damper_specimen, "--model", "linear-damper", "--optimizer", "lsq-trf", "--budget", "50",
+                   "--out", tmp_path / "g.json")
+    assert good.returncode == 0, good.stderr

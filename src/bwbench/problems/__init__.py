@@ -92,9 +92,7 @@ def _load(ep) -> ProblemType:
     where = f"problem plug-in {ep.name!r} (entry point {ep.value!r} of group {ENTRY_POINT_GROUP!r})"
     try:
         loaded = ep.load()
-    except ImportError as err:  # a package missing where this runs: the environment's fault (transient)
-        raise ImportError(f"{where} failed to load: {type(err).__name__}: {err}") from None
-    except Exception as err:
+    except Exception as err:  # a missing module, an error in it: the plug-in's, named in one line
         raise UserError(f"{where} failed to load: {type(err).__name__}: {err}") from None
     problem_type = loaded.PROBLEM_TYPE if isinstance(loaded, ModuleType) else loaded
     if not isinstance(problem_type, ProblemType):
