@@ -26,8 +26,10 @@ problem they are running:
 - ``setup_text``, ``report_intro``, ``ranking_columns``, ``report_sections``, ``noise_floor``,
   ``limits``: the report's problem-specific parts.
 
-A new problem is one module (or sub-package) that subclasses ``ProblemType`` and calls
-``bwbench.problems.register``; nothing else changes.
+A new problem is one module (or sub-package) that subclasses ``ProblemType``: in another package,
+an instance named by an entry point of the group ``bwbench.problems`` (every process of a study
+loads it; ``examples/problem_plugin/``), or ``bwbench.problems.register`` from code for this
+process only; nothing else changes.
 """
 
 from __future__ import annotations
