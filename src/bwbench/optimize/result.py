@@ -72,5 +72,5 @@ class Result:
         written as null, and ``"not_finite"`` says which and why, never NaN or Infinity."""
         nothing = "no evaluation gave a finite loss (the model blows up wherever it was evaluated)"
         why = None if math.isfinite(self.mse) else {
-            **dict.fromkeys(("mse", "f_err", "rmse_N", "trace"), nothing), "params": f"no best point: {nothing}"}
+            **dict.fromkeys(("mse", "f_err", "rmse_N"), nothing), "params": f"no best point: {nothing}"}
         strict_json.write(path, {**self.to_json_dict(), **(extra or {})}, why=why)

@@ -117,6 +117,13 @@ class ProblemType:
     def make_problem(self, settings: dict, entry: SpecimenEntry):
         raise NotImplementedError
 
+    def models(self, settings: dict) -> tuple:
+        """The ``bwbench.models`` models (by name) that ``make_problem`` fits with these settings: every
+        study worker loads them before a run. By default the one named by ``settings["model"]``, the
+        convention of the model-based problems; a problem whose settings use that key otherwise says ()."""
+        model = settings.get("model")
+        return (model,) if isinstance(model, str) else ()
+
     def run_metrics(self, problem, result) -> dict:
         """Problem-specific numbers of a run's best point, stored as ``metrics_json`` (None = not finite)."""
         return {}

@@ -88,11 +88,13 @@ def run_label(backend: str, variant: str) -> str:
 
 
 def plugins_of(task: Task) -> list[tuple[str, str]]:
-    """The plug-ins a worker loads by name to run ``task``: ("problem", its problem type) and, for a
-    problem that fits a registered model (settings with a ``model``), ("model", that model)."""
+    """The plug-ins a worker loads by name to run ``task``: ("problem", its problem type), then
+    ("model", name) for each model the problem fits (``ProblemType.models``)."""
     found = [("problem", task.problem)]
-    if isinstance(task.settings.get("model"), str):
-        found.append(("model", task.settings["model"]))
+    try:
+        found += [("model", name) for name in problems.get(task.problem).models(task.settings)]
+    except UserError:  # the problem itself cannot be loaded here: missing_plugins says so
+        pass
     return found
 
 
