@@ -60,8 +60,8 @@ def lab(tmp_path_factory):
 
     scaled("zero.csv", 0.0)
     scaled("huge.csv", 1e300)
-    truth = next(s["truth"] for s in json.loads((REPO / "data" / "specimens" / "manifest.json").read_text())["specimens"]
-                 if s["file"] == NAME)
+    manifest = json.loads((REPO / "data" / "specimens" / "manifest.json").read_text())
+    truth = next(s["truth"] for s in manifest["specimens"] if s["file"] == NAME)
     (lab / "truth.json").write_text(json.dumps(truth))
     (lab / "blows.json").write_text(json.dumps({**truth, **BLOWS_UP}))
     (lab / "walk.json").write_text(json.dumps(WALKS_INTO_BLOW_UP))
@@ -108,7 +108,8 @@ CASES = [
     ("identifiability --json, walk into a blow-up", ["identifiability", NAME, "--params", "walk.json", "--json"], 0,
      "stdout", lambda d: d[0]["null_directions"][0]["max_ratio"] is None and d[0]["not_finite"][
          "/null_directions/0/max_ratio"] == "+inf: the walk along this direction reached parameters where the "
-                                            "model blows up" and all(math.isfinite(s) for s in d[0]["singular_values"])),
+                                            "model blows up"
+                   and all(math.isfinite(s) for s in d[0]["singular_values"])),
     ("identifiability --json, zero force", ["identifiability", "zero.csv", "--params", "truth.json", "--json"], 2,
      "stdout:none", None),
     ("evaluate, zero force", ["evaluate", "--params", "truth.json", "--specimen", "zero.csv"], 0, "stdout",

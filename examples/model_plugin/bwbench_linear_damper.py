@@ -48,8 +48,9 @@ class LinearDamper(Model):
 
     def force_batch(self, P, signal, state=None) -> np.ndarray:
         P = np.atleast_2d(np.asarray(P, dtype=float))
+        v, x = np.asarray(signal.v, dtype=float), np.asarray(signal.x, dtype=float)
         with np.errstate(over="ignore", invalid="ignore"):
-            F = P[:, :1] * np.asarray(signal.v, dtype=float)[None, :] + P[:, 1:2] * np.asarray(signal.x, dtype=float)[None, :]
+            F = P[:, :1] * v[None, :] + P[:, 1:2] * x[None, :]
         return np.where(np.all(np.isfinite(F), axis=1)[:, None], F, np.inf)
 
     def viscous_coefficients(self, values: dict, state=None) -> dict | None:

@@ -51,7 +51,8 @@ def test_a_toy_problem_runs_through_compare_and_report(registered, tmp_path, cap
     out = capsys.readouterr().out
     assert "median RMSE (mV)" in out
     with closing(sqlite3.connect(db)) as conn:
-        rows = conn.execute("SELECT problem, specimen, status, params_json, metrics_json, material FROM runs").fetchall()
+        rows = conn.execute("SELECT problem, specimen, status, params_json, metrics_json, material "
+                            "FROM runs").fetchall()
     assert len(rows) == 2 * 3 * 2 and {r[0] for r in rows} == {"toy-decay"} and {r[2] for r in rows} == {"ok"}
     assert all('"a":' in r[3] and '"a_error":' in r[4] and r[5] is None for r in rows)
 

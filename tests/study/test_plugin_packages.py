@@ -174,7 +174,8 @@ def damper_specimen(tmp_path_factory) -> Path:
     f = C_TRUE * v + K_TRUE * x
     path = tmp_path_factory.mktemp("damper") / "damper.csv"
     path.write_text("time_s,displacement_mm,velocity_mm_s,force_N\n"
-                    + "".join(f"{a:.2f},{b:.17g},{c:.17g},{d:.17g}\n" for a, b, c, d in zip(t, x, v, f)), encoding="utf-8")
+                    + "".join(f"{a:.2f},{b:.17g},{c:.17g},{d:.17g}\n" for a, b, c, d in zip(t, x, v, f)),
+                    encoding="utf-8")
     return path
 
 
@@ -234,7 +235,8 @@ def test_a_model_registered_in_this_process_only_is_refused_for_other_processes(
     registry.register(module.MODEL)
 
     def task(model):
-        return Task("ranking", "random", 0, 1, 10, {}, "switched-bouc-wen", {"model": model}, SpecimenEntry("s", "s.csv"))
+        return Task("ranking", "random", 0, 1, 10, {}, "switched-bouc-wen", {"model": model},
+                    SpecimenEntry("s", "s.csv"))
 
     assert registry.only_in_this_process("linear-damper") and not registry.only_in_this_process("spencer")
     assert missing_plugins([("problem", "switched-bouc-wen"), ("model", "linear-damper")]) == []
