@@ -26,8 +26,10 @@ problem they are running:
 - ``setup_text``, ``report_intro``, ``ranking_columns``, ``report_sections``, ``noise_floor``,
   ``limits``: the report's problem-specific parts.
 
-A new problem is one module (or sub-package) that subclasses ``ProblemType`` and calls
-``bwbench.problems.register``; nothing else changes.
+A new problem is one module (or sub-package) that subclasses ``ProblemType``: in another package,
+an instance named by an entry point of the group ``bwbench.problems`` (every process of a study
+loads it; ``examples/problem_plugin/``), or ``bwbench.problems.register`` from code for this
+process only; nothing else changes.
 """
 
 from __future__ import annotations
@@ -115,6 +117,13 @@ class ProblemType:
 
     def make_problem(self, settings: dict, entry: SpecimenEntry):
         raise NotImplementedError
+
+    def models(self, settings: dict) -> tuple:
+        """The ``bwbench.models`` models (by name) that ``make_problem`` fits with these settings: every
+        study worker loads them before a run. By default the one named by ``settings["model"]``, the
+        convention of the model-based problems; a problem whose settings use that key otherwise says ()."""
+        model = settings.get("model")
+        return (model,) if isinstance(model, str) else ()
 
     def run_metrics(self, problem, result) -> dict:
         """Problem-specific numbers of a run's best point, stored as ``metrics_json`` (None = not finite)."""

@@ -71,8 +71,13 @@ class Report:
 
 
 def featured_specimens(study, k: int = 3) -> list[str]:
+    """Up to ``k`` specimens for the per-specimen figures: posterior ones first, and those where some
+    ranking run found a finite loss before those where the model blew up at every point evaluated."""
     posterior = [c.specimen for c in study.chains if c.kind == "posterior"]
-    return list(dict.fromkeys(posterior + study.specimens))[:k]
+    runs = study.ranking
+    fitted = set(runs.loc[(runs["status"] == "ok") & (runs["mse"].astype(float) < float("inf")), "specimen"])
+    ordered = list(dict.fromkeys(posterior + study.specimens))
+    return sorted(ordered, key=lambda s: s not in fitted)[:k]
 
 
 def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, profile_params: int = 2,

@@ -115,7 +115,9 @@ class StudyConfig:
 
 def canonical_json(value) -> str:
     """Sorted keys, no spaces: equal configurations give equal text (and hash)."""
-    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    from bwbench.data import strict_json  # no NaN/Infinity token: null, as everywhere bwbench writes JSON
+
+    return strict_json.dumps(value, canonical=True)
 
 
 def read_toml(path) -> dict:

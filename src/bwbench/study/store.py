@@ -43,7 +43,7 @@ from pathlib import Path
 from bwbench import __version__
 from bwbench.data.input_files import not_regular
 from bwbench.errors import UserError
-from bwbench.study.config import StudyConfig, describe_differences
+from bwbench.study.config import StudyConfig, canonical_json, describe_differences
 from bwbench.study.failures import is_transient_text
 from bwbench.store.timing import machine_description
 
@@ -175,7 +175,7 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
         location = config.setup.data_location  # where the data are now: for the report, not the identity
         if isinstance(location, dict):
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)",
-                         (json.dumps(location, sort_keys=True),))
+                         (canonical_json(location),))
         elif location:
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_dir', ?)", (location,))
         conn.execute("COMMIT")

@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
 import numpy as np
 
-from bwbench.optimize.result import finite_or_null
+from bwbench.data import strict_json
 
 MAX_GRID = 1000  # profile points per parameter: each is a local fit of ~15 iterations
+BLOWS_UP = "the model blows up with these parameters on this specimen (force not finite)"
+WALK_BLOWS_UP = "the walk along this direction reached parameters where the model blows up"
 
 
 def add_model_options(p) -> None:
@@ -98,7 +99,7 @@ def simulate(args) -> int:
     with writing(args.out):
         frame.to_csv(args.out, index=False, float_format="%.6g")
     mse = float(problem.loss_batch(params[None, :])[0])
-    print(json.dumps(finite_or_null({"out": str(args.out), **fit_metrics(mse, len(force))})))
+    print(strict_json.dumps({"out": str(args.out), **fit_metrics(mse, len(force))}, why=BLOWS_UP))
     return _not_finite(args, mse)
 
 
@@ -107,7 +108,7 @@ def evaluate(args) -> int:
     problem = problem_from_args(args)
     params = read_for(args.params, problem)
     mse = float(problem.loss_batch(params[None, :])[0])
-    print(json.dumps(finite_or_null({**fit_metrics(mse, problem.specimen.n_samples), **problem.info}), indent=2))
+    print(strict_json.dumps({**fit_metrics(mse, problem.specimen.n_samples), **problem.info}, why=BLOWS_UP, indent=2))
     return _not_finite(args, mse)
 
 
@@ -171,7 +172,7 @@ def identifiability(args) -> int:
                      formulation=settings["formulation"], model=settings["model"], bounds=box,
                      profile_names=args.profile, grid=args.grid)
     if args.json:  # strict JSON, whole or nothing: a value that is not finite is null
-        sys.stdout.write(json.dumps(finite_or_null(result), indent=2, allow_nan=False) + "\n")
+        sys.stdout.write(strict_json.dumps(result, why={"null_directions": WALK_BLOWS_UP}, indent=2) + "\n")
     else:
         print(format_text(result))
     return 0
