@@ -21,11 +21,16 @@ from bwbench.report.labels import split_label
 
 
 def setup_text(report) -> str:
+    from bwbench.models import registry
+
     s = report.study.settings
-    formulations = s.get("formulation", "paper")
+    models = s.get("model", registry.DEFAULT)
+    models = [models] if isinstance(models, str) else list(models)
+    formulations = s.get("formulation", "paper" if models == [registry.DEFAULT] else "identifiable")
     formulations = [formulations] if isinstance(formulations, str) else list(formulations)
     paper_box = "its Table 5 box" if paper_data(report) else "the paper's search box"
     boxes = {"paper": f"the paper's 14 parameters in {paper_box}, unit mass",
+             "direct": "each model's own parameters in its search box",
              "identifiable": "the identifiable formulation: hysteretic parameters searched in a box scaled from "
                              "each specimen's data, linear coefficients solved per simulation"
                              + (f" (mass: {s.get('fix_mass', 'auto')})" if s.get("fix_mass", "auto") != "auto" else "")}
@@ -33,8 +38,14 @@ def setup_text(report) -> str:
     if s.get("bounds"):
         text += f"; bounds set by the study: {', '.join(sorted(s['bounds']))}"
     label = "formulations compared side by side" if len(formulations) > 1 else "formulation"
-    return (f"Model state convention **{s.get('state', '?')}**, excitation **{s.get('excitation', '?')}**; "
-            f"{label}: {text}.")
+    model_text = ""
+    if models != [registry.DEFAULT]:
+        titles = [f"{m} ({registry.get(m).title})" for m in models]
+        model_text = ("models compared side by side: " if len(models) > 1 else "model: ") + ", ".join(titles) + "; "
+    state = (f"state convention **{s.get('state', '?')}**, "
+             if any(registry.get(m).states for m in models) else "")
+    return f"{model_text[:1].upper() + model_text[1:]}{'m' if model_text else 'M'}odel {state}excitation " \
+           f"**{s.get('excitation', '?')}**; {label}: {text}."
 
 
 def data_section(report) -> None:
@@ -103,9 +114,10 @@ def _describe_file(path) -> dict:
 def paper_data(report) -> bool:
     """Whether a manifest says the data are the paper's (synthetic specimens generated from its
     Tables 6–8): only then may the report speak of the paper's tables and figures."""
-    from bwbench.data.manifest import is_paper_data
+    from bwbench.data.manifest import PAPER_SOURCE
 
-    return any(is_paper_data(report.study.specimen_path(s)) for s in report.study.specimens)
+    label = report.problem_type.is_synthetic(report.study)  # names the data's source
+    return label is True or (isinstance(label, str) and PAPER_SOURCE in label)
 
 
 def searched(study) -> list[str]:
