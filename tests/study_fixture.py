@@ -177,14 +177,15 @@ def make_study_db(
 
     if path.exists():
         path.unlink()
+    known = registry.available()  # the fixture's names that are real backends (a test may invent others)
     with closing(sqlite3.connect(path)) as conn:
         conn.executescript(SCHEMA)
         conn.executemany("INSERT INTO study VALUES (?, ?)", [
             ("name", "fixture"), ("config_json", json.dumps(config, sort_keys=True)), ("config_hash", "0" * 64),
             ("created_utc", "2024-01-01T00:00:00Z"), ("bwbench_version", "fixture"),
             # as the runner records them (bwbench.study.store.backend_facts); the fixture's backends are real ones
-            ("backends", json.dumps({name: {"family": registry.get(name).family, "batched": registry.get(name).batched}
-                                     for name in [*optimizers, "emcee"]}, sort_keys=True)),
+            ("backends", json.dumps({name: {"family": known[name].family, "batched": known[name].batched}
+                                     for name in [*optimizers, "emcee"] if name in known}, sort_keys=True)),
         ])
         conn.executemany(f"INSERT INTO runs VALUES ({', '.join('?' * len(RUN_COLUMNS))})", runs)
         conn.executemany("INSERT INTO timings VALUES (?, ?, ?, ?, ?, ?, ?)", timings)

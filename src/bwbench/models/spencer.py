@@ -186,7 +186,7 @@ def _ydot(theta6, signal) -> np.ndarray:
     """ẏ (mm/s) of kernel rows (m, 6) = (x_y, n, η, v_y, r₀, κ₀) at the samples; +inf rows on blow-up."""
     from bwbench.models.spencer_kernel import ydot_batch
 
-    arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txv"]
+    arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]
     return ydot_batch(np.ascontiguousarray(theta6, dtype=float), *arrays)
 
 

@@ -123,8 +123,9 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     if provisional:
         doc.banner(f"{provisional[0].upper()}{provisional[1:]}: the study is unfinished (still running, or stopped "
                    "part-way); its recommendation may change when it completes.")
-    if problem_type.is_synthetic(study):
-        doc.banner("SYNTHETIC DATA — generated from the paper's Tables 6–8, not measured.")
+    synthetic = problem_type.is_synthetic(study)
+    if synthetic:
+        doc.banner(f"{synthetic if isinstance(synthetic, str) else 'SYNTHETIC DATA'} — not measured.")
     sections.recommendation(report)
     sections.setup(report)
     problem_type.report_intro(report)

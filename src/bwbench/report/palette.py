@@ -180,9 +180,11 @@ def truth_handle(text: str = "truth") -> Line2D:
     return Line2D([], [], label=text, **TRUTH)
 
 
-def mark_synthetic(fig) -> None:
-    fig.text(0.995, 0.003, SYNTHETIC_LABEL, ha="right", va="bottom", fontsize=MIN_FONT_PT, color="0.35",
-             style="italic")
+def mark_synthetic(fig, label=True) -> None:
+    """The mark every figure of synthetic data carries: ``label`` when it is a text (e.g. a problem's
+    ``is_synthetic``, which names the data's source), else the paper's."""
+    text = label if isinstance(label, str) and label else SYNTHETIC_LABEL
+    fig.text(0.995, 0.003, text, ha="right", va="bottom", fontsize=MIN_FONT_PT, color="0.35", style="italic")
 
 
 def slug(text: str) -> str:
@@ -206,7 +208,7 @@ def write_png(fig, png, synthetic_data: bool, rect=(0, 0.03, 1, 0.97)) -> None:
     the bottom for the legend below and the mark."""
     engine = fig.get_layout_engine()
     if synthetic_data:
-        mark_synthetic(fig)
+        mark_synthetic(fig, synthetic_data)
     if isinstance(engine, matplotlib.layout_engine.ConstrainedLayoutEngine):
         _make_room_below(fig, engine, 0.22 if synthetic_data else 0.04)
     elif engine is None:

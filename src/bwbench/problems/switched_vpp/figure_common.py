@@ -42,8 +42,16 @@ def axis_label(name: str) -> str:
     return f"{label} ({pretty_unit(fm.HYSTERETIC_UNITS.get(name, '-'))})"
 
 
-def synthetic(study, specimens) -> bool:
-    return any(manifest.is_synthetic(study.specimen_path(s)) for s in specimens)
+def synthetic(study, specimens) -> str:
+    """The mark of synthetic data for a figure of ``specimens`` ("SYNTHETIC DATA (generated from
+    <source>)"), '' for measured data."""
+    sources = list(dict.fromkeys(filter(None, (manifest.synthetic_source(study.specimen_path(s)) for s in specimens))))
+    return f"SYNTHETIC DATA (generated from {' and '.join(sources)})" if sources else ""
+
+
+def conditions(problem) -> str:
+    """"shared state, measured excitation" (no state for a model without state conventions)."""
+    return (f"{problem.state} state, " if problem.state else "") + f"{problem.excitation} excitation"
 
 
 def truth(study, specimen):

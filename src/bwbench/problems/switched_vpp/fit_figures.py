@@ -17,7 +17,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from bwbench.problems.switched_vpp.figure_common import (
-    problem_for, reversals, synthetic, travel_arrows, truth,
+    conditions, problem_for, reversals, synthetic, travel_arrows, truth,
 )
 from bwbench.report.palette import (
     MAX_WIDTH_IN, OKABE_ITO, Style, backend_handles, figure, legend, save, slug, split_label, styles, theme,
@@ -102,9 +102,10 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     legend(fig, [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
                  style.handle(f"fitted model ({result.optimizer})", marker=False),
                  REVERSAL], ncol=3)
-    fig.suptitle(f"{spec.name} — {result.optimizer} ({formulation} formulation), seed {result.seed}, "
+    model = "" if problem.model.name == "switched-bouc-wen" else f"{problem.model.name}, "
+    fig.suptitle(f"{spec.name} — {result.optimizer} ({model}{formulation} formulation), seed {result.seed}, "
                  f"{result.nfev} evaluations: RMSE {result.rmse_N:.3g} N, F_err {result.f_err:.4g} N²\n"
-                 f"{problem.state} state, {problem.excitation} excitation, {_velocity_source(problem)}")
+                 f"{conditions(problem)}, {_velocity_source(problem)}")
     write_png(fig, path, synthetic)
 
 
@@ -178,7 +179,7 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     legend(fig, handles, ncol=2)
     fig.suptitle(f"{specimen}: best fit ({best_label}, seed {int(best_run['replicate'])}) and the residuals of the "
                  f"best {len(shown) - len(randoms)} backends" + (" and random search" if randoms else "") + "\n"
-                 f"ranking runs only ({best_problem.state} state, {best_problem.excitation} excitation)")
+                 f"ranking runs only ({conditions(best_problem)})")
     frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     return save(fig, out_dir, f"loops_{slug(specimen)}", frame, synthetic(study, [specimen]))
 

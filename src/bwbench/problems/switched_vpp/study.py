@@ -35,6 +35,8 @@ import glob
 import math
 from pathlib import Path
 
+import numpy as np
+
 from bwbench.data import manifest as manifest_mod
 from bwbench.models import registry as model_registry
 from bwbench.models.switched_bouc_wen import STATES
@@ -164,16 +166,26 @@ class SwitchedVPP(ProblemType):
         data = Path(study.settings.get("data", "data/specimens"))
         return data if data.is_absolute() else REPO / data
 
-    def is_synthetic(self, study) -> bool:
-        return any(manifest_mod.is_synthetic(study.specimen_path(s)) for s in study.specimens)
+    def is_synthetic(self, study) -> str:
+        """"SYNTHETIC DATA (generated from <source>)" when a manifest marks the study's specimens
+        synthetic ('' otherwise: a false value), for banners and the mark on every figure."""
+        sources = [manifest_mod.synthetic_source(study.specimen_path(s)) for s in study.specimens]
+        sources = list(dict.fromkeys(s for s in sources if s))
+        return f"SYNTHETIC DATA (generated from {' and '.join(sources)})" if sources else ""
 
     def noise_floor(self, study, specimen):
-        truth = manifest_mod.truth_params(study.specimen_path(specimen))
-        if truth is None:
+        found = manifest_mod.truth(study.specimen_path(specimen))
+        if found is None:
             return None
-        # The truth is a paper vector: its loss in the paper formulation, whatever the study compared.
+        # The truth in its own model's direct parameters, whatever the study compared.
+        from bwbench.models import registry
+
+        model_name, values = found
+        model = registry.get(model_name)
+        truth = np.array([values[p.name] for p in model.direct_parameters(model.check_state(None))])
         s = study.settings
-        settings = {"state": s.get("state", "shared"), "excitation": s.get("excitation", "measured")}
+        settings = {"state": s.get("state", "shared"), "excitation": s.get("excitation", "measured"),
+                    "model": model_name, "formulation": model.direct_name}
         problem = self.make_problem(settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
         return float(problem.loss_batch(truth[None, :])[0])
 
