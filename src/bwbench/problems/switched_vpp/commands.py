@@ -45,6 +45,9 @@ def add_fit_options(p) -> None:
                    help="identifiable formulation: the inertia m in N·s²/mm (1 = 1 t): a number fixes it, 'fit' "
                         "always fits it (within [0, 1] unless --bounds says otherwise), 'auto' (default) fits it "
                         "only where the data separate it from the stiffness (never on one sine test)")
+    p.add_argument("--offsets", choices=["branch", "continuous"],
+                   help="identifiable formulation, switched model: a constant force per branch (branch, default: "
+                        "a friction-like force that switches at a reversal) or one for both (continuous: no jump)")
 
 
 def fix_mass_value(text, flag: str = "--fix-mass"):
@@ -86,6 +89,8 @@ def problem_from_args(args):
             raise UserError(f"--fix-mass applies to the identifiable formulation (the {settings['formulation']} "
                             "formulation has no solved mass)")
         settings["fix_mass"] = mass
+    if getattr(args, "offsets", None):
+        settings["offsets"] = args.offsets
     if getattr(args, "weighting", None):
         settings["weighting"] = args.weighting
     paths = args.specimen if isinstance(args.specimen, list) else [args.specimen]

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from bwbench.errors import UserError
-from bwbench.problems.switched_vpp import figures, posterior_section, signals_section
+from bwbench.problems.switched_vpp import figures, posterior_section, signals_section, validation_section
 from bwbench.problems.switched_vpp.figure_common import formulation_of
 from bwbench.report.floors import floors as truth_losses
 from bwbench.report.format import number, unit_of
@@ -130,6 +130,7 @@ def add_sections(report) -> None:
                     + (" (the paper's Figs 20–21)" if paper else ""))
     signals_section.paragraph(report)
     adequacy.section(report)
+    validation_section.section(report)
     formulation = coordinates(report)
     if paper:
         doc.figure(figures.parameter_spread(study, out, featured, order=order),
