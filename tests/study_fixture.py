@@ -22,6 +22,7 @@ import numpy as np
 from bwbench.data import manifest as manifest_mod
 from bwbench.data import synthetic
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.optimize import registry
 from bwbench.data.parameters import LOWER, UPPER
 from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 from bwbench.data.specimen import read_specimen
@@ -181,6 +182,9 @@ def make_study_db(
         conn.executemany("INSERT INTO study VALUES (?, ?)", [
             ("name", "fixture"), ("config_json", json.dumps(config, sort_keys=True)), ("config_hash", "0" * 64),
             ("created_utc", "2024-01-01T00:00:00Z"), ("bwbench_version", "fixture"),
+            # as the runner records them (bwbench.study.store.backend_facts); the fixture's backends are real ones
+            ("backends", json.dumps({name: {"family": registry.get(name).family, "batched": registry.get(name).batched}
+                                     for name in [*optimizers, "emcee"]}, sort_keys=True)),
         ])
         conn.executemany(f"INSERT INTO runs VALUES ({', '.join('?' * len(RUN_COLUMNS))})", runs)
         conn.executemany("INSERT INTO timings VALUES (?, ?, ?, ?, ?, ?, ?)", timings)

@@ -80,6 +80,6 @@ def load_study(db, data_dir=None):
     optimizer, replicate, variant, mse N², rmse_N N, nfev, every parameter by name, timings) and
     ``.traces`` (best-so-far MSE, N², against evaluations) as pandas DataFrames, ``.settings`` and
     ``.specimen_path(name)``. ``data_dir``: where the study's files are now, if they moved."""
-    from bwbench.study.results import load_study as load
+    from bwbench.store.reader import load_study as load
 
     return load(db, data_dir)

@@ -8,7 +8,7 @@ import pytest
 import scipy.stats
 from study_fixture import make_study_db
 
-from bwbench.study import results as results_db
+from bwbench.store import reader as results_db
 from bwbench.analysis import comparisons, mcmc, statistics
 from bwbench.errors import UserError
 

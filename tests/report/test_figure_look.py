@@ -18,7 +18,7 @@ from bwbench.problems.switched_vpp.figure_common import problem_for
 from bwbench.models import switched_identifiable as fm
 from bwbench.problems.switched_vpp import non_uniqueness
 from bwbench.report import ecdf_figures, figures, palette
-from bwbench.study import results as results_db
+from bwbench.store import reader as results_db
 
 ORDER = ["de", "cmaes", "random"]  # not the configuration's order, nor the median loss's
 

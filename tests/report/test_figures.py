@@ -9,7 +9,7 @@ from study_fixture import make_study_db
 
 from bwbench.problems.switched_vpp import figures as switched_figures
 from bwbench.report import ecdf_figures, figures
-from bwbench.study import results as results_db
+from bwbench.store import reader as results_db
 from bwbench.analysis import statistics
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 

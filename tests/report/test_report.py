@@ -11,7 +11,7 @@ import pytest
 from study_fixture import SCHEMA, make_study_db
 
 from bwbench.report import build as report
-from bwbench.study import results as results_db
+from bwbench.store import reader as results_db
 from bwbench.analysis import statistics
 from bwbench.errors import UserError
 

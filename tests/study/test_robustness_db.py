@@ -313,7 +313,7 @@ def test_a_full_disk_mid_study_stops_with_one_line_and_what_was_committed_resume
 
 def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_path):
     from bwbench.report.build import build_report
-    from bwbench.study import results
+    from bwbench.store import reader as results
 
     _, reference = tiny_db
     db = tmp_path / "part.sqlite"
@@ -343,7 +343,7 @@ def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_p
 
 
 def test_planned_runs_are_counted_from_a_stored_configuration_when_possible():
-    from bwbench.study.results import planned_from_config
+    from bwbench.store.reader import planned_from_config
 
     config = {"study": {"seeds": 5}, "specimens": {"files": ["a", "b", "c"]}, "optimizers": {"x": {}, "y": {}},
               "posterior": {"specimens": ["a"], "seeds": 2}}

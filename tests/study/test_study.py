@@ -241,7 +241,7 @@ def test_workers_must_be_positive(tmp_path, capsys):
 
 
 def test_a_database_from_before_the_generic_columns_resumes_and_reads(tmp_path):
-    from bwbench.study import results as results_db
+    from bwbench.store import reader as results_db
 
     config = load_study_config(write_config(tmp_path / "old.toml", budget=50, seeds=1, optimizers="random = {}",
                                             underpressures="[0.01, 0.05]"))

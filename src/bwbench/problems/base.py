@@ -109,7 +109,8 @@ class ProblemType:
         raise NotImplementedError
 
     def setup_from_files(self, fail, files, base_dir: Path, **settings) -> ProblemSetup:
-        """A setup over the data files ``files`` (paths or globs) with no TOML: ``compare --specimens``."""
+        """A setup over the data files ``files`` (paths or globs) with no TOML: ``compare --specimens``;
+        ``settings`` are the command's own flags (model, formulation, state, excitation, bounds_file)."""
         fail(f"problem {self.name!r} does not read specimen files given on the command line")
 
     def make_problem(self, settings: dict, entry: SpecimenEntry):

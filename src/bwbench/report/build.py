@@ -22,7 +22,7 @@ from bwbench.report.document import Document
 from bwbench.report.labels import variant_noun
 from bwbench.report.recommend import recommend
 from bwbench.report.verdict import TARGET
-from bwbench.study import results as results_db
+from bwbench.store import reader as results_db
 
 
 # What the report writes into its folder: a data file of one of these kinds there could be overwritten.

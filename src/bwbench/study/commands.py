@@ -38,7 +38,7 @@ def read_runs(db):
 def export_csv(db, path) -> None:
     """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
     each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
-    from bwbench.study.results import connect_read_only, read_runs as read_all
+    from bwbench.store.reader import connect_read_only, read_runs as read_all
 
     with closing(connect_read_only(Path(db))) as conn:
         read_all(conn).to_csv(path, index=False)
@@ -105,9 +105,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                           "(default: each model's own: paper for the switched model, identifiable for the others)")
     own.add_argument("--bounds", metavar="FILE.json", help="a JSON object of name -> [lower, upper]: the search box, "
                                                          "and bounds on solved coefficients (m, c+, ...)")
-    from bwbench.problems.switched_vpp.commands import add_fit_options
-
-    add_fit_options(own)
+    own.add_argument("--fix-mass", metavar="VALUE",
+                     help="identifiable formulation: the inertia m in N·s²/mm (1 = 1 t): a number fixes it, 'fit' "
+                          "always fits it, 'auto' (default) fits it only where the data separate it from the stiffness")
+    own.add_argument("--offsets", help="identifiable formulation, switched model: branch (default: a constant force "
+                                       "per branch) or continuous (one for both: no jump at a reversal)")
     own.add_argument("--validate", nargs="+", metavar="FILE",
                      help="held-out specimen CSVs, never fitted: every fit predicts them with its coefficients as "
                           "stored, and the report ranks by that error as well as by the training loss")
@@ -244,23 +246,11 @@ def study_config(args):
         raise UserError("--specimens needs --optimizers NAME,NAME (see `bwbench optimizers`)")
     if getattr(args, "data", None) is not None:
         raise UserError("--data goes with --config; with --specimens the files are given")
-    from bwbench.problems.switched_vpp.commands import fix_mass_value
-
-    bounds = None
-    if args.bounds is not None:
-        from bwbench.data import bounds as bounds_mod
-        from bwbench.models.registry import DEFAULT
-        from bwbench.problems.switched_vpp.formulations import bound_names
-
-        formulations = args.formulation.split(",") if args.formulation else None
-        models = (args.model or DEFAULT).split(",")
-        bounds = bounds_mod.read_json(args.bounds, bound_names(formulations, args.state or "shared", models))
     return config_from_arguments(args.specimens, args.optimizers, _given(args.seeds, 5), _given(args.budget, 4100),
                                  name=_given(args.name, "study"), seed=_given(args.seed, 0), state=args.state,
-                                 excitation=_given(args.excitation, "measured"), bounds=bounds,
-                                 formulation=args.formulation, model=args.model,
-                                 fix_mass=fix_mass_value(args.fix_mass), offsets=_given(args.offsets, "branch"),
-                                 validate=args.validate)
+                                 excitation=_given(args.excitation, "measured"), bounds_file=args.bounds,
+                                 formulation=args.formulation, model=args.model, fix_mass=_given(args.fix_mass, "auto"),
+                                 offsets=_given(args.offsets, "branch"), validate=args.validate)
 
 
 def _given(value, default):

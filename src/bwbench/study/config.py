@@ -332,13 +332,14 @@ def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
 
 
 def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *, name: str = "study", seed: int = 0,
-                          state: str | None = None, excitation: str = "measured", bounds=None,
+                          state: str | None = None, excitation: str = "measured", bounds_file=None,
                           formulation: str | None = None, model: str | None = None, fix_mass="auto",
                           offsets: str = "branch", validate=None) -> StudyConfig:
     """A study over the files ``specimens`` (paths or globs, relative to the current folder) with no
     TOML and no manifest: ``bwbench compare --specimens ...``. ``model`` and ``formulation``: a name
     or comma-separated names (None: the switched model, and each model's own formulation);
-    ``fix_mass``/``offsets``: the identifiable formulation's (``IdentifiableProblem``); ``validate``:
+    ``bounds_file``: a JSON search box, read by the problem type (it knows the parameter names);
+    ``fix_mass``/``offsets``: the identifiable formulation's (read by the problem type); ``validate``:
     held-out files (paths or globs) every fit predicts."""
     def fail(message):
         raise UserError(message)
@@ -359,8 +360,8 @@ def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *
     root = Path.cwd()
     problem_type = problems.get(problems.DEFAULT)
     setup = problem_type.setup_from_files(fail, list(specimens), root, state=state, excitation=excitation,
-                                          bounds=bounds, formulation=formulation, model=model, fix_mass=fix_mass,
-                                          offsets=offsets)
+                                          bounds_file=bounds_file, formulation=formulation, model=model,
+                                          fix_mass=fix_mass, offsets=offsets)
     validation = ()
     if validate:
         validation = held_out(fail, problem_type, list(validate), root, setup, "--validate")

@@ -6,7 +6,9 @@ Schema (the report reads it; names are a contract):
   ``planned_runs`` (how many runs the study has: the report calls a study with fewer provisional;
   written on every open, so databases from before the key get it when resumed), and where the data
   of the latest run were (where ``bwbench report`` looks first; not part of the configuration):
-  ``data_paths`` (JSON, specimen name -> file) or ``data_dir`` (a folder).
+  ``data_paths`` (JSON, specimen name -> file) or ``data_dir`` (a folder); ``machine``; ``backends``
+  (JSON, backend -> family and whether it evaluates populations: the report reads the database,
+  never the optimiser registry). Read by ``bwbench.store.reader``.
 - ``runs``: one row per finished run: a run that succeeded, or one that failed deterministically
   (status "error"; ``bwbench.study.failures``). A row of an older version whose error was the
   environment's (``OSError: ...``) is not finished: it is run again and replaced.
@@ -19,7 +21,7 @@ Schema (the report reads it; names are a contract):
   ``underpressure_MPa``, ``repeat``, ``rmse_N`` are filled by the problems that have such values
   (``ProblemType.record_columns``) and NULL otherwise. Databases written before the generic columns
   existed get them (NULL) when a study is resumed; those written with the switched model's 14
-  parameters as columns still read (``bwbench.study.results``), and new rows leave them NULL.
+  parameters as columns still read (``bwbench.store.reader``), and new rows leave them NULL.
 - ``timings``: wall time (s), worker (``host:pid``) and finish time (UTC) of each run.
 - ``traces``: the best-so-far improvements (evaluation count, loss) of each run.
 - ``chains``: MCMC chains (float64, unit coordinates, shape (steps, walkers, dim)) of the posterior
@@ -43,7 +45,7 @@ from bwbench.data.input_files import not_regular
 from bwbench.errors import UserError
 from bwbench.study.config import StudyConfig, describe_differences
 from bwbench.study.failures import is_transient_text
-from bwbench.study.timing import machine_description
+from bwbench.store.timing import machine_description
 
 GENERIC_COLUMNS = ("problem", "params_json", "metrics_json", "model", "formulation", "variant")  # any problem
 RUN_COLUMNS = (
@@ -168,6 +170,8 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
         if planned_runs is not None:
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('planned_runs', ?)", (str(planned_runs),))
         conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('machine', ?)", (machine_description(),))
+        # What each backend is, for the report, which reads the database and never the registry.
+        conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('backends', ?)", (backend_facts(config),))
         location = config.setup.data_location  # where the data are now: for the report, not the identity
         if isinstance(location, dict):
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)",
@@ -184,6 +188,18 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
             conn.close()
         raise
     return conn
+
+
+def backend_facts(config: StudyConfig) -> str:
+    """JSON {backend: {"family", "batched"}} of the study's backends (ranking and posterior)."""
+    from bwbench.optimize import registry
+
+    names = [*config.optimizers, *([config.posterior.optimizer] if config.posterior else [])]
+    facts = {}
+    for name in dict.fromkeys(names):
+        backend = registry.get(name)
+        facts[name] = {"family": backend.family, "batched": bool(backend.batched)}
+    return json.dumps(facts, sort_keys=True)
 
 
 def _add_generic_columns(conn) -> None:

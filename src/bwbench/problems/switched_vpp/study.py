@@ -51,6 +51,12 @@ def mass_setting(fail, label: str, value):
     """"auto", None ("fit": always fitted) or a mass ≥ 0 (N·s²/mm) of a study's fix_mass; ``fail`` otherwise."""
     if value == "fit" or value is None:
         return None
+    if isinstance(value, str) and value != "auto":  # from the command line
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        value = number if math.isfinite(number) else value
     if value == "auto" or (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0):
         return value
     fail(f"{label} must be \"auto\", \"fit\" or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}")
@@ -103,7 +109,7 @@ class SwitchedVPP(ProblemType):
         """The held-out specimens (``[validation] files`` or ``--validate``): like ``[specimens] files``."""
         return specimens_from_files(fail, files, base_dir, label)
 
-    def setup_from_files(self, fail, files, base_dir, state=None, excitation="measured", bounds=None,
+    def setup_from_files(self, fail, files, base_dir, state=None, excitation="measured", bounds_file=None,
                          formulation=None, model=None, fix_mass="auto", offsets="branch"):
         model_names = parse_models(fail, model.split(",") if isinstance(model, str) else model or model_registry.DEFAULT)
         if state is not None and not any(model_registry.get(m).states for m in model_names):
@@ -115,6 +121,11 @@ class SwitchedVPP(ProblemType):
         check_pairs(fail, model_names, formulations)
         fix_mass = mass_setting(fail, "--fix-mass", fix_mass)
         offsets = choice(fail, "--offsets", offsets, OFFSETS)
+        bounds = None
+        if bounds_file is not None:
+            from bwbench.data import bounds as bounds_mod
+
+            bounds = bounds_mod.read_json(bounds_file, bound_names(formulations, state, model_names))
         return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"),
                           bounds=bounds, formulations=formulations, fix_mass=fix_mass, models=model_names,
                           offsets=offsets)

@@ -9,6 +9,7 @@ studies with those columns filled in.
 
 from __future__ import annotations
 
+import builtins
 import dataclasses
 import json
 import sqlite3
@@ -25,9 +26,13 @@ from bwbench.data.parameters import LOWER, UPPER
 from bwbench import problems
 from bwbench.data.input_files import not_regular
 from bwbench.data.manifest import load_manifest
-from bwbench.study.failures import is_transient_text
 
 REQUIRED_TABLES = ("study", "runs", "traces")
+# Faults of the environment, not of a run (``bwbench.study.failures``): a stored error of these types
+# ("OSError: ...", written by versions that recorded them) is not a finished run.
+TRANSIENT = (OSError, MemoryError, ImportError)
+TRANSIENT_NAMES = frozenset(
+    name for name, value in vars(builtins).items() if isinstance(value, type) and issubclass(value, TRANSIENT))
 KEY = ["kind", "specimen", "optimizer", "replicate"]
 
 
@@ -83,6 +88,15 @@ class Study:
     def settings(self) -> dict:
         """The config's [study] table: name, seed, budget, seeds, state, excitation, data."""
         return self.config.get("study", {})
+
+    @property
+    def backends(self) -> dict:
+        """{backend: {"family": ..., "batched": ...}} as the runner recorded them (``backends`` in the
+        study table); {} for a database from before the key."""
+        try:
+            return dict(json.loads(self.meta.get("backends") or "{}"))
+        except (TypeError, ValueError):
+            return {}
 
     @property
     def problem(self) -> str:
@@ -148,6 +162,11 @@ class Study:
         """The manifest.json beside the specimens (generation settings, truth), or None if there is none."""
         folder = self.specimen_path(self.specimens[0]).parent if self.specimens else self.data_dir
         return load_manifest(folder)
+
+
+def is_transient_text(error: str | None) -> bool:
+    """Whether a stored one-line error ``"TypeName: message"`` was a fault of the environment."""
+    return bool(error) and error.split(":", 1)[0].strip() in TRANSIENT_NAMES
 
 
 def planned_from_config(config: dict) -> int | None:
