@@ -10,7 +10,7 @@ The Python API (``bwbench.api``; imported on first use, so ``import bwbench`` st
 - ``bwbench.load_study(db)`` → a study with ``.runs`` and ``.traces`` as pandas DataFrames.
 """
 
-__version__ = "0.1.0"
+from bwbench.version import __version__
 __all__ = ["fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction", "__version__"]
 _API = {"fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction"}
 

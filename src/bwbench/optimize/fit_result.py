@@ -102,7 +102,7 @@ class FitResult:
         if len(self.files) == 1:
             out["nrmse"] = self.files[0]["nrmse"]
         out["units"] = {**self.result.units, **METRIC_UNITS}
-        from bwbench import __version__
+        from bwbench.version import __version__
 
         out["bwbench_version"] = __version__
         return finite_or_null(out)

@@ -115,7 +115,7 @@ def informative_acceleration(signal) -> tuple[np.ndarray, int]:
 def inertia_check(signal, f, layout, offsets=True, m_ref: float = M_REF, kappa: float = KAPPA) -> InertiaCheck:
     """Apply the rule of the module docstring to an excitation (t, x, v, a; optionally ``segments``,
     slices of the records it stacks) and force f (N)."""
-    from bwbench.problems.linear_solve import branch_masks, fixed_columns
+    from bwbench.problems.linear_columns import branch_masks, fixed_columns
 
     masks = branch_masks(layout, signal.v)
     sigma = force_noise(f)
