@@ -108,8 +108,8 @@ def _plot(problem, fitted, path, synthetic: bool) -> None:
 
     model = fitted.model
     predictions = [model.predict(spec) for spec in problem.specimens]
-    plot_predictions(predictions, path, f"joint fit of {len(predictions)} tests: {model.describe()}, "
-                                        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations",
+    plot_predictions(predictions, path, f"joint fit of {len(predictions)} tests: {model.describe()}\n"
+                                        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file",
                      what="fitted", synthetic=synthetic)
 
 

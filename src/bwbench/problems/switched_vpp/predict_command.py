@@ -122,7 +122,10 @@ def predict(args) -> int:
         from bwbench.problems.switched_vpp.prediction_figures import plot_predictions
 
         with writing(args.plot):
-            plot_predictions(predictions, args.plot, f"prediction by {fitted.describe()}, coefficients of {args.fit}",
+            from pathlib import Path
+
+            plot_predictions(predictions, args.plot, f"prediction by {fitted.describe()}\n"
+                                                     f"every coefficient as stored in {Path(args.fit).name}",
                              synthetic=all(manifest.is_synthetic(p) for p in args.data))
     blown = [p.specimen for p in predictions if not math.isfinite(p.mse)]
     for name in blown:
