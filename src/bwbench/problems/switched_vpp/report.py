@@ -28,13 +28,22 @@ def setup_text(report) -> str:
     boxes = {"paper": f"the paper's 14 parameters in {paper_box}, unit mass",
              "identifiable": "the identifiable formulation: hysteretic parameters searched in a box scaled from "
                              "each specimen's data, linear coefficients solved per simulation"
-                             + (f" (mass: {s.get('fix_mass', 'auto')})" if s.get("fix_mass", "auto") != "auto" else "")}
+                             + _mass_text(s)}
     text = "; ".join(boxes.get(f, f) for f in formulations)
     if s.get("bounds"):
         text += f"; bounds set by the study: {', '.join(sorted(s['bounds']))}"
     label = "formulations compared side by side" if len(formulations) > 1 else "formulation"
     return (f"Model state convention **{s.get('state', '?')}**, excitation **{s.get('excitation', '?')}**; "
             f"{label}: {text}.")
+
+
+def _mass_text(settings) -> str:
+    """How the study set the identifiable formulation's mass and offsets ("" for the defaults)."""
+    mass = settings.get("fix_mass", "auto")
+    parts = [] if mass == "auto" else ["mass: fitted" if mass is None else f"mass fixed at {mass:g} N·s²/mm"]
+    if settings.get("offsets", "branch") != "branch":
+        parts.append(f"offsets {settings['offsets']}")
+    return f" ({'; '.join(parts)})" if parts else ""
 
 
 def data_section(report) -> None:
