@@ -123,7 +123,8 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("specimen", nargs="+", help="specimen CSV; several: one joint fit of them all (one parameter "
                                                     "set; one evaluation simulates every file)")
     parser.add_argument("--optimizer", required=True, help="backend name (see `bwbench optimizers`)")
-    parser.add_argument("--budget", type=int, default=4100, help="evaluations (default 4100, the paper's GA)")
+    parser.add_argument("--budget", type=int, default=4100,
+                        help="evaluations (default 4100, the paper's GA); one evaluation simulates every file once")
     parser.add_argument("--seed", type=int, default=0, help="random seed, a non-negative integer (default 0)")
     parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                         help="backend option, repeatable; VALUE is read as JSON (3, 0.5, true, null, [0.5, 1]), "

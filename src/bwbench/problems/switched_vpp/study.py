@@ -2,13 +2,15 @@
 (``problem = "switched-bouc-wen"``, the default: the name is the paper's model, but any model of
 ``bwbench models`` can be fitted and several compared).
 
-Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` tables::
+Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` / ``[validation]`` tables::
 
     [study]
     model = "switched-bouc-wen"   # or "spencer", "bouc-wen", a plug-in, or a list compared side by side
     formulation = "paper"     # "paper"/"direct", "identifiable", or a list; default: each model's own
     state = "shared"          # or "split" (the switched model's state convention)
     excitation = "measured"   # or "sine"
+    fix_mass = "auto"         # identifiable: "auto" (the inertia rule), "fit", or a mass in N·s²/mm
+    offsets = "branch"        # identifiable, switched model: or "continuous" (one constant force)
     data = "../data/specimens"   # only with manifest filters: a folder with manifest.json
 
     [specimens]               # either files (no manifest needed) ...
@@ -19,7 +21,10 @@ Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` tables::
     repeat = [1]
 
     [bounds]                  # optional: the search box, name = [lower, upper]; default Table 5
-    "xi-" = [-800.0, -10.0]
+    "xi-" = [-800.0, -10.0]   # (a solved coefficient's name, e.g. "m" or "c+", bounds the linear solve)
+
+    [validation]              # optional: held-out tests, never fitted; the report ranks by their error
+    files = ["held_out/*.csv"]
 
 Relative paths resolve against the TOML's own folder (``--data PATH`` on the command line, relative
 to the current folder, replaces ``[study] data``). A ``manifest.json`` next to the files is
