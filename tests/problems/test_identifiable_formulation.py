@@ -226,9 +226,9 @@ def test_inertia_of_a_fast_sine_is_excited_but_confounded_with_stiffness():
     e, f = fast_test(lambda t: 25.0 * np.sin(2 * np.pi * 5.0 * t))
     check = ls.inertia_check(e, f, LAYOUT)
     assert check.excited and check.inertia_rms_N > 1e3 * check.noise_N
-    # ẍ = −ω²x: m and k are one combination on a sine, so m stays fixed at 1 and k absorbs it.
-    assert not check.separable and "not separable" in check.reason
-    assert ls.LinearDesign(e, f, LAYOUT).mass == 1.0
+    # ẍ = −ω²x: m and k are one combination on a sine, so m stays fixed (at 0) and k absorbs it.
+    assert not check.separable and "not separable" in check.reason and check.sine_segments == 1
+    assert ls.LinearDesign(e, f, LAYOUT).mass == ls.M_UNFITTED == 0.0
 
 
 def test_inertia_of_a_two_tone_test_is_fitted():

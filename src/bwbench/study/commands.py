@@ -103,7 +103,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     own.add_argument("--formulation",
                      help="paper (or direct), identifiable, or both comma-separated to compare them side by side "
                           "(default: each model's own: paper for the switched model, identifiable for the others)")
-    own.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
+    own.add_argument("--bounds", metavar="FILE.json", help="a JSON object of name -> [lower, upper]: the search box, "
+                                                         "and bounds on solved coefficients (m, c+, ...)")
+    own.add_argument("--fix-mass", metavar="VALUE",
+                     help="identifiable formulation: the inertia m in N·s²/mm (1 = 1 t): a number fixes it, 'fit' "
+                          "always fits it, 'auto' (default) fits it only where the data separate it from the stiffness")
+    own.add_argument("--offsets", help="identifiable formulation, switched model: branch (default: a constant force "
+                                       "per branch) or continuous (one for both: no jump at a reversal)")
+    own.add_argument("--validate", nargs="+", metavar="FILE",
+                     help="held-out specimen CSVs, never fitted: every fit predicts them with its coefficients as "
+                          "stored, and the report ranks by that error as well as by the training loss")
     parser.add_argument("--db", help="SQLite database (default: <name>.sqlite next to the TOML, or in the current "
                                      "folder with --specimens)")
     parser.add_argument("--workers", type=int, help="local worker processes (default: all cores; 1 = in-process)")
@@ -179,7 +188,7 @@ def study_inputs(config, bounds=None) -> list[Path]:
 
     files = [Path(p) for p in (None if config.path == "--specimens" else config.path, bounds) if p is not None]
     entries = [*config.specimens, *config.setup.available.values(),
-               *(config.posterior.specimens if config.posterior else ())]
+               *(config.posterior.specimens if config.posterior else ()), *config.validation]
     for entry in entries:
         path = Path(entry.path)
         if path.is_dir():
@@ -221,13 +230,14 @@ def check_csv_path(csv, db) -> None:
     try_writing(path)  # changes nothing; written for real once the runs are done
 
 
-OWN_FLAGS = ("optimizers", "seeds", "budget", "seed", "name", "model", "state", "excitation", "formulation", "bounds")
+OWN_FLAGS = ("optimizers", "seeds", "budget", "seed", "name", "model", "state", "excitation", "formulation", "bounds",
+             "fix_mass", "offsets", "validate")
 
 
 def study_config(args):
     """The study of ``--config`` or of ``--specimens`` (validated; ``UserError`` for any mistake)."""
     if args.config is not None:
-        own = [f"--{flag}" for flag in OWN_FLAGS if getattr(args, flag, None) is not None]
+        own = [f"--{flag.replace('_', '-')}" for flag in OWN_FLAGS if getattr(args, flag, None) is not None]
         if own:
             raise UserError(f"{own[0]} goes with --specimens; with --config the TOML says it (edit "
                             f"{args.config}, or pass --db with another path to run a variant)")
@@ -239,7 +249,8 @@ def study_config(args):
     return config_from_arguments(args.specimens, args.optimizers, _given(args.seeds, 5), _given(args.budget, 4100),
                                  name=_given(args.name, "study"), seed=_given(args.seed, 0), state=args.state,
                                  excitation=_given(args.excitation, "measured"), bounds_file=args.bounds,
-                                 formulation=args.formulation, model=args.model)
+                                 formulation=args.formulation, model=args.model, fix_mass=_given(args.fix_mass, "auto"),
+                                 offsets=_given(args.offsets, "branch"), validate=args.validate)
 
 
 def _given(value, default):

@@ -1,4 +1,5 @@
-"""``bwbench simulate`` and ``bwbench evaluate``: the switched model on one specimen, no optimiser."""
+"""``bwbench simulate``, ``evaluate`` and ``identifiability``: a model on one specimen, no optimiser; the
+options of a model and of a fit that ``fit`` and ``compare`` share."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ def add_model_options(p) -> None:
     p.add_argument("--model", help="the model (default switched-bouc-wen; see `bwbench models`)")
     p.add_argument("--state", choices=["shared", "split"],
                    help="hysteretic state convention of the switched model (default: shared)")
-    p.add_argument("--excitation", choices=["measured", "sine"], default="measured",
+    p.add_argument("--excitation", choices=["measured", "sine"],
                    help="measured: the specimen's own displacement (default); sine: the paper's fit")
     p.add_argument("--formulation", choices=["paper", "direct", "identifiable"],
                    help="paper/direct: the model's own parameters in its box; identifiable: symmetry-free "
@@ -36,12 +37,43 @@ def model_settings(args) -> dict:
     if args.state is not None and not model.states:
         raise UserError(f"--state does not apply to model {model.name!r} (no state convention to choose)")
     return {"model": model.name, "formulation": resolve_formulation(model, args.formulation),
-            "state": args.state or "shared", "excitation": args.excitation}
+            "state": args.state or "shared", "excitation": args.excitation or "measured"}
+
+
+def add_fit_options(p) -> None:
+    """The options of a fit that a study shares (``fit`` and ``compare``): the mass and the weights."""
+    p.add_argument("--fix-mass", metavar="VALUE",
+                   help="identifiable formulation: the inertia m in N·s²/mm (1 = 1 t): a number fixes it, 'fit' "
+                        "always fits it (within [0, 1] unless --bounds says otherwise), 'auto' (default) fits it "
+                        "only where the data separate it from the stiffness (never on one sine test)")
+    p.add_argument("--offsets", choices=["branch", "continuous"],
+                   help="identifiable formulation, switched model: a constant force per branch (branch, default: "
+                        "a friction-like force that switches at a reversal) or one for both (continuous: no jump)")
+
+
+def fix_mass_value(text, flag: str = "--fix-mass"):
+    """"auto" (None given), None ("fit") or a mass ≥ 0 (N·s²/mm) from the text of ``flag``; ``UserError``
+    otherwise."""
+    import math
+
+    from bwbench.errors import UserError
+
+    if text is None or text == "auto":
+        return "auto"
+    if text == "fit":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise UserError(f"{flag} must be 'auto', 'fit' or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {text!r}")
+    return value
 
 
 def problem_from_args(args):
-    """The problem of ``args.specimen`` with the command's model, formulation, state, excitation and
-    ``--bounds``."""
+    """The problem of ``args.specimen`` (one file, or a list: a joint fit) with the command's model,
+    formulation, state, excitation, ``--bounds``, ``--fix-mass`` and ``--weighting`` where it has them."""
     from bwbench.data import bounds as bounds_mod
     from bwbench.data.specimen import read_specimen
     from bwbench.problems.switched_vpp.formulations import bound_names, make_problem
@@ -50,7 +82,21 @@ def problem_from_args(args):
     if getattr(args, "bounds", None):
         names = bound_names([settings["formulation"]], settings["state"], [settings["model"]])
         settings["bounds"] = bounds_mod.read_json(args.bounds, names)
-    problem = make_problem(read_specimen(args.specimen), settings)
+    mass = fix_mass_value(getattr(args, "fix_mass", None))
+    if mass != "auto":
+        if settings["formulation"] != "identifiable":
+            from bwbench.errors import UserError
+
+            raise UserError(f"--fix-mass applies to the identifiable formulation (the {settings['formulation']} "
+                            "formulation has no solved mass)")
+        settings["fix_mass"] = mass
+    if getattr(args, "offsets", None):
+        settings["offsets"] = args.offsets
+    if getattr(args, "weighting", None):
+        settings["weighting"] = args.weighting
+    paths = args.specimen if isinstance(args.specimen, list) else [args.specimen]
+    specimens = [read_specimen(p) for p in paths]
+    problem = make_problem(specimens if len(specimens) > 1 else specimens[0], settings)
     if "bounds" in settings:
         bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
     return problem
@@ -82,11 +128,40 @@ def fit_metrics(mse: float, n: int) -> dict:
     return {"mse": mse, "f_err": -mse, "rmse_N": math.sqrt(mse) if math.isfinite(mse) else math.inf, "n": n}
 
 
+def _stored(args):
+    """The ``FittedModel`` to evaluate: the fit result of ``--params`` (flags checked against it), or a
+    plain parameter file that holds every coefficient of the identifiable formulation; else None."""
+    from bwbench.problems.switched_vpp.predict_command import stored_model
+
+    fitted = stored_model(args, args.params)
+    if fitted is not None or (model_settings(args)["formulation"] != "identifiable"):
+        return fitted
+    from bwbench.data.json_input import read_json_file
+    from bwbench.errors import UserError
+    from bwbench.problems.fitted_model import FittedModel
+
+    values = read_json_file(args.params)
+    if not isinstance(values, dict):
+        return None
+    settings = model_settings(args)
+    try:
+        return FittedModel(settings["model"], "identifiable", values, settings["state"], settings["excitation"])
+    except (UserError, TypeError):  # not every coefficient: they are solved on the specimen (said in the output)
+        return None
+
+
+SOLVED = "solved on this specimen by least squares (the file has no linear coefficients): a fit, not a prediction"
+
+
 def simulate(args) -> int:
     import pandas as pd
 
     from bwbench.data.output_paths import check_outputs, writing
+    from bwbench.problems.switched_vpp.predict_command import simulate_stored
 
+    fitted = _stored(args)
+    if fitted is not None:
+        return simulate_stored(args, fitted)
     check_outputs({"--out": args.out}, [args.specimen, args.params])
     problem = problem_from_args(args)
     params = read_for(args.params, problem)
@@ -99,16 +174,23 @@ def simulate(args) -> int:
     with writing(args.out):
         frame.to_csv(args.out, index=False, float_format="%.6g")
     mse = float(problem.loss_batch(params[None, :])[0])
-    print(strict_json.dumps({"out": str(args.out), **fit_metrics(mse, len(force))}, why=BLOWS_UP))
+    extra = {"linear_coefficients": SOLVED} if problem.formulation == "identifiable" else {}
+    print(strict_json.dumps({"out": str(args.out), **fit_metrics(mse, len(force)), **extra}, why=BLOWS_UP))
     return _not_finite(args, mse)
 
 
 def evaluate(args) -> int:
-    
+    from bwbench.problems.switched_vpp.predict_command import evaluate_stored
+
+    fitted = _stored(args)
+    if fitted is not None:
+        return evaluate_stored(args, fitted)
     problem = problem_from_args(args)
     params = read_for(args.params, problem)
     mse = float(problem.loss_batch(params[None, :])[0])
-    print(strict_json.dumps({**fit_metrics(mse, problem.specimen.n_samples), **problem.info}, why=BLOWS_UP, indent=2))
+    extra = {"linear_coefficients": SOLVED} if problem.formulation == "identifiable" else {}
+    print(strict_json.dumps({**fit_metrics(mse, problem.specimen.n_samples), **problem.info, **extra}, why=BLOWS_UP,
+                            indent=2))
     return _not_finite(args, mse)
 
 
@@ -124,7 +206,8 @@ def _not_finite(args, mse: float) -> int:
 
 
 def add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
+    parser.add_argument("--params", required=True, help="a fit result (its model, formulation and every coefficient "
+                        "as stored), or a parameters JSON (names -> values, in the formulation the flags say)")
     parser.add_argument("--specimen", required=True, help="specimen CSV")
     add_model_options(parser)
     parser.add_argument("--out", required=True, help="output CSV")
@@ -132,7 +215,8 @@ def add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
+    parser.add_argument("--params", required=True, help="a fit result (its model, formulation and every coefficient "
+                        "as stored), or a parameters JSON (names -> values, in the formulation the flags say)")
     parser.add_argument("--specimen", required=True, help="specimen CSV")
     add_model_options(parser)
     parser.set_defaults(func=evaluate)

@@ -53,32 +53,71 @@ def variants(models, formulations=None) -> list[tuple[str, str, str]]:
 
 
 def make_problem(specimen, settings: dict):
-    """The problem of one specimen for settings with model (default: the switched model), state,
-    excitation and optionally formulation (default: the model's own), fix_mass and bounds (names
-    the formulation does not have are left to the other one)."""
+    """The problem of one specimen, or the joint problem of a list of them (``joint_problem``), for
+    settings with model (default: the switched model), state, excitation and optionally formulation
+    (default: the model's own), fix_mass, offsets, weighting (joint fits) and bounds: names of the
+    searched parameters set the search box, names of solved coefficients bound the linear solve
+    (names the formulation does not have are left to the other one)."""
     from bwbench.problems.model_problem import DirectProblem, IdentifiableProblem
 
+    if isinstance(specimen, (list, tuple)):
+        if len(specimen) > 1:
+            return _joint_problem(specimen, settings)
+        specimen = specimen[0]
     model = registry.get(settings.get("model", registry.DEFAULT))
     formulation = resolve_formulation(model, settings.get("formulation"))
     state = settings.get("state") if model.states else None
     excitation = settings.get("excitation", "measured")
+    bounds = settings.get("bounds", {})
     if formulation == "identifiable":
-        problem = IdentifiableProblem(model, specimen, state, excitation, fix_mass=settings.get("fix_mass", "auto"))
+        solved = _solved_bounds(model, state, bounds)
+        problem = IdentifiableProblem(model, specimen, state, excitation, fix_mass=settings.get("fix_mass", "auto"),
+                                      offsets=settings.get("offsets", True), coefficient_bounds=solved)
     else:
         problem = DirectProblem(model, specimen, state, excitation)
-    box = {k: tuple(v) for k, v in settings.get("bounds", {}).items() if k in problem.param_names}
+    box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
+    problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
+    return problem
+
+
+def _solved_bounds(model, state, bounds: dict) -> dict:
+    """The entries of ``bounds`` that name a solved coefficient of the model's identifiable formulation."""
+    from bwbench.problems.linear_columns import coefficient_names
+
+    names = coefficient_names(model.linear_layout(state)) if model.has_linear_part else ()
+    return {k: tuple(v) for k, v in bounds.items() if k in names}
+
+
+def _joint_problem(specimens, settings: dict):
+    from bwbench.problems.joint_problem import JointProblem
+
+    one = {k: v for k, v in settings.items() if k != "bounds"}  # the box is set once, on the envelope
+    parts = [make_problem(s, one) for s in specimens]
+    model, state = parts[0].model, parts[0].state
+    bounds = settings.get("bounds", {})
+    problem = JointProblem(parts, settings.get("weighting", "equal"), fix_mass=settings.get("fix_mass", "auto"),
+                           offsets=settings.get("offsets", True), coefficient_bounds=_solved_bounds(model, state, bounds))
+    box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
     problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
     return problem
 
 
 def bound_names(formulations, state, models=(registry.DEFAULT,)) -> tuple:
-    """The parameter names a search box may set for these models and formulations (None: defaults)."""
+    """The parameter names a bounds file may set for these models and formulations (None: defaults):
+    the searched parameters (the search box) and, in the identifiable formulation, the solved
+    coefficients (bounds of the linear solve)."""
+    from bwbench.problems.linear_columns import coefficient_names
+
     names = []
     for _, name, formulation in variants(models, formulations):
         model = registry.get(name)
-        parameters = (model.hysteretic_parameters(state if model.states else None) if formulation == "identifiable"
-                      else model.direct_parameters(state if model.states else None))
-        names += [p.name for p in parameters if p.name not in names]
+        own_state = state if model.states else None
+        if formulation == "identifiable":
+            parameters = [p.name for p in model.hysteretic_parameters(own_state)]
+            parameters += list(coefficient_names(model.linear_layout(own_state)))
+        else:
+            parameters = [p.name for p in model.direct_parameters(own_state)]
+        names += [p for p in parameters if p not in names]
     return tuple(names)
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from bwbench.errors import UserError
-from bwbench.problems.switched_vpp import figures, posterior_section, signals_section
+from bwbench.problems.switched_vpp import figures, posterior_section, signals_section, validation_section
 from bwbench.problems.switched_vpp.figure_common import formulation_of
 from bwbench.report.floors import floors as truth_losses
 from bwbench.report.format import number, unit_of
@@ -33,7 +33,7 @@ def setup_text(report) -> str:
              "direct": "each model's own parameters in its search box",
              "identifiable": "the identifiable formulation: hysteretic parameters searched in a box scaled from "
                              "each specimen's data, linear coefficients solved per simulation"
-                             + (f" (mass: {s.get('fix_mass', 'auto')})" if s.get("fix_mass", "auto") != "auto" else "")}
+                             + _mass_text(s)}
     text = "; ".join(boxes.get(f, f) for f in formulations)
     if s.get("bounds"):
         text += f"; bounds set by the study: {', '.join(sorted(s['bounds']))}"
@@ -46,6 +46,15 @@ def setup_text(report) -> str:
              if any(registry.get(m).states for m in models) else "")
     return f"{model_text[:1].upper() + model_text[1:]}{'m' if model_text else 'M'}odel {state}excitation " \
            f"**{s.get('excitation', '?')}**; {label}: {text}."
+
+
+def _mass_text(settings) -> str:
+    """How the study set the identifiable formulation's mass and offsets ("" for the defaults)."""
+    mass = settings.get("fix_mass", "auto")
+    parts = [] if mass == "auto" else ["mass: fitted" if mass is None else f"mass fixed at {mass:g} N·s²/mm"]
+    if settings.get("offsets", "branch") != "branch":
+        parts.append(f"offsets {settings['offsets']}")
+    return f" ({'; '.join(parts)})" if parts else ""
 
 
 def data_section(report) -> None:
@@ -148,6 +157,7 @@ def add_sections(report) -> None:
                     + (" (the paper's Figs 20–21)" if paper else ""))
     signals_section.paragraph(report)
     adequacy.section(report)
+    validation_section.section(report)
     formulation = coordinates(report)
     if paper:
         doc.figure(figures.parameter_spread(study, out, featured, order=order),

@@ -2,13 +2,15 @@
 (``problem = "switched-bouc-wen"``, the default: the name is the paper's model, but any model of
 ``bwbench models`` can be fitted and several compared).
 
-Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` tables::
+Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` / ``[validation]`` tables::
 
     [study]
     model = "switched-bouc-wen"   # or "spencer", "bouc-wen", a plug-in, or a list compared side by side
     formulation = "paper"     # "paper"/"direct", "identifiable", or a list; default: each model's own
     state = "shared"          # or "split" (the switched model's state convention)
     excitation = "measured"   # or "sine"
+    fix_mass = "auto"         # identifiable: "auto" (the inertia rule), "fit", or a mass in N·s²/mm
+    offsets = "branch"        # identifiable, switched model: or "continuous" (one constant force)
     data = "../data/specimens"   # only with manifest filters: a folder with manifest.json
 
     [specimens]               # either files (no manifest needed) ...
@@ -19,7 +21,10 @@ Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` tables::
     repeat = [1]
 
     [bounds]                  # optional: the search box, name = [lower, upper]; default Table 5
-    "xi-" = [-800.0, -10.0]
+    "xi-" = [-800.0, -10.0]   # (a solved coefficient's name, e.g. "m" or "c+", bounds the linear solve)
+
+    [validation]              # optional: held-out tests, never fitted; the report ranks by their error
+    files = ["held_out/*.csv"]
 
 Relative paths resolve against the TOML's own folder (``--data PATH`` on the command line, relative
 to the current folder, replaces ``[study] data``). A ``manifest.json`` next to the files is
@@ -46,6 +51,22 @@ from bwbench.problems.switched_vpp.formulations import bound_names, check_pairs,
 from bwbench.problems.switched_vpp.formulations import parse as _formulations
 
 FILTER_KEYS = ("material", "table", "underpressure_MPa", "repeat")
+OFFSETS = ("branch", "continuous")
+
+
+def mass_setting(fail, label: str, value):
+    """"auto", None ("fit": always fitted) or a mass ≥ 0 (N·s²/mm) of a study's fix_mass; ``fail`` otherwise."""
+    if value == "fit" or value is None:
+        return None
+    if isinstance(value, str) and value != "auto":  # from the command line
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        value = number if math.isfinite(number) else value
+    if value == "auto" or (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0):
+        return value
+    fail(f"{label} must be \"auto\", \"fit\" or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}")
 
 
 class SwitchedVPP(ProblemType):
@@ -54,8 +75,8 @@ class SwitchedVPP(ProblemType):
                    "specimens (loss: MSE in N²)")
     loss_unit = "N²"
     residual_unit = "N"
-    study_keys = ("model", "state", "excitation", "data", "formulation", "fix_mass")
-    tables = ("specimens", "bounds")
+    study_keys = ("model", "state", "excitation", "data", "formulation", "fix_mass", "offsets")
+    tables = ("specimens", "bounds", "validation")
 
     # ------------------------------------------------------------------------ configuration
     def configure(self, fail, study, document, base_dir, data_override=None) -> ProblemSetup:
@@ -66,10 +87,8 @@ class SwitchedVPP(ProblemType):
         excitation = choice(fail, "[study] excitation", study.get("excitation", "measured"), EXCITATIONS)
         formulations = _formulations(fail, study["formulation"]) if "formulation" in study else None
         check_pairs(fail, model_names, formulations)
-        fix_mass = study.get("fix_mass", "auto")
-        if not (fix_mass == "auto" or (isinstance(fix_mass, (int, float)) and not isinstance(fix_mass, bool)
-                                       and fix_mass >= 0)):
-            fail(f"[study] fix_mass must be \"auto\" or a mass ≥ 0 in N·s²/mm, got {fix_mass!r}")
+        fix_mass = mass_setting(fail, "[study] fix_mass", study.get("fix_mass", "auto"))
+        offsets = choice(fail, "[study] offsets", study.get("offsets", "branch"), OFFSETS)
         table = document.get("specimens", {})
         if not isinstance(table, dict):
             fail("[specimens] must be a table: files = [...] or manifest filters")
@@ -91,10 +110,14 @@ class SwitchedVPP(ProblemType):
                 bounds = validate(document["bounds"], bound_names(formulations, state, model_names), "[bounds]")
             except InputFileError as err:
                 fail(err.problem if err.problem.startswith("[") else f"[bounds] {err.problem}")
-        return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass, model_names)
+        return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass, model_names, offsets)
+
+    def held_out_entries(self, fail, files, base_dir, label: str) -> list:
+        """The held-out specimens (``[validation] files`` or ``--validate``): like ``[specimens] files``."""
+        return specimens_from_files(fail, files, base_dir, label)
 
     def setup_from_files(self, fail, files, base_dir, state=None, excitation="measured", bounds_file=None,
-                         formulation=None, model=None):
+                         formulation=None, model=None, fix_mass="auto", offsets="branch"):
         model_names = parse_models(fail, model.split(",") if isinstance(model, str) else model or model_registry.DEFAULT)
         if state is not None and not any(model_registry.get(m).states for m in model_names):
             fail(f"--state does not apply to {', '.join(model_names)} (no state convention to choose)")
@@ -103,16 +126,19 @@ class SwitchedVPP(ProblemType):
         formulations = (_formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
                         if formulation else None)
         check_pairs(fail, model_names, formulations)
+        fix_mass = mass_setting(fail, "--fix-mass", fix_mass)
+        offsets = choice(fail, "--offsets", offsets, OFFSETS)
         bounds = None
         if bounds_file is not None:
             from bwbench.data import bounds as bounds_mod
 
             bounds = bounds_mod.read_json(bounds_file, bound_names(formulations, state, model_names))
         return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"),
-                          bounds=bounds, formulations=formulations, models=model_names)
+                          bounds=bounds, formulations=formulations, fix_mass=fix_mass, models=model_names,
+                          offsets=offsets)
 
     def setup(self, state, excitation, entries, available=None, bounds=None, formulations=None,
-              fix_mass="auto", models=(model_registry.DEFAULT,)) -> ProblemSetup:
+              fix_mass="auto", models=(model_registry.DEFAULT,), offsets="branch") -> ProblemSetup:
         """The ``ProblemSetup`` of these specimens (``SpecimenEntry`` with ``meta["sha256"]``); several
         models or formulations are variants compared side by side."""
         from bwbench.problems.switched_vpp.formulations import variants as variant_list
@@ -124,10 +150,11 @@ class SwitchedVPP(ProblemType):
         if list(models) != [model_registry.DEFAULT]:  # absent for the paper's model: stored studies stay the same
             identity["model"] = models[0] if len(models) == 1 else list(models)
         resolved = list(dict.fromkeys(f for _, _, f in pairs))
+        linear = {"fix_mass": fix_mass, **({"offsets": offsets} if offsets != "branch" else {})}
         if resolved != ["paper"]:  # absent for the paper's formulation: studies stored before stay the same
             identity["formulation"] = resolved[0] if len(resolved) == 1 else resolved
-            identity["fix_mass"] = fix_mass
-        variants = [(label, {**settings, "model": m, "formulation": f, "fix_mass": fix_mass, "variant": label})
+            identity.update(linear)
+        variants = [(label, {**settings, "model": m, "formulation": f, **linear, "variant": label})
                     for label, m, f in pairs]
         return ProblemSetup(
             settings=variants[0][1], study_json=identity,
