@@ -62,6 +62,7 @@ def make_problem(specimen, settings: dict):
     formulation = resolve_formulation(model, settings.get("formulation"))
     state = settings.get("state") if model.states else None
     excitation = settings.get("excitation", "measured")
+    problem: DirectProblem | IdentifiableProblem
     if formulation == "identifiable":
         problem = IdentifiableProblem(model, specimen, state, excitation, fix_mass=settings.get("fix_mass", "auto"))
     else:
@@ -108,6 +109,7 @@ def check_pairs(fail, models, formulations) -> list:
         return variants(models, formulations)
     except UserError as err:
         fail(str(err))
+        raise  # not reached: ``fail`` raises
 
 
 def _names(fail, key, value, choices) -> tuple:
