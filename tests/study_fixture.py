@@ -21,11 +21,11 @@ import numpy as np
 
 from bwbench.data import manifest as manifest_mod
 from bwbench.data import synthetic
+from bwbench.data.parameters import LOWER, UPPER
+from bwbench.data.specimen import read_specimen
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.optimize import registry
-from bwbench.data.parameters import LOWER, UPPER
 from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
-from bwbench.data.specimen import read_specimen
 
 DATA_DIR = synthetic.SPECIMEN_DIR
 SPECIMENS = ("pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1")

@@ -5,9 +5,9 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from reference_mr import hermite_excitation, random_motion, spencer_force
 
 from bwbench.models.spencer import MODEL, direct_from_theta, theta_from_direct
+from reference_mr import hermite_excitation, random_motion, spencer_force
 
 # Spencer et al. (1997)'s identified damper at 1 V in mm units (paper: N, cm; c/10, k/10, α/10,
 # β, γ /100 for cm⁻² → mm⁻², x0 ×10), and a stiffer, sharper variant at 2.25 V with k0 = 0.
@@ -59,7 +59,7 @@ def test_sampling_error_of_an_exact_sine_shrinks_with_the_rate():
         w = 2 * np.pi * 5.0
         x, v, a = 2.0 * np.sin(w * t), 2.0 * w * np.cos(w * t), -2.0 * w * w * np.sin(w * t)
         ours = MODEL.force_batch(_vector(PUBLISHED_1V)[None], _signal(t, x, v, a))[0]
-        ref = spencer_force(PUBLISHED_1V, t, lambda s: 2.0 * np.sin(w * s), lambda s: 2.0 * w * np.cos(w * s))
+        ref = spencer_force(PUBLISHED_1V, t, lambda s, w=w: 2.0 * np.sin(w * s), lambda s, w=w: 2.0 * w * np.cos(w * s))
         errors.append(np.max(np.abs(ours - ref)) / np.ptp(ref))
     assert errors[0] > errors[1] > errors[2]
     assert errors[2] <= 1e-6

@@ -8,6 +8,7 @@ import pytest
 from scipy.special import logsumexp
 
 from bwbench.data import manifest
+from bwbench.data.specimen import read_specimen
 from bwbench.models import excitation
 from bwbench.models import switched_bouc_wen as model
 from bwbench.models import switched_identifiable as fm
@@ -15,7 +16,6 @@ from bwbench.models.switched import LAYOUT
 from bwbench.problems import linear_solve as ls
 from bwbench.problems import marginal as mg
 from bwbench.problems.switched_vpp.identifiable import IdentifiableModel
-from bwbench.data.specimen import read_specimen
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 SPECIMENS = ["pom-mt24u01_0.01MPa_r1", "pom-c9021_0.03MPa_r2", "pc-abs-c12hf_0.07MPa_r3"]

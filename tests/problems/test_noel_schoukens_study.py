@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench.report import build as report
+from bwbench.errors import UserError
 from bwbench.problems.noel_schoukens.data import FILES as BENCHMARK_FILES
 from bwbench.problems.noel_schoukens.data import default_data_dir
 from bwbench.problems.noel_schoukens.problem import PARAM_NAMES
-from bwbench.errors import UserError
+from bwbench.report import build as report
 from bwbench.study.config import load_study_config
 
 REPO = Path(__file__).resolve().parents[2]

@@ -138,7 +138,7 @@ def test_a_dask_cluster_without_the_plugin_is_refused_before_any_run(plugin_env,
                       cwd=tmp_path)
     assert run.returncode == 2, run.stderr
     last = run.stderr.strip().splitlines()[-1]
-    assert last.startswith(f"error: the Dask worker tcp://") and f"of the scheduler at {bare.scheduler_address} " \
+    assert last.startswith("error: the Dask worker tcp://") and f"of the scheduler at {bare.scheduler_address} " \
         "cannot load problem 'toy-decay' (unknown problem 'toy-decay'" in last
     assert last.endswith("install the plug-in package on every worker") and "Traceback" not in run.stderr
     with closing(sqlite3.connect(db)) as conn:

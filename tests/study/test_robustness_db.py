@@ -5,16 +5,14 @@ from __future__ import annotations
 
 import io
 import os
-import stat
 import sqlite3
+import stat
 import subprocess
 import sys
 from contextlib import closing
 from pathlib import Path
 
 import pytest
-from robustness_helpers import HANG, REPO, RUN_COMPARE, one_error_line, rows, write_config
-from robustness_helpers import tiny_db  # noqa: F401 (a fixture)
 
 from bwbench.optimize import registry
 from bwbench.study import execute, failures
@@ -23,7 +21,14 @@ from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.lock import lock_path
 from bwbench.study.store import open_database
-
+from robustness_helpers import (
+    HANG,
+    REPO,
+    RUN_COMPARE,
+    one_error_line,
+    rows,
+    write_config,
+)
 
 # ------------------------------------------------------------------------------ helpers for 3.
 

@@ -18,15 +18,14 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from bwbench.optimize import registry
+import robustness_helpers
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.optimize import registry
 from bwbench.study.commands import export_csv, run_cli
+from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.tasks import plan_tasks, task_seed
-from bwbench.study.config import load_study_config
-
-import robustness_helpers
 from robustness_helpers import REPO, RUN_COMPARE
 
 KEY_ORDER = "ORDER BY kind, specimen, optimizer, replicate"

@@ -192,7 +192,8 @@ def _ydot(theta6, signal) -> np.ndarray:
 
 def _box(parameters, rows: dict) -> Box:
     names = tuple(p.name for p in parameters)
-    return Box(names, [rows[n][0] for n in names], [rows[n][1] for n in names], [rows[n][2] for n in names])
+    return Box(names, np.array([rows[n][0] for n in names]), np.array([rows[n][1] for n in names]),
+               np.array([rows[n][2] for n in names]))
 
 
 MODEL = Spencer()

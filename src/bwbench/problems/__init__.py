@@ -52,7 +52,7 @@ def register(problem_type: ProblemType) -> ProblemType:
 
 def _entry_points() -> dict:
     """The installed plug-ins' entry points by name (the first of a name wins, as importlib lists them)."""
-    found = {}
+    found: dict = {}
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         found.setdefault(ep.name, ep)
     return found

@@ -114,6 +114,7 @@ class ProblemType:
         """A setup over the data files ``files`` (paths or globs) with no TOML: ``compare --specimens``;
         ``settings`` are the command's own flags (model, formulation, state, excitation, bounds_file)."""
         fail(f"problem {self.name!r} does not read specimen files given on the command line")
+        raise NotImplementedError  # not reached: ``fail`` raises
 
     def make_problem(self, settings: dict, entry: SpecimenEntry):
         raise NotImplementedError

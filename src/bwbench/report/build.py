@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -24,7 +25,6 @@ from bwbench.report.recommend import recommend
 from bwbench.report.verdict import TARGET
 from bwbench.store import reader as results_db
 
-
 # What the report writes into its folder: a data file of one of these kinds there could be overwritten.
 REPORT_SUFFIXES = (".csv", ".png", ".md", ".html")
 
@@ -36,7 +36,7 @@ class Report:
     study: results_db.Study
     doc: Document
     out: Path
-    log: object
+    log: typing.TextIO
     table: object  # statistics.ranking_table, in the decision rule's order
     tests: statistics.Comparison
     recommendation: dict  # recommend.recommend: verdict, best, choice, order, text

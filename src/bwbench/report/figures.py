@@ -20,8 +20,19 @@ from matplotlib.patches import Patch
 
 from bwbench.analysis import statistics
 from bwbench.report.palette import (  # noqa: F401  (DPI … styles: the shared look, imported from here too)
-    DPI, MAX_WIDTH_IN, SYNTHETIC_LABEL, backend_handles, figure, legend, mark_synthetic, palette, save, slug,
-    split_label, styles, theme,
+    DPI,
+    MAX_WIDTH_IN,
+    SYNTHETIC_LABEL,
+    backend_handles,
+    figure,
+    legend,
+    mark_synthetic,
+    palette,
+    save,
+    slug,
+    split_label,
+    styles,
+    theme,
 )
 
 BANDS = 3  # interquartile bands for the best few labels of a panel only: more bands hide each other

@@ -44,7 +44,7 @@ RANDOM_MARKER = "X"
 # Formulations compared side by side: solid/filled for the identifiable one, dashed/open for the paper's.
 VARIANT_LOOK = {"identifiable": ("-", True), "paper": ("--", False)}
 OTHER_VARIANT_LOOK = ((":", True), ("-.", False))
-TRUTH = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
+TRUTH: dict = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
 
 @dataclass(frozen=True)
 class Style:
@@ -191,7 +191,8 @@ def slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.]+", "-", str(text)).strip("-").lower()
 
 
-def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool, rect=(0, 0.03, 1, 0.97)) -> Path:
+def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool | str,
+         rect=(0, 0.03, 1, 0.97)) -> Path:
     """Write ``stem``.png and the CSV behind it (``frame``) into ``out_dir`` (see ``write_png``);
     return the PNG's path."""
     out_dir = Path(out_dir)
@@ -202,7 +203,7 @@ def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool, rec
     return png
 
 
-def write_png(fig, png, synthetic_data: bool, rect=(0, 0.03, 1, 0.97)) -> None:
+def write_png(fig, png, synthetic_data: bool | str, rect=(0, 0.03, 1, 0.97)) -> None:
     """Lay out, mark (SYNTHETIC) and write ``fig`` at ``DPI`` to ``png``, then close it. ``rect``: the
     area the axes may use under a tight layout; a constrained layout gets the figure less a strip at
     the bottom for the legend below and the mark."""

@@ -13,7 +13,13 @@ from bwbench.analysis import comparisons, statistics
 from bwbench.report.format import evals_text, join, number, p_text, seconds_text
 from bwbench.report.labels import split_label
 from bwbench.report.verdict import (
-    ALPHA, FALLBACK_TARGET, PRACTICAL, SUCCESS_MARGIN, TARGET, Verdict, decide,
+    ALPHA,
+    FALLBACK_TARGET,
+    PRACTICAL,
+    SUCCESS_MARGIN,
+    TARGET,
+    Verdict,
+    decide,
 )
 
 

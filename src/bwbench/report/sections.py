@@ -7,11 +7,11 @@ import json
 import numpy as np
 import pandas as pd
 
-from bwbench.report import ecdf_figures, figures
-from bwbench.report.palette import split_label
 from bwbench.analysis import statistics
+from bwbench.report import ecdf_figures, figures
 from bwbench.report.floors import noise_floors
 from bwbench.report.format import evals_text, number, p_text
+from bwbench.report.palette import split_label
 from bwbench.report.recommend import ALPHA, ratio_text, rule
 from bwbench.report.verdict import TARGET
 from bwbench.store.timing import compute_time

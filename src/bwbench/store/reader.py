@@ -20,12 +20,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bwbench.errors import UserError
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.data.parameters import LOWER, UPPER
 from bwbench import problems
 from bwbench.data.input_files import not_regular
 from bwbench.data.manifest import load_manifest
+from bwbench.data.parameters import LOWER, UPPER
+from bwbench.errors import UserError
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
 
 REQUIRED_TABLES = ("study", "runs", "traces")
 # Faults of the environment, not of a run (``bwbench.study.failures``): a stored error of these types
@@ -166,7 +166,7 @@ class Study:
 
 def is_transient_text(error: str | None) -> bool:
     """Whether a stored one-line error ``"TypeName: message"`` was a fault of the environment."""
-    return bool(error) and error.split(":", 1)[0].strip() in TRANSIENT_NAMES
+    return bool(error) and str(error).split(":", 1)[0].strip() in TRANSIENT_NAMES
 
 
 def planned_from_config(config: dict) -> int | None:

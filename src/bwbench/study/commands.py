@@ -38,7 +38,8 @@ def read_runs(db):
 def export_csv(db, path) -> None:
     """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
     each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
-    from bwbench.store.reader import connect_read_only, read_runs as read_all
+    from bwbench.store.reader import connect_read_only
+    from bwbench.store.reader import read_runs as read_all
 
     with closing(connect_read_only(Path(db))) as conn:
         read_all(conn).to_csv(path, index=False)
@@ -260,7 +261,7 @@ def _given(value, default):
 def run_cli(argv=None, prog: str | None = None) -> int:
     """Parse ``argv`` and run ``main``; a ``UserError`` (or an ``OSError``, e.g. a full disk) becomes one
     line ``error: ...`` and status 2."""
-    parser = argparse.ArgumentParser(prog=prog, description=main.__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog=prog, description=(main.__doc__ or "").splitlines()[0])
     add_arguments(parser)
     args = parser.parse_args(argv)
     try:

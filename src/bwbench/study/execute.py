@@ -26,8 +26,14 @@ from bwbench.study.config import StudyConfig
 from bwbench.study.lock import StudyLock
 from bwbench.study.pool import in_pool
 from bwbench.study.stop import StudyStopped
-from bwbench.study.store import (database_fault, failed_runs, finished_keys, open_database,
-                                 prepare_database_path, record_run)
+from bwbench.study.store import (
+    database_fault,
+    failed_runs,
+    finished_keys,
+    open_database,
+    prepare_database_path,
+    record_run,
+)
 from bwbench.study.tasks import plan_tasks, refuse_plugins_only_here, run_task
 
 

@@ -62,7 +62,8 @@ def table(study, specimens) -> pd.DataFrame:
     """One row per specimen: its best ranking run and ``residual_summary`` of it."""
     ranking = study.ranking
     ok = ranking[(ranking["status"] == "ok") & np.isfinite(ranking["mse"].astype(float))]
-    cache, rows = {}, []
+    cache: dict = {}
+    rows: list = []
     for specimen in specimens:
         runs = ok[ok["specimen"] == specimen]
         if runs.empty:

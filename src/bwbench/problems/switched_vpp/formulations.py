@@ -69,6 +69,7 @@ def make_problem(specimen, settings: dict):
     state = settings.get("state") if model.states else None
     excitation = settings.get("excitation", "measured")
     bounds = settings.get("bounds", {})
+    problem: DirectProblem | IdentifiableProblem
     if formulation == "identifiable":
         solved = _solved_bounds(model, state, bounds)
         problem = IdentifiableProblem(model, specimen, state, excitation, fix_mass=settings.get("fix_mass", "auto"),
@@ -147,6 +148,7 @@ def check_pairs(fail, models, formulations) -> list:
         return variants(models, formulations)
     except UserError as err:
         fail(str(err))
+        raise  # not reached: ``fail`` raises
 
 
 def _names(fail, key, value, choices) -> tuple:

@@ -74,7 +74,7 @@ def section(report, formulation: str, paper_data: bool) -> None:
     ok = ok[[variant_of(study, o) == variant for o in ok["optimizer"]]]
     if ok.empty:
         return
-    cache = {}
+    cache: dict = {}
     problem = problem_for(study, ok["specimen"].iloc[0], shown, cache)
     heading = headings(problem)
     for material, group in ranking.groupby("material", sort=False):

@@ -9,8 +9,8 @@ import pandas as pd
 
 from bwbench.models.derivatives import SPLINE_NAME
 from bwbench.optimize.fitting import on_box_edge
-from bwbench.problems.switched_vpp.figure_common import problem_for
 from bwbench.problems.fit_checks import expected_force_error, linear_branches
+from bwbench.problems.switched_vpp.figure_common import problem_for
 from bwbench.report.format import number
 
 
