@@ -81,11 +81,12 @@ def main() -> None:
             size = 0.1 * np.median(np.abs(free.coef_ls), axis=0)
             tight = ls.LinearDesign(e, f, LAYOUT, fix_mass=None,
                                     bounds={n: (-s, s) for n, s in zip(unbounded.free_names, size)})
-            t_free = per_row(lambda: unbounded.solve(Z), rows, args.repeat)
-            t_loose = per_row(lambda: loose.solve(Z), rows, args.repeat)
-            t_physical = per_row(lambda: bounded.solve(Z), rows, args.repeat)
-            t_active = per_row(lambda: tight.solve(Z), rows, args.repeat)
-            t_sim = per_row(lambda: MODEL.trajectories(theta, signals[0], "shared"), len(theta), args.repeat)
+            # (default arguments bind this iteration's objects: each lambda is timed before the next)
+            t_free = per_row(lambda d=unbounded, Z=Z: d.solve(Z), rows, args.repeat)
+            t_loose = per_row(lambda d=loose, Z=Z: d.solve(Z), rows, args.repeat)
+            t_physical = per_row(lambda d=bounded, Z=Z: d.solve(Z), rows, args.repeat)
+            t_active = per_row(lambda d=tight, Z=Z: d.solve(Z), rows, args.repeat)
+            t_sim = per_row(lambda th=theta, s=signals[0]: MODEL.trajectories(th, s, "shared"), len(theta), args.repeat)
             print(f"{name} ({len(f):,} samples, {rows} rows of random θ; the physical bounds re-solve "
                   f"{int(bounded.solve(Z).bound_active.sum())}, the tight ones {int(tight.solve(Z).bound_active.sum())}):")
             print(f"  unbounded solve                    {t_free * 1e6:9.1f} µs/row   1.00×")

@@ -11,6 +11,7 @@ The Python API (``bwbench.api``; imported on first use, so ``import bwbench`` st
 """
 
 from bwbench.version import __version__
+
 __all__ = ["fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction", "__version__"]
 _API = {"fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction"}
 

@@ -54,7 +54,7 @@ def fit(*specimens, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 
     if not specimens:
         raise UserError("bwbench.fit needs at least one specimen file")
     chosen = registry.get(model or registry.DEFAULT)
-    settings = {"model": chosen.name, "formulation": resolve_formulation(chosen, formulation),
+    settings: dict = {"model": chosen.name, "formulation": resolve_formulation(chosen, formulation),
                 "state": state or "shared", "excitation": excitation, "weighting": weighting}
     if fix_mass != "auto":
         settings["fix_mass"] = fix_mass

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -34,9 +35,9 @@ class FitResult:
     ``checks`` (``fit_checks.FitChecks`` or None), ``problem`` (what was fitted)."""
 
     result: Result
-    problem: object
+    problem: Any  # the fitted problem (a model_problem or joint_problem object)
     files: tuple = ()
-    checks: object = None
+    checks: Any = None  # bwbench.problems.fit_checks.FitChecks
     extra: dict = field(default_factory=dict)  # more entries for the JSON (the search box, its file)
 
     # -- the numbers a notebook asks for first --------------------------------------------------

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol, runtime_checkable
+from typing import Callable, NoReturn, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -148,7 +148,9 @@ class ProblemType:
         """The loss a perfect fit reaches on ``specimen`` (e.g. the truth's MSE), if known."""
         return None
 
-    def is_synthetic(self, study) -> bool:
+    def is_synthetic(self, study) -> bool | str:
+        """True, or a text naming the data's source, when the study's data are synthetic (a false value
+        for measured data): reports mark every figure and banner with it."""
         return False
 
     def setup_text(self, report) -> str:
@@ -172,6 +174,7 @@ class ProblemType:
 
 
 # Checks for ``configure`` implementations: ``fail`` raises a UserError naming the file.
+Fail = Callable[[str], NoReturn]
 
 def integer(fail, label, value, minimum=1, what="a positive integer") -> int:
     # bool is an int subclass: `budget = true` must not read as 1.

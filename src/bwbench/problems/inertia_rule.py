@@ -145,7 +145,7 @@ def inertia_check(signal, f, layout, offsets=True, m_ref: float = M_REF, kappa: 
         reason = f"inertia not excited ({head}): {fixed}"
     elif not separable:
         reason = (f"inertia excited but not separable from the stiffness ({head}; "
-                  f"ã⊥/ã = {n_o / max(ni_c, 1e-300):.2g}{', a sine confounds m with k' if sines else ''}): "
+                  f"ã⊥/ã = {float(n_o) / max(float(ni_c), 1e-300):.2g}{', a sine confounds m with k' if sines else ''}): "
                   f"{fixed}, k absorbs −m·ω² (fit tests at several frequencies together, or fix m with --fix-mass)")
     else:
         reason = f"inertia excited and separable ({head}): m fitted"

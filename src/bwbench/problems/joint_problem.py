@@ -51,8 +51,10 @@ def stack_signals(signals) -> StackedSignal:
     segments = tuple(slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]))
     join = [np.concatenate([np.asarray(getattr(s, k), dtype=float) for s in signals]) for k in "txva"]
     recorded = [getattr(s, "x_recorded", None) for s in signals]
-    x_recorded = np.concatenate(recorded) if all(r is not None for r in recorded) else None
-    return StackedSignal(*join, segments, dict(getattr(signals[0], "sources", {})), x_recorded)
+    x_recorded: np.ndarray | None = (np.concatenate([np.asarray(r) for r in recorded])
+                                     if all(r is not None for r in recorded) else None)
+    t, x, v, a = join
+    return StackedSignal(t, x, v, a, segments, dict(getattr(signals[0], "sources", {})), x_recorded)
 
 
 def file_weights(lengths, weighting: str = "equal") -> np.ndarray:
@@ -151,6 +153,7 @@ class JointProblem:
         """The joint linear solve (``LinearSolution`` over the stacked files) of each θ row of P."""
         theta = np.atleast_2d(np.asarray(P, dtype=float))
         Z = np.concatenate([self.model.trajectories(theta, p.signal, self.state) for p in self.parts], axis=1)
+        assert self.design is not None  # the identifiable formulation's: solve is not called otherwise
         return self.design.solve(Z, residual)
 
     def loss_batch(self, P) -> np.ndarray:

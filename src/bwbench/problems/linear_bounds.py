@@ -34,7 +34,8 @@ def physical_bounds(layout, signal, f, coefficient_units: dict) -> tuple[dict, l
     set: ``signal`` with ``segments``) and its force ``f`` (N)."""
     from bwbench.data.plausibility import loop_work
 
-    bounds, notes = {}, []
+    bounds: dict = {}
+    notes: list = []
     if layout.mass:
         bounds[layout.mass] = (0.0, M_MAX)
     viscous = [n for n, unit in coefficient_units.items() if unit == VISCOUS_UNIT]
@@ -109,7 +110,7 @@ def _clamped_solutions(R, B, below, above, lower, upper) -> list:
     solve per pattern of broken bounds: the common case (one coefficient, e.g. m < 0) costs no
     per-row call."""
     out = [None] * len(R)
-    patterns = {}
+    patterns: dict = {}
     for k in range(len(R)):
         patterns.setdefault((tuple(below[k]), tuple(above[k])), []).append(k)
     for (lo_mask, hi_mask), ks in patterns.items():

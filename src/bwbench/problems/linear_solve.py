@@ -27,13 +27,20 @@ of the records' own MSEs.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
+
 import numpy as np
 import scipy.linalg
 
-from bwbench.problems.inertia_rule import (  # noqa: F401 (re-exported: the rule's home was here)
-    M_REF, M_UNFITTED, InertiaCheck, force_noise, inertia_check, pivoted_qr)
+from bwbench.problems.inertia_rule import M_REF, M_UNFITTED, InertiaCheck, force_noise, inertia_check, pivoted_qr  # noqa: F401 (re-exported: the rule's home was here)
 from bwbench.problems.linear_columns import (  # noqa: F401 (re-exported)
-    branch_masks, coefficient_names, coefficient_units, fixed_columns, offsets_mode, tied_offsets)
+    branch_masks,
+    coefficient_names,
+    coefficient_units,
+    fixed_columns,
+    offsets_mode,
+    tied_offsets,
+)
 from bwbench.problems.linear_solve_kernel import w_solve
 
 
@@ -93,11 +100,11 @@ class LinearDesign:
     and why.
     """
 
-    signal: object
+    signal: Any
     f: np.ndarray
-    layout: object
-    fix_mass: object = "auto"
-    offsets: object = True
+    layout: Any  # a bwbench.models.base.LinearLayout
+    fix_mass: Any = "auto"
+    offsets: Any = True
     mass_min: float | None = 0.0
     m_ref: float = M_REF
     notes: list = field(default_factory=list)

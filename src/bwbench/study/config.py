@@ -43,12 +43,12 @@ from bwbench import limits, problems
 from bwbench.data.input_files import read_text
 from bwbench.errors import UserError
 from bwbench.optimize import registry
-from bwbench.problems.base import ProblemSetup, integer
+from bwbench.problems.base import Fail, ProblemSetup, integer
 
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
-    import tomli as tomllib
+    import tomli as tomllib  # type: ignore[no-redef]
 
 GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem")
 POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
@@ -264,7 +264,7 @@ def _check_backend(fail, label, optimizer) -> None:
         fail(f"{label}: unknown optimiser {optimizer!r}; available: {', '.join(backends)}")
 
 
-def _resolve_options(fail, label, optimizer, options) -> dict:
+def _resolve_options(fail: Fail, label, optimizer, options) -> dict:
     if not isinstance(options, dict):
         fail(f"{label} must be a table of options (use {{}} for the defaults)")
     try:  # the same check as `bwbench fit --option`: names, types and ranges, defaults merged in

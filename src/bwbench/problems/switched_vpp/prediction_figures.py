@@ -13,7 +13,7 @@ from matplotlib.lines import Line2D
 
 from bwbench.report.palette import MAX_WIDTH_IN, OKABE_ITO, figure, legend, theme, write_png
 
-MEASURED = {"color": "black", "marker": ".", "ls": "", "ms": 2.0, "alpha": 0.7, "zorder": 3, "rasterized": True}
+MEASURED: dict = {"color": "black", "marker": ".", "ls": "", "ms": 2.0, "alpha": 0.7, "zorder": 3, "rasterized": True}
 MAX_ROWS = 8  # more tests than this: the first MAX_ROWS are drawn, the title says how many
 
 

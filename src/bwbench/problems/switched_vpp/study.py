@@ -44,9 +44,9 @@ import numpy as np
 
 from bwbench.data import manifest as manifest_mod
 from bwbench.models import registry as model_registry
-from bwbench.models.switched_bouc_wen import STATES
 from bwbench.models.excitation import EXCITATIONS
-from bwbench.problems.base import ProblemSetup, ProblemType, SpecimenEntry, choice
+from bwbench.models.switched_bouc_wen import STATES
+from bwbench.problems.base import Fail, ProblemSetup, ProblemType, SpecimenEntry, choice
 from bwbench.problems.switched_vpp.formulations import bound_names, check_pairs, make_problem, parse_models
 from bwbench.problems.switched_vpp.formulations import parse as _formulations
 
@@ -196,8 +196,8 @@ class SwitchedVPP(ProblemType):
     def is_synthetic(self, study) -> str:
         """"SYNTHETIC DATA (generated from <source>)" when a manifest marks the study's specimens
         synthetic ('' otherwise: a false value), for banners and the mark on every figure."""
-        sources = [manifest_mod.synthetic_source(study.specimen_path(s)) for s in study.specimens]
-        sources = list(dict.fromkeys(s for s in sources if s))
+        found = [manifest_mod.synthetic_source(study.specimen_path(s)) for s in study.specimens]
+        sources = [s for s in dict.fromkeys(found) if s]
         return f"SYNTHETIC DATA (generated from {' and '.join(sources)})" if sources else ""
 
     def noise_floor(self, study, specimen):
@@ -244,7 +244,7 @@ def specimens_from_files(fail, patterns, base_dir: Path, label: str) -> list[Spe
         patterns = [patterns]
     if not isinstance(patterns, list) or not patterns or not all(isinstance(p, str) and p for p in patterns):
         fail(f"{label} must be a non-empty list of file paths or globs")
-    paths = []
+    paths: list[Path] = []
     for pattern in patterns:
         full = Path(pattern).expanduser()
         full = full if full.is_absolute() else base_dir / full
@@ -261,7 +261,7 @@ def specimens_from_files(fail, patterns, base_dir: Path, label: str) -> list[Spe
 
 
 def _unique_stems(fail, paths, label) -> list[Path]:
-    seen = {}
+    seen: dict = {}
     for path in paths:
         if path.stem in seen:
             fail(f"{label}: two specimens are named {path.stem!r} ({seen[path.stem]} and {path}): "
@@ -312,7 +312,7 @@ def _from_manifest(fail, study, filters_table, base_dir, data_override):
     return entries, available
 
 
-def _read_manifest(fail, data_dir: Path) -> list[dict]:
+def _read_manifest(fail: Fail, data_dir: Path) -> list[dict]:
     try:
         document = manifest_mod.load_manifest(data_dir)
         if document is None:
