@@ -115,7 +115,8 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", st
             steps = objective.remaining // n_walkers + 1
             # The ensemble check is for user-given starting points, not for a chain being continued.
             continuing = sampler.iteration > 0
-            for state in sampler.sample(state, iterations=steps, skip_initial_state_check=continuing):
+            for step in sampler.sample(state, iterations=steps, skip_initial_state_check=continuing):
+                state = step  # the last state continues the chain
                 if objective.exhausted:
                     break
             stuck = objective.nfev == spent  # every proposal of every step outside the box: never loop for nothing

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+if TYPE_CHECKING:
+    import pandas as pd
 
 STUCK_LOG_PROB = 50.0  # a walker this far below the ensemble's median log-probability is stuck
 

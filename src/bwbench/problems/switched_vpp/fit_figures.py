@@ -10,6 +10,7 @@ arrows in the direction of travel, reversals marked), the force against time, an
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -17,15 +18,30 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from bwbench.problems.switched_vpp.figure_common import (
-    conditions, problem_for, reversals, synthetic, travel_arrows, truth,
+    conditions,
+    problem_for,
+    reversals,
+    synthetic,
+    travel_arrows,
+    truth,
 )
 from bwbench.report.palette import (
-    MAX_WIDTH_IN, OKABE_ITO, Style, backend_handles, figure, legend, save, slug, split_label, styles, theme,
+    MAX_WIDTH_IN,
+    OKABE_ITO,
+    Style,
+    backend_handles,
+    figure,
+    legend,
+    save,
+    slug,
+    split_label,
+    styles,
+    theme,
     write_png,
 )
 
 BACKENDS = 3  # residuals of the best few backends (and random search): more lines hide each other
-MEASURED = {"color": "black", "marker": ".", "ls": "", "ms": 2.2, "alpha": 0.75, "zorder": 5, "rasterized": True}
+MEASURED: dict[str, Any] = {"color": "black", "marker": ".", "ls": "", "ms": 2.2, "alpha": 0.75, "zorder": 5, "rasterized": True}
 
 
 def _panels(height: float = 6.6):
@@ -134,8 +150,11 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
         shown.append(best_run["optimizer"])
     randoms = [o for o in present if split_label(o)[0] == "random"]
     shown += randoms
-    cache, frames, residuals, fits = {}, [], {}, {}
-    spec = None
+    cache: dict = {}
+    frames: list[pd.DataFrame] = []
+    residuals: dict[str, np.ndarray] = {}
+    fits: dict[str, tuple] = {}
+    spec: Any = None
     for optimizer in shown:
         run = runs[runs["optimizer"] == optimizer].sort_values("mse").iloc[0]
         problem = problem_for(study, specimen, optimizer, cache)
@@ -171,7 +190,7 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     residual.set_title("residual of the best run of each backend", loc="left")
     _mark_reversals([force_ax, residual], spec.t, turns)
     text = {o: f"{o}: RMSE {np.sqrt(fits[o][0]['mse']):.3g} N (seed {int(fits[o][0]['replicate'])})" for o in shown}
-    handles = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"})]
+    handles: list[Any] = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"})]
     handles += backend_handles(look, shown, text, marker=False)
     handles.append(REVERSAL)
     if noise is not None:

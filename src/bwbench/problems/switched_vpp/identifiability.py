@@ -11,7 +11,14 @@ import math
 import numpy as np
 
 from bwbench.analysis.identifiability import (
-    POOR_SE, PROFILE_MAXITER, STEP, ZERO_RATIO, describe_direction, follow_invariance, profile, sensitivity,
+    POOR_SE,
+    PROFILE_MAXITER,
+    STEP,
+    ZERO_RATIO,
+    describe_direction,
+    follow_invariance,
+    profile,
+    sensitivity,
 )
 from bwbench.errors import UserError
 
