@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 # report is reports/quick/, regenerated on purpose with `make example`.
 RESULTS := results/quick
 
-.PHONY: test compare example install clean
+.PHONY: test lint compare example install clean
 
 # (Re)install when the virtualenv is missing or pyproject.toml changed. The filter hides setuptools'
 # "Editable installation" notice (a box about folders named like the package: not a problem here).
@@ -22,6 +22,11 @@ install: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+# ruff (pyflakes, isort, bugbear) over the code and the tests, mypy over src/ and optimizers/.
+lint: $(STAMP)
+	$(BIN)/ruff check src optimizers tests benchmarks studies examples
+	$(BIN)/mypy
 
 # exit 1 = some runs failed (listed): the report still shows the study, failures included
 compare: $(STAMP)

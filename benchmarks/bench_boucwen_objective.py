@@ -20,13 +20,13 @@ import time
 import numba
 import numpy as np
 
+from bwbench.optimize.objective import Objective
 from bwbench.problems.noel_schoukens.problem import (
     STEPS_PER_SAMPLE,
     TRUE_PARAMS,
     BoucWenBenchmarkProblem,
     default_data_dir,
 )
-from bwbench.optimize.objective import Objective
 
 
 def rates(fn, n):

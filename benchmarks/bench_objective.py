@@ -98,7 +98,8 @@ def main():
     kernels = {"scalar": 0.0, "lockstep": 0.0}
     for _ in range(args.repeat):
         for kernel in kernels:
-            run = rate(lambda: model.mse_batch(P, s.t, s.x, s.v, s.a, problem.specimen.f, kernel=kernel), len(P), 1, clock)
+            run = rate(lambda kernel=kernel: model.mse_batch(P, s.t, s.x, s.v, s.a, problem.specimen.f, kernel=kernel),
+                       len(P), 1, clock)
             kernels[kernel] = max(kernels[kernel], run)
     k = args.scipy_evals  # before the threads line: numba's idle pool threads may still spin after it
     reference = rate(lambda: [scipy_mse(p, s, problem.specimen.f) for p in P[:k]], k, 1, clock)

@@ -18,10 +18,10 @@ import tempfile
 import time
 from pathlib import Path
 
+from bwbench.data.synthetic import SPECIMEN_DIR
+from bwbench.study.config import load_study_config
 from bwbench.study.execute import execute_tasks
 from bwbench.study.tasks import plan_tasks
-from bwbench.study.config import load_study_config
-from bwbench.data.synthetic import SPECIMEN_DIR
 
 CONFIG = """
 [study]

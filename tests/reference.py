@@ -78,7 +78,7 @@ def reference_force_of_motion(params, t, motion, reversals, state="shared", rtol
         plus = motion(np.array([0.5 * (lo + hi)]))[1][0] >= 0
         A, n, _, beta, gamma, _, _ = p[:7] if plus else p[7:]
 
-        def rhs(tt, zz):
+        def rhs(tt, zz, A=A, n=n, beta=beta, gamma=gamma):
             xdot = motion(np.array([tt]))[1][0]
             return [xdot * (A - (beta + gamma * np.sign(zz[0] * xdot)) * abs(zz[0]) ** n)]
 

@@ -13,10 +13,18 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import brentq
 
 
-def hermite_excitation(t, x, v):
-    """x(t), ẋ(t) of the cubic Hermite interpolant of samples (x, ẋ): what the models are driven by."""
-    spline = CubicHermiteSpline(t, x, v)
-    return spline, spline.derivative()
+def hermite_excitation(t, x, v, a):
+    """x(t), ẋ(t) as the models see the samples: ẋ the cubic Hermite interpolant of (ẋ, ẍ), x the
+    sample before t plus the integral of ẋ since it."""
+    speed = CubicHermiteSpline(t, v, a)
+    integral = speed.antiderivative()
+
+    def position(tt):
+        tt = np.asarray(tt, dtype=float)
+        k = np.clip(np.searchsorted(t, tt, side="right") - 1, 0, len(t) - 1)
+        return x[k] + integral(tt) - integral(t[k])
+
+    return position, speed
 
 
 def spencer_force(p: dict, t, x_of, v_of, rtol=1e-11):

@@ -21,10 +21,11 @@ import numpy as np
 
 from bwbench.data import manifest as manifest_mod
 from bwbench.data import synthetic
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.data.parameters import LOWER, UPPER
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 from bwbench.data.specimen import read_specimen
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.optimize import registry
+from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 
 DATA_DIR = synthetic.SPECIMEN_DIR
 SPECIMENS = ("pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1")
@@ -41,8 +42,7 @@ CREATE TABLE runs (
     {_KEY}, seed_entropy TEXT, status TEXT, error TEXT, budget INTEGER, nfev INTEGER,
     mse REAL, f_err REAL, rmse_N REAL, success INTEGER, message TEXT, state TEXT, excitation TEXT,
     material TEXT, underpressure_MPa REAL, repeat INTEGER, options_json TEXT,
-    {", ".join(f'"{name}" REAL' for name in PARAM_NAMES)},
-    problem TEXT, params_json TEXT, metrics_json TEXT, {_PK});
+    problem TEXT, params_json TEXT, metrics_json TEXT, model TEXT, formulation TEXT, variant TEXT, {_PK});
 CREATE TABLE timings ({_KEY}, wall_s REAL, worker TEXT, finished_utc TEXT, {_PK});
 CREATE TABLE traces ({_KEY}, nfev INTEGER, mse REAL);
 CREATE TABLE chains ({_KEY}, steps INTEGER, walkers INTEGER, dim INTEGER, chain BLOB, log_prob BLOB,
@@ -51,7 +51,8 @@ CREATE TABLE chains ({_KEY}, steps INTEGER, walkers INTEGER, dim INTEGER, chain 
 RUN_COLUMNS = (
     "kind", "specimen", "optimizer", "replicate", "seed_entropy", "status", "error", "budget",
     "nfev", "mse", "f_err", "rmse_N", "success", "message", "state", "excitation", "material",
-    "underpressure_MPa", "repeat", "options_json", *PARAM_NAMES, "problem", "params_json", "metrics_json",
+    "underpressure_MPa", "repeat", "options_json", "problem", "params_json", "metrics_json", "model",
+    "formulation", "variant",
 )
 
 
@@ -125,10 +126,11 @@ def make_study_db(
                    seed_entropy=str(seed), status=status, budget=budget if kind == "ranking" else nfev,
                    state="shared", excitation="measured", material=entry["material"],
                    underpressure_MPa=entry["underpressure_MPa"], repeat=entry["repeat"],
-                   options_json=json.dumps(options, sort_keys=True), success=0, problem="switched-bouc-wen")
+                   options_json=json.dumps(options, sort_keys=True), success=0, problem="switched-bouc-wen",
+                   model="switched-bouc-wen", formulation="paper")
         if status == "ok":
             row.update(nfev=nfev, mse=mse, f_err=-mse, rmse_N=float(np.sqrt(mse)), success=1,
-                       message="budget exhausted", **dict(zip(PARAM_NAMES, map(float, params))),
+                       message="budget exhausted",
                        params_json=json.dumps(dict(zip(PARAM_NAMES, map(float, params))), sort_keys=True),
                        metrics_json="{}")
         else:
@@ -175,11 +177,15 @@ def make_study_db(
 
     if path.exists():
         path.unlink()
+    known = registry.available()  # the fixture's names that are real backends (a test may invent others)
     with closing(sqlite3.connect(path)) as conn:
         conn.executescript(SCHEMA)
         conn.executemany("INSERT INTO study VALUES (?, ?)", [
             ("name", "fixture"), ("config_json", json.dumps(config, sort_keys=True)), ("config_hash", "0" * 64),
             ("created_utc", "2024-01-01T00:00:00Z"), ("bwbench_version", "fixture"),
+            # as the runner records them (bwbench.study.store.backend_facts); the fixture's backends are real ones
+            ("backends", json.dumps({name: {"family": known[name].family, "batched": known[name].batched}
+                                     for name in [*optimizers, "emcee"] if name in known}, sort_keys=True)),
         ])
         conn.executemany(f"INSERT INTO runs VALUES ({', '.join('?' * len(RUN_COLUMNS))})", runs)
         conn.executemany("INSERT INTO timings VALUES (?, ?, ?, ?, ?, ?, ?)", timings)

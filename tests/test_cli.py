@@ -7,8 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bwbench.data import manifest
 from bwbench.cli import main
+from bwbench.data import manifest
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "specimens"
 SPECIMEN = DATA / "pom-mt24u01_0.01MPa_r1.csv"

@@ -65,6 +65,8 @@ def lab(tmp_path_factory):
     edited.mkdir()
     shutil.copy(lab / NAME, edited / NAME)
     cwd = os.getcwd()
+    assert cli.main(["fit", str(lab / NAME), "--optimizer", "random", "--budget", "20", "--out",
+                     str(lab / "r0.json")]) == 0  # a fit result for predict
     os.chdir(edited)
     try:
         assert cli.main(["compare", "--specimens", NAME, "--optimizers", "random", "--seeds", "1", "--budget", "20",
@@ -134,6 +136,19 @@ CASES = [
     ("identifiability: zero force, --json", ["identifiability", "zero.csv", "--params", "p.json", "--formulation",
                                              "identifiable", "--json"], 2, "force_N is 0 in every row"),
     ("identifiability: params a FIFO", ["identifiability", NAME, "--params", "fifo.csv"], 2, "named pipe"),
+    ("predict: --fit a FIFO", ["predict", "--fit", "fifo.csv", NAME], 2, "named pipe"),
+    ("predict: --fit a parameter file", ["predict", "--fit", "p.json", NAME], 2, "not a fit result"),
+    ("predict: data a FIFO", ["predict", "--fit", "r0.json", "fifo.csv"], 2, "named pipe"),
+    ("predict: --plot a FIFO nothing reads", ["predict", "--fit", "r0.json", NAME, "--plot", "fifo.png"], 2,
+     "a named pipe (FIFO) that nothing reads"),
+    ("evaluate: a fit result and another model", ["evaluate", "--params", "r0.json", "--specimen", NAME, "--model",
+                                                  "spencer"], 2, "--model spencer does not match"),
+    ("fit: --fix-mass a word", [*FIT, "--formulation", "identifiable", "--fix-mass", "heavy"], 2,
+     "--fix-mass must be 'auto', 'fit' or a mass"),
+    ("fit: --fix-mass in the paper formulation", [*FIT, "--fix-mass", "0"], 2, "--fix-mass applies to the identifiable"),
+    ("compare: --validate a training file", [*COMPARE, "--validate", NAME, "--db", "v.sqlite"], 2,
+     "is also a training specimen"),
+    ("compare: --validate a FIFO", [*COMPARE, "--validate", "fifo.csv", "--db", "v.sqlite"], 2, "named pipe"),
     ("identifiability: a billion grid points", ["identifiability", NAME, "--params", "p.json", "--grid",
                                                 "1000000000"], 2, "--grid must be 2 to 1000"),
 ]

@@ -89,3 +89,21 @@ def test_no_import_cycle_inside_bwbench():
 @pytest.mark.parametrize("name, path", sorted(_modules().items()))
 def test_no_module_over_400_lines(name, path):
     assert len(path.read_text(encoding="utf-8").splitlines()) <= 400, name
+
+
+# The layers the issue of models as plug-ins asked for: the report and the store read results and
+# never the runner or the optimiser registry; models know nothing of problems, studies or reports.
+LOWER_LAYERS = {
+    "bwbench.report": ("bwbench.study", "bwbench.optimize"),
+    "bwbench.store": ("bwbench.study", "bwbench.optimize", "bwbench.report"),
+    "bwbench.models": ("bwbench.problems", "bwbench.study", "bwbench.optimize", "bwbench.report", "bwbench.store"),
+}
+
+
+@pytest.mark.parametrize("layer", sorted(LOWER_LAYERS))
+def test_a_layer_does_not_import_the_layers_above_it(layer):
+    modules = _modules()
+    above = LOWER_LAYERS[layer]
+    wrong = sorted(f"{name} -> {target}" for name, path in modules.items() if name.startswith(layer)
+                   for target in _imports(name, path, set(modules)) if target.startswith(above))
+    assert not wrong, wrong

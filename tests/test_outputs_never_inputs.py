@@ -35,6 +35,7 @@ def lab(tmp_path_factory):
     (lab / "manifest.json").write_text(json.dumps(manifest))
     truth = next(row["truth"] for row in manifest["specimens"] if row["file"] == NAME)
     (lab / "p.json").write_text(json.dumps(truth))
+    shutil.copy(SPECIMENS / NAME, lab / "held.csv")  # a held-out test (predict, compare --validate)
     (lab / "box.json").write_text(json.dumps({"xi+": [1.0, 50.0]}))
     (lab / "cfg.toml").write_text(f'[study]\nname = "c"\nseed = 1\nbudget = 20\nseeds = 1\n'
                                   f'[specimens]\nfiles = ["{NAME}"]\n[optimizers]\nrandom = {{}}\n')
@@ -43,6 +44,7 @@ def lab(tmp_path_factory):
     try:
         assert cli.main(["compare", "--specimens", NAME, "--optimizers", "random", "--seeds", "1", "--budget", "20",
                          "--workers", "1", "--db", "study.sqlite"]) == 0
+        assert cli.main(["fit", NAME, "--optimizer", "random", "--budget", "20", "--out", "fit.json"]) == 0
     finally:
         os.chdir(cwd)
     return lab
@@ -55,11 +57,13 @@ FILES = {
     ("fit",): ([ "fit", NAME, "--optimizer", "random", "--budget", "20", "--bounds", "box.json",
                 "--out", "r.json", "--plot", "r.png"],
                {"--out": [NAME, "box.json"], "--plot": [NAME, "box.json"]}),
+    ("predict",): (["predict", "--fit", "fit.json", NAME, "held.csv", "--out", "pred.json", "--plot", "pred.png"],
+                   {"--out": ["fit.json", NAME, "held.csv"], "--plot": ["fit.json", "held.csv"]}),
     ("compare", "--specimens"): (["compare", "--specimens", NAME, "--optimizers", "random", "--seeds", "1",
                                   "--budget", "20", "--bounds", "box.json", "--workers", "1", "--db", "new.sqlite",
-                                  "--csv", "runs.csv"],
-                                 {"--db": [NAME, "box.json", "manifest.json"],
-                                  "--csv": [NAME, "box.json", "manifest.json"]}),
+                                  "--csv", "runs.csv", "--validate", "held.csv"],
+                                 {"--db": [NAME, "box.json", "manifest.json", "held.csv"],
+                                  "--csv": [NAME, "box.json", "manifest.json", "held.csv"]}),
     ("compare", "--config"): (["compare", "--config", "cfg.toml", "--workers", "1", "--db", "new.sqlite",
                                "--csv", "runs.csv"],
                               {"--db": ["cfg.toml", NAME, "manifest.json"],

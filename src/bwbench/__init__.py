@@ -1,2 +1,28 @@
-"""bwbench: switched Bouc-Wen parameter identification and a fair optimiser comparison."""
-__version__ = "0.1.0"
+"""bwbench: hysteresis models (the switched Bouc-Wen of Zalewski et al., Spencer's MR-damper model, the
+classic Bouc-Wen) identified from force–displacement tests, and a fair comparison of optimisers.
+
+The Python API (``bwbench.api``; imported on first use, so ``import bwbench`` stays cheap):
+
+- ``bwbench.fit(*files, optimizer=..., budget=..., model=..., formulation=...)`` → ``FitResult``:
+  one fit, or a joint fit of several files (one parameter set);
+- ``FitResult.model`` / ``bwbench.load_fit(path)`` → ``FittedModel``: ``.predict(file)`` (a
+  ``Prediction``: RMSE in N, NRMSE, forces) and ``.simulate(file)``, every coefficient as stored;
+- ``bwbench.load_study(db)`` → a study with ``.runs`` and ``.traces`` as pandas DataFrames.
+"""
+
+from bwbench.version import __version__
+
+__all__ = ["fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction", "__version__"]
+_API = {"fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction"}
+
+
+def __getattr__(name):
+    if name in _API:
+        from bwbench import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'bwbench' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | _API)

@@ -94,7 +94,7 @@ class SphereProblem:
 class LossOnlySphereProblem(SphereProblem):
     """``SphereProblem`` without residuals: what a problem that only has a loss looks like."""
 
-    residual_batch = None
+    residual_batch = None  # type: ignore[assignment]  # the point: this problem has none
 
 
 def counting_problem() -> SphereProblem:

@@ -6,11 +6,11 @@ import numpy as np
 import pandas as pd
 import pytest
 import scipy.stats
-from study_fixture import make_study_db
 
-from bwbench.study import results as results_db
 from bwbench.analysis import comparisons, mcmc, statistics
 from bwbench.errors import UserError
+from bwbench.store import reader as results_db
+from study_fixture import make_study_db
 
 
 @pytest.fixture(scope="module")

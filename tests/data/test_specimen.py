@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from bwbench.cli import main
-from bwbench.errors import InputFileError
 from bwbench.data.specimen import MIN_SAMPLES, Specimen, read_specimen
+from bwbench.errors import InputFileError
 
 HEADER = "time_s,displacement_mm,force_N"
 N = 50

@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bwbench.cli import main
 from bwbench.data import manifest as manifest_mod
 from bwbench.data import synthetic
-from bwbench.cli import main
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 from bwbench.data.specimen import read_specimen
+from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 

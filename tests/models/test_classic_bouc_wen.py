@@ -4,10 +4,10 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from reference_mr import classic_force, random_motion
 
 from bwbench.models import switched_bouc_wen as switched
 from bwbench.models.classic_bouc_wen import MODEL
+from reference_mr import classic_force, random_motion
 
 # Hysteresis that matters in the force: Table 6's compression set with ξ made positive, a sharp
 # n = 1 loop and a smooth n = 3 one.

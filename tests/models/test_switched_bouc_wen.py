@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
-from reference import reference_force, sine_excitation
 
-from bwbench.models import switched_bouc_wen as model
 from bwbench.data.parameters import LOWER, UPPER
+from bwbench.models import switched_bouc_wen as model
+from reference import reference_force, sine_excitation
 
 # Spanning Table 5: the paper's own fits, n below 1 and above 10, the box corners, the
 # symmetric 7-parameter model as a special case.

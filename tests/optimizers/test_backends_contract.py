@@ -9,11 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench.optimize import fitting
-from bwbench.optimize import registry
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
-from bwbench.data.specimen import read_specimen
 from bwbench import testing
+from bwbench.data.specimen import read_specimen
+from bwbench.optimize import fitting, registry
+from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 
 ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"

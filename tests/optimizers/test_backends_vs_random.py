@@ -11,10 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench.optimize import fitting
-from bwbench.optimize import registry
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 from bwbench.data.specimen import read_specimen
+from bwbench.optimize import fitting, registry
+from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
 
 SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
 SEEDS = range(5)

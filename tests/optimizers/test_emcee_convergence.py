@@ -33,7 +33,7 @@ def test_the_convergence_loop_stops_on_its_budget_and_says_why():
     assert result.nfev == 3_000 and result.extras["converged"] is False
     assert result.message.startswith("budget exhausted before convergence")
     # which parameter failed, with its R̂ and ESS, and which way it was moving
-    assert "p0: R̂" in result.message or "p1: R̂" in result.message
+    assert "p0 (R̂ " in result.message or "p1 (R̂ " in result.message
     assert "bulk ESS" in result.message and ("drifting" in result.message or "mix slowly" in result.message)
 
 

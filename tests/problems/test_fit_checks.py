@@ -2,7 +2,6 @@
 energy dissipated per cycle, and the expected force error of an estimated velocity."""
 
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np

@@ -8,6 +8,7 @@ import pytest
 from scipy.special import logsumexp
 
 from bwbench.data import manifest
+from bwbench.data.specimen import read_specimen
 from bwbench.models import excitation
 from bwbench.models import switched_bouc_wen as model
 from bwbench.models import switched_identifiable as fm
@@ -15,7 +16,6 @@ from bwbench.models.switched import LAYOUT
 from bwbench.problems import linear_solve as ls
 from bwbench.problems import marginal as mg
 from bwbench.problems.switched_vpp.identifiable import IdentifiableModel
-from bwbench.data.specimen import read_specimen
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 SPECIMENS = ["pom-mt24u01_0.01MPa_r1", "pom-c9021_0.03MPa_r2", "pc-abs-c12hf_0.07MPa_r3"]
@@ -226,9 +226,9 @@ def test_inertia_of_a_fast_sine_is_excited_but_confounded_with_stiffness():
     e, f = fast_test(lambda t: 25.0 * np.sin(2 * np.pi * 5.0 * t))
     check = ls.inertia_check(e, f, LAYOUT)
     assert check.excited and check.inertia_rms_N > 1e3 * check.noise_N
-    # ẍ = −ω²x: m and k are one combination on a sine, so m stays fixed at 1 and k absorbs it.
-    assert not check.separable and "not separable" in check.reason
-    assert ls.LinearDesign(e, f, LAYOUT).mass == 1.0
+    # ẍ = −ω²x: m and k are one combination on a sine, so m stays fixed (at 0) and k absorbs it.
+    assert not check.separable and "not separable" in check.reason and check.sine_segments == 1
+    assert ls.LinearDesign(e, f, LAYOUT).mass == ls.M_UNFITTED == 0.0
 
 
 def test_inertia_of_a_two_tone_test_is_fitted():

@@ -5,7 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bwbench.errors import InputFileError
+from bwbench.models.force_driven_bouc_wen import identifiable_combinations
 from bwbench.optimize import fitting
+from bwbench.optimize.objective import Objective
 from bwbench.problems.noel_schoukens.problem import (
     LOWER,
     NOISE_RMS_M,
@@ -13,14 +16,11 @@ from bwbench.problems.noel_schoukens.problem import (
     TRUE_PARAMS,
     UPPER,
     BoucWenBenchmarkProblem,
-    from_unit,
-    to_unit,
     default_data_dir,
-    identifiable_combinations,
+    from_unit,
     read_benchmark_csv,
+    to_unit,
 )
-from bwbench.errors import InputFileError
-from bwbench.optimize.objective import Objective
 
 DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "benchmarks" / "bouc-wen"
 needs_data = pytest.mark.skipif(

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 import exact_motions as em
-from reference import reference_force_of_motion
 from bwbench.data.specimen import read_specimen
 from bwbench.data.synthetic import read_paper_parameters
 from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
 from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from reference import reference_force_of_motion
 
 # POM C9021 0.05 MPa: the largest viscous coefficient of Tables 6-8 (2·ξ₋·ωn₋ ≈ 18,000 N·s/mm), where
 # a velocity error weighs most.

@@ -9,16 +9,16 @@ import matplotlib.text
 import numpy as np
 import pandas as pd
 import pytest
-from study_fixture import make_study_db
 
 from bwbench.data.specimen import read_specimen
+from bwbench.models import switched_identifiable as fm
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.problems.switched_vpp import figures as switched_figures
-from bwbench.problems.switched_vpp.figure_common import problem_for
-from bwbench.models import switched_identifiable as fm
 from bwbench.problems.switched_vpp import non_uniqueness
+from bwbench.problems.switched_vpp.figure_common import problem_for
 from bwbench.report import ecdf_figures, figures, palette
-from bwbench.study import results as results_db
+from bwbench.store import reader as results_db
+from study_fixture import make_study_db
 
 ORDER = ["de", "cmaes", "random"]  # not the configuration's order, nor the median loss's
 

@@ -5,13 +5,13 @@ import dataclasses
 import numpy as np
 import pandas as pd
 import pytest
-from study_fixture import make_study_db
 
-from bwbench.problems.switched_vpp import figures as switched_figures
-from bwbench.report import ecdf_figures, figures
-from bwbench.study import results as results_db
 from bwbench.analysis import statistics
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.problems.switched_vpp import figures as switched_figures
+from bwbench.report import ecdf_figures, figures
+from bwbench.store import reader as results_db
+from study_fixture import make_study_db
 
 MISS = ("pom-mt24u01_0.01MPa_r1", "cmaes", 0)
 
@@ -131,7 +131,7 @@ def test_a_median_of_best_so_far_curves_never_rises():
 
 
 def test_convergence_pools_relative_to_the_floor_only_when_every_specimen_has_one(study, out):
-    low, high = "pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1"
+    high = "pom-mt24u01_0.09MPa_r1"
     frame = _read(figures.convergence(study, out, floors={high: (10.0, "noise floor")}))
     kinds = frame.drop_duplicates("panel").set_index("panel")["y"].to_dict()
     assert kinds == {"all specimens (pooled)": "mse_over_best_known", "0.01 MPa, repeat 1": "mse_over_best_known",

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from study_fixture import SCHEMA, make_study_db
 
-from bwbench.report import build as report
-from bwbench.study import results as results_db
 from bwbench.analysis import statistics
 from bwbench.errors import UserError
+from bwbench.report import build as report
+from bwbench.store import reader as results_db
+from study_fixture import SCHEMA, make_study_db
 
 
 @pytest.fixture(scope="module")

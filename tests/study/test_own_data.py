@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import sqlite3
@@ -158,7 +159,8 @@ def test_bounds_file_sets_the_box_of_a_study(tmp_path):
                      "--bounds", "box.json", "--workers", "1", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     with closing(sqlite3.connect(tmp_path / "study.sqlite")) as conn:
-        xi, a = conn.execute('SELECT "xi-", "A+" FROM runs').fetchone()
+        params = json.loads(conn.execute("SELECT params_json FROM runs").fetchone()[0])
+    xi, a = params["xi-"], params["A+"]
     assert -30.0 <= xi <= -25.0 and 0.02 <= a <= 0.021
     (tmp_path / "bad.json").write_text('{"xi-": [-30.0]}', encoding="utf-8")
     bad = bwbench("compare", "--specimens", "a.csv", "--optimizers", "random", "--bounds", "bad.json", cwd=tmp_path)

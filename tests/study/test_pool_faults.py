@@ -10,11 +10,11 @@ import sqlite3
 from contextlib import closing
 
 import psutil
-from robustness_helpers import HANG, KeyOnly, count_runs, die_or_echo, rows, start_compare, wait_for, write_config
 
 from bwbench.study import pool
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
+from robustness_helpers import HANG, KeyOnly, count_runs, die_or_echo, rows, start_compare, wait_for, write_config
 
 
 def _workers(process) -> list:

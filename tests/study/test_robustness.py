@@ -15,14 +15,22 @@ from contextlib import closing
 
 import psutil
 import pytest
-from robustness_helpers import (HANG, KEYS, REPO, RUN_COMPARE, alive, count_runs, run_compare, start_compare,
-                                wait_for, write_config)
-from robustness_helpers import tiny_db  # noqa: F401 (a fixture)
 
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.lock import StudyLock, lock_path
-
+from robustness_helpers import (
+    HANG,
+    KEYS,
+    REPO,
+    RUN_COMPARE,
+    alive,
+    count_runs,
+    run_compare,
+    start_compare,
+    wait_for,
+    write_config,
+)
 
 # ------------------------------------------------------------------------------ 1. no orphans
 

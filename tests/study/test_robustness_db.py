@@ -5,16 +5,14 @@ from __future__ import annotations
 
 import io
 import os
-import stat
 import sqlite3
+import stat
 import subprocess
 import sys
 from contextlib import closing
 from pathlib import Path
 
 import pytest
-from robustness_helpers import HANG, REPO, RUN_COMPARE, one_error_line, rows, write_config
-from robustness_helpers import tiny_db  # noqa: F401 (a fixture)
 
 from bwbench.optimize import registry
 from bwbench.study import execute, failures
@@ -23,7 +21,14 @@ from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.lock import lock_path
 from bwbench.study.store import open_database
-
+from robustness_helpers import (
+    HANG,
+    REPO,
+    RUN_COMPARE,
+    one_error_line,
+    rows,
+    write_config,
+)
 
 # ------------------------------------------------------------------------------ helpers for 3.
 
@@ -313,7 +318,7 @@ def test_a_full_disk_mid_study_stops_with_one_line_and_what_was_committed_resume
 
 def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_path):
     from bwbench.report.build import build_report
-    from bwbench.study import results
+    from bwbench.store import reader as results
 
     _, reference = tiny_db
     db = tmp_path / "part.sqlite"
@@ -343,7 +348,7 @@ def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_p
 
 
 def test_planned_runs_are_counted_from_a_stored_configuration_when_possible():
-    from bwbench.study.results import planned_from_config
+    from bwbench.store.reader import planned_from_config
 
     config = {"study": {"seeds": 5}, "specimens": {"files": ["a", "b", "c"]}, "optimizers": {"x": {}, "y": {}},
               "posterior": {"specimens": ["a"], "seeds": 2}}

@@ -33,7 +33,6 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import minimize
 
-
 STEP = 1e-4  # finite-difference step, unit coordinates (1e-4 of the Table 5 range)
 POOR_SE = 0.10  # free range or standard error above 10 % of the Table 5 range: poorly determined
 ZERO_RATIO = 1e-6  # σ_k/σ_max below this: numerically an exact invariance

@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    import pandas as pd
 
 STUCK_LOG_PROB = 50.0  # a walker this far below the ensemble's median log-probability is stuck
 R_HAT_MAX = 1.01
@@ -168,11 +171,13 @@ def modes(samples: np.ndarray, log_prob: np.ndarray | None, ensembles, burn: int
 
 
 def why_not_converged(samples: np.ndarray, diagnostics, labels=None, burn: int | None = None) -> list[str]:
-    """One sentence per parameter failing R̂ or ESS: which parameter, and which way it is still moving.
+    """Why the parameters failing R̂ or ESS fail, one sentence per reason, each naming the parameters with
+    their R̂ and bulk ESS: which way they are still moving, or that the walkers disagree.
 
     The direction compares the median of the first and the last quarter of the kept steps (all
-    walkers): a shift of more than a fifth of the kept spread (5–95 %) is a drift (the chain is still
-    travelling that way, e.g. towards a box edge); otherwise the walkers disagree or mix slowly.
+    walkers, unit coordinates): a shift of more than a fifth of the kept spread (5–95 %) is a drift
+    (the chain is still travelling that way; "towards the upper/lower edge of its box" when it ends
+    in the outer tenth); otherwise the walkers disagree with each other or mix slowly.
     """
     steps, _, d = samples.shape
     burn = steps // 2 if burn is None else burn
@@ -181,20 +186,20 @@ def why_not_converged(samples: np.ndarray, diagnostics, labels=None, burn: int |
     r_hat = np.asarray(diagnostics["r_hat"], dtype=float)
     ess = np.asarray(diagnostics["ess_bulk"], dtype=float)
     quarter = max(1, len(kept) // 4)
-    out = []
+    groups: dict[str, list[str]] = {}
     for j in range(d):
         if r_hat[j] <= R_HAT_MAX and ess[j] >= ESS_MIN:
             continue
         early, late = np.median(kept[:quarter, :, j]), np.median(kept[-quarter:, :, j])
         lo, hi = np.quantile(kept[:, :, j], [0.05, 0.95])
-        what = f"{labels[j]}: R̂ {r_hat[j]:.3f}, bulk ESS {ess[j]:.0f}"
         if hi > lo and abs(late - early) > 0.2 * (hi - lo):
-            where = " (towards the upper edge of its box)" if late > early and late > 0.9 else (
-                " (towards the lower edge of its box)" if late < early and late < 0.1 else "")
-            out.append(f"{what}: still drifting {'up' if late > early else 'down'}{where}")
+            where = " towards the upper edge of the box" if late > early and late > 0.9 else (
+                " towards the lower edge of the box" if late < early and late < 0.1 else "")
+            reason = f"still drifting {'up' if late > early else 'down'}{where}"
         else:
-            out.append(f"{what}: the walkers disagree or mix slowly (no net drift)")
-    return out
+            reason = "the walkers disagree or mix slowly (no net drift)"
+        groups.setdefault(reason, []).append(f"{labels[j]} (R̂ {r_hat[j]:.3f}, bulk ESS {ess[j]:.0f})")
+    return [f"{', '.join(names)}: {reason}" for reason, names in groups.items()]
 
 
 def assess(samples: np.ndarray, log_prob: np.ndarray | None, ensembles: int, names, burn: int | None = None) -> dict:

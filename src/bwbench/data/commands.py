@@ -57,24 +57,26 @@ def signals_text(spec) -> str:
 
 
 def generate(args) -> int:
-    from bwbench.data import manifest, synthetic
+    from bwbench.data import manifest, mr_dataset, synthetic
     from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder, writing
 
-    refuse_inputs_in_folder("--out", args.out, [synthetic.PAPER_PARAMETERS], (".csv", ".json"))
-    check_folder("--out", args.out)
-    with writing(args.out):
-        written = synthetic.generate(args.out)
-    print(f"wrote {len(written) - 1} specimens and {manifest.MANIFEST} to {args.out}")
+    out = args.out or (mr_dataset.DATASET_DIR if args.mr_damper else synthetic.SPECIMEN_DIR)
+    refuse_inputs_in_folder("--out", out, [synthetic.PAPER_PARAMETERS], (".csv", ".json"))
+    check_folder("--out", out)
+    with writing(out):
+        written = mr_dataset.generate(out) if args.mr_damper else synthetic.generate(out)
+    print(f"wrote {len(written) - 1} specimens and {manifest.MANIFEST} to {out}")
     return 0
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from bwbench.data.synthetic import SPECIMEN_DIR
-
     sub = parser.add_subparsers(dest="data_command", required=True)
     p = sub.add_parser("check", help="validate specimen CSV files")
     p.add_argument("files", nargs="+", help="specimen CSV files")
     p.set_defaults(func=check)
-    p = sub.add_parser("generate", help="rebuild the synthetic dataset, byte-identical")
-    p.add_argument("--out", default=str(SPECIMEN_DIR), help="output folder")
+    p = sub.add_parser("generate", help="rebuild a synthetic dataset, byte-identical")
+    p.add_argument("--mr-damper", action="store_true",
+                   help="the MR-damper dataset (Spencer et al. 1997's model, data/mr_damper) instead of the "
+                        "paper's VPP specimens (data/specimens)")
+    p.add_argument("--out", help="output folder (default: the dataset's folder in the repository)")
     p.set_defaults(func=generate)

@@ -48,13 +48,39 @@ def manifest_entry(specimen_path) -> dict | None:
     return None
 
 
+PAPER_SOURCE = "the paper's Tables 6–8"  # manifests written before the "source" key are the paper's
+
+
 def is_synthetic(specimen_path) -> bool:
     entry = manifest_entry(specimen_path)
     return bool(entry and entry.get("synthetic"))
 
 
-def truth_params(specimen_path) -> np.ndarray | None:
-    entry = manifest_entry(specimen_path)
-    if entry is None:
+def synthetic_source(specimen_path) -> str | None:
+    """What a synthetic specimen was generated from (the manifest's ``source``), or None when it is not
+    marked synthetic."""
+    if not is_synthetic(specimen_path):
         return None
-    return np.array([entry["truth"][name] for name in model.PARAM_NAMES])
+    return (load_manifest(Path(specimen_path).parent) or {}).get("source", PAPER_SOURCE)
+
+
+def is_paper_data(specimen_path) -> bool:
+    """Whether the specimen is one of the paper's synthetic specimens (generated from its Tables 6–8
+    with the switched model): only then may a report speak of the paper's tables and figures."""
+    return synthetic_source(specimen_path) == PAPER_SOURCE
+
+
+def truth(specimen_path) -> tuple[str, dict] | None:
+    """(model name, truth parameters by name) of a synthetic specimen, or None."""
+    entry = manifest_entry(specimen_path)
+    if entry is None or "truth" not in entry:
+        return None
+    return entry.get("model", "switched-bouc-wen"), dict(entry["truth"])
+
+
+def truth_params(specimen_path) -> np.ndarray | None:
+    """The truth of one of the paper's specimens as a 14-vector (the switched model's), or None."""
+    found = truth(specimen_path)
+    if found is None or found[0] != "switched-bouc-wen":
+        return None
+    return np.array([found[1][name] for name in model.PARAM_NAMES])

@@ -159,7 +159,7 @@ def default_substeps(amplitude_mm: float, frequency_hz: float, rate_hz: float, v
 
 def damper_force(amplitude_mm: float = 25.0, frequency_hz: float = 1.0, voltage: float = 1.0,
                  rate_hz: float = 500.0, cycles: int = 3, substeps: int | None = None,
-                 params: dict = SPENCER_1997) -> tuple[np.ndarray, np.ndarray, int]:
+                 params: dict = SPENCER_1997) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Noise-free, unscaled test: times (s, from 0), displacement (mm), Spencer's force (N), substeps.
 
     ``cycles`` whole cycles after one warm-up cycle; round(cycles·rate_hz/frequency_hz) + 1
@@ -209,9 +209,11 @@ def sine_test(amplitude_mm: float = 25.0, frequency_hz: float = 1.0, voltage: fl
 def render(test: SineTest, velocity: bool = False) -> str:
     """The project's CSV text: fixed formats (µs, 10 nm, 0.1 mN, velocity 1 µm/s) so bytes depend only on
     the values; ``velocity``: with the recorded velocity as a ``velocity_mm_s`` column."""
-    if velocity:
+    if velocity and test.v is not None:
         rows = [f"{ti:.6f},{xi:.5f},{vi:.3f},{fi:.4f}\n" for ti, xi, vi, fi in zip(test.t, test.x, test.v, test.f)]
         return "time_s,displacement_mm,velocity_mm_s,force_N\n" + "".join(rows)
+    if velocity:
+        raise ValueError("this test has no velocity channel to write")
     rows = [f"{ti:.6f},{xi:.5f},{fi:.4f}\n" for ti, xi, fi in zip(test.t, test.x, test.f)]
     return "time_s,displacement_mm,force_N\n" + "".join(rows)
 

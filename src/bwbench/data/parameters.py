@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
+from bwbench.data import strict_json
 from bwbench.data.json_input import read_json_file
 from bwbench.errors import InputFileError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
@@ -63,4 +63,4 @@ def read_json(path, names=PARAM_NAMES) -> np.ndarray:
 
 
 def write_json(path, params) -> None:
-    Path(path).write_text(json.dumps(to_dict(params), indent=2) + "\n", encoding="utf-8")
+    strict_json.write(path, to_dict(params))

@@ -103,7 +103,8 @@ def read_specimen(path) -> Specimen:
             line_nos = _slow_parse(path, text, sep)[1]
         return int(line_nos[row])
 
-    t, x, f, v, a = (None if j is None else np.ascontiguousarray(values[:, j]) for j in order)
+    t, x, f = (np.ascontiguousarray(values[:, j]) for j in order[:3])  # always there
+    v, a = (None if j is None else np.ascontiguousarray(values[:, j]) for j in order[3:])
     _check_values(path, t, x, line_of)
     for column in (t, x, f, v, a):
         if column is not None:
@@ -186,7 +187,8 @@ def _slow_parse(path: str, text: str, sep: str) -> tuple[np.ndarray, np.ndarray]
     # float() is the quick test; it is looser than _NUMBER only on non-ASCII digits and '_'
     # (screened here) and on nan/inf (caught by the isfinite check below).
     screen = not text.isascii() or "_" in text
-    flat, line_nos = [], []
+    flat: list[float] = []
+    line_nos: list[int] = []
     for line_no in range(2, len(lines) + 1):
         raw = numeric[line_no - 1]
         cells = raw.split(sep)

@@ -27,13 +27,13 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
-import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from bwbench.data import strict_json
 from bwbench.data.manifest import MANIFEST
 from bwbench.models import switched_bouc_wen as model
 
@@ -179,6 +179,6 @@ def generate(out_dir=SPECIMEN_DIR, settings: Settings = Settings(), paper=PAPER_
                   "noise_force_N": "N (1 sigma)", "noise_displacement_mm": "mm (1 sigma)", "reversal_s": "s"},
         "specimens": manifest,
     }
-    (out_dir / MANIFEST).write_text(json.dumps(document, indent=1) + "\n", encoding="utf-8")
+    strict_json.write(out_dir / MANIFEST, document, indent=1)
     written.append(out_dir / MANIFEST)
     return written

@@ -59,7 +59,8 @@ class ClassicBoucWen(Model):
 
     def direct_box(self, signal, f, state=None) -> Box:
         names = tuple(p.name for p in DIRECT)
-        return Box(names, [TABLE5_PLUS[n][0] for n in names], [TABLE5_PLUS[n][1] for n in names], [False] * 7)
+        return Box(names, np.array([TABLE5_PLUS[n][0] for n in names]), np.array([TABLE5_PLUS[n][1] for n in names]),
+                   np.zeros(7, dtype=bool))
 
     def force_batch(self, P, signal, state=None) -> np.ndarray:
         P = np.atleast_2d(np.asarray(P, dtype=float))
@@ -76,8 +77,8 @@ class ClassicBoucWen(Model):
 
     def hysteretic_box(self, signal, f, state=None) -> Box:
         a = amplitude(signal.x)
-        return Box(("xy", "n", "eta"), [XY_RANGE[0] * a, N_RANGE[0], ETA_RANGE[0]],
-                   [XY_RANGE[1] * a, N_RANGE[1], ETA_RANGE[1]], [True, True, False])
+        return Box(("xy", "n", "eta"), np.array([XY_RANGE[0] * a, N_RANGE[0], ETA_RANGE[0]]),
+                   np.array([XY_RANGE[1] * a, N_RANGE[1], ETA_RANGE[1]]), np.array([True, True, False]))
 
     def linear_layout(self, state=None) -> LinearLayout:
         return LAYOUT

@@ -28,6 +28,8 @@ BUILTIN = {
 _REGISTERED: dict[str, Model] = {}
 _LOCK = threading.RLock()  # a Dask worker runs tasks in threads
 _plugins_loaded = False
+_FROM_ENTRY_POINTS: set[str] = set()  # names of the models the installed plug-ins gave
+_BROKEN: dict[str, str] = {}  # entry point name -> why it failed to load
 
 
 def register(model: Model) -> Model:
@@ -51,8 +53,20 @@ def _load_plugins() -> None:
         if _plugins_loaded:
             return
         for ep in entry_points(group=ENTRY_POINT_GROUP):
-            register(_as_model(ep.load()))
+            # A broken plug-in (a missing module, a wrong value) must not take every model down with it.
+            try:
+                model = _as_model(ep.load())
+                _FROM_ENTRY_POINTS.add(register(model).name)
+            except Exception as err:
+                _BROKEN[ep.name] = f"entry point {ep.value!r}: {type(err).__name__}: {err}"
         _plugins_loaded = True
+
+
+def broken() -> dict[str, str]:
+    """The installed model plug-ins that failed to load: entry point name -> why."""
+    _load_plugins()
+    with _LOCK:
+        return dict(_BROKEN)
 
 
 def get(name: str) -> Model:
@@ -66,7 +80,16 @@ def get(name: str) -> Model:
     with _LOCK:
         if name in _REGISTERED:
             return _REGISTERED[name]
-    raise UserError(f"unknown model {name!r}; known: {', '.join(names())}")
+    failed = "".join(f"; plug-in {n!r} failed to load ({why})" for n, why in broken().items())
+    raise UserError(f"unknown model {name!r}; known: {', '.join(names())}{failed}")
+
+
+def only_in_this_process(name: str) -> bool:
+    """True for a model ``register``-ed in this process that is neither built in nor an installed
+    plug-in: a fresh process (a spawned worker, a Dask worker) would not find it."""
+    _load_plugins()
+    with _LOCK:
+        return name in _REGISTERED and name not in BUILTIN and name not in _FROM_ENTRY_POINTS
 
 
 def names() -> list[str]:

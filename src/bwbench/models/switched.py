@@ -42,7 +42,7 @@ class SwitchedBoucWen(Model):
     def direct_box(self, signal, f, state=None) -> Box:
         from bwbench.data.parameters import LOWER, UPPER
 
-        return Box(kernel.PARAM_NAMES, LOWER, UPPER, [False] * kernel.N_PARAMS)
+        return Box(kernel.PARAM_NAMES, LOWER, UPPER, np.zeros(kernel.N_PARAMS, dtype=bool))
 
     def force_batch(self, P, signal, state=None) -> np.ndarray:
         """Force (N) of each paper 14-vector row (m, 14): the batched z kernel, then the force that is

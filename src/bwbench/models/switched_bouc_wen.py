@@ -123,5 +123,5 @@ def mse_batch(P, t, x, v, a, f_meas, state: str = "shared", *, kernel: str = "lo
         return lockstep.run_mse(P, t, x, v, a, f_meas, split)
     # One-point optimisers call this row by row: waking numba's thread pool would cost more
     # than the simulation, so small batches run on the calling thread.
-    kernel = _mse_serial if P.shape[0] < 4 or numba.get_num_threads() == 1 else _mse_parallel
-    return kernel(P, t, x, v, a, f_meas, split)  # IEEE semantics inside (error_model="numpy")
+    scalar = _mse_serial if P.shape[0] < 4 or numba.get_num_threads() == 1 else _mse_parallel
+    return scalar(P, t, x, v, a, f_meas, split)  # IEEE semantics inside (error_model="numpy")

@@ -55,7 +55,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from bwbench.models import switched_bouc_wen as model
 from bwbench.data.parameters import LOWER, UPPER
 
 # The 9 coefficients the switched model's force is linear in (``bwbench.models.switched.LAYOUT``).
@@ -270,22 +269,22 @@ def to_paper(theta, linear, state: str = "shared", tol: float = 1e-9) -> PaperMa
 
         log_s = _gauge_search(paper, np.arange(14), lo, hi, np.log(centre_A[0] * xy["+"]))
         params = paper(np.array([log_s]))[0]
-        z_s = (float(np.exp(log_s)), float(rho * np.exp(log_s)))
+        z_s: tuple = (float(np.exp(log_s)), float(rho * np.exp(log_s)))
     else:
-        parts, z_s = [], []
+        parts, scales = [], []
         for i, b in enumerate("+-"):
             lo, hi = intervals[b]
             if not lo < hi:
                 return PaperMap(None, f"no gauge z_s{b} makes ωn{b}² = k{b} + h{b}/z_s{b} positive", nan2)
 
-            def paper(log_s, b=b):
+            def branch_paper(log_s, b=b):
                 s = np.exp(log_s)
                 return branch(b, s, s)
 
-            log_s = _gauge_search(paper, np.arange(7), lo, hi, np.log(centre_A[i] * xy[b]))
-            parts.append(paper(np.array([log_s]))[0])
-            z_s.append(float(np.exp(log_s)))
-        params, z_s = np.concatenate(parts), tuple(z_s)
+            log_s = _gauge_search(branch_paper, np.arange(7), lo, hi, np.log(centre_A[i] * xy[b]))
+            parts.append(branch_paper(np.array([log_s]))[0])
+            scales.append(float(np.exp(log_s)))
+        params, z_s = np.concatenate(parts), tuple(scales)
     if not np.all(np.isfinite(params)):
         return PaperMap(None, "the paper vector is not finite at the chosen gauge", z_s)
     return PaperMap(params, "exact: m = 1, f = 0; gauge z_s₊ = %.6g mm nearest Table 5's centre" % z_s[0], z_s)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 
 from bwbench import limits, threads
@@ -46,12 +45,14 @@ def parse_option(text: str):
 
 def fit(args) -> int:
     """Exit 0 with the result JSON (and plot); 1 when no evaluation gave a finite loss (the JSON is
-    still written, with null for what is not finite); 2 for a mistake in the input."""
+    still written, with null for what is not finite); 2 for a mistake in the input. Several
+    specimens: one joint fit (``bwbench.problems.joint_problem``)."""
     import math
     import sys
 
     from bwbench.data import manifest
     from bwbench.optimize import fitting, registry
+    from bwbench.optimize.fit_result import run_fit
     from bwbench.problems.switched_vpp.commands import problem_from_args
 
     if args.budget < 1:
@@ -59,37 +60,57 @@ def fit(args) -> int:
     limits.check("--budget", args.budget, "BWBENCH_MAX_BUDGET")
     if args.seed < 0:
         raise UserError(f"--seed must be a non-negative integer, got {args.seed}")
+    if len(set(args.specimen)) < len(args.specimen):
+        raise UserError("a specimen is named twice: a joint fit takes each file once (use --weighting to weight)")
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
-    check_outputs({"--out": args.out, "--plot": args.plot}, [args.specimen, getattr(args, "bounds", None)])
+    check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
+    synthetic = all(manifest.is_synthetic(p) for p in args.specimen)
     with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
         problem = problem_from_args(args)
-        result = fitting.run(problem, args.optimizer, args.budget, args.seed, options)
-        checks = problem.fit_checks(result, manifest.is_synthetic(args.specimen)) if hasattr(problem, "fit_checks") else None
-    # The box searched, by name, and the file it came from: a result says where it was looked for.
-    box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}
-    result = dataclasses.replace(result, problem={**result.problem, "bounds_file": args.bounds, "bounds": box})
+        fitted = run_fit(problem, args.optimizer, args.budget, args.seed, options, synthetic,
+                         extra={"bounds_file": args.bounds})
+    result, checks = fitted.result, fitted.checks
     with writing(args.out):
-        result.write_json(args.out, extra=checks.json if checks else None)
+        fitted.write_json(args.out)
+    where = " + ".join(args.specimen)
     if not math.isfinite(result.mse):
-        print(f"error: {args.specimen}: none of the {result.nfev} evaluations gave a finite force: the model blows "
+        print(f"error: {where}: none of the {result.nfev} evaluations gave a finite force: the model blows "
               "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
               f"{args.out} written with null values", file=sys.stderr)
         return 1
     if args.plot:
-        from bwbench.problems.switched_vpp.figures import plot_fit
-
         with writing(args.plot):
-            plot_fit(problem, result, args.plot, synthetic=manifest.is_synthetic(args.specimen))
-    print(f"{args.optimizer}: MSE {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE {result.rmse_N:.3g} N) "
-          f"in {result.nfev} evaluations, {result.wall_s:.2f} s -> {args.out}")
+            _plot(problem, fitted, args.plot, synthetic)
+    joint = len(fitted.files) > 1
+    print(f"{args.optimizer}: {'loss' if joint else 'MSE'} {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE "
+          f"{result.rmse_N:.3g} N) in {result.nfev} evaluations{' of every file' if joint else ''}, "
+          f"{result.wall_s:.2f} s -> {args.out}")
+    for row in fitted.files if joint else ():
+        print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, NRMSE {row['nrmse']:.4g} (weight {row['weight']:.3g})")
     for note in getattr(problem, "notes", []):
         print(f"  linear solve: {note}")
     for line in checks.notes if checks else []:
         print(f"  {line}")
     for text in fitting.edge_warnings(problem, result, checks.explained if checks else ()) + (checks.warnings if checks else []):
-        print(f"warning: {args.specimen}: {text}", file=sys.stderr)
+        print(f"warning: {where}: {text}", file=sys.stderr)
     return 0
+
+
+def _plot(problem, fitted, path, synthetic: bool) -> None:
+    """One fit: the loops, force and residual of ``plot_fit``; a joint fit: one row per file."""
+    if len(fitted.files) == 1:
+        from bwbench.problems.switched_vpp.figures import plot_fit
+
+        plot_fit(problem, fitted.result, path, synthetic=synthetic)
+        return
+    from bwbench.problems.switched_vpp.prediction_figures import plot_predictions
+
+    model = fitted.model
+    predictions = [model.predict(spec) for spec in problem.specimens]
+    plot_predictions(predictions, path, f"joint fit of {len(predictions)} tests: {model.describe()}\n"
+                                        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file",
+                     what="fitted", synthetic=synthetic)
 
 
 def add_list_arguments(parser: argparse.ArgumentParser) -> None:
@@ -97,18 +118,25 @@ def add_list_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
-    from bwbench.problems.switched_vpp.commands import add_model_options
+    from bwbench.problems.switched_vpp.commands import add_fit_options, add_model_options
 
-    parser.add_argument("specimen", help="specimen CSV")
+    parser.add_argument("specimen", nargs="+", help="specimen CSV; several: one joint fit of them all (one parameter "
+                                                    "set; one evaluation simulates every file)")
     parser.add_argument("--optimizer", required=True, help="backend name (see `bwbench optimizers`)")
-    parser.add_argument("--budget", type=int, default=4100, help="evaluations (default 4100, the paper's GA)")
+    parser.add_argument("--budget", type=int, default=4100,
+                        help="evaluations (default 4100, the paper's GA); one evaluation simulates every file once")
     parser.add_argument("--seed", type=int, default=0, help="random seed, a non-negative integer (default 0)")
     parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                         help="backend option, repeatable; VALUE is read as JSON (3, 0.5, true, null, [0.5, 1]), "
                         "else as a string (see `bwbench optimizers` for each backend's options and ranges)")
     add_model_options(parser)
-    parser.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper] "
-                                                             "(names left out keep the default range)")
+    add_fit_options(parser)
+    parser.add_argument("--weighting", choices=["equal", "samples"], default="equal",
+                        help="joint fit: equal (default) gives each file's MSE the same weight whatever its length; "
+                             "samples gives every sample the same weight")
+    parser.add_argument("--bounds", metavar="FILE.json", help="a JSON object of name -> [lower, upper]: searched "
+                        "parameters set the search box (names left out keep the default range), solved coefficients "
+                        "(m, c+, f-, c1, ...) bound the linear solve")
     parser.add_argument("--out", required=True, help="result JSON")
     parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
     parser.add_argument("--threads", type=int, default=1,

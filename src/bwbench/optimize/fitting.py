@@ -7,8 +7,8 @@ import time
 
 import numpy as np
 
-from bwbench.optimize import registry
 from bwbench.errors import BudgetExhausted, UserError
+from bwbench.optimize import registry
 from bwbench.optimize.objective import Objective
 from bwbench.optimize.result import Result
 
@@ -30,7 +30,7 @@ def run(problem, optimizer: str, budget: int, seed, options: dict | None = None)
     rng = np.random.default_rng(seed_seq)
     objective = Objective(problem, budget)
     started = time.perf_counter()
-    extras = {}
+    extras: dict = {}
     try:
         extras = backend.minimize(objective, rng=rng, **opts) or {}
         message = extras.pop("message", "stopped before the budget was spent")

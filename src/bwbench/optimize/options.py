@@ -66,7 +66,7 @@ def _number(value, integer: bool):
     if isinstance(value, (bool, np.bool_)):  # True is an Integral to Python, not to a user
         return _INVALID
     if isinstance(value, numbers.Integral):
-        if not integer and abs(value) > 1e308:  # JSON ints are unbounded; a library converts to a double
+        if not integer and abs(int(value)) > 1e308:  # JSON ints are unbounded; a library converts to a double
             return _INVALID
         return int(value)
     if integer or not isinstance(value, numbers.Real) or not math.isfinite(value):
@@ -119,7 +119,7 @@ class Option:
 
     def edges(self) -> list:
         values = [*self._edges(), self.default] + ([None] if self.none is not None else [])
-        unique = []
+        unique: list = []
         for v in values:  # keep order, drop repeats
             if not any(type(v) is type(u) and v == u for u in unique):
                 unique.append(v)

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
+
+from bwbench.data import strict_json
+from bwbench.data.strict_json import finite_or_null  # noqa: F401 (re-exported: callers import it from here)
 
 
 @dataclass(frozen=True)
@@ -65,27 +67,10 @@ class Result:
         return out
 
     def write_json(self, path, extra: dict | None = None) -> None:
-        """The result as strict JSON, with ``extra`` entries added (e.g. the checks of a fit): a value
-        that is not finite (a fit that never found a finite loss) is written as null, never as NaN or
-        Infinity."""
-        with open(path, "w", encoding="utf-8") as fh:
-            json.dump(finite_or_null({**self.to_json_dict(), **(extra or {})}), fh, indent=2, allow_nan=False)
-            fh.write("\n")
-
-
-def finite_or_null(value):
-    """``value`` with every non-finite float (recursively, numpy scalars included) replaced by None."""
-    if isinstance(value, dict):
-        return {k: finite_or_null(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [finite_or_null(v) for v in value]
-    if isinstance(value, (bool, str)) or value is None:
-        return value
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        return value
-    if not math.isfinite(number):
-        return None
-    return int(value) if isinstance(value, int) else number
-
+        """The result as strict JSON (``bwbench.data.strict_json``), with ``extra`` entries added (e.g.
+        the checks of a fit): a value that is not finite (a fit that never found a finite loss) is
+        written as null, and ``"not_finite"`` says which and why, never NaN or Infinity."""
+        nothing = "no evaluation gave a finite loss (the model blows up wherever it was evaluated)"
+        why = None if math.isfinite(self.mse) else {
+            **dict.fromkeys(("mse", "f_err", "rmse_N"), nothing), "params": f"no best point: {nothing}"}
+        strict_json.write(path, {**self.to_json_dict(), **(extra or {})}, why=why)

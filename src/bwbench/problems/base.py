@@ -26,15 +26,17 @@ problem they are running:
 - ``setup_text``, ``report_intro``, ``ranking_columns``, ``report_sections``, ``noise_floor``,
   ``limits``: the report's problem-specific parts.
 
-A new problem is one module (or sub-package) that subclasses ``ProblemType`` and calls
-``bwbench.problems.register``; nothing else changes.
+A new problem is one module (or sub-package) that subclasses ``ProblemType``: in another package,
+an instance named by an entry point of the group ``bwbench.problems`` (every process of a study
+loads it; ``examples/problem_plugin/``), or ``bwbench.problems.register`` from code for this
+process only; nothing else changes.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol, runtime_checkable
+from typing import Callable, NoReturn, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -109,11 +111,20 @@ class ProblemType:
         raise NotImplementedError
 
     def setup_from_files(self, fail, files, base_dir: Path, **settings) -> ProblemSetup:
-        """A setup over the data files ``files`` (paths or globs) with no TOML: ``compare --specimens``."""
+        """A setup over the data files ``files`` (paths or globs) with no TOML: ``compare --specimens``;
+        ``settings`` are the command's own flags (model, formulation, state, excitation, bounds_file)."""
         fail(f"problem {self.name!r} does not read specimen files given on the command line")
+        raise NotImplementedError  # not reached: ``fail`` raises
 
     def make_problem(self, settings: dict, entry: SpecimenEntry):
         raise NotImplementedError
+
+    def models(self, settings: dict) -> tuple:
+        """The ``bwbench.models`` models (by name) that ``make_problem`` fits with these settings: every
+        study worker loads them before a run. By default the one named by ``settings["model"]``, the
+        convention of the model-based problems; a problem whose settings use that key otherwise says ()."""
+        model = settings.get("model")
+        return (model,) if isinstance(model, str) else ()
 
     def run_metrics(self, problem, result) -> dict:
         """Problem-specific numbers of a run's best point, stored as ``metrics_json`` (None = not finite)."""
@@ -137,7 +148,9 @@ class ProblemType:
         """The loss a perfect fit reaches on ``specimen`` (e.g. the truth's MSE), if known."""
         return None
 
-    def is_synthetic(self, study) -> bool:
+    def is_synthetic(self, study) -> bool | str:
+        """True, or a text naming the data's source, when the study's data are synthetic (a false value
+        for measured data): reports mark every figure and banner with it."""
         return False
 
     def setup_text(self, report) -> str:
@@ -161,6 +174,7 @@ class ProblemType:
 
 
 # Checks for ``configure`` implementations: ``fail`` raises a UserError naming the file.
+Fail = Callable[[str], NoReturn]
 
 def integer(fail, label, value, minimum=1, what="a positive integer") -> int:
     # bool is an int subclass: `budget = true` must not read as 1.

@@ -46,7 +46,6 @@ from scipy.special import gammaln
 
 from bwbench.problems.linear_solve import LinearSolution
 
-
 PRIORS = ("flat", "scale-free")
 
 

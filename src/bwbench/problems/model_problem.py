@@ -103,18 +103,23 @@ class DirectProblem(ModelFit):
 
 class IdentifiableProblem(ModelFit):
     """θ searched, linear coefficients solved (loss: MSE in N²). ``fix_mass``: "auto" (the inertia
-    rule), None (fitted) or a value (N·s²/mm), for models with an inertia term; ``offsets``: fit the
-    constant-force coefficients; ``bounds``: {name: (lower, upper)} replacing parts of the box."""
+    rule), None (fitted) or a value (N·s²/mm), for models with an inertia term; ``offsets``: the
+    constant-force coefficients per branch (True/"branch"), "continuous" or none (False);
+    ``bounds``: {name: (lower, upper)} replacing parts of the search box; ``coefficient_bounds``:
+    {coefficient: (lower, upper)} replacing the physical defaults of the solved coefficients
+    (``linear_bounds.physical_bounds``)."""
 
     formulation = "identifiable"
 
     def __init__(self, model, specimen, state=None, excitation: str = "measured", *, fix_mass="auto",
-                 offsets: bool = True, bounds: dict | None = None):
+                 offsets=True, bounds: dict | None = None, coefficient_bounds: dict | None = None):
         from bwbench.problems.linear_solve import LinearDesign, coefficient_units
 
         self._setup(model, specimen, state, excitation)
         layout = model.linear_layout(self.state)
-        self.design = LinearDesign(self.signal, specimen.f, layout, fix_mass=fix_mass, offsets=offsets)
+        solved, notes = coefficient_bounds_of(model, layout, self.signal, specimen.f, coefficient_bounds)
+        self.design = LinearDesign(self.signal, specimen.f, layout, fix_mass=fix_mass, offsets=offsets,
+                                   bounds=solved, notes=notes)
         self.linear_names = self.design.names
         self.linear_units = coefficient_units(layout)
         self.parameter_list = model.hysteretic_parameters(self.state)
@@ -174,3 +179,16 @@ class IdentifiableProblem(ModelFit):
         if direct is not None:
             out.update(zip((p.name for p in self.model.direct_parameters(self.state)), map(float, direct)))
         return out
+
+
+def coefficient_bounds_of(model, layout, signal, f, given: dict | None = None) -> tuple[dict, list[str]]:
+    """({coefficient: (lower, upper)}, notes): the physical defaults of ``linear_bounds`` for this
+    record (or stacked records) with the ``given`` ones (a user's) put in by name."""
+    from bwbench.problems.linear_bounds import physical_bounds
+    from bwbench.problems.linear_columns import coefficient_units
+
+    bounds, notes = physical_bounds(layout, signal, f, coefficient_units(layout))
+    for name, (lo, hi) in (given or {}).items():
+        bounds[name] = (float(lo), float(hi))
+        notes.append(f"{name} bounded to [{lo:g}, {hi:g}] by the caller")
+    return bounds, notes

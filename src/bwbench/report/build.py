@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,8 +23,7 @@ from bwbench.report.document import Document
 from bwbench.report.labels import variant_noun
 from bwbench.report.recommend import recommend
 from bwbench.report.verdict import TARGET
-from bwbench.study import results as results_db
-
+from bwbench.store import reader as results_db
 
 # What the report writes into its folder: a data file of one of these kinds there could be overwritten.
 REPORT_SUFFIXES = (".csv", ".png", ".md", ".html")
@@ -36,7 +36,7 @@ class Report:
     study: results_db.Study
     doc: Document
     out: Path
-    log: object
+    log: typing.TextIO
     table: object  # statistics.ranking_table, in the decision rule's order
     tests: statistics.Comparison
     recommendation: dict  # recommend.recommend: verdict, best, choice, order, text
@@ -71,8 +71,13 @@ class Report:
 
 
 def featured_specimens(study, k: int = 3) -> list[str]:
+    """Up to ``k`` specimens for the per-specimen figures: posterior ones first, and those where some
+    ranking run found a finite loss before those where the model blew up at every point evaluated."""
     posterior = [c.specimen for c in study.chains if c.kind == "posterior"]
-    return list(dict.fromkeys(posterior + study.specimens))[:k]
+    runs = study.ranking
+    fitted = set(runs.loc[(runs["status"] == "ok") & (runs["mse"].astype(float) < float("inf")), "specimen"])
+    ordered = list(dict.fromkeys(posterior + study.specimens))
+    return sorted(ordered, key=lambda s: s not in fitted)[:k]
 
 
 def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, profile_params: int = 2,
@@ -118,8 +123,9 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     if provisional:
         doc.banner(f"{provisional[0].upper()}{provisional[1:]}: the study is unfinished (still running, or stopped "
                    "part-way); its recommendation may change when it completes.")
-    if problem_type.is_synthetic(study):
-        doc.banner("SYNTHETIC DATA — generated from the paper's Tables 6–8, not measured.")
+    synthetic = problem_type.is_synthetic(study)
+    if synthetic:
+        doc.banner(f"{synthetic if isinstance(synthetic, str) else 'SYNTHETIC DATA'} — not measured.")
     sections.recommendation(report)
     sections.setup(report)
     problem_type.report_intro(report)

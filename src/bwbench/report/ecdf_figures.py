@@ -44,7 +44,7 @@ def ecdf(evals, grid) -> np.ndarray:
 
 def by_variant(labels) -> dict:
     """{variant (None when the labels carry none): labels in the given order}."""
-    groups = {}
+    groups: dict = {}
     for label in labels:
         groups.setdefault(split_label(label)[1], []).append(label)
     return groups

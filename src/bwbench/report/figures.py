@@ -1,7 +1,7 @@
 """Study figures every problem gets: convergence and waterfall (the runtime distributions are
 ``bwbench.report.ecdf_figures``).
 
-Every function takes a loaded ``bwbench.study.results.Study`` and an output folder and returns the
+Every function takes a loaded ``bwbench.store.reader.Study`` and an output folder and returns the
 PNG's path, with the tidy CSV behind it beside it (same name, ``.csv``). ``order``: the report's
 ranking (best first); it sets the legend order and each backend's style, the same in every figure
 (default: lowest median final loss first; see ``bwbench.report.palette``). Figures of synthetic
@@ -20,8 +20,19 @@ from matplotlib.patches import Patch
 
 from bwbench.analysis import statistics
 from bwbench.report.palette import (  # noqa: F401  (DPI … styles: the shared look, imported from here too)
-    DPI, MAX_WIDTH_IN, SYNTHETIC_LABEL, backend_handles, figure, legend, mark_synthetic, palette, save, slug,
-    split_label, styles, theme,
+    DPI,
+    MAX_WIDTH_IN,
+    SYNTHETIC_LABEL,
+    backend_handles,
+    figure,
+    legend,
+    mark_synthetic,
+    palette,
+    save,
+    slug,
+    split_label,
+    styles,
+    theme,
 )
 
 BANDS = 3  # interquartile bands for the best few labels of a panel only: more bands hide each other

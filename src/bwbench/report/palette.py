@@ -44,7 +44,7 @@ RANDOM_MARKER = "X"
 # Formulations compared side by side: solid/filled for the identifiable one, dashed/open for the paper's.
 VARIANT_LOOK = {"identifiable": ("-", True), "paper": ("--", False)}
 OTHER_VARIANT_LOOK = ((":", True), ("-.", False))
-TRUTH = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
+TRUTH: dict = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
 
 @dataclass(frozen=True)
 class Style:
@@ -180,16 +180,19 @@ def truth_handle(text: str = "truth") -> Line2D:
     return Line2D([], [], label=text, **TRUTH)
 
 
-def mark_synthetic(fig) -> None:
-    fig.text(0.995, 0.003, SYNTHETIC_LABEL, ha="right", va="bottom", fontsize=MIN_FONT_PT, color="0.35",
-             style="italic")
+def mark_synthetic(fig, label=True) -> None:
+    """The mark every figure of synthetic data carries: ``label`` when it is a text (e.g. a problem's
+    ``is_synthetic``, which names the data's source), else the paper's."""
+    text = label if isinstance(label, str) and label else SYNTHETIC_LABEL
+    fig.text(0.995, 0.003, text, ha="right", va="bottom", fontsize=MIN_FONT_PT, color="0.35", style="italic")
 
 
 def slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.]+", "-", str(text)).strip("-").lower()
 
 
-def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool, rect=(0, 0.03, 1, 0.97)) -> Path:
+def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool | str,
+         rect=(0, 0.03, 1, 0.97)) -> Path:
     """Write ``stem``.png and the CSV behind it (``frame``) into ``out_dir`` (see ``write_png``);
     return the PNG's path."""
     out_dir = Path(out_dir)
@@ -200,13 +203,13 @@ def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool, rec
     return png
 
 
-def write_png(fig, png, synthetic_data: bool, rect=(0, 0.03, 1, 0.97)) -> None:
+def write_png(fig, png, synthetic_data: bool | str, rect=(0, 0.03, 1, 0.97)) -> None:
     """Lay out, mark (SYNTHETIC) and write ``fig`` at ``DPI`` to ``png``, then close it. ``rect``: the
     area the axes may use under a tight layout; a constrained layout gets the figure less a strip at
     the bottom for the legend below and the mark."""
     engine = fig.get_layout_engine()
     if synthetic_data:
-        mark_synthetic(fig)
+        mark_synthetic(fig, synthetic_data)
     if isinstance(engine, matplotlib.layout_engine.ConstrainedLayoutEngine):
         _make_room_below(fig, engine, 0.22 if synthetic_data else 0.04)
     elif engine is None:

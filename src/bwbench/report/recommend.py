@@ -13,7 +13,13 @@ from bwbench.analysis import comparisons, statistics
 from bwbench.report.format import evals_text, join, number, p_text, seconds_text
 from bwbench.report.labels import split_label
 from bwbench.report.verdict import (
-    ALPHA, FALLBACK_TARGET, PRACTICAL, SUCCESS_MARGIN, TARGET, Verdict, decide,
+    ALPHA,
+    FALLBACK_TARGET,
+    PRACTICAL,
+    SUCCESS_MARGIN,
+    TARGET,
+    Verdict,
+    decide,
 )
 
 
@@ -134,6 +140,7 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
                f"{seconds_text(row['s_per_eval'])} per evaluation = "
                f"{seconds_text(row[f'time_{TARGET:.0%}'])} expected time to the target; its median final loss is "
                f"{_ratio(row['median_ratio'])} × the best known loss.")
+    out.append(per_variant_text(verdict, table, noun))
     if choice in verdict.avoid:
         out.append(f"Even so, its final losses are significantly worse than random search's ({verdict.baselines[0]}): "
                    "no backend in this study beats the baseline.")
@@ -171,6 +178,24 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
              f"({_success(table, n)} on target)" for n in verdict.baselines]) + ".")
     out.append(power_text(verdict, tests))
     return " ".join(t for t in out if t)
+
+
+def per_variant_text(verdict: Verdict, table, noun) -> str:
+    """When variants are compared: the backend to use in each of them (the first of its non-baseline
+    labels in the rule's order), with its median final loss against the best known; "" otherwise."""
+    if not noun:
+        return ""
+    first = {}
+    for label in verdict.order:
+        backend, variant = split_label(label)
+        if variant is not None and label not in verdict.baselines and variant not in first:
+            first[variant] = label
+    if len(first) < 2:
+        return ""
+    items = [f"{split_label(label)[0]} in the {variant} {noun} (median final loss "
+             f"{_ratio(table.loc[label, 'median_ratio'])} × the best known, {_success(table, label)} on target)"
+             for variant, label in first.items()]
+    return f"If the {noun} is given, the backend to use in each, by the same rule: {join(items)}."
 
 
 def _deficit_text(verdict, table, label) -> str:

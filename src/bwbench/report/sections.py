@@ -7,25 +7,20 @@ import json
 import numpy as np
 import pandas as pd
 
-from bwbench.report import ecdf_figures, figures
-from bwbench.report.palette import split_label
 from bwbench.analysis import statistics
+from bwbench.report import ecdf_figures, figures
 from bwbench.report.floors import noise_floors
 from bwbench.report.format import evals_text, number, p_text
+from bwbench.report.palette import split_label
 from bwbench.report.recommend import ALPHA, ratio_text, rule
 from bwbench.report.verdict import TARGET
-from bwbench.study.timing import compute_time
+from bwbench.store.timing import compute_time
 
 
 def backends_table(study) -> pd.DataFrame:
     """One row per ranking backend: its family, the options it ran with, and its median wall time
     and evaluations per run."""
-    try:
-        from bwbench.optimize import registry
-
-        backends = registry.available()
-    except Exception:  # the report must not depend on every plug-in importing
-        backends = {}
+    backends = study.backends  # family and calling style, as the runner recorded them
     ranking = study.ranking
     wall = ranking.groupby("optimizer")["wall_s"].median() if "wall_s" in ranking else pd.Series(dtype=float)
     nfev = ranking.groupby("optimizer")["nfev"].median()
@@ -33,9 +28,10 @@ def backends_table(study) -> pd.DataFrame:
     for name in study.optimizers:
         base = split_label(name)[0]  # "cmaes [identifiable]" ran the backend "cmaes" (study.tasks.run_label)
         options = study.config.get("optimizers", {}).get(base, {})
-        backend = backends.get(base)
-        rows.append({"backend": name, "family": getattr(backend, "family", "–"),
-                     "evaluates": "–" if backend is None else ("populations" if backend.batched else "one point per call"),
+        backend = backends.get(base, {})
+        batched = backend.get("batched")
+        rows.append({"backend": name, "family": backend.get("family", "–"),
+                     "evaluates": "–" if batched is None else ("populations" if batched else "one point per call"),
                      "options": ", ".join(f"{k}={json.dumps(v)}" for k, v in options.items()) or "defaults",
                      "median wall time per run (s)": number(wall.get(name), 3),
                      "median evaluations": evals_text(nfev.get(name))})

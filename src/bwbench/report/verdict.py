@@ -134,7 +134,7 @@ def decide(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame) -> 
     against_ref = verdict.vs_reference.set_index("a")
     against_base = verdict.vs_baseline.set_index("a")
     for label in candidates:
-        if label != ref:
+        if ref is not None and label != ref:
             verdict.deficit[label] = worst_deficit(success, label, ref)
         if label in against_base.index:
             row = against_base.loc[label]
@@ -167,7 +167,7 @@ def variant_effects(values: pd.DataFrame, labels, reference_variant: str | None)
     plus ``backend`` and ``variant``. Empty when the labels carry no variants."""
     if reference_variant is None:
         return comparisons.family(values, [], "variants", ALPHA).assign(backend=[], variant=[])
-    by_backend = {}
+    by_backend: dict = {}
     for label in labels:
         backend, variant = split_label(label)
         by_backend.setdefault(backend, {})[variant] = label

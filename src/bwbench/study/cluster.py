@@ -15,7 +15,7 @@ from contextlib import contextmanager
 
 from bwbench.errors import UserError
 from bwbench.study.pool import result_or_lost
-from bwbench.study.tasks import run_task
+from bwbench.study.tasks import missing_plugins, plugins_of, run_task
 
 _LOST_REASON = "scheduler-connection-lost"
 
@@ -32,7 +32,8 @@ def on_cluster(tasks, address: str):
     """Yield ``run_task(task)`` of every task as it finishes on the Dask cluster at ``address``.
 
     A task whose worker died yields ``{"key": ..., "lost": why}``. Raises ``UserError`` if the
-    scheduler cannot be reached, ``SchedulerLost`` if it goes away mid-study.
+    scheduler cannot be reached or a worker cannot load a plug-in the tasks need (before any run),
+    ``SchedulerLost`` if it goes away mid-study.
     """
     try:
         from distributed import Client
@@ -45,6 +46,7 @@ def on_cluster(tasks, address: str):
         except (OSError, TimeoutError, ValueError) as err:
             raise UserError(f"cannot connect to the Dask scheduler at {address}: {err}") from None
         try:
+            _check_plugins(client, address, tasks)
             futures = {client.submit(run_task, t, pure=False): t for t in tasks}
             for future in dask_completed(futures):
                 task = futures.pop(future)
@@ -57,6 +59,17 @@ def on_cluster(tasks, address: str):
                 yield outcome
         finally:
             _close(client)
+
+
+def _check_plugins(client, address: str, tasks) -> None:
+    """``UserError`` naming the first worker that cannot load a problem or model plug-in the tasks need
+    (a package installed where the study runs, not on the cluster). A worker that joins later and
+    lacks one loses only its own runs (``run_task`` says why), retried on the next call."""
+    plugins = list(dict.fromkeys(plugin for task in tasks for plugin in plugins_of(task)))
+    for worker, missing in sorted(client.run(missing_plugins, plugins).items()):
+        if missing:
+            raise UserError(f"the Dask worker {worker} of the scheduler at {address} cannot load {missing[0]}; "
+                            "install the plug-in package on every worker")
 
 
 def _lost_scheduler(client, future) -> str | None:

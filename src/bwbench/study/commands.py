@@ -36,8 +36,13 @@ def read_runs(db):
 
 
 def export_csv(db, path) -> None:
-    """Write the tidy table of ``read_runs`` as CSV (one row per run)."""
-    read_runs(db).to_csv(path, index=False)
+    """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
+    each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
+    from bwbench.store.reader import connect_read_only
+    from bwbench.store.reader import read_runs as read_all
+
+    with closing(connect_read_only(Path(db))) as conn:
+        read_all(conn).to_csv(path, index=False)
 
 
 def summary_table(db, problem_type=None) -> str:
@@ -85,16 +90,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     source.add_argument("--specimens", nargs="+", metavar="FILE",
                         help="your own specimen CSVs (paths or quoted globs): a study without a TOML")
     own = parser.add_argument_group("with --specimens")
+    # Defaults are None here and filled in by study_config: with --config, a flag that was given is
+    # refused (the TOML says it), not silently ignored.
     own.add_argument("--optimizers", help="backends, comma-separated (e.g. cmaes,de,random)")
-    own.add_argument("--seeds", type=int, default=5, help="replicates per (specimen, backend) (default 5)")
-    own.add_argument("--budget", type=int, default=4100, help="evaluations per run (default 4100)")
-    own.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
-    own.add_argument("--name", default="study", help="study name (default 'study': database ./study.sqlite)")
-    own.add_argument("--state", default="shared", help="hysteretic state convention: shared (default) or split")
-    own.add_argument("--excitation", default="measured", help="measured (default) or sine")
-    own.add_argument("--formulation", default="paper",
-                     help="paper (default), identifiable, or paper,identifiable to compare both side by side")
-    own.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
+    own.add_argument("--seeds", type=int, help="replicates per (specimen, backend) (default 5)")
+    own.add_argument("--budget", type=int, help="evaluations per run (default 4100)")
+    own.add_argument("--seed", type=int, help="study seed (default 0)")
+    own.add_argument("--name", help="study name (default 'study': database ./study.sqlite)")
+    own.add_argument("--model", help="model, or models comma-separated to compare side by side (default "
+                                     "switched-bouc-wen; see `bwbench models`)")
+    own.add_argument("--state", help="hysteretic state convention of the switched model: shared (default) or split")
+    own.add_argument("--excitation", help="measured (default) or sine")
+    own.add_argument("--formulation",
+                     help="paper (or direct), identifiable, or both comma-separated to compare them side by side "
+                          "(default: each model's own: paper for the switched model, identifiable for the others)")
+    own.add_argument("--bounds", metavar="FILE.json", help="a JSON object of name -> [lower, upper]: the search box, "
+                                                         "and bounds on solved coefficients (m, c+, ...)")
+    own.add_argument("--fix-mass", metavar="VALUE",
+                     help="identifiable formulation: the inertia m in N·s²/mm (1 = 1 t): a number fixes it, 'fit' "
+                          "always fits it, 'auto' (default) fits it only where the data separate it from the stiffness")
+    own.add_argument("--offsets", help="identifiable formulation, switched model: branch (default: a constant force "
+                                       "per branch) or continuous (one for both: no jump at a reversal)")
+    own.add_argument("--validate", nargs="+", metavar="FILE",
+                     help="held-out specimen CSVs, never fitted: every fit predicts them with its coefficients as "
+                          "stored, and the report ranks by that error as well as by the training loss")
     parser.add_argument("--db", help="SQLite database (default: <name>.sqlite next to the TOML, or in the current "
                                      "folder with --specimens)")
     parser.add_argument("--workers", type=int, help="local worker processes (default: all cores; 1 = in-process)")
@@ -170,7 +189,7 @@ def study_inputs(config, bounds=None) -> list[Path]:
 
     files = [Path(p) for p in (None if config.path == "--specimens" else config.path, bounds) if p is not None]
     entries = [*config.specimens, *config.setup.available.values(),
-               *(config.posterior.specimens if config.posterior else ())]
+               *(config.posterior.specimens if config.posterior else ()), *config.validation]
     for entry in entries:
         path = Path(entry.path)
         if path.is_dir():
@@ -212,33 +231,37 @@ def check_csv_path(csv, db) -> None:
     try_writing(path)  # changes nothing; written for real once the runs are done
 
 
+OWN_FLAGS = ("optimizers", "seeds", "budget", "seed", "name", "model", "state", "excitation", "formulation", "bounds",
+             "fix_mass", "offsets", "validate")
+
+
 def study_config(args):
     """The study of ``--config`` or of ``--specimens`` (validated; ``UserError`` for any mistake)."""
     if args.config is not None:
-        own = [flag for flag, value in (("--optimizers", args.optimizers), ("--bounds", args.bounds))
-               if value is not None]
+        own = [f"--{flag.replace('_', '-')}" for flag in OWN_FLAGS if getattr(args, flag, None) is not None]
         if own:
-            raise UserError(f"{own[0]} goes with --specimens; with --config the TOML says it")
+            raise UserError(f"{own[0]} goes with --specimens; with --config the TOML says it (edit "
+                            f"{args.config}, or pass --db with another path to run a variant)")
         return load_study_config(args.config, data=getattr(args, "data", None))
     if args.optimizers is None:
         raise UserError("--specimens needs --optimizers NAME,NAME (see `bwbench optimizers`)")
     if getattr(args, "data", None) is not None:
         raise UserError("--data goes with --config; with --specimens the files are given")
-    bounds = None
-    if args.bounds is not None:
-        from bwbench.data import bounds as bounds_mod
-        from bwbench.problems.switched_vpp.formulations import bound_names
+    return config_from_arguments(args.specimens, args.optimizers, _given(args.seeds, 5), _given(args.budget, 4100),
+                                 name=_given(args.name, "study"), seed=_given(args.seed, 0), state=args.state,
+                                 excitation=_given(args.excitation, "measured"), bounds_file=args.bounds,
+                                 formulation=args.formulation, model=args.model, fix_mass=_given(args.fix_mass, "auto"),
+                                 offsets=_given(args.offsets, "branch"), validate=args.validate)
 
-        bounds = bounds_mod.read_json(args.bounds, bound_names(args.formulation.split(","), args.state))
-    return config_from_arguments(args.specimens, args.optimizers, args.seeds, args.budget, name=args.name,
-                                 seed=args.seed, state=args.state, excitation=args.excitation, bounds=bounds,
-                                 formulation=args.formulation)
+
+def _given(value, default):
+    return default if value is None else value
 
 
 def run_cli(argv=None, prog: str | None = None) -> int:
     """Parse ``argv`` and run ``main``; a ``UserError`` (or an ``OSError``, e.g. a full disk) becomes one
     line ``error: ...`` and status 2."""
-    parser = argparse.ArgumentParser(prog=prog, description=main.__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog=prog, description=(main.__doc__ or "").splitlines()[0])
     add_arguments(parser)
     args = parser.parse_args(argv)
     try:

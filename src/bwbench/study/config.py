@@ -15,6 +15,9 @@ Generic format (``studies/quick.toml`` is a worked example)::
     random = {}
     pso = { n_particles = 40 }
 
+    [validation]              # optional (switched-bouc-wen problem): held-out tests, never fitted
+    files = ["held_out/*.csv"]  # every ranking run's fit predicts them; the report ranks by that error too
+
     [posterior]               # optional: long MCMC runs, kept out of the ranking
     specimens = ["pom-mt24u01_0.01MPa_r1"]   # names (file stems); may be omitted with one specimen
     optimizer = "emcee"       # the default
@@ -40,12 +43,12 @@ from bwbench import limits, problems
 from bwbench.data.input_files import read_text
 from bwbench.errors import UserError
 from bwbench.optimize import registry
-from bwbench.problems.base import ProblemSetup, integer
+from bwbench.problems.base import Fail, ProblemSetup, integer
 
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
-    import tomli as tomllib
+    import tomli as tomllib  # type: ignore[no-redef]
 
 GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem")
 POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
@@ -81,6 +84,7 @@ class StudyConfig:
     setup: ProblemSetup
     optimizers: dict  # name -> resolved options, in file order
     posterior: PosteriorConfig | None
+    validation: tuple = ()  # of SpecimenEntry: held-out tests each fit predicts (the report's held-out error)
 
     @property
     def specimens(self) -> tuple:
@@ -108,8 +112,11 @@ class StudyConfig:
                 posterior["sha256"] = digests
         study = {"name": self.name, "seed": self.seed, "budget": self.budget, "seeds": self.seeds,
                  **self.setup.study_json}
-        return {"study": study, "specimens": self.setup.specimens_json, "optimizers": self.optimizers,
-                "posterior": posterior}
+        out = {"study": study, "specimens": self.setup.specimens_json, "optimizers": self.optimizers,
+               "posterior": posterior}
+        if self.validation:  # absent without held-out files: stored studies keep their hash
+            out["validation"] = {e.name: e.meta.get("sha256") for e in self.validation}
+        return out
 
     def canonical_json(self) -> str:
         return canonical_json(self.to_json_dict())
@@ -121,7 +128,9 @@ class StudyConfig:
 
 def canonical_json(value) -> str:
     """Sorted keys, no spaces: equal configurations give equal text (and hash)."""
-    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    from bwbench.data import strict_json  # no NaN/Infinity token: null, as everywhere bwbench writes JSON
+
+    return strict_json.dumps(value, canonical=True)
 
 
 def read_toml(path) -> dict:
@@ -190,9 +199,37 @@ def load_study_config(path, data=None) -> StudyConfig:
     posterior = None
     if "posterior" in document:
         posterior = _posterior(fail, document["posterior"], setup)
+    validation = ()
+    if "validation" in document:
+        validation = held_out(fail, problem_type, document["validation"], root, setup)
+        setup = with_locations(setup, validation)
     return check_plan_size(fail, StudyConfig(path=where, root=root, name=name, seed=seed, budget=budget, seeds=seeds,
                                              problem=problem_name, setup=setup, optimizers=optimizers,
-                                             posterior=posterior))
+                                             posterior=posterior, validation=validation))
+
+
+def held_out(fail, problem_type, table, base_dir, setup, label: str = "[validation] files") -> tuple:
+    """The held-out specimens of a ``[validation]`` table (``files = [...]``, relative to ``base_dir``) or
+    of ``--validate``: read and checked now; none may be a training specimen."""
+    if label.startswith("[validation]"):
+        if not isinstance(table, dict) or set(table) != {"files"}:
+            fail("[validation] must be a table with one key, files = [\"held_out/*.csv\", ...]")
+        table = table["files"]
+    entries = problem_type.held_out_entries(fail, table, base_dir, label)
+    training = {e.name for e in setup.specimens}
+    for entry in entries:
+        if entry.name in training:
+            fail(f"{label}: {entry.name} is also a training specimen: a held-out test must not be fitted")
+    return tuple(entries)
+
+
+def with_locations(setup, validation):
+    """``setup`` with the held-out files' paths in its data location (where the report finds them)."""
+    import dataclasses
+
+    location = dict(setup.data_location) if isinstance(setup.data_location, dict) else {}
+    return dataclasses.replace(setup, data_location={**location, **{e.name: str(Path(e.path).resolve())
+                                                                   for e in validation}})
 
 
 def bounded(fail, label: str, value: int, variable: str) -> int:
@@ -233,7 +270,7 @@ def _check_backend(fail, label, optimizer) -> None:
         fail(f"{label}: unknown optimiser {optimizer!r}; available: {', '.join(backends)}")
 
 
-def _resolve_options(fail, label, optimizer, options) -> dict:
+def _resolve_options(fail: Fail, label, optimizer, options) -> dict:
     if not isinstance(options, dict):
         fail(f"{label} must be a table of options (use {{}} for the defaults)")
     try:  # the same check as `bwbench fit --option`: names, types and ranges, defaults merged in
@@ -312,10 +349,15 @@ def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
 
 
 def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *, name: str = "study", seed: int = 0,
-                          state: str = "shared", excitation: str = "measured", bounds=None,
-                          formulation: str = "paper") -> StudyConfig:
-    """A study of the switched model over the files ``specimens`` (paths or globs, relative to the
-    current folder) with no TOML and no manifest: ``bwbench compare --specimens ...``."""
+                          state: str | None = None, excitation: str = "measured", bounds_file=None,
+                          formulation: str | None = None, model: str | None = None, fix_mass="auto",
+                          offsets: str = "branch", validate=None) -> StudyConfig:
+    """A study over the files ``specimens`` (paths or globs, relative to the current folder) with no
+    TOML and no manifest: ``bwbench compare --specimens ...``. ``model`` and ``formulation``: a name
+    or comma-separated names (None: the switched model, and each model's own formulation);
+    ``bounds_file``: a JSON search box, read by the problem type (it knows the parameter names);
+    ``fix_mass``/``offsets``: the identifiable formulation's (read by the problem type); ``validate``:
+    held-out files (paths or globs) every fit predicts."""
     def fail(message):
         raise UserError(message)
 
@@ -333,9 +375,14 @@ def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *
         _check_backend(fail, "--optimizers", backend)
     resolved = {backend: _resolve_options(fail, f"--optimizers {backend}", backend, {}) for backend in names}
     root = Path.cwd()
-    setup = problems.get(problems.DEFAULT).setup_from_files(fail, list(specimens), root, state=state,
-                                                             excitation=excitation, bounds=bounds,
-                                                             formulation=formulation)
+    problem_type = problems.get(problems.DEFAULT)
+    setup = problem_type.setup_from_files(fail, list(specimens), root, state=state, excitation=excitation,
+                                          bounds_file=bounds_file, formulation=formulation, model=model,
+                                          fix_mass=fix_mass, offsets=offsets)
+    validation = ()
+    if validate:
+        validation = held_out(fail, problem_type, list(validate), root, setup, "--validate")
+        setup = with_locations(setup, validation)
     return check_plan_size(fail, StudyConfig(path="--specimens", root=root, name=name, seed=seed, budget=budget,
                                              seeds=seeds, problem=problems.DEFAULT, setup=setup,
-                                             optimizers=resolved, posterior=None))
+                                             optimizers=resolved, posterior=None, validation=validation))

@@ -26,9 +26,15 @@ from bwbench.study.config import StudyConfig
 from bwbench.study.lock import StudyLock
 from bwbench.study.pool import in_pool
 from bwbench.study.stop import StudyStopped
-from bwbench.study.store import (database_fault, failed_runs, finished_keys, open_database,
-                                 prepare_database_path, record_run)
-from bwbench.study.tasks import plan_tasks, run_task
+from bwbench.study.store import (
+    database_fault,
+    failed_runs,
+    finished_keys,
+    open_database,
+    prepare_database_path,
+    record_run,
+)
+from bwbench.study.tasks import plan_tasks, refuse_plugins_only_here, run_task
 
 
 @dataclass(frozen=True)
@@ -63,6 +69,8 @@ def run_study(config: StudyConfig, db, *, workers: int | None = None, scheduler:
         limits.check("--workers", workers, "BWBENCH_MAX_WORKERS",
                      f" (4 per core: more processes only compete for the {os.cpu_count()} cores, ~0.15 GB each)")
     tasks = plan_tasks(config)
+    if scheduler or (workers or os.cpu_count() or 1) > 1:  # other processes run the tasks: can they load them?
+        refuse_plugins_only_here(tasks, f"the Dask cluster at {scheduler}" if scheduler else "its worker processes")
     db = prepare_database_path(db)
     resume = f"finished runs are in {db}, run the same command again to resume"
     with StudyLock(db), closing(open_database(db, config, planned_runs=len(tasks))) as conn:

@@ -14,14 +14,10 @@ the first colon) and retried when transient.
 
 from __future__ import annotations
 
-import builtins
 from collections import defaultdict
 
-TRANSIENT = (OSError, MemoryError, ImportError)
-# Type names as the stored error text starts ("OSError: ..."): the built-in transient classes.
-TRANSIENT_NAMES = frozenset(
-    name for name, value in vars(builtins).items()
-    if isinstance(value, type) and issubclass(value, TRANSIENT))
+from bwbench.store.reader import TRANSIENT, is_transient_text  # noqa: F401 (the stored-text check is this module's too)
+
 SHOWN_KEYS = 6  # keys listed per distinct error; the rest are counted
 SHOWN_TEXT = 160  # characters of an error's text shown in the summary
 
@@ -29,11 +25,6 @@ SHOWN_TEXT = 160  # characters of an error's text shown in the summary
 def is_transient(err: BaseException) -> bool:
     """True for a fault of the environment (retry the run), False for the run's own result."""
     return isinstance(err, TRANSIENT)
-
-
-def is_transient_text(error: str | None) -> bool:
-    """``is_transient`` for a stored one-line error ``"TypeName: message"``."""
-    return bool(error) and error.split(":", 1)[0].strip() in TRANSIENT_NAMES
 
 
 def one_line(err: BaseException) -> str:

@@ -112,7 +112,7 @@ def in_pool(tasks, workers: int, threads: int = 1, run=run_task):
     # spawn, not fork: numba's OpenMP threading layer kills a child forked from a process that has
     # already run parallel code (a test session, a notebook). It costs each worker ~2.5 s of imports.
     context = multiprocessing.get_context("spawn")
-    pending, deaths = deque(tasks), Counter()
+    pending, deaths = deque(tasks), Counter[tuple]()
     pool: list[_Worker] = []
     finished = False
     try:

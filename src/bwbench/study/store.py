@@ -6,18 +6,22 @@ Schema (the report reads it; names are a contract):
   ``planned_runs`` (how many runs the study has: the report calls a study with fewer provisional;
   written on every open, so databases from before the key get it when resumed), and where the data
   of the latest run were (where ``bwbench report`` looks first; not part of the configuration):
-  ``data_paths`` (JSON, specimen name -> file) or ``data_dir`` (a folder).
+  ``data_paths`` (JSON, specimen name -> file) or ``data_dir`` (a folder); ``machine``; ``backends``
+  (JSON, backend -> family and whether it evaluates populations: the report reads the database,
+  never the optimiser registry). Read by ``bwbench.store.reader``.
 - ``runs``: one row per finished run: a run that succeeded, or one that failed deterministically
   (status "error"; ``bwbench.study.failures``). A row of an older version whose error was the
   environment's (``OSError: ...``) is not finished: it is run again and replaced.
   Keyed by (kind, specimen, optimizer, replicate); no wall
   time, so rows are identical whoever ran them and when. Columns for any problem: ``problem``,
-  ``params_json`` (the parameters by name) and ``metrics_json`` (the problem's own metrics of the
-  best point, e.g. the benchmark's test e_RMS; null where not finite; NULL for a run that raised).
-  The columns named after the switched model (its 14 parameters, ``state``, ``excitation``,
-  ``material``, ``underpressure_MPa``, ``repeat``, ``rmse_N``) are filled by the problems that have
-  such values (``ProblemType.record_columns``) and NULL otherwise. Databases written before the three
-  generic columns existed get them (NULL) when a study is resumed.
+  ``model``, ``formulation`` and ``variant`` (the label's bracket, NULL when the study has one
+  variant), ``params_json`` (every parameter by name: no model's names are columns) and
+  ``metrics_json`` (the problem's own metrics of the best point, e.g. the benchmark's test e_RMS;
+  null where not finite; NULL for a run that raised). ``state``, ``excitation``, ``material``,
+  ``underpressure_MPa``, ``repeat``, ``rmse_N`` are filled by the problems that have such values
+  (``ProblemType.record_columns``) and NULL otherwise. Databases written before the generic columns
+  existed get them (NULL) when a study is resumed; those written with the switched model's 14
+  parameters as columns still read (``bwbench.store.reader``), and new rows leave them NULL.
 - ``timings``: wall time (s), worker (``host:pid``) and finish time (UTC) of each run.
 - ``traces``: the best-so-far improvements (evaluation count, loss) of each run.
 - ``chains``: MCMC chains (float64, unit coordinates, shape (steps, walkers, dim)) of the posterior
@@ -39,16 +43,15 @@ from pathlib import Path
 from bwbench import __version__
 from bwbench.data.input_files import not_regular
 from bwbench.errors import UserError
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.study.config import StudyConfig, describe_differences
+from bwbench.store.timing import machine_description
+from bwbench.study.config import StudyConfig, canonical_json, describe_differences
 from bwbench.study.failures import is_transient_text
-from bwbench.study.timing import machine_description
 
-GENERIC_COLUMNS = ("problem", "params_json", "metrics_json")  # usable by any problem
+GENERIC_COLUMNS = ("problem", "params_json", "metrics_json", "model", "formulation", "variant")  # any problem
 RUN_COLUMNS = (
     "kind", "specimen", "optimizer", "replicate", "seed_entropy", "status", "error", "budget",
     "nfev", "mse", "f_err", "rmse_N", "success", "message", "state", "excitation", "material",
-    "underpressure_MPa", "repeat", "options_json", *PARAM_NAMES, *GENERIC_COLUMNS,
+    "underpressure_MPa", "repeat", "options_json", *GENERIC_COLUMNS,
 )
 _KEY_SQL = "kind TEXT, specimen TEXT, optimizer TEXT, replicate INTEGER"
 _PK_SQL = "PRIMARY KEY (kind, specimen, optimizer, replicate)"
@@ -58,8 +61,7 @@ CREATE TABLE IF NOT EXISTS runs (
     {_KEY_SQL}, seed_entropy TEXT, status TEXT, error TEXT, budget INTEGER, nfev INTEGER,
     mse REAL, f_err REAL, rmse_N REAL, success INTEGER, message TEXT, state TEXT, excitation TEXT,
     material TEXT, underpressure_MPa REAL, repeat INTEGER, options_json TEXT,
-    {", ".join(f'"{name}" REAL' for name in PARAM_NAMES)},
-    problem TEXT, params_json TEXT, metrics_json TEXT,
+    problem TEXT, params_json TEXT, metrics_json TEXT, model TEXT, formulation TEXT, variant TEXT,
     {_PK_SQL});
 CREATE TABLE IF NOT EXISTS timings ({_KEY_SQL}, wall_s REAL, worker TEXT, finished_utc TEXT, {_PK_SQL});
 CREATE TABLE IF NOT EXISTS traces ({_KEY_SQL}, nfev INTEGER, mse REAL);
@@ -168,10 +170,12 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
         if planned_runs is not None:
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('planned_runs', ?)", (str(planned_runs),))
         conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('machine', ?)", (machine_description(),))
+        # What each backend is, for the report, which reads the database and never the registry.
+        conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('backends', ?)", (backend_facts(config),))
         location = config.setup.data_location  # where the data are now: for the report, not the identity
         if isinstance(location, dict):
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)",
-                         (json.dumps(location, sort_keys=True),))
+                         (canonical_json(location),))
         elif location:
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_dir', ?)", (location,))
         conn.execute("COMMIT")
@@ -184,6 +188,18 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
             conn.close()
         raise
     return conn
+
+
+def backend_facts(config: StudyConfig) -> str:
+    """JSON {backend: {"family", "batched"}} of the study's backends (ranking and posterior)."""
+    from bwbench.optimize import registry
+
+    names = [*config.optimizers, *([config.posterior.optimizer] if config.posterior else [])]
+    facts = {}
+    for name in dict.fromkeys(names):
+        backend = registry.get(name)
+        facts[name] = {"family": backend.family, "batched": bool(backend.batched)}
+    return json.dumps(facts, sort_keys=True)
 
 
 def _add_generic_columns(conn) -> None:

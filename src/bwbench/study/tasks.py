@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bwbench import problems
+from bwbench.errors import UserError
 from bwbench.problems.base import SpecimenEntry
 from bwbench.study import failures
 from bwbench.study.config import StudyConfig, canonical_json
@@ -86,6 +87,49 @@ def run_label(backend: str, variant: str) -> str:
     return f"{backend} [{variant}]" if variant else backend
 
 
+def plugins_of(task: Task) -> list[tuple[str, str]]:
+    """The plug-ins a worker loads by name to run ``task``: ("problem", its problem type), then
+    ("model", name) for each model the problem fits (``ProblemType.models``)."""
+    found = [("problem", task.problem)]
+    try:
+        found += [("model", name) for name in problems.get(task.problem).models(task.settings)]
+    except UserError:  # the problem itself cannot be loaded here: missing_plugins says so
+        pass
+    return found
+
+
+def missing_plugins(plugins) -> list[str]:
+    """Load every plug-in of ``plugins`` ((kind, name) pairs, ``plugins_of``) in this process; one
+    line for each that cannot be (not installed here, or failing to import), [] if all load."""
+    from bwbench.models import registry as models
+
+    loaders = {"problem": problems.get, "model": models.get}
+    missing = []
+    for kind, name in plugins:
+        try:
+            loaders[kind](name)
+        except (UserError, ImportError) as err:
+            missing.append(f"{kind} {name!r} ({err})")
+    return missing
+
+
+def refuse_plugins_only_here(tasks, where: str) -> None:
+    """``UserError`` before any run if a task needs a problem or model registered in this process only
+    (``bwbench.problems.register``, ``bwbench.models.registry.register``): ``where`` (other processes:
+    spawned workers, a Dask cluster) would not find it, and every run would be lost. An installed
+    plug-in (entry points ``bwbench.problems``/``bwbench.models``) or a built-in one loads anywhere."""
+    from bwbench.models import registry as models
+
+    only_here = {"problem": problems.only_in_this_process, "model": models.only_in_this_process}
+    groups = {"problem": problems.ENTRY_POINT_GROUP, "model": models.ENTRY_POINT_GROUP}
+    needed = dict.fromkeys(plugin for task in tasks for plugin in plugins_of(task))
+    for kind, name in needed:
+        if only_here[kind](name):
+            raise UserError(f"{kind} {name!r} is registered in this process only (register()), so {where} cannot "
+                            f"load it: install it as a plug-in package (entry-point group {groups[kind]!r}; "
+                            "see examples/problem_plugin) or run the study in this process (--workers 1)")
+
+
 def run_task(task: Task, threads: int = 1) -> dict:
     """Run one task on ``threads`` threads (``bwbench.threads``); never raises for a failed run.
 
@@ -102,6 +146,10 @@ def run_task(task: Task, threads: int = 1) -> dict:
     row.update(kind=task.kind, specimen=task.specimen, optimizer=task.optimizer, replicate=task.replicate,
                seed_entropy=str(task.entropy), budget=task.budget, options_json=canonical_json(task.options),
                success=0, problem=task.problem)
+    missing = missing_plugins(plugins_of(task))
+    if missing:  # the study's process found them: this worker's environment lacks them
+        return {"key": task.key, "lost": f"cannot load {missing[0]} on worker host {socket.gethostname()}: "
+                                         "install the plug-in package where the workers run"}
     problem_type = problems.get(task.problem)
     _fill(row, problem_type.record_columns(task.settings, task.entry, None))
     trace, chain, transient = [], None, False
@@ -118,7 +166,9 @@ def run_task(task: Task, threads: int = 1) -> dict:
             # Only posterior runs keep their chain: nothing reads a ranking run's, and at the paper's
             # budget it would be ~0.5 MB per emcee run, more than every other table together.
             chain = _chain_columns(result.extras) if task.kind == "posterior" else None
-            metrics = problem_type.run_metrics(problem, result)
+            # Made here: a problem's metric that JSON cannot hold is that run's error, not the study's.
+            params_json = canonical_json({k: json_number(v) for k, v in result.params.items()})
+            metrics_json = canonical_json(problem_type.run_metrics(problem, result))
             columns = problem_type.record_columns(task.settings, task.entry, result)
         except Exception as err:  # a deterministic failure is a result: record it, keep the study going
             transient = failures.is_transient(err)
@@ -127,8 +177,7 @@ def run_task(task: Task, threads: int = 1) -> dict:
             _fill(row, columns)
             row.update(status="ok", nfev=result.nfev, mse=result.mse, f_err=result.f_err,
                        success=int(result.success), message=result.message,
-                       params_json=canonical_json({k: json_number(v) for k, v in result.params.items()}),
-                       metrics_json=canonical_json(metrics))
+                       params_json=params_json, metrics_json=metrics_json)
             trace = list(zip(result.trace_nfev, result.trace_mse, strict=True))
         finally:
             wall = time.perf_counter() - started
@@ -151,8 +200,6 @@ def json_number(x):
 def _chain_columns(extras: dict) -> dict | None:
     if extras.get("chain") is None:
         return None
-    import json
-
     chain = np.ascontiguousarray(extras["chain"], dtype=np.float64)
     if chain.ndim != 3:
         raise ValueError(f"backend returned a chain of shape {chain.shape}, expected (steps, walkers, dim)")
@@ -166,5 +213,5 @@ def _chain_columns(extras: dict) -> dict | None:
         "steps": steps, "walkers": walkers, "dim": dim, "chain": chain.tobytes(),
         "log_prob": None if log_prob is None else np.ascontiguousarray(log_prob, dtype=np.float64).tobytes(),
         "acceptance_fraction": None if acceptance is None else float(np.mean(acceptance)),
-        "autocorr_json": None if autocorr is None else json.dumps(autocorr),
+        "autocorr_json": None if autocorr is None else canonical_json(autocorr),
     }

@@ -71,7 +71,7 @@ def read_benchmark_csv(path) -> BenchmarkRecord:
     header = [name.strip() for name in lines[0].strip().split(",")]
     if tuple(header) != COLUMNS:
         raise InputFileError(path, 1, f"header must be {','.join(COLUMNS)}, found {lines[0].strip()[:60]!r}")
-    values = []
+    values: list = []
     for line_no, line in enumerate(lines[1:], start=2):
         if not line.strip():
             continue

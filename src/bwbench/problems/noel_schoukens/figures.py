@@ -21,7 +21,15 @@ from bwbench.problems.box import box_to_unit
 from bwbench.problems.noel_schoukens import problem as bm
 from bwbench.report.figures import finished
 from bwbench.report.palette import (
-    MAX_WIDTH_IN, TRUTH, backend_handles, figure, legend, save, styles, theme, truth_handle,
+    MAX_WIDTH_IN,
+    TRUTH,
+    backend_handles,
+    figure,
+    legend,
+    save,
+    styles,
+    theme,
+    truth_handle,
 )
 
 SPREAD_TOLERANCE = 0.10  # parameter spread: runs within 10 % of the best known training MSE

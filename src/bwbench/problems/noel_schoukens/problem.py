@@ -45,12 +45,22 @@ from pathlib import Path
 import numpy as np
 
 from bwbench.models.force_driven_bouc_wen import (
-    PARAM_NAMES, identifiable_combinations, SAMPLE_RATE_HZ, STEPS_PER_SAMPLE, WARMUP_SAMPLES, mse_batch, simulate, upsample_from_rest,
+    PARAM_NAMES,
+    SAMPLE_RATE_HZ,
+    STEPS_PER_SAMPLE,
+    WARMUP_SAMPLES,
+    mse_batch,
+    simulate,
+    upsample_from_rest,
     upsample_periodic,
 )
 from bwbench.problems.box import box_from_unit, box_to_unit
 from bwbench.problems.noel_schoukens.data import (
-    PERIOD_SAMPLES, TRAIN_PERIODS, one_period, default_data_dir, read_benchmark_csv,
+    PERIOD_SAMPLES,
+    TRAIN_PERIODS,
+    default_data_dir,
+    one_period,
+    read_benchmark_csv,
 )
 
 TRUE_PARAMS = np.array([2.0, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1, 1.0])
@@ -86,7 +96,7 @@ class BoucWenBenchmarkProblem:
     only when ``test_error`` first needs them. ``train_period`` (1–5) is the compared period.
     """
 
-    data_dir: str | Path | None = None
+    data_dir: Path = None  # type: ignore[assignment]  # None: the default folder, set in __post_init__
     train_period: int = TRAIN_PERIODS
     steps_per_sample: int = STEPS_PER_SAMPLE
     warmup_samples: int = WARMUP_SAMPLES

@@ -17,10 +17,16 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import identifiability, mcmc
+from bwbench.models.force_driven_bouc_wen import identifiable_combinations
 from bwbench.problems.noel_schoukens import figures as benchmark_figures
 from bwbench.problems.noel_schoukens import problem as bm
 from bwbench.problems.noel_schoukens.analysis import (
-    JACOBIAN_STEP, analyse_identifiability, finished, backend_results, load_problem, truth_figures,
+    JACOBIAN_STEP,
+    analyse_identifiability,
+    backend_results,
+    finished,
+    load_problem,
+    truth_figures,
 )
 from bwbench.problems.noel_schoukens.problem import TARGET_ERMS_M
 from bwbench.report.format import evals_text, join, number
@@ -138,7 +144,7 @@ def _section_parameters(doc, study, results, problem, truth):
     names = [*NAMES, "beta_gamma", "beta_delta"]
 
     def row(label, params, train_rmse, multisine):
-        combos = bm.identifiable_combinations(params)
+        combos = identifiable_combinations(params)
         values = {**dict(zip(NAMES, params)), **combos}
         return {"": label, **{_head(n): number(float(values[n])) for n in names},
                 "train RMSE (m)": _e(train_rmse), "test_multisine e_RMS (m)": _e(multisine)}
@@ -155,13 +161,13 @@ def _section_parameters(doc, study, results, problem, truth):
     if best["best_replicate"] >= 0:
         run = ranking[(ranking["optimizer"] == best["optimizer"]) & (ranking["replicate"] == best["best_replicate"])]
         params = run.iloc[0][list(NAMES)].to_numpy(dtype=float)
-        fit = {**dict(zip(NAMES, params)), **bm.identifiable_combinations(params)}
-        true = {**dict(zip(NAMES, bm.TRUE_PARAMS)), **bm.identifiable_combinations(bm.TRUE_PARAMS)}
+        fit = {**dict(zip(NAMES, params)), **identifiable_combinations(params)}
+        true = {**dict(zip(NAMES, bm.TRUE_PARAMS)), **identifiable_combinations(bm.TRUE_PARAMS)}
         rows.append({"": f"{best['optimizer']} best − truth (% of truth; β, γ, δ alone mean nothing)",
                      **{_head(n): f"{100 * (fit[n] / true[n] - 1):+.2g} %" for n in names}})
         ok = finished(ranking[ranking["optimizer"] == best["optimizer"]])
         products = np.array([[c["beta_gamma"], c["beta_delta"]] for c in
-                             map(bm.identifiable_combinations, ok[list(NAMES)].to_numpy(dtype=float))])
+                             map(identifiable_combinations, ok[list(NAMES)].to_numpy(dtype=float))])
         spread = {**{n: ok[n] for n in NAMES}, "beta_gamma": products[:, 0], "beta_delta": products[:, 1]}
         rows.append({"": f"{best['optimizer']}: median [min, max], {len(ok)} seeds",
                      **{_head(n): _spread4(spread[n]) for n in names},
@@ -300,7 +306,7 @@ def ranking_columns(report, table) -> dict:
 
 
 def add_sections(report) -> None:
-    study, doc, out, log = report.study, report.doc, report.out, report.log
+    study, doc, out = report.study, report.doc, report.out
     c = _context(report)
     problem, results, truth = c["problem"], c["results"], c["truth"]
     _section_parameters(doc, study, results, problem, truth)

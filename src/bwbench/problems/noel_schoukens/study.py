@@ -85,7 +85,7 @@ class NoelSchoukens(ProblemType):
         return metrics
 
     def summary_columns(self, runs) -> dict:
-        from bwbench.study.results import metric
+        from bwbench.store.reader import metric
 
         test = metric(runs, "test_multisine_erms_m")
         return {"median test e_RMS (m)": "-" if not np.isfinite(test).any() else f"{np.nanmedian(test):.2e}",

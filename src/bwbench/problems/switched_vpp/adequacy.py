@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for, reversals
+from bwbench.problems.switched_vpp.figure_common import problem_for, reversals
 from bwbench.report.floors import FACTOR, stated_noise_variance
 from bwbench.report.format import join, number
 
@@ -62,13 +62,14 @@ def table(study, specimens) -> pd.DataFrame:
     """One row per specimen: its best ranking run and ``residual_summary`` of it."""
     ranking = study.ranking
     ok = ranking[(ranking["status"] == "ok") & np.isfinite(ranking["mse"].astype(float))]
-    cache, rows = {}, []
+    cache: dict = {}
+    rows: list = []
     for specimen in specimens:
         runs = ok[ok["specimen"] == specimen]
         if runs.empty:
             continue
         run = runs.loc[runs["mse"].idxmin()]
-        problem = problem_for(study, specimen, formulation_of(study, run["optimizer"]), cache)
+        problem = problem_for(study, specimen, run["optimizer"], cache)
         fitted = problem.simulate(run[list(problem.param_names)].to_numpy(dtype=float))
         if not np.all(np.isfinite(fitted)):
             continue

@@ -1,66 +1,167 @@
-"""``bwbench simulate`` and ``bwbench evaluate``: the switched model on one specimen, no optimiser."""
+"""``bwbench simulate``, ``evaluate`` and ``identifiability``: a model on one specimen, no optimiser; the
+options of a model and of a fit that ``fit`` and ``compare`` share."""
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
-from bwbench.optimize.result import finite_or_null
+import numpy as np
+
+from bwbench.data import strict_json
 
 MAX_GRID = 1000  # profile points per parameter: each is a local fit of ~15 iterations
+BLOWS_UP = "the model blows up with these parameters on this specimen (force not finite)"
+WALK_BLOWS_UP = "the walk along this direction reached parameters where the model blows up"
 
 
 def add_model_options(p) -> None:
-    p.add_argument("--state", choices=["shared", "split"], default="shared",
-                   help="hysteretic state convention (default: shared)")
-    p.add_argument("--excitation", choices=["measured", "sine"], default="measured",
+    p.add_argument("--model", help="the model (default switched-bouc-wen; see `bwbench models`)")
+    p.add_argument("--state", choices=["shared", "split"],
+                   help="hysteretic state convention of the switched model (default: shared)")
+    p.add_argument("--excitation", choices=["measured", "sine"],
                    help="measured: the specimen's own displacement (default); sine: the paper's fit")
-    p.add_argument("--formulation", choices=["paper", "identifiable"], default="paper",
-                   help="paper: the 14 parameters in Table 5 (default); identifiable: symmetry-free hysteretic "
-                        "parameters in a box scaled from the data, linear coefficients solved")
+    p.add_argument("--formulation", choices=["paper", "direct", "identifiable"],
+                   help="paper/direct: the model's own parameters in its box; identifiable: symmetry-free "
+                        "parameters in a box scaled from the data, linear coefficients solved (default: the "
+                        "model's own: paper for the switched model, identifiable for the others)")
+
+
+def model_settings(args) -> dict:
+    """Model, formulation, state and excitation of a command's arguments, checked (``UserError``)."""
+    from bwbench.errors import UserError
+    from bwbench.models import registry
+    from bwbench.problems.switched_vpp.formulations import resolve_formulation
+
+    model = registry.get(args.model or registry.DEFAULT)
+    if args.state is not None and not model.states:
+        raise UserError(f"--state does not apply to model {model.name!r} (no state convention to choose)")
+    return {"model": model.name, "formulation": resolve_formulation(model, args.formulation),
+            "state": args.state or "shared", "excitation": args.excitation or "measured"}
+
+
+def add_fit_options(p) -> None:
+    """The options of a fit that a study shares (``fit`` and ``compare``): the mass and the weights."""
+    p.add_argument("--fix-mass", metavar="VALUE",
+                   help="identifiable formulation: the inertia m in N·s²/mm (1 = 1 t): a number fixes it, 'fit' "
+                        "always fits it (within [0, 1] unless --bounds says otherwise), 'auto' (default) fits it "
+                        "only where the data separate it from the stiffness (never on one sine test)")
+    p.add_argument("--offsets", choices=["branch", "continuous"],
+                   help="identifiable formulation, switched model: a constant force per branch (branch, default: "
+                        "a friction-like force that switches at a reversal) or one for both (continuous: no jump)")
+
+
+def fix_mass_value(text, flag: str = "--fix-mass"):
+    """"auto" (None given), None ("fit") or a mass ≥ 0 (N·s²/mm) from the text of ``flag``; ``UserError``
+    otherwise."""
+    import math
+
+    from bwbench.errors import UserError
+
+    if text is None or text == "auto":
+        return "auto"
+    if text == "fit":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise UserError(f"{flag} must be 'auto', 'fit' or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {text!r}")
+    return value
 
 
 def problem_from_args(args):
-    """The problem of ``args.specimen`` with the command's state, excitation and ``--bounds``."""
+    """The problem of ``args.specimen`` (one file, or a list: a joint fit) with the command's model,
+    formulation, state, excitation, ``--bounds``, ``--fix-mass`` and ``--weighting`` where it has them."""
     from bwbench.data import bounds as bounds_mod
     from bwbench.data.specimen import read_specimen
     from bwbench.problems.switched_vpp.formulations import bound_names, make_problem
 
-    settings = {"state": args.state, "excitation": args.excitation, "formulation": args.formulation}
+    settings = model_settings(args)
     if getattr(args, "bounds", None):
-        settings["bounds"] = bounds_mod.read_json(args.bounds, bound_names([args.formulation], args.state))
-    problem = make_problem(read_specimen(args.specimen), settings)
+        names = bound_names([settings["formulation"]], settings["state"], [settings["model"]])
+        settings["bounds"] = bounds_mod.read_json(args.bounds, names)
+    mass = fix_mass_value(getattr(args, "fix_mass", None))
+    if mass != "auto":
+        if settings["formulation"] != "identifiable":
+            from bwbench.errors import UserError
+
+            raise UserError(f"--fix-mass applies to the identifiable formulation (the {settings['formulation']} "
+                            "formulation has no solved mass)")
+        settings["fix_mass"] = mass
+    if getattr(args, "offsets", None):
+        settings["offsets"] = args.offsets
+    if getattr(args, "weighting", None):
+        settings["weighting"] = args.weighting
+    paths = args.specimen if isinstance(args.specimen, list) else [args.specimen]
+    specimens = [read_specimen(p) for p in paths]
+    problem = make_problem(specimens if len(specimens) > 1 else specimens[0], settings)
     if "bounds" in settings:
         bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
     return problem
 
 
 def read_for(path, problem):
-    """The parameters of ``path`` in ``problem``'s coordinates: its own names, or the paper's 14
-    mapped into the identifiable formulation when that is the problem's."""
+    """The parameters of ``path`` in ``problem``'s coordinates: its own names, or the model's direct
+    parameters mapped into the identifiable formulation when that is the problem's."""
     from bwbench.data.parameters import read_json
-    from bwbench.errors import InputFileError
+    from bwbench.errors import InputFileError, UserError
 
     try:
         return read_json(path, problem.param_names)
-    except InputFileError:
+    except InputFileError as err:
         if getattr(problem, "formulation", "paper") != "identifiable":
             raise
-    from bwbench.models.switched_identifiable import from_paper
-
-    return from_paper(read_json(path), problem.state)[0]
+        direct_names = [p.name for p in problem.model.direct_parameters(problem.state)]
+        try:
+            direct = read_json(path, direct_names)
+        except InputFileError:
+            raise err from None
+    try:
+        return np.asarray(problem.model.from_direct(direct, problem.state)[0], dtype=float)
+    except ValueError as why:
+        raise UserError(f"{path}: {why}") from None
 
 
 def fit_metrics(mse: float, n: int) -> dict:
     return {"mse": mse, "f_err": -mse, "rmse_N": math.sqrt(mse) if math.isfinite(mse) else math.inf, "n": n}
 
 
+def _stored(args):
+    """The ``FittedModel`` to evaluate: the fit result of ``--params`` (flags checked against it), or a
+    plain parameter file that holds every coefficient of the identifiable formulation; else None."""
+    from bwbench.problems.switched_vpp.predict_command import stored_model
+
+    fitted = stored_model(args, args.params)
+    if fitted is not None or (model_settings(args)["formulation"] != "identifiable"):
+        return fitted
+    from bwbench.data.json_input import read_json_file
+    from bwbench.errors import UserError
+    from bwbench.problems.fitted_model import FittedModel
+
+    values = read_json_file(args.params)
+    if not isinstance(values, dict):
+        return None
+    settings = model_settings(args)
+    try:
+        return FittedModel(settings["model"], "identifiable", values, settings["state"], settings["excitation"])
+    except (UserError, TypeError):  # not every coefficient: they are solved on the specimen (said in the output)
+        return None
+
+
+SOLVED = "solved on this specimen by least squares (the file has no linear coefficients): a fit, not a prediction"
+
+
 def simulate(args) -> int:
     import pandas as pd
 
     from bwbench.data.output_paths import check_outputs, writing
+    from bwbench.problems.switched_vpp.predict_command import simulate_stored
 
+    fitted = _stored(args)
+    if fitted is not None:
+        return simulate_stored(args, fitted)
     check_outputs({"--out": args.out}, [args.specimen, args.params])
     problem = problem_from_args(args)
     params = read_for(args.params, problem)
@@ -73,16 +174,23 @@ def simulate(args) -> int:
     with writing(args.out):
         frame.to_csv(args.out, index=False, float_format="%.6g")
     mse = float(problem.loss_batch(params[None, :])[0])
-    print(json.dumps(finite_or_null({"out": str(args.out), **fit_metrics(mse, len(force))})))
+    extra = {"linear_coefficients": SOLVED} if problem.formulation == "identifiable" else {}
+    print(strict_json.dumps({"out": str(args.out), **fit_metrics(mse, len(force)), **extra}, why=BLOWS_UP))
     return _not_finite(args, mse)
 
 
 def evaluate(args) -> int:
-    
+    from bwbench.problems.switched_vpp.predict_command import evaluate_stored
+
+    fitted = _stored(args)
+    if fitted is not None:
+        return evaluate_stored(args, fitted)
     problem = problem_from_args(args)
     params = read_for(args.params, problem)
     mse = float(problem.loss_batch(params[None, :])[0])
-    print(json.dumps(finite_or_null({**fit_metrics(mse, problem.specimen.n_samples), **problem.info}), indent=2))
+    extra = {"linear_coefficients": SOLVED} if problem.formulation == "identifiable" else {}
+    print(strict_json.dumps({**fit_metrics(mse, problem.specimen.n_samples), **problem.info, **extra}, why=BLOWS_UP,
+                            indent=2))
     return _not_finite(args, mse)
 
 
@@ -98,7 +206,8 @@ def _not_finite(args, mse: float) -> int:
 
 
 def add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
+    parser.add_argument("--params", required=True, help="a fit result (its model, formulation and every coefficient "
+                        "as stored), or a parameters JSON (names -> values, in the formulation the flags say)")
     parser.add_argument("--specimen", required=True, help="specimen CSV")
     add_model_options(parser)
     parser.add_argument("--out", required=True, help="output CSV")
@@ -106,7 +215,8 @@ def add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
+    parser.add_argument("--params", required=True, help="a fit result (its model, formulation and every coefficient "
+                        "as stored), or a parameters JSON (names -> values, in the formulation the flags say)")
     parser.add_argument("--specimen", required=True, help="specimen CSV")
     add_model_options(parser)
     parser.set_defaults(func=evaluate)
@@ -115,12 +225,7 @@ def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
 def add_identifiability_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("specimen", help="specimen CSV")
     parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
-    parser.add_argument("--state", choices=["shared", "split"], default="shared",
-                        help="hysteretic state convention (default: shared)")
-    parser.add_argument("--excitation", choices=["measured", "sine"], default="measured",
-                        help="measured (default) or sine")
-    parser.add_argument("--formulation", choices=["paper", "identifiable"], default="paper",
-                        help="the coordinates to analyse in (default: paper)")
+    add_model_options(parser)
     parser.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
     parser.add_argument("--profile", action="append", default=[], metavar="NAME",
                         help="also profile this parameter (repeatable; e.g. wn-)")
@@ -146,10 +251,12 @@ def identifiability(args) -> int:
         raise UserError(f"{args.specimen}: {flat[0]}; nothing to identify")
     params = read_for(args.params, problem)
     box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
-    result = analyse(args.specimen, params, args.state, args.excitation, formulation=args.formulation, bounds=box,
+    settings = model_settings(args)
+    result = analyse(args.specimen, params, settings["state"], settings["excitation"],
+                     formulation=settings["formulation"], model=settings["model"], bounds=box,
                      profile_names=args.profile, grid=args.grid)
     if args.json:  # strict JSON, whole or nothing: a value that is not finite is null
-        sys.stdout.write(json.dumps(finite_or_null(result), indent=2, allow_nan=False) + "\n")
+        sys.stdout.write(strict_json.dumps(result, why={"null_directions": WALK_BLOWS_UP}, indent=2) + "\n")
     else:
         print(format_text(result))
     return 0

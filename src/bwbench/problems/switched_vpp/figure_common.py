@@ -42,8 +42,16 @@ def axis_label(name: str) -> str:
     return f"{label} ({pretty_unit(fm.HYSTERETIC_UNITS.get(name, '-'))})"
 
 
-def synthetic(study, specimens) -> bool:
-    return any(manifest.is_synthetic(study.specimen_path(s)) for s in specimens)
+def synthetic(study, specimens) -> str:
+    """The mark of synthetic data for a figure of ``specimens`` ("SYNTHETIC DATA (generated from
+    <source>)"), '' for measured data."""
+    sources = list(dict.fromkeys(filter(None, (manifest.synthetic_source(study.specimen_path(s)) for s in specimens))))
+    return f"SYNTHETIC DATA (generated from {' and '.join(sources)})" if sources else ""
+
+
+def conditions(problem) -> str:
+    """"shared state, measured excitation" (no state for a model without state conventions)."""
+    return (f"{problem.state} state, " if problem.state else "") + f"{problem.excitation} excitation"
 
 
 def truth(study, specimen):
@@ -51,21 +59,50 @@ def truth(study, specimen):
     return manifest.truth_params(study.specimen_path(specimen))
 
 
-def formulation_of(study, label: str) -> str:
-    """The formulation a run label was fitted in: its ``[variant]``, else the study's one."""
+def study_variants(study) -> list[tuple[str, str, str]]:
+    """(label, model, formulation) of every variant of the study (one when it compares none)."""
+    from bwbench.models.registry import DEFAULT
+    from bwbench.problems.switched_vpp.formulations import variants
+
+    s = study.settings
+    models = s.get("model", DEFAULT)
+    formulations = s.get("formulation")
+    return variants([models] if isinstance(models, str) else list(models),
+                    None if formulations is None else [formulations] if isinstance(formulations, str)
+                    else list(formulations))
+
+
+def variant_of(study, label: str) -> tuple[str, str, str]:
+    """(variant label, model, formulation) a run label was fitted in: its ``[variant]``, else the
+    study's only one."""
     _, variant = split_label(label)
-    configured = study.settings.get("formulation", "paper")
-    return variant or (configured if isinstance(configured, str) else configured[0])
+    pairs = study_variants(study)
+    return next((p for p in pairs if p[0] == variant), pairs[0])
 
 
-def problem_for(study, specimen: str, formulation: str = "paper", cache: dict | None = None):
-    """The problem object of ``specimen`` in ``formulation`` (built once per pair with ``cache``)."""
-    key = (specimen, formulation)
+def formulation_of(study, label: str) -> str:
+    """The formulation a run label was fitted in."""
+    return variant_of(study, label)[2]
+
+
+def model_of(study, label: str) -> str:
+    """The model a run label was fitted with."""
+    return variant_of(study, label)[1]
+
+
+def problem_for(study, specimen: str, which: str = "paper", cache: dict | None = None):
+    """The problem object of ``specimen`` for ``which``: a run label (its model and formulation), or
+    a formulation name (the study's first variant in it, else the first model's); built once per
+    pair with ``cache``."""
+    pairs = study_variants(study)
+    pair = next((p for p in pairs if p[2] == which), None) or (
+        pairs[0][:2] + (which,) if which in ("paper", "direct", "identifiable") else variant_of(study, which))
+    key = (specimen, pair[1], pair[2])
     if cache is not None and key in cache:
         return cache[key]
     from bwbench.problems import SpecimenEntry
 
-    settings = {**study.settings, "formulation": formulation}
+    settings = {**study.settings, "model": pair[1], "formulation": pair[2]}
     problem = study.problem_type.make_problem(settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
     if cache is not None:
         cache[key] = problem

@@ -23,7 +23,17 @@ from bwbench.problems.switched_vpp.fit_figures import hysteresis_loops, plot_fit
 from bwbench.problems.switched_vpp.posterior_figures import posterior, profiles  # noqa: F401
 from bwbench.report.figures import finished, specimen_order, specimen_title
 from bwbench.report.palette import (
-    MAX_WIDTH_IN, TRUTH, backend_handles, figure, legend, runs_text, save, slug, styles, theme, truth_handle,
+    MAX_WIDTH_IN,
+    TRUTH,
+    backend_handles,
+    figure,
+    legend,
+    runs_text,
+    save,
+    slug,
+    styles,
+    theme,
+    truth_handle,
 )
 
 SPREAD_TOLERANCE = 0.10  # parameter spread: runs with MSE ≤ (1 + 0.10) × best known

@@ -10,6 +10,7 @@ arrows in the direction of travel, reversals marked), the force against time, an
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -17,16 +18,31 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from bwbench.problems.switched_vpp.figure_common import (
-    formulation_of, problem_for, reversals, synthetic, travel_arrows, truth,
+    conditions,
+    problem_for,
+    reversals,
+    synthetic,
+    travel_arrows,
+    truth,
 )
 from bwbench.report.palette import (
-    MAX_WIDTH_IN, OKABE_ITO, Style, backend_handles, figure, legend, save, slug, split_label, styles, theme,
+    MAX_WIDTH_IN,
+    OKABE_ITO,
+    Style,
+    backend_handles,
+    figure,
+    legend,
+    save,
+    slug,
+    split_label,
+    styles,
+    theme,
     write_png,
 )
 
 BAND_COLOUR = OKABE_ITO[5]
 BACKENDS = 3  # residuals of the best few backends (and random search): more lines hide each other
-MEASURED = {"color": "black", "marker": ".", "ls": "", "ms": 2.2, "alpha": 0.75, "zorder": 5, "rasterized": True}
+MEASURED: dict[str, Any] = {"color": "black", "marker": ".", "ls": "", "ms": 2.2, "alpha": 0.75, "zorder": 5, "rasterized": True}
 
 
 def _panels(height: float = 6.6):
@@ -103,9 +119,10 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     legend(fig, [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
                  style.handle(f"fitted model ({result.optimizer})", marker=False),
                  REVERSAL], ncol=3)
-    fig.suptitle(f"{spec.name} — {result.optimizer} ({formulation} formulation), seed {result.seed}, "
+    model = "" if problem.model.name == "switched-bouc-wen" else f"{problem.model.name}, "
+    fig.suptitle(f"{spec.name} — {result.optimizer} ({model}{formulation} formulation), seed {result.seed}, "
                  f"{result.nfev} evaluations: RMSE {result.rmse_N:.3g} N, F_err {result.f_err:.4g} N²\n"
-                 f"{problem.state} state, {problem.excitation} excitation, {_velocity_source(problem)}")
+                 f"{conditions(problem)}, {_velocity_source(problem)}")
     write_png(fig, path, synthetic)
 
 
@@ -140,11 +157,14 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
         shown.append(best_run["optimizer"])
     randoms = [o for o in present if split_label(o)[0] == "random"]
     shown += randoms
-    cache, frames, residuals, fits = {}, [], {}, {}
-    spec = None
+    cache: dict = {}
+    frames: list[pd.DataFrame] = []
+    residuals: dict[str, np.ndarray] = {}
+    fits: dict[str, tuple] = {}
+    spec: Any = None
     for optimizer in shown:
         run = runs[runs["optimizer"] == optimizer].sort_values("mse").iloc[0]
-        problem = problem_for(study, specimen, formulation_of(study, optimizer), cache)
+        problem = problem_for(study, specimen, optimizer, cache)
         spec = problem.specimen
         force = problem.simulate(run[list(problem.param_names)].to_numpy(dtype=float))
         fits[optimizer] = (run, force, problem)
@@ -189,7 +209,7 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     residual.set_title("residual of the best run of each backend", loc="left")
     _mark_reversals([force_ax, residual], spec.t, turns)
     text = {o: f"{o}: RMSE {np.sqrt(fits[o][0]['mse']):.3g} N (seed {int(fits[o][0]['replicate'])})" for o in shown}
-    handles = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"})]
+    handles: list[Any] = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"})]
     handles += backend_handles(look, shown, text, marker=False)
     handles.append(REVERSAL)
     if noise is not None:
@@ -203,7 +223,7 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     legend(fig, handles, ncol=2)
     fig.suptitle(f"{specimen}: best fit ({best_label}, seed {int(best_run['replicate'])}) and the residuals of the "
                  f"best {len(shown) - len(randoms)} backends" + (" and random search" if randoms else "") + "\n"
-                 f"ranking runs only ({best_problem.state} state, {best_problem.excitation} excitation)")
+                 f"ranking runs only ({conditions(best_problem)})")
     frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     return save(fig, out_dir, f"loops_{slug(specimen)}", frame, synthetic(study, [specimen]))
 

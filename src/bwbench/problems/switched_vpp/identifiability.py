@@ -11,7 +11,14 @@ import math
 import numpy as np
 
 from bwbench.analysis.identifiability import (
-    POOR_SE, PROFILE_MAXITER, STEP, ZERO_RATIO, describe_direction, follow_invariance, profile, sensitivity,
+    POOR_SE,
+    PROFILE_MAXITER,
+    STEP,
+    ZERO_RATIO,
+    describe_direction,
+    follow_invariance,
+    profile,
+    sensitivity,
 )
 from bwbench.errors import UserError
 
@@ -71,9 +78,10 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
     mse = sens.residual_norm2 / sens.n_data
     params = problem.from_unit(u)
     out = {
-        "specimen": problem.specimen.name, "state": state, "excitation": excitation, "formulation": formulation,
+        "specimen": problem.specimen.name, "model": problem.model.name, "state": problem.state,
+        "excitation": excitation, "formulation": problem.formulation,
         "n_data": sens.n_data, "mse": mse, "rmse_N": math.sqrt(mse), "params": dict(zip(names, map(float, params))),
-        "step_unit": step, "names": names, "labels": dict(zip(names, labels)), "model": problem.model.name,
+        "step_unit": step, "names": names, "labels": dict(zip(names, labels)),
         "units": {p.name: p.unit for p in problem.parameter_list},
         "singular_values": [float(s) for s in sens.singular_values],
         "relative_singular_values": [float(r) for r in sens.ratios],
@@ -158,9 +166,12 @@ def classify_null_space(problem, params, sens, residual, step) -> dict:
 def format_text(result: dict) -> str:
     """The plain-text report of ``analyse`` (what ``bwbench identifiability`` prints)."""
     names = result["names"]
-    box = "Table 5" if result["formulation"] == "paper" else "the box scaled from the data"
+    paper = result["formulation"] == "paper" and result.get("model", "switched-bouc-wen") == "switched-bouc-wen"
+    box = "Table 5" if paper else "the search box"
+    state = f", {result['state']} state" if result.get("state") else ""
     lines = [
-        f"identifiability of {result['specimen']} ({result['formulation']} formulation, {result['state']} state, "
+        f"identifiability of {result['specimen']} ({result.get('model', 'switched-bouc-wen')}, "
+        f"{result['formulation']} formulation{state}, "
         f"{result['excitation']} excitation): MSE {result['mse']:.4g} N² (RMSE {result['rmse_N']:.3g} N) on "
         f"{result['n_data']} samples",
         f"Jacobian of the force residual (N) with respect to the unit-scaled parameters "

@@ -72,7 +72,8 @@ def section(report, formulation: str, paper_data: bool) -> list:
           f"determined* when its free range or its linearised standard error exceeds {POOR_SE:.0%} of its range. "
           "This is a local, linear analysis at one point; the profiles and the spread across seeds test it further.")
     runs = runs_in(study, formulation)
-    cache, results = {}, []
+    cache: dict = {}
+    results: list = []
     for k, specimen in enumerate(report.featured):
         mine = runs[runs["specimen"] == specimen]
         problem = problem_for(study, specimen, formulation, cache)

@@ -48,7 +48,9 @@ class IdentifiableModel:
 
     def residual(self, theta) -> np.ndarray:
         """F_model − F_measured (L,) N for one theta (variable projection); finite always."""
-        r = self.solve(np.asarray(theta, dtype=float)[None, :], residual=True).residual[0]
+        residual = self.solve(np.asarray(theta, dtype=float)[None, :], residual=True).residual
+        assert residual is not None  # asked for
+        r = residual[0]
         return r if np.all(np.isfinite(r)) else np.full(self.n_data, self.penalty)
 
     def residual_unit(self, u) -> np.ndarray:

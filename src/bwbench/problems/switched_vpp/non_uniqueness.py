@@ -16,8 +16,8 @@ import pandas as pd
 
 from bwbench.analysis import statistics
 from bwbench.data.parameters import LABELS, LOWER, UPPER
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.models import switched_identifiable as fm
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.report.palette import split_label
 
 TOLERANCE = 0.10  # good fits: final MSE within 10 % of the best known for the specimen
@@ -107,8 +107,19 @@ def figure(study, out_dir, specimen: str, order=None):
     (``order``: the report's ranking, see ``bwbench.report.palette``); one legend."""
     from bwbench.data import manifest
     from bwbench.problems.switched_vpp.figure_common import EDGE, edge_bands
-    from bwbench.report.palette import MAX_WIDTH_IN, TRUTH, backend_handles, figure as new_figure, legend, \
-        runs_text, save, slug, styles, theme, truth_handle
+    from bwbench.report.palette import (
+        MAX_WIDTH_IN,
+        TRUTH,
+        backend_handles,
+        legend,
+        runs_text,
+        save,
+        slug,
+        styles,
+        theme,
+        truth_handle,
+    )
+    from bwbench.report.palette import figure as new_figure
 
     theme()
     _, s = spread_table(study, specimen)

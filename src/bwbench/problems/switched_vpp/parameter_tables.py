@@ -16,7 +16,7 @@ import pandas as pd
 from bwbench.data import manifest
 from bwbench.data.parameters import LABELS
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.switched_vpp.figure_common import axis_label, formulation_of, problem_for
+from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for, study_variants, variant_of
 from bwbench.report.format import number
 
 
@@ -36,45 +36,50 @@ def aggregate_label(n: int) -> str:
     return {0: "no run", 1: "its one run", 2: "both runs"}.get(n, f"median [min, max] of {n} runs")
 
 
-def column_groups(formulation: str, state: str) -> list[tuple[str, list[str]]]:
-    """(title, parameter names) of each table for a formulation."""
-    if formulation == "paper":
+def column_groups(problem) -> list[tuple[str, list[str]]]:
+    """(title, parameter names) of each table for the coordinates ``problem`` searched."""
+    names = list(problem.param_names)
+    if getattr(problem, "formulation", "") == "identifiable":
+        return [("hysteretic parameters (searched)", names),
+                ("linear coefficients (solved per simulation)", list(problem.linear_names))]
+    if problem.model.name == "switched-bouc-wen":
         return [("tension set (+)", list(PARAM_NAMES[:7])), ("compression set (−)", list(PARAM_NAMES[7:]))]
-    from bwbench.models.switched_identifiable import LINEAR_NAMES, hysteretic_names
-
-    return [("hysteretic parameters (searched)", list(hysteretic_names(state))),
-            ("linear coefficients (solved per simulation)", list(LINEAR_NAMES))]
+    return [("parameters (searched)", names)]
 
 
-def heading(name: str, formulation: str) -> str:
-    if formulation == "paper":
-        return LABELS[name]
-    from bwbench.models.switched import LAYOUT
-    from bwbench.problems.linear_solve import coefficient_units
-
-    units = coefficient_units(LAYOUT)
-    return f"{name} ({units[name]})" if name in units else axis_label(name)
+def headings(problem) -> dict:
+    """Column heading (symbol and unit) of every parameter ``problem`` reports."""
+    out = {p.name: p.text for p in problem.parameter_list}
+    out.update({n: f"{n} ({u})" for n, u in getattr(problem, "linear_units", {}).items()})
+    if problem.model.name == "switched-bouc-wen" and problem.formulation == "paper":
+        out.update(LABELS)
+    return out
 
 
 def section(report, formulation: str, paper_data: bool) -> None:
     doc, study = report.doc, report.study
-    state = study.settings.get("state", "shared")
     shown = report.best_backend if formulation_of(study, report.best_backend) == formulation else next(
         (o for o in report.table["optimizer"] if formulation_of(study, o) == formulation), report.best_backend)
-    doc.h(2, "Identified parameters per specimen" + (" (the paper's Tables 6–8)" if paper_data and formulation ==
-                                                      "paper" else ""))
-    coordinates = "the paper's 14 parameters" if formulation == "paper" else "the identifiable coordinates"
+    variant = variant_of(study, shown)
+    paper = paper_data and formulation == "paper" and variant[1] == "switched-bouc-wen"
+    doc.h(2, "Identified parameters per specimen" + (" (the paper's Tables 6–8)" if paper else ""))
+    several_models = len({m for _, m, _ in study_variants(study)}) > 1
+    coordinates = ("the paper's 14 parameters" if paper else f"the {formulation} coordinates"
+                   + (f" of the {variant[1]} model" if several_models else ""))
     doc.p(f"In {coordinates}, the coordinates the study searched. For each specimen: the best run that searched "
           f"them (loss = MSE, N²), the runs of {shown} across its seeds"
-          + (", and the truth the synthetic specimen was generated from" if paper_data and formulation == "paper"
-             else "") + ".")
+          + (", and the truth the synthetic specimen was generated from" if paper else "") + ".")
     ranking = study.ranking.assign(material=study.ranking["material"].fillna("Specimens"))  # no manifest: one group
     ok = ranking[(ranking["status"] == "ok") & np.isfinite(ranking["mse"].astype(float))]
-    ok = ok[[formulation_of(study, o) == formulation for o in ok["optimizer"]]]
-    cache = {}
+    ok = ok[[variant_of(study, o) == variant for o in ok["optimizer"]]]
+    if ok.empty:
+        return
+    cache: dict = {}
+    problem = problem_for(study, ok["specimen"].iloc[0], shown, cache)
+    heading = headings(problem)
     for material, group in ranking.groupby("material", sort=False):
         specimens = group.drop_duplicates("specimen").sort_values(["underpressure_MPa", "repeat", "specimen"])
-        for title, names in column_groups(formulation, state):
+        for title, names in column_groups(problem):
             rows = []
             for specimen in specimens["specimen"]:
                 runs = ok[ok["specimen"] == specimen]
@@ -85,16 +90,16 @@ def section(report, formulation: str, paper_data: bool) -> None:
                          f"{first['underpressure_MPa']:g} MPa r{int(first['repeat'])}")
                 b = runs.loc[runs["mse"].idxmin()]
                 rows.append({"specimen": label, "row": f"best: {b['optimizer']} seed {int(b['replicate'])}",
-                             "MSE (N²)": number(b["mse"], 5), **{heading(n, formulation): number(b.get(n)) for n in names}})
+                             "MSE (N²)": number(b["mse"], 5), **{heading[n]: number(b.get(n)) for n in names}})
                 mine = runs[runs["optimizer"] == shown]
                 rows.append({"specimen": "", "row": f"{shown}: {aggregate_label(len(mine))}",
                              "MSE (N²)": aggregate_text(mine["mse"]),
-                             **{heading(n, formulation): aggregate_text(mine[n]) if n in mine else "–" for n in names}})
-                truth = manifest.truth_params(study.specimen_path(specimen)) if formulation == "paper" else None
-                if truth is not None and paper_data:
-                    problem = problem_for(study, specimen, "paper", cache)
+                             **{heading[n]: aggregate_text(mine[n]) if n in mine else "–" for n in names}})
+                truth = manifest.truth_params(study.specimen_path(specimen)) if paper else None
+                if truth is not None:
+                    truth_problem = problem_for(study, specimen, "paper", cache)
                     rows.append({"specimen": "", "row": "truth (synthetic)",
-                                 "MSE (N²)": number(float(problem.loss_batch(truth[None, :])[0]), 5),
-                                 **{heading(n, formulation): number(truth[PARAM_NAMES.index(n)]) for n in names}})
+                                 "MSE (N²)": number(float(truth_problem.loss_batch(truth[None, :])[0]), 5),
+                                 **{heading[n]: number(truth[PARAM_NAMES.index(n)]) for n in names}})
             if rows:
                 doc.table(pd.DataFrame(rows), f"{material}: {title}")

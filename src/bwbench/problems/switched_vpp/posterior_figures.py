@@ -7,6 +7,7 @@ Both return the PNG's path and write the CSV behind it beside it (same name).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib.ticker
 import numpy as np
@@ -16,8 +17,8 @@ from matplotlib.patches import Patch
 
 from bwbench.analysis import mcmc
 from bwbench.data.parameters import LOWER, UPPER
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.models import switched_identifiable as fm
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.problems.switched_vpp.figure_common import axis_label, synthetic, truth
 from bwbench.report.palette import MAX_WIDTH_IN, OKABE_ITO, TRUTH, canvas, figure, legend, save, slug, styles, theme
 
@@ -86,7 +87,8 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
     labels, units and box from the problem, the main mode's walkers kept, its ArviZ table shown,
     parameters a reduced model held fixed named in the title instead of drawn."""
     from bwbench.analysis.identifiability import posterior_correlation, strongest_pairs
-    from bwbench.problems.switched_vpp.posterior_draws import axis, truth as truth_of
+    from bwbench.problems.switched_vpp.posterior_draws import axis
+    from bwbench.problems.switched_vpp.posterior_draws import truth as truth_of
 
     theme()
     state = study.settings.get("state", "shared")
@@ -121,9 +123,9 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         label = axis_label
     runs = study.runs[(study.runs["specimen"] == specimen) & (study.runs["status"] == "ok")
                       & np.isfinite(study.runs["mse"].astype(float))]
-    best_run = runs.loc[runs["mse"].idxmin()] if len(runs) else None
+    best_run: Any = runs.loc[runs["mse"].idxmin()] if len(runs) else None
     best = None if best_run is None else _coordinates(best_run.to_dict(), names, state, problem)
-    colour = styles(study, order).get(best_run["optimizer"]).colour if best is not None else "black"
+    colour = styles(study, order)[best_run["optimizer"]].colour if best_run is not None else "black"
 
     lo_q, hi_q = np.quantile(samples, [0.005, 0.995], axis=0)
     pad = 0.3 * (hi_q - lo_q) + 1e-12
@@ -180,7 +182,7 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         ax.set_title(f"correlation r = {r:+.2f}")
         _ticks(ax.xaxis, 2)
         _ticks(ax.yaxis, 4)
-    handles = [Patch(color="0.6", label="posterior samples")]
+    handles: list[Any] = [Patch(color="0.6", label="posterior samples")]
     if best is not None:
         handles.append(Line2D([], [], color=colour, lw=2.0, marker="*", ms=13, mec="black", mew=0.8,
                               label=f"best fit on the specimen: {best_run['optimizer']} ({best_run['kind']}, seed "

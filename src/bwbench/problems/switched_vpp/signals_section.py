@@ -9,8 +9,8 @@ import pandas as pd
 
 from bwbench.models.derivatives import SPLINE_NAME
 from bwbench.optimize.fitting import on_box_edge
-from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for
 from bwbench.problems.fit_checks import expected_force_error, linear_branches
+from bwbench.problems.switched_vpp.figure_common import problem_for
 from bwbench.report.format import number
 
 
@@ -20,7 +20,7 @@ def _best_fits(study):
     cache = {}
     for specimen, group in runs.groupby("specimen", sort=False):
         best = group.loc[group["mse"].idxmin()]
-        problem = problem_for(study, specimen, formulation_of(study, best["optimizer"]), cache)
+        problem = problem_for(study, specimen, best["optimizer"], cache)
         yield specimen, best, problem
 
 

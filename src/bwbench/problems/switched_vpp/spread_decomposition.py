@@ -129,10 +129,12 @@ def sentence(pc, d: dict) -> str:
 def figure(study, out_dir, pc, d: dict):
     """Per sampled parameter: the posterior draws (violin) and their 95 % interval, the good fits by class
     and the truth, in units of the search box; beside it the fits' log-posteriors against the draws'."""
-    from bwbench.problems.switched_vpp.figure_common import synthetic
-    from bwbench.report.palette import MAX_WIDTH_IN, TRUTH, figure as new_figure, legend, save, slug, theme
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
+
+    from bwbench.problems.switched_vpp.figure_common import synthetic
+    from bwbench.report.palette import MAX_WIDTH_IN, TRUTH, legend, save, slug, theme
+    from bwbench.report.palette import figure as new_figure
 
     theme()
     names = [n for n in pc.names if n not in pc.fixed]

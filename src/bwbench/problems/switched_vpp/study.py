@@ -1,10 +1,16 @@
-"""The switched Bouc-Wen specimen fit as a study problem (``problem = "switched-bouc-wen"``, the default).
+"""A hysteresis model fitted to force-displacement specimens, as a study problem
+(``problem = "switched-bouc-wen"``, the default: the name is the paper's model, but any model of
+``bwbench models`` can be fitted and several compared).
 
-Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` tables::
+Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` / ``[validation]`` tables::
 
     [study]
-    state = "shared"          # or "split"
+    model = "switched-bouc-wen"   # or "spencer", "bouc-wen", a plug-in, or a list compared side by side
+    formulation = "paper"     # "paper"/"direct", "identifiable", or a list; default: each model's own
+    state = "shared"          # or "split" (the switched model's state convention)
     excitation = "measured"   # or "sine"
+    fix_mass = "auto"         # identifiable: "auto" (the inertia rule), "fit", or a mass in N·s²/mm
+    offsets = "branch"        # identifiable, switched model: or "continuous" (one constant force)
     data = "../data/specimens"   # only with manifest filters: a folder with manifest.json
 
     [specimens]               # either files (no manifest needed) ...
@@ -15,7 +21,10 @@ Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` tables::
     repeat = [1]
 
     [bounds]                  # optional: the search box, name = [lower, upper]; default Table 5
-    "xi-" = [-800.0, -10.0]
+    "xi-" = [-800.0, -10.0]   # (a solved coefficient's name, e.g. "m" or "c+", bounds the linear solve)
+
+    [validation]              # optional: held-out tests, never fitted; the report ranks by their error
+    files = ["held_out/*.csv"]
 
 Relative paths resolve against the TOML's own folder (``--data PATH`` on the command line, relative
 to the current folder, replaces ``[study] data``). A ``manifest.json`` next to the files is
@@ -34,32 +43,52 @@ from pathlib import Path
 import numpy as np
 
 from bwbench.data import manifest as manifest_mod
-from bwbench.models import switched_bouc_wen as model
+from bwbench.models import registry as model_registry
 from bwbench.models.excitation import EXCITATIONS
-from bwbench.problems.base import ProblemSetup, ProblemType, SpecimenEntry, choice
-from bwbench.problems.switched_vpp.formulations import bound_names, make_problem
+from bwbench.models.switched_bouc_wen import STATES
+from bwbench.problems.base import Fail, ProblemSetup, ProblemType, SpecimenEntry, choice
+from bwbench.problems.switched_vpp.formulations import bound_names, check_pairs, make_problem, parse_models
 from bwbench.problems.switched_vpp.formulations import parse as _formulations
 
 FILTER_KEYS = ("material", "table", "underpressure_MPa", "repeat")
+OFFSETS = ("branch", "continuous")
+
+
+def mass_setting(fail, label: str, value):
+    """"auto", None ("fit": always fitted) or a mass ≥ 0 (N·s²/mm) of a study's fix_mass; ``fail`` otherwise."""
+    if value == "fit" or value is None:
+        return None
+    if isinstance(value, str) and value != "auto":  # from the command line
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        value = number if math.isfinite(number) else value
+    if value == "auto" or (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0):
+        return value
+    fail(f"{label} must be \"auto\", \"fit\" or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}")
 
 
 class SwitchedVPP(ProblemType):
     name = "switched-bouc-wen"
-    description = "the paper's switched Bouc-Wen model fitted to force-displacement specimens (loss: MSE in N²)"
+    description = ("a hysteresis model (default: the paper's switched Bouc-Wen) fitted to force-displacement "
+                   "specimens (loss: MSE in N²)")
     loss_unit = "N²"
     residual_unit = "N"
-    study_keys = ("state", "excitation", "data", "formulation", "fix_mass")
-    tables = ("specimens", "bounds")
+    study_keys = ("model", "state", "excitation", "data", "formulation", "fix_mass", "offsets")
+    tables = ("specimens", "bounds", "validation")
 
     # ------------------------------------------------------------------------ configuration
     def configure(self, fail, study, document, base_dir, data_override=None) -> ProblemSetup:
-        state = choice(fail, "[study] state", study.get("state", "shared"), model.STATES)
+        model_names = parse_models(fail, study.get("model", model_registry.DEFAULT))
+        state = choice(fail, "[study] state", study.get("state", "shared"), STATES)
+        if "state" in study and not any(model_registry.get(m).states for m in model_names):
+            fail(f"[study] state does not apply to {', '.join(model_names)} (no state convention to choose)")
         excitation = choice(fail, "[study] excitation", study.get("excitation", "measured"), EXCITATIONS)
-        formulations = _formulations(fail, study.get("formulation", "paper"))
-        fix_mass = study.get("fix_mass", "auto")
-        if not (fix_mass == "auto" or (isinstance(fix_mass, (int, float)) and not isinstance(fix_mass, bool)
-                                       and fix_mass >= 0)):
-            fail(f"[study] fix_mass must be \"auto\" or a mass ≥ 0 in N·s²/mm, got {fix_mass!r}")
+        formulations = _formulations(fail, study["formulation"]) if "formulation" in study else None
+        check_pairs(fail, model_names, formulations)
+        fix_mass = mass_setting(fail, "[study] fix_mass", study.get("fix_mass", "auto"))
+        offsets = choice(fail, "[study] offsets", study.get("offsets", "branch"), OFFSETS)
         table = document.get("specimens", {})
         if not isinstance(table, dict):
             fail("[specimens] must be a table: files = [...] or manifest filters")
@@ -78,30 +107,55 @@ class SwitchedVPP(ProblemType):
             from bwbench.errors import InputFileError
 
             try:
-                bounds = validate(document["bounds"], bound_names(formulations, state), "[bounds]")
+                bounds = validate(document["bounds"], bound_names(formulations, state, model_names), "[bounds]")
             except InputFileError as err:
                 fail(err.problem if err.problem.startswith("[") else f"[bounds] {err.problem}")
-        return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass)
+        return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass, model_names, offsets)
 
-    def setup_from_files(self, fail, files, base_dir, state="shared", excitation="measured", bounds=None,
-                         formulation="paper"):
-        choice(fail, "--state", state, model.STATES)
+    def held_out_entries(self, fail, files, base_dir, label: str) -> list:
+        """The held-out specimens (``[validation] files`` or ``--validate``): like ``[specimens] files``."""
+        return specimens_from_files(fail, files, base_dir, label)
+
+    def setup_from_files(self, fail, files, base_dir, state=None, excitation="measured", bounds_file=None,
+                         formulation=None, model=None, fix_mass="auto", offsets="branch"):
+        model_names = parse_models(fail, model.split(",") if isinstance(model, str) else model or model_registry.DEFAULT)
+        if state is not None and not any(model_registry.get(m).states for m in model_names):
+            fail(f"--state does not apply to {', '.join(model_names)} (no state convention to choose)")
+        state = choice(fail, "--state", state or "shared", STATES)
         choice(fail, "--excitation", excitation, EXCITATIONS)
-        formulations = _formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
-        return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"),
-                          bounds=bounds, formulations=formulations)
+        formulations = (_formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
+                        if formulation else None)
+        check_pairs(fail, model_names, formulations)
+        fix_mass = mass_setting(fail, "--fix-mass", fix_mass)
+        offsets = choice(fail, "--offsets", offsets, OFFSETS)
+        bounds = None
+        if bounds_file is not None:
+            from bwbench.data import bounds as bounds_mod
 
-    def setup(self, state, excitation, entries, available=None, bounds=None, formulations=("paper",),
-              fix_mass="auto") -> ProblemSetup:
+            bounds = bounds_mod.read_json(bounds_file, bound_names(formulations, state, model_names))
+        return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"),
+                          bounds=bounds, formulations=formulations, fix_mass=fix_mass, models=model_names,
+                          offsets=offsets)
+
+    def setup(self, state, excitation, entries, available=None, bounds=None, formulations=None,
+              fix_mass="auto", models=(model_registry.DEFAULT,), offsets="branch") -> ProblemSetup:
         """The ``ProblemSetup`` of these specimens (``SpecimenEntry`` with ``meta["sha256"]``); several
-        formulations are variants compared side by side."""
+        models or formulations are variants compared side by side."""
+        from bwbench.problems.switched_vpp.formulations import variants as variant_list
+
         bounds = {k: list(v) for k, v in (bounds or {}).items()}
         settings = {"state": state, "excitation": excitation, **({"bounds": bounds} if bounds else {})}
         identity = dict(settings)
-        if list(formulations) != ["paper"]:  # absent for the paper's: studies stored before stay the same
-            identity["formulation"] = formulations[0] if len(formulations) == 1 else list(formulations)
-            identity["fix_mass"] = fix_mass
-        variants = [(f, {**settings, "formulation": f, "fix_mass": fix_mass}) for f in formulations]
+        pairs = variant_list(models, formulations)
+        if list(models) != [model_registry.DEFAULT]:  # absent for the paper's model: stored studies stay the same
+            identity["model"] = models[0] if len(models) == 1 else list(models)
+        resolved = list(dict.fromkeys(f for _, _, f in pairs))
+        linear = {"fix_mass": fix_mass, **({"offsets": offsets} if offsets != "branch" else {})}
+        if resolved != ["paper"]:  # absent for the paper's formulation: studies stored before stay the same
+            identity["formulation"] = resolved[0] if len(resolved) == 1 else resolved
+            identity.update(linear)
+        variants = [(label, {**settings, "model": m, "formulation": f, **linear, "variant": label})
+                    for label, m, f in pairs]
         return ProblemSetup(
             settings=variants[0][1], study_json=identity,
             specimens_json={e.name: e.meta["sha256"] for e in entries},
@@ -116,7 +170,11 @@ class SwitchedVPP(ProblemType):
         return make_problem(read_specimen(entry.path), settings)
 
     def record_columns(self, settings, entry, result=None) -> dict:
-        columns = {"state": settings.get("state"), "excitation": settings.get("excitation"), **entry.meta}
+        model_name = settings.get("model", model_registry.DEFAULT)
+        columns = {"state": settings.get("state") if model_registry.get(model_name).states else None,
+                   "excitation": settings.get("excitation"), "model": model_name,
+                   "formulation": settings.get("formulation", "paper"), "variant": settings.get("variant"),
+                   **entry.meta}
         if result is not None:
             columns.update(rmse_N=result.rmse_N, **result.params)
         return columns
@@ -135,16 +193,26 @@ class SwitchedVPP(ProblemType):
         data = Path(study.settings.get("data", "data/specimens"))
         return data if data.is_absolute() else REPO / data
 
-    def is_synthetic(self, study) -> bool:
-        return any(manifest_mod.is_synthetic(study.specimen_path(s)) for s in study.specimens)
+    def is_synthetic(self, study) -> str:
+        """"SYNTHETIC DATA (generated from <source>)" when a manifest marks the study's specimens
+        synthetic ('' otherwise: a false value), for banners and the mark on every figure."""
+        found = [manifest_mod.synthetic_source(study.specimen_path(s)) for s in study.specimens]
+        sources = [s for s in dict.fromkeys(found) if s]
+        return f"SYNTHETIC DATA (generated from {' and '.join(sources)})" if sources else ""
 
     def noise_floor(self, study, specimen):
-        truth = manifest_mod.truth_params(study.specimen_path(specimen))
-        if truth is None:
+        found = manifest_mod.truth(study.specimen_path(specimen))
+        if found is None:
             return None
-        # The truth is a paper vector: its loss in the paper formulation, whatever the study compared.
+        # The truth in its own model's direct parameters, whatever the study compared.
+        from bwbench.models import registry
+
+        model_name, values = found
+        model = registry.get(model_name)
+        truth = np.array([values[p.name] for p in model.direct_parameters(model.check_state(None))])
         s = study.settings
-        settings = {"state": s.get("state", "shared"), "excitation": s.get("excitation", "measured")}
+        settings = {"state": s.get("state", "shared"), "excitation": s.get("excitation", "measured"),
+                    "model": model_name, "formulation": model.direct_name}
         problem = self.make_problem(settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
         return float(problem.loss_batch(truth[None, :])[0])
 
@@ -176,7 +244,7 @@ def specimens_from_files(fail, patterns, base_dir: Path, label: str) -> list[Spe
         patterns = [patterns]
     if not isinstance(patterns, list) or not patterns or not all(isinstance(p, str) and p for p in patterns):
         fail(f"{label} must be a non-empty list of file paths or globs")
-    paths = []
+    paths: list[Path] = []
     for pattern in patterns:
         full = Path(pattern).expanduser()
         full = full if full.is_absolute() else base_dir / full
@@ -193,7 +261,7 @@ def specimens_from_files(fail, patterns, base_dir: Path, label: str) -> list[Spe
 
 
 def _unique_stems(fail, paths, label) -> list[Path]:
-    seen = {}
+    seen: dict = {}
     for path in paths:
         if path.stem in seen:
             fail(f"{label}: two specimens are named {path.stem!r} ({seen[path.stem]} and {path}): "
@@ -244,7 +312,7 @@ def _from_manifest(fail, study, filters_table, base_dir, data_override):
     return entries, available
 
 
-def _read_manifest(fail, data_dir: Path) -> list[dict]:
+def _read_manifest(fail: Fail, data_dir: Path) -> list[dict]:
     try:
         document = manifest_mod.load_manifest(data_dir)
         if document is None:

@@ -1,7 +1,7 @@
 """How long a study took: run intervals merged into sessions, idle gaps between sessions left out."""
 import pandas as pd
 
-from bwbench.study.timing import compute_time, machine_description
+from bwbench.store.timing import compute_time, machine_description
 
 
 def _runs(rows):

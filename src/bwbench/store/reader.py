@@ -9,6 +9,7 @@ studies with those columns filled in.
 
 from __future__ import annotations
 
+import builtins
 import dataclasses
 import json
 import sqlite3
@@ -19,15 +20,19 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bwbench.errors import UserError
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.data.parameters import LOWER, UPPER
 from bwbench import problems
 from bwbench.data.input_files import not_regular
 from bwbench.data.manifest import load_manifest
-from bwbench.study.failures import is_transient_text
+from bwbench.data.parameters import LOWER, UPPER
+from bwbench.errors import UserError
+from bwbench.models.switched_bouc_wen import PARAM_NAMES
 
 REQUIRED_TABLES = ("study", "runs", "traces")
+# Faults of the environment, not of a run (``bwbench.study.failures``): a stored error of these types
+# ("OSError: ...", written by versions that recorded them) is not a finished run.
+TRANSIENT = (OSError, MemoryError, ImportError)
+TRANSIENT_NAMES = frozenset(
+    name for name, value in vars(builtins).items() if isinstance(value, type) and issubclass(value, TRANSIENT))
 KEY = ["kind", "specimen", "optimizer", "replicate"]
 
 
@@ -83,6 +88,15 @@ class Study:
     def settings(self) -> dict:
         """The config's [study] table: name, seed, budget, seeds, state, excitation, data."""
         return self.config.get("study", {})
+
+    @property
+    def backends(self) -> dict:
+        """{backend: {"family": ..., "batched": ...}} as the runner recorded them (``backends`` in the
+        study table); {} for a database from before the key."""
+        try:
+            return dict(json.loads(self.meta.get("backends") or "{}"))
+        except (TypeError, ValueError):
+            return {}
 
     @property
     def problem(self) -> str:
@@ -150,6 +164,11 @@ class Study:
         return load_manifest(folder)
 
 
+def is_transient_text(error: str | None) -> bool:
+    """Whether a stored one-line error ``"TypeName: message"`` was a fault of the environment."""
+    return bool(error) and str(error).split(":", 1)[0].strip() in TRANSIENT_NAMES
+
+
 def planned_from_config(config: dict) -> int | None:
     """The number of runs of a stored configuration (``config_json``), if it lists its specimens."""
     try:
@@ -175,7 +194,7 @@ def _count(value) -> int:
     return value
 
 
-def _connect(path: Path) -> sqlite3.Connection:
+def connect_read_only(path: Path) -> sqlite3.Connection:
     if not path.exists():
         raise UserError(f"{path}: no such study database")
     kind = not_regular(path.stat().st_mode)
@@ -210,13 +229,18 @@ def read_runs(conn) -> pd.DataFrame:
     else:
         query = "SELECT * FROM runs"
     runs = pd.read_sql(query + " ORDER BY kind, specimen, optimizer, replicate", conn)
-    for column in ("nfev", "mse", "f_err", "rmse_N", "budget", "underpressure_MPa", *PARAM_NAMES):
+    # The switched model's 14 parameters were columns before parameters lived only in params_json.
+    legacy = [c for c in PARAM_NAMES if c in runs]
+    for column in ("nfev", "mse", "f_err", "rmse_N", "budget", "underpressure_MPa", *legacy):
         runs[column] = pd.to_numeric(runs[column], errors="coerce").astype(float)
     runs["replicate"] = runs["replicate"].astype(int)
     if "problem" not in runs:  # written before the generic columns: a switched-model study
         runs["problem"] = problems.DEFAULT
         runs["params_json"] = runs["metrics_json"] = None
     runs["problem"] = runs["problem"].fillna(problems.DEFAULT)
+    for column in ("model", "formulation", "variant"):
+        if column not in runs:  # written before the model columns
+            runs[column] = None
     return _expand_json(runs)
 
 
@@ -226,9 +250,13 @@ def _expand_json(runs: pd.DataFrame) -> pd.DataFrame:
     new = {}
     for column in ("params_json", "metrics_json"):
         parsed = [json.loads(t) if isinstance(t, str) and t else {} for t in runs[column]]
-        names = [n for n in dict.fromkeys(k for d in parsed for k in d) if n not in runs and n not in new]
-        for name in names:
-            new[name] = [np.nan if d.get(name) is None else float(d[name]) for d in parsed]
+        for name in dict.fromkeys(k for d in parsed for k in d):
+            values = np.array([np.nan if d.get(name) is None else float(d[name]) for d in parsed])
+            if name in runs and column == "params_json" and name in PARAM_NAMES:
+                # a legacy column (the 14 of the paper): rows written since fill it from params_json
+                runs[name] = runs[name].where(runs[name].notna(), values)
+            elif name not in runs and name not in new:
+                new[name] = values
     return pd.concat([runs, pd.DataFrame(new, index=runs.index)], axis=1) if new else runs
 
 
@@ -263,7 +291,7 @@ def load_study(path, data_dir=None) -> Study:
     Raises ``UserError`` for a missing file or one that is not a study database.
     """
     path = Path(path)
-    with closing(_connect(path)) as conn:
+    with closing(connect_read_only(path)) as conn:
         try:
             meta, config = read_meta(conn)
             runs, traces, chains = read_runs(conn), read_traces(conn), read_chains(conn)

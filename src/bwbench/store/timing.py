@@ -38,17 +38,15 @@ def compute_time(runs: pd.DataFrame) -> ComputeTime | None:
     stop = (end[ok] - pd.Timestamp(0, tz="UTC")).dt.total_seconds().to_numpy()
     wall = wall[ok].to_numpy(dtype=float)
     order = np.argsort(stop - wall)
-    elapsed, sessions = 0.0, 0
-    first, last = None, None
+    # Merge the run intervals [start, finish] into sessions separated by idle gaps > IDLE_GAP_S.
+    sessions: list[list[float]] = []
     for start, finish in zip((stop - wall)[order], stop[order], strict=True):
-        if last is None or start > last + IDLE_GAP_S:
-            if last is not None:
-                elapsed += last - first
-            first, last, sessions = start, finish, sessions + 1
+        if not sessions or start > sessions[-1][1] + IDLE_GAP_S:
+            sessions.append([float(start), float(finish)])
         else:
-            last = max(last, finish)
-    elapsed += last - first
-    return ComputeTime(elapsed_s=float(elapsed), core_s=float(wall.sum()), sessions=sessions)
+            sessions[-1][1] = max(sessions[-1][1], float(finish))
+    elapsed = sum(finish - start for start, finish in sessions)
+    return ComputeTime(elapsed_s=float(elapsed), core_s=float(wall.sum()), sessions=len(sessions))
 
 
 def machine_description() -> str:

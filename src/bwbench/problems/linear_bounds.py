@@ -1,0 +1,140 @@
+"""Bounds on the coefficients an identifiable formulation solves: which, and the bounded solve.
+
+**Which bounds** (``physical_bounds``, the identifiable problems' default; a ``--bounds`` file or a
+study's ``[bounds]`` may set any solved coefficient by name, e.g. ``{"m": [0, 0.01], "c+": [0, 50]}``):
+
+- a fitted inertia m in [0, ``M_MAX``] = [0, 1] N·s²/mm (0 to 1 t): a negative mass is no mass, and
+  no specimen or damper on a test machine moves a tonne (1 t is the paper's normalisation, m = 1);
+- a viscous coefficient (unit N·s/mm: c± of the switched model, c₁ of Spencer's) ≥ 0 when the data
+  follow the README's sign convention, i.e. the measured loops dissipate energy (∮F·dx > 0): a
+  dashpot cannot push the way it moves. Data whose loops run the other way (the paper's synthetic
+  specimens: its ξ₋ < 0 makes c₋ < 0) get no sign bound, and the design says so.
+
+**The solve.** The unbounded least-squares solution of each row comes from the fast path
+(``linear_solve``), together with its triangular factor: X = [Q | Q_w]·R, b = [Q | Q_w]ᵀ·y. A row
+whose solution breaks a bound is re-solved on the p × p system ‖R·β − b‖², which has the same
+minimiser as ‖X·β − y‖² and differs from it by the constant RSS of the unbounded fit: O(p³) per
+bounded row (p ≤ 9), nothing per sample. First, batched over the rows that break the same bounds,
+the solution with those coefficients held on their bounds, accepted where it is the bounded optimum
+(KKT: the rest inside their bounds, the gradient pushing each held one outwards); the other rows go
+to bounded least squares (scipy ``lsq_linear``, BVLS). Rows that break no bound pay nothing beyond
+the check.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+M_MAX = 1.0  # N·s²/mm (1 t): the largest inertia a solved m may take by default
+VISCOUS_UNIT = "N·s/mm"
+
+
+def physical_bounds(layout, signal, f, coefficient_units: dict) -> tuple[dict, list[str]]:
+    """({coefficient: (lower, upper)}, notes) of the module docstring for one record (or a stacked
+    set: ``signal`` with ``segments``) and its force ``f`` (N)."""
+    from bwbench.data.plausibility import loop_work
+
+    bounds: dict = {}
+    notes: list = []
+    if layout.mass:
+        bounds[layout.mass] = (0.0, M_MAX)
+    viscous = [n for n, unit in coefficient_units.items() if unit == VISCOUS_UNIT]
+    if not viscous:
+        return bounds, notes
+    parts = getattr(signal, "segments", None) or (slice(0, len(f)),)
+    x = np.asarray(getattr(signal, "x_recorded", None) if getattr(signal, "x_recorded", None) is not None
+                   else signal.x, dtype=float)
+    work = sum(loop_work(x[part], np.asarray(f, dtype=float)[part])[0] for part in parts)
+    if work > 0:
+        bounds.update({n: (0.0, np.inf) for n in viscous})
+        notes.append(f"{', '.join(viscous)} ≥ 0: the measured loops dissipate energy (∮F·dx > 0), so a viscous "
+                     "force opposes the motion")
+    else:
+        notes.append(f"{', '.join(viscous)} of either sign: the measured loops run clockwise (∮F·dx ≤ 0), against "
+                     "the sign convention (force positive in tension, displacement positive in elongation)")
+    return bounds, notes
+
+
+def free_bounds(design) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds (arrays over ``design.free_names``) from ``design.bounds`` by name; a
+    continuous offset takes the tightest of the bounds of the coefficients tied to it."""
+    lower = np.full(len(design.free_names), -np.inf)
+    upper = np.full(len(design.free_names), np.inf)
+    for j, name in enumerate(design.free_names):
+        sharing = [name] + [t for t, source in design.tied.items() if source == name]
+        for n in sharing:
+            lo, hi = design.bounds.get(n, (-np.inf, np.inf))
+            lower[j], upper[j] = max(lower[j], lo), min(upper[j], hi)
+    return lower, upper
+
+
+def apply_bounds(design, out, Zw, qwy, good) -> None:
+    """Re-solve, in place in ``out`` (a ``LinearSolution``), every good row whose unbounded coefficients
+    break ``design.lower``/``upper``. ``Zw``: the rows' w trajectories as the design saw them (weighted);
+    ``qwy``: the kernel's Q_wᵀ·y per row."""
+    beta = out.coef_ls
+    with np.errstate(invalid="ignore"):
+        below, above = beta < design.lower, beta > design.upper
+    bad = good & np.any(below | above, axis=1)
+    if not bad.any():
+        return
+    rows = np.flatnonzero(bad)
+    B = np.concatenate([np.broadcast_to(design.Qty, (len(rows), len(design.Qty))), qwy[rows]], axis=1)
+    new = _clamped_solutions(out.R[rows], B, below[rows], above[rows], design.lower, design.upper)
+    q = design.Q.shape[1]
+    for k, i in enumerate(rows):
+        R, b = out.R[i], B[k]
+        if new[k] is None:  # the clamped guess is not the optimum: the library's bounded solver
+            from scipy.optimize import lsq_linear
+
+            fit = lsq_linear(R, b, bounds=(design.lower, design.upper), method="bvls")
+            new[k] = np.clip(fit.x, design.lower, design.upper)
+        extra = float(np.sum((R @ new[k] - b) ** 2))
+        out.mse[i] = (out.rss_ls[i] + extra) / design.L
+        out.coef[i, design.free_index] = new[k]
+        design._tie(out.coef[i:i + 1])
+        out.bound_active[i] = True
+        if out.residual is not None:
+            delta = new[k] - beta[i]
+            change = design.G @ delta[:q]
+            for j in range(len(design.w_names)):
+                change += delta[q + j] * np.where(design._col == j, Zw[i], 0.0)
+            out.residual[i] += change if design.sw is None else change / design.sw
+
+
+def _clamped_solutions(R, B, below, above, lower, upper) -> list:
+    """For rows (R (m, p, p), B (m, p)) whose unbounded solution breaks the bounds ``below``/``above``
+    (m, p): the least-squares solution with exactly those coefficients held on their bounds, where it
+    is the bounded optimum (the others within their bounds, and the gradient pushing each held one
+    outwards: the KKT conditions of the convex problem); None for a row where it is not. One batched
+    solve per pattern of broken bounds: the common case (one coefficient, e.g. m < 0) costs no
+    per-row call."""
+    out = [None] * len(R)
+    patterns: dict = {}
+    for k in range(len(R)):
+        patterns.setdefault((tuple(below[k]), tuple(above[k])), []).append(k)
+    for (lo_mask, hi_mask), ks in patterns.items():
+        held = np.array(lo_mask) | np.array(hi_mask)
+        value = np.where(lo_mask, lower, upper)[held]
+        free = ~held
+        Rk, Bk = R[ks], B[ks] - R[ks][:, :, held] @ value
+        A = Rk[:, :, free]
+        scale = np.linalg.norm(A, axis=1, keepdims=True)  # unit columns: the normal equations stay well conditioned
+        scale[scale == 0] = 1.0
+        A = A / scale
+        try:
+            beta_free = np.linalg.solve(np.einsum("mpi,mpj->mij", A, A),
+                                        np.einsum("mpi,mp->mi", A, Bk)[..., None])[..., 0] / scale[:, 0, :]
+        except np.linalg.LinAlgError:
+            continue
+        beta = np.empty((len(ks), len(held)))
+        beta[:, held], beta[:, free] = value, beta_free
+        gradient = np.einsum("mpi,mp->mi", R[ks], np.einsum("mpi,mi->mp", R[ks], beta) - B[ks])
+        tolerance = 1e-9 * np.maximum(np.abs(gradient).max(axis=1, keepdims=True), 1e-300)
+        feasible = np.all((beta[:, free] >= lower[free]) & (beta[:, free] <= upper[free]), axis=1)
+        outward = np.all(np.where(np.array(lo_mask)[held], gradient[:, held] >= -tolerance,
+                                  gradient[:, held] <= tolerance), axis=1)
+        for j, k in enumerate(ks):
+            if feasible[j] and outward[j] and np.all(np.isfinite(beta[j])):
+                out[k] = beta[j]
+    return out

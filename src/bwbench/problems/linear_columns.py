@@ -1,0 +1,77 @@
+"""The columns of the linear solve's design matrix, and the names of the coefficients they carry.
+
+A model's ``LinearLayout`` says which coefficients multiply a signal of the excitation (x, ẋ, ẍ or
+1) and which multiplies the θ-dependent column w. A branched layout (the switched Bouc-Wen) has a
+'+' copy of each column where ẋ ≥ 0 and a '−' copy where ẋ < 0; the coefficient names carry the
+suffix ("c+", "f-"); the inertia coefficient (``layout.mass``) is one for both branches.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+OFFSETS = ("branch", "continuous", "none")  # the constant force: one per branch, one for both, none
+
+
+def offsets_mode(offsets) -> str:
+    """"branch", "continuous" or "none" from a mode name or a bool (True: per branch, False: none)."""
+    if offsets is True:
+        return "branch"
+    if offsets is False or offsets is None:
+        return "none"
+    if offsets not in OFFSETS:
+        raise ValueError(f"offsets must be one of {OFFSETS} or a bool, got {offsets!r}")
+    return offsets
+
+
+def branch_masks(layout, v) -> dict:
+    """{suffix: samples of that branch}: '+' (ẋ ≥ 0) and '−' for a branched layout, else one ''."""
+    if not layout.branched:
+        return {"": np.ones(len(v), dtype=bool)}
+    plus = np.asarray(v) >= 0.0
+    return {"+": plus, "-": ~plus}
+
+
+def coefficient_names(layout) -> tuple:
+    """Every coefficient of ``layout``, the mass first, then per branch in the layout's order."""
+    suffixes = ("+", "-") if layout.branched else ("",)
+    return tuple(n for n in layout.names if n == layout.mass) + tuple(
+        f"{n}{b}" for b in suffixes for n in layout.names if n != layout.mass)
+
+
+def coefficient_units(layout) -> dict:
+    names = coefficient_names(layout)
+    return {n: layout.units[n.rstrip("+-") if layout.branched else n] for n in names}
+
+
+def signal_column(signal, name, mask):
+    """The signal ``name`` ("x", "v", "a" or "1") where ``mask`` holds, 0 elsewhere."""
+    if name == "1":
+        return mask.astype(float)
+    return np.where(mask, np.asarray(getattr(signal, name), dtype=float), 0.0)
+
+
+def fixed_columns(signal, layout, masks, offsets=True):
+    """Names and columns (L,) of the w-independent per-branch columns of present branches.
+
+    ``offsets`` (``offsets_mode``): "continuous" gives the constant force one column for both
+    branches, named after the first present branch (its other branch's coefficient is tied to it)."""
+    mode = offsets_mode(offsets)
+    names, cols = [], []
+    present = [(b, mask) for b, mask in masks.items() if mask.any()]
+    for b, mask in present:
+        for name, source in layout.fixed:
+            if source == "1" and (mode == "none" or (mode == "continuous" and b != present[0][0])):
+                continue
+            names.append(f"{name}{b}")
+            whole = mode == "continuous" and source == "1"
+            cols.append(signal_column(signal, source, np.ones_like(mask) if whole else mask))
+    return names, cols
+
+
+def tied_offsets(layout, masks, offsets) -> dict:
+    """{tied name: the name it equals} for continuous offsets of a branched layout ({} otherwise)."""
+    present = [b for b, mask in masks.items() if mask.any()]
+    if offsets_mode(offsets) != "continuous" or len(present) < 2:
+        return {}
+    return {f"{name}{b}": f"{name}{present[0]}" for name, source in layout.fixed if source == "1" for b in present[1:]}

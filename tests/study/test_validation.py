@@ -1,0 +1,80 @@
+"""Held-out tests in a study: `compare --validate` / `[validation] files`, and the report's held-out ranking."""
+
+import json
+import os
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+import bwbench
+from bwbench.cli import main
+from bwbench.data import mr_damper
+from bwbench.errors import UserError
+from bwbench.study.config import load_study_config
+
+
+@pytest.fixture(scope="module")
+def damper(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("held")
+    for i, (name, amplitude, frequency) in enumerate((("a", 25.0, 1.0), ("b", 10.0, 2.5), ("h", 20.0, 1.5))):
+        mr_damper.write_test(folder / f"{name}.csv", amplitude_mm=amplitude, frequency_hz=frequency, voltage=1.0,
+                             rate_hz=250.0, cycles=2, peak_force_N=None, rng=i, velocity=True, velocity_noise_mm_s=0.5)
+    return folder
+
+
+def bwbench_cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "bwbench.cli", *args], cwd=cwd, capture_output=True, text=True,
+                          env={**os.environ, "BWBENCH_PROGRESS": "0"})
+
+
+def test_the_report_ranks_by_held_out_error_with_the_stored_coefficients(damper, tmp_path):
+    run = bwbench_cli("compare", "--specimens", str(damper / "a.csv"), str(damper / "b.csv"), "--optimizers",
+                      "lsq-trf,random", "--seeds", "1", "--budget", "100", "--formulation", "paper,identifiable", "--validate", str(damper / "h.csv"), "--db", "s.sqlite",
+                      "--workers", "2", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    report = bwbench_cli("report", "--db", "s.sqlite", "--out", "rep", "--profiles", "0", cwd=tmp_path)
+    assert report.returncode == 0, report.stderr
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert "## Held-out tests: predicting what no fit saw" in text and "rank by held-out error" in text
+    held = pd.read_csv(tmp_path / "rep" / "held_out.csv")
+    assert len(held) == 8 and set(held["held_out"]) == {"h"}  # 2 specimens × 2 backends × 2 formulations
+    assert list((tmp_path / "rep").glob("held_out_*.png"))
+    # each number is what `bwbench predict` gives with the run's stored parameters
+    study = bwbench.load_study(tmp_path / "s.sqlite")
+    runs = study.runs[study.runs["kind"] == "ranking"]
+    for _, row in runs.iterrows():
+        fit = {"params": json.loads(row["params_json"]), "model": row["model"], "formulation": row["formulation"],
+               "state": row["state"], "excitation": row["excitation"]}
+        (tmp_path / "r.json").write_text(json.dumps(fit))
+        assert main(["predict", "--fit", str(tmp_path / "r.json"), str(damper / "h.csv"),
+                     "--out", str(tmp_path / "p.json")]) == 0
+        predicted = json.loads((tmp_path / "p.json").read_text())["predictions"][0]
+        mine = held[(held["label"] == row["optimizer"]) & (held["specimen"] == row["specimen"])
+                    & (held["replicate"] == row["replicate"])].iloc[0]
+        assert mine["nrmse"] == pytest.approx(predicted["nrmse"], rel=1e-6)
+    # the paper's box cannot fit an MR damper: its fits predict the held-out test far worse
+    median = held.groupby("label")["nrmse"].median()
+    assert median["random [identifiable]"] < 0.2 < median["random [paper]"]
+    assert median["lsq-trf [identifiable]"] < median["lsq-trf [paper]"]
+    assert f"By held-out error the best is **{median.idxmin()}** (median NRMSE" in text
+
+
+def test_a_toml_holds_its_held_out_files_and_refuses_a_training_one(damper, tmp_path):
+    toml = tmp_path / "s.toml"
+    head = (f'[study]\nname = "v"\nseed = 1\nbudget = 20\nseeds = 1\nmodel = "spencer"\nfix_mass = 0.0\n'
+            f'[specimens]\nfiles = ["{damper / "a.csv"}"]\n[optimizers]\nrandom = {{}}\n')
+    toml.write_text(head + f'[validation]\nfiles = ["{damper / "h.csv"}"]\n')
+    config = load_study_config(toml)
+    assert [e.name for e in config.validation] == ["h"]
+    assert config.to_json_dict()["validation"]["h"] == config.validation[0].meta["sha256"]
+    toml.write_text(head + f'[validation]\nfiles = ["{damper / "a.csv"}"]\n')
+    with pytest.raises(UserError, match="a is also a training specimen"):
+        load_study_config(toml)
+    toml.write_text(head + '[validation]\ntests = ["x.csv"]\n')
+    with pytest.raises(UserError, match=r"\[validation\] must be a table with one key, files"):
+        load_study_config(toml)
+    toml.write_text(head.replace("fix_mass = 0.0", 'fix_mass = "heavy"'))
+    with pytest.raises(UserError, match="fix_mass must be"):
+        load_study_config(toml)
