@@ -196,6 +196,12 @@ class Model:
         model has no such notion."""
         return {}
 
+    def yield_parameters(self, state=None) -> dict:
+        """{branch: identifiable parameter name} of the parameter that sets where a branch of
+        ``linear_limits`` yields: a posterior holds it at the top of its box (the branch never yields
+        within the stroke) when the data cannot tell that apart either; {} when the model has none."""
+        return {}
+
     def symmetries(self, params, state=None) -> list:
         """The exact symmetries of the direct formulation at ``params``: a list of (name, orbit), orbit(s)
         giving the direct parameters moved by the scale s > 0 (s = 1: ``params``) with the force

@@ -145,6 +145,10 @@ class SwitchedBoucWen(Model):
 
         return {b: {f"n{b}": fm.N_RANGE[1], f"eta{b}": 0.0} for b in "+-"}
 
+    def yield_parameters(self, state=None) -> dict:
+        """x_y of each branch (its box ends at the cap, 50 × the amplitude)."""
+        return {b: f"xy{b}" for b in "+-"}
+
     def symmetries(self, params, state=None) -> list:
         """z → s·z (``switched_identifiable.scale_paper``): one scale for both branches in the shared
         state, one per branch in the split state."""

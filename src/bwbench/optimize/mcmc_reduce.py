@@ -23,6 +23,7 @@ import numpy as np
 from bwbench.errors import BudgetExhausted
 
 LIKELIHOOD_RATIO = 5.99 / 2  # χ²₂(0.95)/2: two shape parameters dropped
+YIELD_LIKELIHOOD_RATIO = 7.81 / 2  # χ²₃(0.95)/2: the yield displacement held at the cap as well
 SEARCHES = 3  # local re-optimisations per branch, from the best optima
 
 
@@ -36,6 +37,7 @@ class Reduction:
     points: np.ndarray | None = None
     log_prob: np.ndarray | None = None
     notes: list = field(default_factory=list)
+    better: tuple | None = None  # (u, log_prob) of a full-model optimum better than every start's
 
 
 def reduce(objective, points: np.ndarray, log_prob: np.ndarray, log_prob_fn, budget: int) -> Reduction:
@@ -56,16 +58,18 @@ def reduce(objective, points: np.ndarray, log_prob: np.ndarray, log_prob_fn, bud
     order = np.argsort(-log_prob)[:SEARCHES]
     out = Reduction()
     per = budget // max(len(limits) * len(order), 1)
+    yields = model.yield_parameters(problem.state)
     for branch, limit in limits.items():
         fixed = {**out.fixed, **_unit_values(problem, limit, points[order[0]])}
-        starts = points[order].copy()
-        for j, value in fixed.items():
-            starts[:, j] = value
-        found = [_reoptimise(objective, u, fixed, per) for u in starts]
-        found = np.array([u for u in found if u is not None])
-        if not len(found):
+        found, lp = _held(objective, points[order], fixed, per, log_prob_fn)
+        if found is None:
             continue
-        lp = log_prob_fn(found)
+        if np.max(lp) > best:  # the reduced model beat the full one's searches: the full model's own
+            # optimum is near (it nests the reduced one), and the test needs it
+            full, lp_full = _held(objective, found[np.argsort(-lp)[:1]], {}, per, log_prob_fn)
+            best = max(best, float(np.max(lp)), -np.inf if full is None else float(np.max(lp_full)))
+            if full is not None:
+                out.better = (full[int(np.argmax(lp_full))], float(np.max(lp_full)))
         gap = best - float(np.max(lp))
         labels = ", ".join(f"{_label(problem, n)} = {v:g}" for n, v in limit.items())
         if not gap <= LIKELIHOOD_RATIO:
@@ -74,11 +78,42 @@ def reduce(objective, points: np.ndarray, log_prob: np.ndarray, log_prob_fn, bud
                              "of its two shape parameters at 95 %): the data tell its shape; sampled in full")
             continue
         out.fixed, out.points, out.log_prob = fixed, found, lp
-        out.notes.append(f"branch {branch}: with {labels} (linear until it yields) the best fit is Δlog p = "
-                         f"{gap:.2f} from the full model's (≤ {LIKELIHOOD_RATIO:.2f}, the likelihood-ratio test of its "
-                         "two shape parameters at 95 %): the data cannot tell its shape from a linear branch's, so "
-                         "the chain samples the reduced model with these held (the other parameters sampled)")
+        note = (f"branch {branch}: with {labels} (linear until it yields) the best fit is Δlog p = {gap:.2f} from the "
+                f"full model's (≤ {LIKELIHOOD_RATIO:.2f}, the likelihood-ratio test of its two shape parameters at "
+                "95 %): the data cannot tell its shape from a linear branch's, so the chain holds these")
+        # A linear branch that never yields within the stroke: where it would yield, beyond, only trades
+        # with the scale of the state it hands to the other branch (x_y₊·ρ in the shared state): a ridge
+        # to the box's cap that a chain crosses for ever. Held at the cap when the data cannot tell.
+        name = yields.get(branch)
+        if name in names:
+            j = names.index(name)
+            capped, lp_capped = _held(objective, found, {**fixed, j: 1.0}, per, log_prob_fn)
+            gap_capped = np.inf if capped is None else best - float(np.max(lp_capped))
+            top = float(problem.from_unit(np.ones((1, len(names))))[0][j])
+            if gap_capped <= YIELD_LIKELIHOOD_RATIO:
+                out.fixed, out.points, out.log_prob = {**fixed, j: 1.0}, capped, lp_capped
+                note += (f"; and with {_label(problem, name)} at the top of its box ({top:.4g}, never yielding within "
+                         f"the stroke) Δlog p = {gap_capped:.2f} (≤ {YIELD_LIKELIHOOD_RATIO:.2f}, three parameters): "
+                         "held there too")
+            else:
+                note += (f"; {_label(problem, name)} at the top of its box is Δlog p = {gap_capped:.1f} below "
+                         f"(> {YIELD_LIKELIHOOD_RATIO:.2f}): the branch yields within the stroke, "
+                         f"{_label(problem, name)} sampled")
+        out.notes.append(note + "; the other parameters sampled")
     return out
+
+
+def _held(objective, starts: np.ndarray, fixed: dict, budget: int, log_prob_fn):
+    """The optima (unit coordinates) re-optimised from ``starts`` with the coordinates ``fixed`` held,
+    each on ``budget`` evaluations, and their log-posteriors; (None, None) when none was finite."""
+    starts = np.array(starts, dtype=float)
+    for j, value in fixed.items():
+        starts[:, j] = value
+    found = [_reoptimise(objective, u, fixed, budget) for u in starts]
+    kept = np.array([u for u in found if u is not None])
+    if not len(kept):
+        return None, None
+    return kept, log_prob_fn(kept)
 
 
 def _unit_values(problem, limit: dict, u: np.ndarray) -> dict:

@@ -180,6 +180,8 @@ def plan(objective, rng, log_prob, ensembles: int, walkers: int, fraction: float
     lp = log_prob(points)
     reduction = mcmc_reduce.reduce(objective, points, lp, log_prob, share // 2)
     notes = list(reduction.notes)
+    if reduction.better is not None:  # a full-model optimum found from the reduced one: a start too
+        points, lp = np.vstack([reduction.better[0], points]), np.concatenate([[reduction.better[1]], lp])
     if reduction.fixed:  # the full model's optima moved into the reduced one, and the reduced model's own
         points = points.copy()
         for j, value in reduction.fixed.items():
