@@ -235,7 +235,7 @@ def _verdict(samplers, embed, K, objective) -> dict:
 
 
 def _message(verdict, stuck, objective, stored, thin) -> str:
-    steps = f"{stored:,} stored steps" + (f" (every {thin}th of {stored * thin:,})" if thin > 1 else "")
+    steps = f"{stored:,} stored steps" + (f" (1 in {thin} of {stored * thin:,})" if thin > 1 else "")
     if stuck:
         head = "every proposal fell outside the box; stopped"
     elif verdict is not None and verdict["converged"]:

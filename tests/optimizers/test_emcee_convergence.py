@@ -39,7 +39,7 @@ def test_the_convergence_loop_stops_on_its_budget_and_says_why():
 
 def test_a_bimodal_posterior_is_reported_as_two_modes():
     problem = BimodalToy(2, 200)
-    result = fitting.run(problem, "emcee", 40_000, seed=2, options={**OPTIONS, "ensembles": 4})
+    result = fitting.run(problem, "emcee", 100_000, seed=2, options={**OPTIONS, "ensembles": 4})
     extras = result.extras
     verdict = mcmc.assess(extras["chain"], extras["log_prob"], 4, problem.param_names)
     assert len(verdict["modes"]) == 2, result.message

@@ -159,7 +159,7 @@ def modes(samples: np.ndarray, log_prob: np.ndarray | None, ensembles, burn: int
             overlap = np.all((bands[a][0] <= bands[b][1]) & (bands[b][0] <= bands[a][1]))
             if overlap:
                 parent[root(b)] = root(a)
-    groups = {}
+    groups: dict[int, list[int]] = {}
     for i in range(k):
         groups.setdefault(root(i), []).append(i)
     out = []

@@ -88,7 +88,7 @@ def local_optima(objective, rng, budget: int, searches: int) -> list[tuple[np.nd
     from bwbench.optimizers.lsq_trf import minimize as lsq_trf
 
     per = budget // max(searches, 1)
-    out = []
+    out: list[tuple[np.ndarray, float]] = []
     for _ in range(searches):
         if per < objective.dim + 2 or objective.remaining < objective.dim + 2:
             break
@@ -186,6 +186,7 @@ def plan(objective, rng, log_prob, ensembles: int, walkers: int, fraction: float
         points = points.copy()
         for j, value in reduction.fixed.items():
             points[:, j] = value
+        assert reduction.points is not None and reduction.log_prob is not None  # set with ``fixed``
         points = np.vstack([reduction.points, points])
         lp = np.concatenate([reduction.log_prob, log_prob(points[len(reduction.points):])])
     picks, negligible = choose(points, lp, ensembles)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -24,8 +25,8 @@ class PosteriorChain:
     ``study.runs``), ``ensembles``, ``assessment`` (``mcmc.assess``), ``names`` (the chain's
     coordinates), ``fixed`` (names held fixed by a reduced model) and ``burn``."""
 
-    chain: object
-    problem: object
+    chain: Any  # bwbench.store.reader.Chain
+    problem: Any  # the problem the chain sampled
     run: dict
     ensembles: int
     assessment: dict
@@ -124,7 +125,8 @@ def posterior_chains(study, chains=None) -> list[PosteriorChain]:
     """Every posterior chain of ``study`` with its problem, run and assessment."""
     from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for
 
-    cache, out = {}, []
+    cache: dict = {}
+    out: list = []
     for chain in chains if chains is not None else [c for c in study.chains if c.kind == "posterior"]:
         problem = problem_for(study, chain.specimen, formulation_of(study, chain.optimizer), cache)
         names = list(problem.param_names)
