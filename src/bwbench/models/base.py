@@ -116,6 +116,10 @@ class Model:
     states: tuple = ()
     direct_name = "direct"
     default_formulation = "direct"
+    # Whether a viscous coefficient (N·s/mm) solved in the identifiable formulation is bounded ≥ 0 when
+    # the measured loops dissipate (``bwbench.problems.linear_bounds``): right for one dashpot, wrong for a
+    # model whose identified branches may have either sign (the switched model: see there).
+    viscous_sign_bound = True
 
     @property
     def formulations(self) -> tuple:

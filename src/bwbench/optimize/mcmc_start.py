@@ -163,7 +163,7 @@ class Plan:
     notes: list = field(default_factory=list)
 
 
-def plan(objective, rng, log_prob, ensembles: int, walkers: int, fraction: float, searches_per_ensemble: int = 5) -> Plan:
+def plan(objective, rng, log_prob, ensembles: int, walkers: int, fraction: float, searches_per_ensemble: int = 2) -> Plan:
     """The starts of the module docstring on ``fraction`` of the remaining budget (local searches) plus
     a few evaluations per ensemble (curvature, the walkers' own log-probabilities); ``log_prob`` maps
     unit points (m, d) to log-posteriors, counted by the objective. A budget too small for one local

@@ -54,12 +54,14 @@ def summary(pc, rng, true: dict | None) -> tuple[pd.DataFrame, list]:
         lo, mid, hi = np.quantile(values, [tail, 0.5, 1 - tail])
         row = {"parameter": axis(pc.problem, name, table), "median": number(mid), "2.5 %": number(lo),
                "97.5 %": number(hi)}
-        if name in pc.fixed:
+        # held: by a reduced model, or by the problem itself (an unfitted inertia, a coefficient fixed)
+        held = name in pc.fixed or np.ptp(values) == 0
+        if held:
             row.update({"2.5 %": "held", "97.5 %": "held"})
         if true is not None and name in true:
             t = true[name]
-            inside = name in pc.fixed or lo <= t <= hi or (np.ptp(values) == 0 and np.isclose(t, mid))
-            row.update({"truth": number(t), "truth inside": "held fixed" if name in pc.fixed else
+            inside = held or lo <= t <= hi
+            row.update({"truth": number(t), "truth inside": "held fixed" if held else
                         ("yes" if inside else "**no**")})
             if not inside:
                 outside.append(name)
