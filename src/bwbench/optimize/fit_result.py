@@ -92,6 +92,10 @@ class FitResult:
     # -- the result JSON ------------------------------------------------------------------------
     def to_json_dict(self) -> dict:
         """The result JSON (strict: a value that is not finite is null)."""
+        return finite_or_null(self._json_values())
+
+    def _json_values(self) -> dict:
+        """The result JSON's values, a loss that is not finite still as it is (``write_json`` says why)."""
         out = self.result.to_json_dict()
         if self.problem.state is None:
             out["state"] = None  # say it: this model has no state convention
@@ -106,17 +110,18 @@ class FitResult:
         from bwbench.version import __version__
 
         out["bwbench_version"] = __version__
-        return finite_or_null(out)
+        return out
 
     def save(self, path) -> None:
         """The result JSON at ``path`` (``write_json``); ``bwbench.load_fit(path)`` reads its model back."""
         self.write_json(path)
 
     def write_json(self, path) -> None:
-        """``to_json_dict`` written to ``path`` as strict JSON (null, never NaN or Infinity)."""
+        """``to_json_dict`` written to ``path`` as strict JSON: null, never NaN or Infinity, and
+        ``"not_finite"`` saying why (a fit that never found a finite loss)."""
         from bwbench.data import strict_json
 
-        strict_json.write(path, self.to_json_dict())
+        strict_json.write(path, self._json_values(), why=self.result.not_finite_reasons())
 
 
 def per_file(problem, result: Result) -> tuple:

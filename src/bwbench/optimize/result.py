@@ -70,7 +70,11 @@ class Result:
         """The result as strict JSON (``bwbench.data.strict_json``), with ``extra`` entries added (e.g.
         the checks of a fit): a value that is not finite (a fit that never found a finite loss) is
         written as null, and ``"not_finite"`` says which and why, never NaN or Infinity."""
+        strict_json.write(path, {**self.to_json_dict(), **(extra or {})}, why=self.not_finite_reasons())
+
+    def not_finite_reasons(self) -> dict | None:
+        """{key: why} of the losses that are not finite, for ``strict_json.write``; None when finite."""
+        if math.isfinite(self.mse):
+            return None
         nothing = "no evaluation gave a finite loss (the model blows up wherever it was evaluated)"
-        why = None if math.isfinite(self.mse) else {
-            **dict.fromkeys(("mse", "f_err", "rmse_N"), nothing), "params": f"no best point: {nothing}"}
-        strict_json.write(path, {**self.to_json_dict(), **(extra or {})}, why=why)
+        return {**dict.fromkeys(("mse", "f_err", "rmse_N"), nothing), "params": f"no best point: {nothing}"}
