@@ -100,6 +100,9 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", st
     W, K = (2 * d + 2 if n_walkers is None else n_walkers), ensembles
     log_prob = _LogProb(objective, n_data)
     notes, fixed, start_lp = [], {}, [None] * K
+    # each ensemble's own stream first, as before ensembles existed: a ranking run (one ensemble, walkers
+    # uniform in the box) draws exactly what it drew then
+    streams = [int(rng.integers(2**63)) for _ in range(K)]
     if start == "optima":
         from bwbench.optimize import mcmc_start
 
@@ -119,7 +122,7 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", st
     samplers, states = [], []
     for k in range(K):
         sampler = emcee.EnsembleSampler(W, len(free), lambda V: log_prob(embed(V)), vectorize=True, moves=chosen)
-        sampler.random_state = np.random.RandomState(np.random.MT19937(rng.integers(2**63))).get_state()
+        sampler.random_state = np.random.RandomState(np.random.MT19937(streams[k])).get_state()
         samplers.append(sampler)
         states.append(emcee.State(starts[k][:, free], log_prob=start_lp[k]))
     thin = thin or max(1, math.ceil((objective.remaining // (K * W) + 1) / MAX_STORED))
@@ -251,7 +254,7 @@ def _message(verdict, stuck, objective, stored, thin) -> str:
 def _ball_at_optimum(objective, rng, n_walkers: int, fraction: float, radius: float) -> np.ndarray:
     """Walkers in a ball of ``radius`` (unit coordinates) around the best point a CMA-ES run on ``fraction`` of the
     remaining budget found (every evaluation counts against the objective's budget)."""
-    from bwbench.optimize.mcmc_start import Share
+    from bwbench.optimize.budget_share import Share
     from bwbench.optimizers.cmaes import minimize as cmaes
 
     share = Share(objective, int(fraction * objective.remaining))

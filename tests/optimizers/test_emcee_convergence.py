@@ -50,7 +50,7 @@ def test_a_bimodal_posterior_is_reported_as_two_modes():
     # each mode converged on its own; pooled, the walkers of the two modes would give a huge R̂
     assert verdict["converged"]
     pooled = mcmc.convergence(extras["chain"], problem.param_names)
-    assert pooled["r_hat"].max() > 1.5
+    assert pooled["r_hat"].max() > 1.3  # far beyond 1.01
 
 
 def test_ranking_defaults_are_unchanged_one_ensemble_uniform_start_whole_budget():

@@ -60,3 +60,16 @@ def decompose(fits, fits_log_prob, draws, draws_log_prob, names) -> tuple[pd.Dat
                      "stopped_early": early, "elsewhere": other, "scatter": scatter})
     kind = np.where(~reached, EARLY, np.where(np.all(inside, axis=1), DATA, ELSEWHERE))
     return pd.DataFrame(rows), kind
+
+
+def symmetry_share(paper_unit: np.ndarray, gauged_unit: np.ndarray) -> float:
+    """Fraction of the total variance of the direct coordinates (box units) that fixing the
+    gauge removes: the part of the scatter that is the exact symmetry. NaN with fewer than 2 runs; 0
+    when fixing the gauge does not shrink the scatter (it can move fits apart: then none of it is the
+    symmetry, never a negative share)."""
+    keep = np.all(np.isfinite(paper_unit), axis=1) & np.all(np.isfinite(gauged_unit), axis=1)
+    if keep.sum() < 2:
+        return float("nan")
+    before = float(np.sum(np.var(paper_unit[keep], axis=0)))
+    after = float(np.sum(np.var(gauged_unit[keep], axis=0)))
+    return max(0.0, 1.0 - after / before) if before > 0 else float("nan")

@@ -206,6 +206,12 @@ class Model:
         within the stroke) when the data cannot tell that apart either; {} when the model has none."""
         return {}
 
+    def reduced_gauge(self, held, state=None) -> set:
+        """Names of the identifiable parameters (sampled or solved) whose values a reduced model with
+        ``held`` (names) held fixed puts in its own gauge: they trade with a held one along a direction
+        the data do not see, so they cannot be compared with a truth or with fits of the full model."""
+        return set()
+
     def symmetries(self, params, state=None) -> list:
         """The exact symmetries of the direct formulation at ``params``: a list of (name, orbit), orbit(s)
         giving the direct parameters moved by the scale s > 0 (s = 1: ``params``) with the force

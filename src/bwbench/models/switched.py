@@ -149,6 +149,16 @@ class SwitchedBoucWen(Model):
 
         return {b: {f"n{b}": fm.N_RANGE[1], f"eta{b}": 0.0} for b in "+-"}
 
+    def reduced_gauge(self, held, state=None) -> set:
+        """A branch held linear changes the w it hands over, which the hysteretic scales h± and the
+        offsets f± absorb; an x_y held at the cap moves ρ along the ridge x_y₊·ρ (shared state)."""
+        if not held:
+            return set()
+        out = {"h+", "h-", "f+", "f-"}
+        if any(n.startswith("xy") for n in held) and self.check_state(state) == "shared":
+            out.add("rho")
+        return out
+
     def yield_parameters(self, state=None) -> dict:
         """x_y of each branch (its box ends at the cap, 50 × the amplitude)."""
         return {b: f"xy{b}" for b in "+-"}

@@ -131,7 +131,7 @@ def _reoptimise(objective, u0: np.ndarray, fixed: dict, budget: int) -> np.ndarr
     (counted); the best point met (full unit vector), or None when none was finite."""
     from scipy.optimize import least_squares
 
-    from bwbench.optimize.mcmc_start import Share
+    from bwbench.optimize.budget_share import Share
 
     d = objective.dim
     free = np.array([j for j in range(d) if j not in fixed], dtype=int)

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import statistics
+from bwbench.analysis.spread import symmetry_share  # noqa: F401 (used here and re-exported)
 from bwbench.data.parameters import LABELS, LOWER, UPPER
 from bwbench.models import switched_identifiable as fm
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
@@ -51,19 +52,6 @@ def coordinates(runs: pd.DataFrame, state: str) -> tuple[np.ndarray, np.ndarray,
         gauged.append(mapped if mapped is not None else np.full(14, np.nan))
         theta.append(t)
     return np.array(paper).reshape(-1, 14), np.array(gauged).reshape(-1, 14), np.array(theta).reshape(-1, len(names))
-
-
-def symmetry_share(paper_unit: np.ndarray, gauged_unit: np.ndarray) -> float:
-    """Fraction of the total variance of the paper coordinates (Table 5 units) that fixing the
-    gauge removes: the part of the scatter that is the exact symmetry. NaN with fewer than 2 runs; 0
-    when fixing the gauge does not shrink the scatter (it can move fits apart: then none of it is the
-    symmetry, never a negative share)."""
-    keep = np.all(np.isfinite(paper_unit), axis=1) & np.all(np.isfinite(gauged_unit), axis=1)
-    if keep.sum() < 2:
-        return float("nan")
-    before = float(np.sum(np.var(paper_unit[keep], axis=0)))
-    after = float(np.sum(np.var(gauged_unit[keep], axis=0)))
-    return max(0.0, 1.0 - after / before) if before > 0 else float("nan")
 
 
 def spread_table(study, specimen: str) -> tuple[pd.DataFrame, dict]:

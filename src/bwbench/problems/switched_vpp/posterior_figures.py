@@ -121,10 +121,20 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         true = truth(study, specimen)
         true = None if true is None else _coordinates(dict(zip(PARAM_NAMES, true)), names, state)
         label = axis_label
+    # the best ranking fit (the posterior run's own best point comes from its start's searches, in the
+    # full model even when the chain samples a reduced one); the ranking's when there is one
     runs = study.runs[(study.runs["specimen"] == specimen) & (study.runs["status"] == "ok")
                       & np.isfinite(study.runs["mse"].astype(float))]
+    if (runs["kind"] == "ranking").any():
+        runs = runs[runs["kind"] == "ranking"]
     best_run: Any = runs.loc[runs["mse"].idxmin()] if len(runs) else None
     best = None if best_run is None else _coordinates(best_run.to_dict(), names, state, problem)
+    if problem is not None and posterior is not None and posterior.fixed:
+        # in the reduced model's gauge a full-model value (truth, fit) is not comparable: not marked
+        gauge = [j for j, n in enumerate(names) if n in problem.model.reduced_gauge(posterior.fixed, problem.state)]
+        for marked in (true, best):
+            if marked is not None:
+                marked[gauge] = np.nan
     colour = styles(study, order)[best_run["optimizer"]].colour if best_run is not None else "black"
 
     lo_q, hi_q = np.quantile(samples, [0.005, 0.995], axis=0)
@@ -132,7 +142,7 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
     lo, hi = np.maximum(lo_q - pad, box.min(axis=0)), np.minimum(hi_q + pad, box.max(axis=0))
     for marked in (true, best):  # keep the marks on the frame
         if marked is not None:
-            lo, hi = np.minimum(lo, marked), np.maximum(hi, marked)
+            lo, hi = np.fmin(lo, marked), np.fmax(hi, marked)  # fmin: a mark left out (NaN) moves nothing
     margin = 0.04 * (hi - lo)
     lo, hi = lo - margin, hi + margin
 
@@ -159,7 +169,7 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         ax.grid(False)
         ax.set_xlabel(label(name))
         _ticks(ax.xaxis, 2)
-        if best is not None:
+        if best is not None and np.isfinite(best[j]):
             ax.axvline(best[j], color=colour, lw=2.0)
         if true is not None and np.isfinite(true[j]):
             ax.axvline(true[j], color="black", lw=1.2, ls="--")

@@ -102,17 +102,3 @@ def band_of(study, specimen: str, rng=None) -> Band | None:
     if not found:
         return None
     return predictive(found[0], np.random.default_rng(0) if rng is None else rng)
-
-
-def loops(study, out_dir, pc, order=None, rng=None):
-    """The loops figure of ``pc``'s specimen with its band (``fit_figures.hysteresis_loops``); None when the
-    specimen has no finished ranking run to draw the fits of, or no draw gives a finite force."""
-    from bwbench.problems.switched_vpp.fit_figures import hysteresis_loops
-
-    ranking = study.ranking
-    runs = ranking[(ranking["specimen"] == pc.chain.specimen) & (ranking["status"] == "ok")
-                   & np.isfinite(ranking["mse"].astype(float))]
-    band = predictive(pc, np.random.default_rng(0) if rng is None else rng)
-    if not len(runs) or band is None:
-        return None
-    return hysteresis_loops(study, out_dir, pc.chain.specimen, order=order, band=band)

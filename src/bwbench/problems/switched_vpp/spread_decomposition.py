@@ -32,7 +32,6 @@ def symmetry_part(study, pc, runs: pd.DataFrame) -> dict:
     """{"share", "runs", "names"}: the share of the scatter of the fits that searched the model's direct
     coordinates that is its exact symmetry (NaN when it has none or fewer than 2 such fits)."""
     from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for
-    from bwbench.problems.switched_vpp.non_uniqueness import symmetry_share
 
     model = pc.problem.model
     problem = problem_for(study, pc.chain.specimen, model.direct_name)
@@ -52,7 +51,7 @@ def symmetry_part(study, pc, runs: pd.DataFrame) -> dict:
         except (NotImplementedError, ValueError):
             g = None
         gauged.append(np.full(len(names), np.nan) if g is None else np.asarray(g, dtype=float))
-    out["share"] = symmetry_share(problem.to_unit(P), problem.to_unit(np.array(gauged)))
+    out["share"] = spread.symmetry_share(problem.to_unit(P), problem.to_unit(np.array(gauged)))
     return out
 
 
@@ -72,9 +71,20 @@ def decomposition(study, pc) -> dict:
     if draws_lp is None:
         draws_lp = log_posterior(problem, problem.from_unit(draws))
     fits = problem.to_unit(P)
-    table, kinds = spread.decompose(fits, fits_lp, draws, draws_lp, pc.names)
-    for n in pc.fixed:  # held by a reduced model: the data cannot tell its branch from a linear one
-        table.loc[table["parameter"] == n, "scatter"] = "the data (held fixed: a linear branch)"
+    # held by a reduced model, or in its gauge (trading with a held one): the full model's fits cannot
+    # be placed against the reduced posterior there, so only the other parameters classify the fits
+    gauge = problem.model.reduced_gauge(pc.fixed, problem.state)
+    compared = [j for j, n in enumerate(pc.names) if n not in pc.fixed and n not in gauge]
+    part, kinds = spread.decompose(fits[:, compared], fits_lp, draws[:, compared], draws_lp,
+                                   [pc.names[j] for j in compared])
+    by_name = {r["parameter"]: r for r in part.to_dict("records")}
+    for j, n in enumerate(pc.names):
+        if n not in by_name:
+            by_name[n] = {"parameter": n, "fits_spread": float(np.ptp(fits[:, j])) if len(fits) else np.nan,
+                       "posterior_width": np.nan, "inside": 0, "stopped_early": 0, "elsewhere": 0,
+                       "scatter": "the data (held fixed: a linear branch)" if n in pc.fixed else
+                       "the data (the reduced model's gauge: trades with a held parameter)"}
+    table = pd.DataFrame([by_name[n] for n in pc.names])
     known = truth(study, problem, specimen)
     true = None if known is None else problem.to_unit(np.array([known.get(n, np.nan) for n in pc.names]))
     return {"table": table, "kinds": kinds, "fits": fits, "draws": draws, "fits_log_prob": fits_lp,
@@ -89,9 +99,9 @@ def shown_table(pc, d: dict) -> pd.DataFrame:
     return pd.DataFrame({
         "parameter": [axis(pc.problem, p, labels) for p in t["parameter"]],
         "good fits' spread (% of box)": [f"{x:.0%}" for x in t["fits_spread"]],
-        "posterior's 99 % range (% of box)": [("held" if p in pc.fixed else f"{x:.0%}")
+        "posterior's 99 % range (% of box)": [("held" if p in pc.fixed else "–" if not np.isfinite(x) else f"{x:.0%}")
                                                for p, x in zip(t["parameter"], t["posterior_width"])],
-        "fits inside it": [f"{i}/{n}" for i in t["inside"]],
+        "fits inside it": [f"{i}/{n}" if np.isfinite(x) else "–" for i, x in zip(t["inside"], t["posterior_width"])],
         "outside, stopped early": t["stopped_early"], "outside, as probable": t["elsewhere"],
         "the scatter is": t["scatter"]})
 
@@ -118,6 +128,11 @@ def sentence(pc, d: dict) -> str:
     if pc.fixed:
         text += (f"{', '.join(labels[p][0] for p in pc.fixed)} are held fixed in the posterior (a branch the data "
                  "cannot tell from a linear one): whatever the fits say of them, the data do not determine them. ")
+        gauge = [n for n in pc.names if n in pc.problem.model.reduced_gauge(pc.fixed, pc.problem.state)]
+        if gauge:
+            text += (f"{', '.join(labels[p][0] for p in gauge)} trade with the held parameters along directions the data "
+                     "do not see (the reduced model's gauge), so the fits are placed against the posterior on the "
+                     "other parameters only. ")
     sym = d["symmetry"]
     if np.isfinite(sym["share"]):
         text += (f"In the model's direct coordinates, the exact symmetry ({'; '.join(sym['names'])}) accounts for "
@@ -137,7 +152,8 @@ def figure(study, out_dir, pc, d: dict):
     from bwbench.report.palette import figure as new_figure
 
     theme()
-    names = [n for n in pc.names if n not in pc.fixed]
+    gauge = pc.problem.model.reduced_gauge(pc.fixed, pc.problem.state)
+    names = [n for n in pc.names if n not in pc.fixed and n not in gauge]  # the compared ones
     idx = [pc.names.index(n) for n in names]
     fig, (left, right) = new_figure(MAX_WIDTH_IN, 5.2, ncols=2, gridspec_kw={"width_ratios": [2.3, 1]})
     x = np.arange(len(names))
