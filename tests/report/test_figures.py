@@ -140,10 +140,15 @@ def test_convergence_pools_relative_to_the_floor_only_when_every_specimen_has_on
     assert pooled.groupby("optimizer")["median"].min().min() >= 1.0 - 1e-9  # nothing below the best known
 
 
+BAND = "posterior predictive 95 %"
+
+
 def test_loops_show_the_best_ranking_run_of_the_best_backends_and_random(study, out):
     specimen = study.specimens[0]
     frame = _read(switched_figures.hysteresis_loops(study, out, specimen, order=["de", "cmaes", "random"],
                                                     backends=1))
+    band = frame[frame["optimizer"] == BAND]
+    frame = frame[frame["optimizer"] != BAND]
     runs = study.ranking[study.ranking["specimen"] == specimen]
     best = runs.loc[runs.groupby("optimizer")["mse"].idxmin()].set_index("optimizer")
     # de is first in the order; cmaes has the best run (its fit is the loop), random is the baseline
@@ -153,6 +158,11 @@ def test_loops_show_the_best_ranking_run_of_the_best_backends_and_random(study, 
         assert np.allclose(g["residual_N"], g["force_model_N"] - g["force_measured_N"], atol=1e-3)
         mse = np.mean(g["residual_N"] ** 2)
         assert mse == pytest.approx(best.loc[optimizer, "mse"], rel=1e-4)  # CSV: 6 digits
+    # the specimen has a posterior (the fixture's chain sits on the truth): its 95 % predictive band, which
+    # holds the measured force (truth + noise) at close to 95 % of the samples
+    assert len(band) == len(frame[frame["optimizer"] == "de"]) and (band["band_lower_N"] < band["band_upper_N"]).all()
+    inside = (band["force_measured_N"] >= band["band_lower_N"]) & (band["force_measured_N"] <= band["band_upper_N"])
+    assert 0.85 < inside.mean() <= 1.0
 
 
 def test_loops_never_show_a_posterior_run_even_when_it_fits_best(study, out):
@@ -163,6 +173,7 @@ def test_loops_never_show_a_posterior_run_even_when_it_fits_best(study, out):
     runs.loc[posterior, "mse"] = 1e-6  # the posterior's 200,000-evaluation run "wins"
     rigged = dataclasses.replace(study, runs=runs)
     frame = _read(switched_figures.hysteresis_loops(rigged, out, specimen))
+    frame = frame[frame["optimizer"] != BAND]
     assert set(frame["kind"]) == {"ranking"}
     assert "emcee" not in set(frame["optimizer"])
     assert set(frame["optimizer"]) == {"cmaes", "de", "random"}

@@ -122,7 +122,8 @@ budget = 300
     assert len(loaded.ranking) == 2 * 3 * 2 and set(loaded.optimizers) == {"random", "de", "cmaes"}
     assert loaded.data_dir.joinpath("manifest.json").is_file()
     (chain,) = loaded.chains
-    assert chain.samples.shape[1:] == (30, 14) and chain.log_prob.shape == chain.samples.shape[:2]
+    # the [posterior] defaults: 3 ensembles of 2·d + 2 walkers (d = 14)
+    assert chain.samples.shape[1:] == (3 * 30, 14) and chain.log_prob.shape == chain.samples.shape[:2]
     table, fr = statistics.ranking_table(loaded.runs, loaded.traces, loaded.optimizers)
     assert len(table) == 3 and np.isfinite(fr.pvalue)
     from bwbench.analysis import comparisons

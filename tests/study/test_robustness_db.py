@@ -174,7 +174,7 @@ def test_ranking_runs_store_no_chain_and_take_under_20_kb_each(tmp_path):
     with closing(sqlite3.connect(db)) as conn:
         chains = conn.execute("SELECT kind, optimizer, steps, walkers, dim, LENGTH(chain) FROM chains").fetchall()
         ((kind, optimizer, steps, walkers, dim, size),) = chains  # the posterior run's, and no other
-        assert (kind, optimizer, walkers, dim) == ("posterior", "emcee", 30, 14)
+        assert (kind, optimizer, walkers, dim) == ("posterior", "emcee", 3 * 30, 14)  # 3 ensembles by default
         assert steps >= 10 and size == steps * walkers * dim * 8
         for table in ("runs", "timings", "traces", "chains"):  # what is left: the 6 ranking runs
             conn.execute(f"DELETE FROM {table} WHERE kind = 'posterior'")

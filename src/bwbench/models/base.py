@@ -116,6 +116,10 @@ class Model:
     states: tuple = ()
     direct_name = "direct"
     default_formulation = "direct"
+    # Whether a viscous coefficient (N·s/mm) solved in the identifiable formulation is bounded ≥ 0 when
+    # the measured loops dissipate (``bwbench.problems.linear_bounds``): right for one dashpot, wrong for a
+    # model whose identified branches may have either sign (the switched model: see there).
+    viscous_sign_bound = True
 
     @property
     def formulations(self) -> tuple:
@@ -187,6 +191,32 @@ class Model:
         """{branch: True when the fitted branch is linear in x (no yield within the stroke)} for the
         identifiable θ and its trajectory; {} when the model has no such notion."""
         return {}
+
+    def linear_limits(self, state=None) -> dict:
+        """{branch: {identifiable parameter name: value}}: for each branch (the keys of
+        ``linear_branches``), the values of its shape parameters that make it linear until it yields,
+        whatever its other parameters — what a posterior holds fixed when the data cannot tell the
+        branch's shape from that (a reduced model, ``bwbench.optimize.mcmc_reduce``); {} when the
+        model has no such notion."""
+        return {}
+
+    def yield_parameters(self, state=None) -> dict:
+        """{branch: identifiable parameter name} of the parameter that sets where a branch of
+        ``linear_limits`` yields: a posterior holds it at the top of its box (the branch never yields
+        within the stroke) when the data cannot tell that apart either; {} when the model has none."""
+        return {}
+
+    def reduced_gauge(self, held, state=None) -> set:
+        """Names of the identifiable parameters (sampled or solved) whose values a reduced model with
+        ``held`` (names) held fixed puts in its own gauge: they trade with a held one along a direction
+        the data do not see, so they cannot be compared with a truth or with fits of the full model."""
+        return set()
+
+    def symmetries(self, params, state=None) -> list:
+        """The exact symmetries of the direct formulation at ``params``: a list of (name, orbit), orbit(s)
+        giving the direct parameters moved by the scale s > 0 (s = 1: ``params``) with the force
+        unchanged; [] when the model has none (or none is known)."""
+        return []
 
 
 def amplitude(x) -> float:

@@ -127,6 +127,19 @@ class Objective:
         self._record(U_run, losses)
         return R[0] if single else R
 
+    def apply(self, U, simulate) -> np.ndarray:
+        """``simulate(P)`` (physical rows (m, d) → rows (m, ...)) of the rows of U, each counted as one
+        evaluation, cut and refused past the budget like ``batch`` (rows not run are NaN): for a
+        simulation that is not a loss, e.g. the trajectory a check of the fit reads. The best point
+        and the trace are not touched."""
+        U = np.atleast_2d(np.asarray(U, dtype=float))
+        take, U_run = self._admit(U)
+        run = np.asarray(simulate(self.problem.from_unit(U_run)), dtype=float)
+        self.nfev += take
+        out = np.full((len(U), *run.shape[1:]), np.nan)
+        out[:take] = run
+        return out
+
     def __call__(self, u) -> float:
         """Loss of one point (1-D, unit coordinates)."""
         u = np.asarray(u, dtype=float)

@@ -5,10 +5,11 @@ study's ``[bounds]`` may set any solved coefficient by name, e.g. ``{"m": [0, 0.
 
 - a fitted inertia m in [0, ``M_MAX``] = [0, 1] N·s²/mm (0 to 1 t): a negative mass is no mass, and
   no specimen or damper on a test machine moves a tonne (1 t is the paper's normalisation, m = 1);
-- a viscous coefficient (unit N·s/mm: c± of the switched model, c₁ of Spencer's) ≥ 0 when the data
-  follow the README's sign convention, i.e. the measured loops dissipate energy (∮F·dx > 0): a
-  dashpot cannot push the way it moves. Data whose loops run the other way (the paper's synthetic
-  specimens: its ξ₋ < 0 makes c₋ < 0) get no sign bound, and the design says so.
+- a viscous coefficient (unit N·s/mm: c₁ of Spencer's model) ≥ 0 when the data follow the README's
+  sign convention, i.e. the measured loops dissipate energy (∮F·dx > 0): a dashpot cannot push the
+  way it moves. Data whose loops run the other way get no sign bound, nor does a model whose
+  branches may carry either sign (``Model.viscous_sign_bound``: the switched model's c± — the
+  paper's ξ₋ < 0 makes c₋ < 0 on specimens whose loops dissipate).
 
 **The solve.** The unbounded least-squares solution of each row comes from the fast path
 (``linear_solve``), together with its triangular factor: X = [Q | Q_w]·R, b = [Q | Q_w]ᵀ·y. A row
@@ -29,9 +30,10 @@ M_MAX = 1.0  # N·s²/mm (1 t): the largest inertia a solved m may take by defau
 VISCOUS_UNIT = "N·s/mm"
 
 
-def physical_bounds(layout, signal, f, coefficient_units: dict) -> tuple[dict, list[str]]:
+def physical_bounds(layout, signal, f, coefficient_units: dict, viscous_sign: bool = True) -> tuple[dict, list[str]]:
     """({coefficient: (lower, upper)}, notes) of the module docstring for one record (or a stacked
-    set: ``signal`` with ``segments``) and its force ``f`` (N)."""
+    set: ``signal`` with ``segments``) and its force ``f`` (N); ``viscous_sign`` False: no sign bound
+    on the viscous coefficients (a model whose branches may carry either sign, ``Model.viscous_sign_bound``)."""
     from bwbench.data.plausibility import loop_work
 
     bounds: dict = {}
@@ -40,6 +42,10 @@ def physical_bounds(layout, signal, f, coefficient_units: dict) -> tuple[dict, l
         bounds[layout.mass] = (0.0, M_MAX)
     viscous = [n for n, unit in coefficient_units.items() if unit == VISCOUS_UNIT]
     if not viscous:
+        return bounds, notes
+    if not viscous_sign:
+        notes.append(f"{', '.join(viscous)} of either sign: the model's branches may carry a negative viscous term "
+                     "while the loop dissipates (the paper's ξ₋ < 0)")
         return bounds, notes
     parts = getattr(signal, "segments", None) or (slice(0, len(f)),)
     x = np.asarray(getattr(signal, "x_recorded", None) if getattr(signal, "x_recorded", None) is not None

@@ -145,11 +145,12 @@ class IdentifiableProblem(ModelFit):
 
     def log_likelihood_batch(self, P) -> tuple[np.ndarray, np.ndarray]:
         """(MSE in N², log marginal likelihood) of each row of P from one simulation each: the linear
-        coefficients integrated out under a flat prior and σ under Jeffreys' 1/σ; −inf on blow-up."""
+        coefficients integrated out (flat prior on those of the fixed signals, the scale-free g-prior on
+        those of the θ-dependent columns: ``marginal``) and σ under Jeffreys' 1/σ; −inf on blow-up."""
         from bwbench.problems.marginal import log_marginal
 
         solution = self.solve(P)
-        return solution.mse, log_marginal(solution)
+        return solution.mse, log_marginal(solution, prior="scale-free", varying=len(self.design.w_names))
 
     def residual_batch(self, P) -> np.ndarray:
         """F_model − F_measured (N), (m, L); rows of +inf where the model blows up."""
@@ -186,7 +187,8 @@ def coefficient_bounds_of(model, layout, signal, f, given: dict | None = None) -
     from bwbench.problems.linear_bounds import physical_bounds
     from bwbench.problems.linear_columns import coefficient_units
 
-    bounds, notes = physical_bounds(layout, signal, f, coefficient_units(layout))
+    bounds, notes = physical_bounds(layout, signal, f, coefficient_units(layout),
+                                    viscous_sign=getattr(model, "viscous_sign_bound", True))
     for name, (lo, hi) in (given or {}).items():
         bounds[name] = (float(lo), float(hi))
         notes.append(f"{name} bounded to [{lo:g}, {hi:g}] by the caller")

@@ -20,10 +20,10 @@ Generic format (``studies/quick.toml`` is a worked example)::
 
     [posterior]               # optional: long MCMC runs, kept out of the ranking
     specimens = ["pom-mt24u01_0.01MPa_r1"]   # names (file stems); may be omitted with one specimen
-    optimizer = "emcee"
-    budget = 40000
-    seeds = 1
-    options = {}
+    optimizer = "emcee"       # the default
+    budget = 250000
+    seeds = 1                 # the default
+    options = {}              # on top of POSTERIOR_OPTIONS (what converges without options)
 
 The problem's keys and tables are read by its ``ProblemType.configure``
 (``bwbench.problems.switched_vpp.study``, ``bwbench.problems.noel_schoukens.study``). Every mistake
@@ -52,6 +52,12 @@ except ModuleNotFoundError:  # Python 3.10
 
 GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem")
 POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
+# What a [posterior] run of a backend gets before its own options: the settings that converge on the
+# shipped specimens and on others of the same kind (README "Posterior sampling"), not the backend's
+# defaults, which are a sampler used as an optimiser in the ranking (walkers uniform in the box, one
+# ensemble, the whole budget spent).
+POSTERIOR_OPTIONS = {"emcee": {"start": "optima", "moves": "de", "ensembles": 3, "n_walkers": None,
+                               "start_fraction": 0.05, "stop": "converged"}}
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 
 
@@ -312,8 +318,17 @@ def _posterior(fail, table, setup: ProblemSetup) -> PosteriorConfig:
                        "BWBENCH_MAX_BUDGET"),
         seeds=bounded(fail, "[posterior] seeds", integer(fail, "[posterior] seeds", table.get("seeds", 1)),
                       "BWBENCH_MAX_SEEDS"),
-        options=_resolve_options(fail, "[posterior] options", optimizer, table.get("options", {})),
+        options=_resolve_options(fail, "[posterior] options", optimizer, _posterior_options(optimizer, table)),
     )
+
+
+def _posterior_options(optimizer: str, table: dict):
+    """The table's options on top of the backend's ``POSTERIOR_OPTIONS`` (left as given when they are
+    not a table: ``_resolve_options`` says what is wrong)."""
+    given = table.get("options", {})
+    if not isinstance(given, dict):
+        return given
+    return {**POSTERIOR_OPTIONS.get(optimizer, {}), **given}
 
 
 def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:

@@ -40,6 +40,7 @@ from bwbench.report.palette import (
     write_png,
 )
 
+BAND_COLOUR = OKABE_ITO[5]
 BACKENDS = 3  # residuals of the best few backends (and random search): more lines hide each other
 MEASURED: dict[str, Any] = {"color": "black", "marker": ".", "ls": "", "ms": 2.2, "alpha": 0.75, "zorder": 5, "rasterized": True}
 
@@ -132,13 +133,19 @@ def _velocity_source(problem) -> str:
         source, f"velocity of the {source}" if source else "velocity")
 
 
-def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = BACKENDS) -> Path:
+def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = BACKENDS, band="auto") -> Path:
     """The best fits of a study on ``specimen`` (the paper's Figs 20–21 made comparable): the
     measured loop once with the best ranking run's fit, and the residual against time of the best
     run of each of the ``backends`` best backends (ranking ``order``; plus the backend of the best
     run if it is not among them) and of random search. Ranking runs only: a posterior run has a
-    far larger budget and would not be a fair "best run of its backend"."""
+    far larger budget and would not be a fair "best run of its backend". When the study has a
+    posterior on ``specimen``, its 95 % predictive band (``posterior_predictive``; ``band``: "auto" finds
+    it, None draws none, or a ``Band``) is shaded on the force and, measured force subtracted, on the
+    residual panel."""
+    from bwbench.problems.switched_vpp.posterior_predictive import band_of
+
     theme()
+    band = band_of(study, specimen) if isinstance(band, str) else band
     ranking = study.ranking
     runs = ranking[(ranking["specimen"] == specimen) & (ranking["status"] == "ok")
                    & np.isfinite(ranking["mse"].astype(float))]
@@ -174,6 +181,18 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     noise = _noise_band(study, specimen, cache)
     if noise is not None:
         residual.axhspan(-2 * noise, 2 * noise, color="0.85", zorder=0, lw=0)
+    if band is not None:  # on the residual panel as residuals of the best fit: best force − predicted measurement
+        force_ax.fill_between(spec.t, band.lower, band.upper, color=BAND_COLOUR, alpha=0.45, lw=0, zorder=2)
+        residual.fill_between(spec.t, best_force - band.upper, best_force - band.lower, color=BAND_COLOUR,
+                              alpha=0.35, lw=0, zorder=1)
+        # on top of the residual lines: it is narrow (the posterior's spread of the fitted force, no noise)
+        residual.fill_between(spec.t, best_force - band.model_upper, best_force - band.model_lower,
+                              color=OKABE_ITO[4], alpha=0.55, lw=0, zorder=20)
+        frames.append(pd.DataFrame({"specimen": specimen, "optimizer": "posterior predictive 95 %", "kind": "posterior",
+                                    "replicate": 0, "time_s": spec.t, "displacement_mm": spec.x,
+                                    "force_measured_N": spec.f, "band_lower_N": band.lower,
+                                    "band_upper_N": band.upper, "model_band_lower_N": band.model_lower,
+                                    "model_band_upper_N": band.model_upper}))
     for rank, optimizer in reversed(list(enumerate(shown))):  # the best drawn last, on top
         residual.plot(spec.t, residuals[optimizer], **look[optimizer].line(lw=0.9), zorder=3 + len(shown) - rank)
     residual.axhline(0.0, color="black", lw=0.8, zorder=2)
@@ -195,6 +214,12 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     handles.append(REVERSAL)
     if noise is not None:
         handles.append(Patch(color="0.85", label=f"±2σ of the noise (truth's residual, σ = {noise:.2g} N)"))
+    if band is not None:
+        handles.append(Patch(color=BAND_COLOUR, alpha=0.45, label=(
+            f"posterior predictive 95 % (noise included; {band.draws} draws): the measured force leaves it at "
+            f"{band.outside:.1%} of the samples")))
+        handles.append(Patch(color=OKABE_ITO[4], alpha=0.55, label="posterior 95 % of the model force (no noise); "
+                                                                    "residual panel: both as residuals of the best fit"))
     legend(fig, handles, ncol=2)
     fig.suptitle(f"{specimen}: best fit ({best_label}, seed {int(best_run['replicate'])}) and the residuals of the "
                  f"best {len(shown) - len(randoms)} backends" + (" and random search" if randoms else "") + "\n"

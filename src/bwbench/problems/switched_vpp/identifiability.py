@@ -28,9 +28,9 @@ def _finite(x):
 
 
 def analyse(specimen_path, params, state: str = "shared", excitation: str = "measured", *,
-            formulation: str = "paper", model: str | None = None, bounds: dict | None = None, profile_names=(),
-            profile_widest: int = 0,
-            grid: int = 9, maxiter: int = PROFILE_MAXITER, step: float = STEP, weakest: int = 3) -> dict:
+            formulation: str = "paper", bounds: dict | None = None, profile_names=(), profile_widest: int = 0,
+            grid: int = 9, maxiter: int = PROFILE_MAXITER, step: float = STEP, weakest: int = 3,
+            model: str | None = None) -> dict:
     """Identifiability of the parameters ``params`` (physical units, the formulation's coordinates)
     on one specimen.
 
@@ -53,7 +53,8 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
         settings["model"] = model
     problem = make_problem(read_specimen(specimen_path), settings)
     names = list(problem.param_names)
-    labels = [p.label or p.name for p in problem.parameter_list]
+    known = {p.name: p.label or p.name for p in problem.parameter_list}
+    labels = [known.get(n) or label(n) for n in names]
     params = np.asarray(params, dtype=float)
     u = problem.to_unit(params)
     outside = [n for n, x in zip(names, u) if not -1e-9 <= x <= 1 + 1e-9]
@@ -80,7 +81,8 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
         "specimen": problem.specimen.name, "model": problem.model.name, "state": problem.state,
         "excitation": excitation, "formulation": problem.formulation,
         "n_data": sens.n_data, "mse": mse, "rmse_N": math.sqrt(mse), "params": dict(zip(names, map(float, params))),
-        "step_unit": step, "names": names,
+        "step_unit": step, "names": names, "labels": dict(zip(names, labels)),
+        "units": {p.name: p.unit for p in problem.parameter_list},
         "singular_values": [float(s) for s in sens.singular_values],
         "relative_singular_values": [float(r) for r in sens.ratios],
         "condition_number": _finite(sens.condition_number),
@@ -125,21 +127,18 @@ def label(name: str) -> str:
 
 
 def classify_null_space(problem, params, sens, residual, step) -> dict:
-    """The numerically zero directions at ``params``: first the model's exact symmetries (paper
-    formulation: z → s·z, one scale for the shared state, one per branch for the split), each
-    checked along a finite orbit s ∈ [0.8, 1.25] and measured against the numerical null space;
-    then what is left of the null space, followed over a finite path (``follow_invariance``):
-    invariant to round-off there, or only a flat spot (weakly determined)."""
-    from bwbench.models.switched_identifiable import scale_paper
-
+    """The numerically zero directions at ``params``: first the model's exact symmetries in its direct
+    formulation (``Model.symmetries``; the switched model's z → s·z, one scale for the shared state,
+    one per branch for the split), each checked along a finite orbit s ∈ [0.8, 1.25] and measured
+    against the numerical null space; then what is left of the null space, followed over a finite
+    path (``follow_invariance``): invariant to round-off there, or only a flat spot (weakly determined)."""
     zero = sens.ratios < ZERO_RATIO
     null = sens.directions[zero]  # orthonormal rows
     scale = float(np.linalg.norm(problem.specimen.f))
     symmetries, tangents = [], []
-    if getattr(problem, "formulation", "paper") == "paper" and problem.model.name == "switched-bouc-wen":
-        orbits = {"shared": [("z → s·z in both branches", lambda s: scale_paper(params, s, s))],
-                  "split": [("z₊ → s·z₊", lambda s: scale_paper(params, s, 1.0)),
-                            ("z₋ → s·z₋", lambda s: scale_paper(params, 1.0, s))]}[problem.state]
+    model = getattr(problem, "model", None)
+    if model is not None and getattr(problem, "formulation", "") == model.direct_name:
+        orbits = model.symmetries(params, problem.state)
         f0 = problem.simulate(params)
         for name, orbit in orbits:
             eps = 1e-6
@@ -207,17 +206,18 @@ def format_text(result: dict) -> str:
     for n in names:
         flag = "  poorly determined" if n in result["poorly_determined"] else ""
         lo, hi = result["free_range"][n]
-        lines.append(f"  {label(n):<4} free {result['free_range_unit'][n]:6.1%} [{lo:9.4g} – {hi:9.4g}]"
+        lines.append(f"  {result.get('labels', {}).get(n) or label(n):<4} free {result['free_range_unit'][n]:6.1%} "
+                     f"[{lo:9.4g} – {hi:9.4g}]"
                      f"   s.e. {_se_text(result['standard_error_unit'][n]):>8}{flag}")
     poor = result["poorly_determined"]
     threshold = f"{result['poor_threshold_unit']:.0%}"
     if poor:
         lines.append(f"poorly determined (free range or standard error > {threshold} of the range): "
-                     + ", ".join(label(n) for n in poor))
+                     + ", ".join(result.get("labels", {}).get(n) or label(n) for n in poor))
     else:
         lines.append(f"every parameter is determined to better than {threshold} of its range")
     for name, points in result["profiles"].items():
-        lines += ["", f"profile of {label(name)} (others re-optimised, L-BFGS-B up to {result['profile_maxiter']} "
+        lines += ["", f"profile of {result.get('labels', {}).get(name) or label(name)} (others re-optimised, L-BFGS-B up to {result['profile_maxiter']} "
                       "iterations): value -> MSE (N²), converged?"]
         lines += [f"  {p['value']:12.5g}  {p['mse'] if p['mse'] is not None else math.inf:12.5g}  "
                   f"{'converged' if p.get('converged') else 'NOT converged (an upper bound)'}" for p in points]

@@ -21,7 +21,7 @@ from bwbench.analysis.identifiability import POOR_SE
 from bwbench.data import manifest
 from bwbench.errors import UserError
 from bwbench.problems.switched_vpp import identifiability as switched_identifiability
-from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for
+from bwbench.problems.switched_vpp.figure_common import formulation_of, model_of, problem_for
 from bwbench.report.format import join, number
 
 GOOD = 0.10  # good runs: final loss within 10 % of the best known
@@ -34,22 +34,24 @@ def box_name(formulation: str, paper_data: bool) -> str:
     return "the box scaled from the data"
 
 
-def runs_in(study, formulation: str) -> pd.DataFrame:
-    """Finished runs (ranking and posterior) that searched ``formulation``'s coordinates."""
+def runs_in(study, formulation: str, model: str | None = None) -> pd.DataFrame:
+    """Finished runs (ranking and posterior) that searched ``formulation``'s coordinates (of ``model``,
+    when given: a study comparing models has one set of coordinates per model)."""
     runs = study.runs[(study.runs["status"] == "ok") & np.isfinite(study.runs["mse"].astype(float))]
-    return runs[[formulation_of(study, o) == formulation for o in runs["optimizer"]]]
+    return runs[[formulation_of(study, o) == formulation and (model is None or model_of(study, o) == model)
+                 for o in runs["optimizer"]]]
 
 
-def good_run_spread(study, specimen, formulation, cache, tolerance=GOOD):
-    """Per parameter, (max − min) of the good ranking runs in ``formulation`` as a fraction of its
-    search range; None with fewer than 2 such runs."""
+def good_run_spread(study, specimen, formulation, cache, tolerance=GOOD, label: str | None = None):
+    """Per parameter, (max − min) of the good ranking runs in ``formulation`` (of the model of the run
+    label ``label``, when given) as a fraction of its search range; None with fewer than 2 such runs."""
     best = statistics.best_known(study.runs)[specimen]
-    ranking = runs_in(study, formulation)
+    ranking = runs_in(study, formulation, None if label is None else model_of(study, label))
     good = ranking[(ranking["kind"] == "ranking") & (ranking["specimen"] == specimen)
                    & (ranking["mse"] <= best * (1 + tolerance))]
     if len(good) < 2:
         return None, len(good)
-    problem = problem_for(study, specimen, formulation, cache)
+    problem = problem_for(study, specimen, label or formulation, cache)
     unit = problem.to_unit(good[list(problem.param_names)].to_numpy(dtype=float))
     return dict(zip(problem.param_names, unit.max(axis=0) - unit.min(axis=0))), len(good)
 
@@ -59,7 +61,6 @@ def section(report, formulation: str, paper_data: bool) -> list:
     from bwbench.problems.switched_vpp import figures
 
     doc, study, log = report.doc, report.study, report.log
-    label = switched_identifiability.label
     box = box_name(formulation, paper_data)
     profile_params, profile_grid = report.options.get("profile_params", 2), report.options.get("profile_grid", 7)
     coordinates = "the paper's 14 parameters" if formulation == "paper" else "the identifiable hysteretic parameters"
@@ -77,7 +78,14 @@ def section(report, formulation: str, paper_data: bool) -> list:
     results: list = []
     for k, specimen in enumerate(report.featured):
         mine = runs[runs["specimen"] == specimen]
-        problem = problem_for(study, specimen, formulation, cache)
+        if mine.empty:
+            doc.p(f"{specimen}: no finished fit in {box} to analyse.")
+            continue
+        # the model of the best fit: a study comparing models analyses each specimen in the winner's
+        best_label = mine.loc[mine["mse"].idxmin(), "optimizer"]
+        model = model_of(study, best_label)
+        mine = mine[[model_of(study, o) == model for o in mine["optimizer"]]]
+        problem = problem_for(study, specimen, best_label, cache)
         unit = problem.to_unit(mine[list(problem.param_names)].to_numpy(dtype=float))
         inside = mine[np.all(np.isfinite(unit) & (unit >= -1e-9) & (unit <= 1 + 1e-9), axis=1)]
         if inside.empty:
@@ -92,12 +100,13 @@ def section(report, formulation: str, paper_data: bool) -> list:
                 study.specimen_path(specimen), run[list(problem.param_names)].to_numpy(dtype=float),
                 study.settings.get("state", "shared"), study.settings.get("excitation", "measured"),
                 formulation=formulation, bounds=study.settings.get("bounds"), profile_widest=widest,
-                grid=profile_grid)
+                grid=profile_grid, model=model)
         except UserError as err:
             doc.p(f"{specimen}: identifiability analysis not possible: {err}")
             continue
         results.append(result)
         names = result["names"]
+        label = result["labels"].get  # the model's own labels (x_y₊, ωn₋, c₁, ...)
         doc.h(3, specimen)
         rel = result["relative_singular_values"]
         doc.p(f"Best fit: {run['optimizer']} ({run['kind']}, seed {int(run['replicate'])}), RMSE "
@@ -116,7 +125,7 @@ def section(report, formulation: str, paper_data: bool) -> list:
                                 "here, not a symmetry of the model)." if d["exact"] else
                                 "zero here only: weakly determined, not invariant.")
                              for d in result["null_directions"]))
-        spread, n_good = good_run_spread(study, specimen, formulation, cache)
+        spread, n_good = good_run_spread(study, specimen, formulation, cache, label=best_label)
         poor = result["poorly_determined"]
         rows = []
         for n in names:
@@ -181,7 +190,7 @@ def profile_sentence(result: dict) -> str:
         converged = np.array([p.get("converged", False) for p in points])
         values = np.array([p["value"] for p in points])
         side = bounded(values, mse, threshold, converged)
-        label = switched_identifiability.label(name)
+        label = result.get("labels", {}).get(name) or switched_identifiability.label(name)
         if side == "neither":
             parts.append(f"{label}: below the 95 % threshold over its whole search range, so the data do not "
                          "identify it at all (the others compensate; an upper-bound profile shows this whether or "

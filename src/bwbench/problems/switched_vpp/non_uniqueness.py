@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import statistics
+from bwbench.analysis.spread import symmetry_share  # noqa: F401 (used here and re-exported)
 from bwbench.data.parameters import LABELS, LOWER, UPPER
 from bwbench.models import switched_identifiable as fm
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
@@ -51,19 +52,6 @@ def coordinates(runs: pd.DataFrame, state: str) -> tuple[np.ndarray, np.ndarray,
         gauged.append(mapped if mapped is not None else np.full(14, np.nan))
         theta.append(t)
     return np.array(paper).reshape(-1, 14), np.array(gauged).reshape(-1, 14), np.array(theta).reshape(-1, len(names))
-
-
-def symmetry_share(paper_unit: np.ndarray, gauged_unit: np.ndarray) -> float:
-    """Fraction of the total variance of the paper coordinates (Table 5 units) that fixing the
-    gauge removes: the part of the scatter that is the exact symmetry. NaN with fewer than 2 runs; 0
-    when fixing the gauge does not shrink the scatter (it can move fits apart: then none of it is the
-    symmetry, never a negative share)."""
-    keep = np.all(np.isfinite(paper_unit), axis=1) & np.all(np.isfinite(gauged_unit), axis=1)
-    if keep.sum() < 2:
-        return float("nan")
-    before = float(np.sum(np.var(paper_unit[keep], axis=0)))
-    after = float(np.sum(np.var(gauged_unit[keep], axis=0)))
-    return max(0.0, 1.0 - after / before) if before > 0 else float("nan")
 
 
 def spread_table(study, specimen: str) -> tuple[pd.DataFrame, dict]:
@@ -174,3 +162,70 @@ def figure(study, out_dir, specimen: str, order=None):
     fig.suptitle(f"{specimen}: the {s['runs']} ranking runs within {TOLERANCE:.0%} of the best known MSE")
     synthetic = study.problem_type.is_synthetic(study)
     return save(fig, out_dir, f"nonuniqueness_{slug(specimen)}", pd.DataFrame(rows), synthetic)
+
+
+def section(report, paper: bool) -> None:
+    """The report's non-uniqueness section: for each specimen with a posterior, the good fits' scatter
+    split into the data's, the optimisers' and the symmetry's (``spread_decomposition``, one table and one
+    figure); and, when the study searched the paper's coordinates on the paper's data, the symmetry's
+    part of the scatter on the featured specimens without a posterior."""
+    from bwbench.problems.switched_vpp import spread_decomposition as sd
+    from bwbench.problems.switched_vpp.posterior_draws import cached
+
+    doc, study = report.doc, report.study
+    chains = cached(report)
+    searched = study.settings.get("formulation", "paper")
+    searched = [searched] if isinstance(searched, str) else list(searched)
+    symmetric = "paper" in searched
+    if not chains and not symmetric:
+        return
+    doc.h(2, "Non-uniqueness: the data, the optimiser and the exact symmetry")
+    if symmetric:
+        doc.p("The paper's 14 parameters have an exact symmetry: z → s·z with A → s·A, β, γ → s^(1−n)·β, "
+              "s^(1−n)·γ and (1 − α)·ωn² → (1 − α)·ωn²/s leaves the force unchanged (one s for the shared state, "
+              "one per branch for the split), so every fit lies on a curve of equally good parameter vectors; the "
+              "identifiable coordinates have no such curve.")
+    if chains:
+        doc.p("Where a specimen has a posterior, the good ranking fits (within 10 % of the best known MSE, every seed "
+              "and formulation, put in the posterior's coordinates) are held against it. The posterior is what the "
+              "data allow: a fit whose log-posterior reaches the 1 % quantile of the posterior's draws is as probable "
+              "as they are, so where it lies the data put it; a fit below stopped before the posterior's bulk (on "
+              "~1,900 samples a fit 10 % above the best MSE is e^90 less probable). Per parameter, fits outside the "
+              "range the posterior's draws cover (their central 99 %) are scatter the data do not explain: the "
+              "optimisers' when they stopped early, another mode the chain did not visit when they are as probable.")
+    done = set()
+    for pc in chains:
+        specimen = pc.chain.specimen
+        if specimen in done:
+            continue
+        done.add(specimen)
+        d = sd.decomposition(study, pc)
+        if not len(d["fits"]):
+            doc.p(f"{specimen}: no good ranking fit to hold against the posterior.")
+            continue
+        doc.table(sd.shown_table(pc, d), f"{specimen}: the scatter of the {len(d['fits'])} good fits against the "
+                                         "posterior, per parameter (positions as fractions of the search box)")
+        doc.p(sd.sentence(pc, d))
+        doc.figure(sd.figure(study, report.out, pc, d), f"{specimen}: the good fits against the posterior")
+    if not (symmetric and paper):
+        return
+    for specimen in [s for s in report.featured[:2] if s not in done]:
+        table, s = spread_table(study, specimen)
+        if s["runs"] < 2:
+            doc.p(f"{specimen}: only {s['runs']} good fit(s): no spread to analyse.")
+            continue
+        shown = table.copy()
+        for column in shown.columns:
+            if shown[column].dtype.kind == "f":
+                shown[column] = shown[column].map(lambda x: "–" if not np.isfinite(x) else f"{x:.0%}")
+        doc.table(shown.fillna(""), f"{specimen}: range of the {s['runs']} good fits, as a fraction of each "
+                                    "parameter's search range")
+        share = s["share"]
+        if np.isfinite(share):
+            doc.p(f"{specimen}: of the scatter of the paper parameters across the {s['share_runs']} of these fits "
+                  "that searched the paper's coordinates (total variance in Table 5 units), **{share:.0%} is the "
+                  "exact symmetry** (it disappears when the gauge is fixed); the rest lies in directions the data "
+                  "determine only weakly or where the optimisers stopped (no posterior on this specimen to tell "
+                  "which).".replace("{share:.0%}", f"{share:.0%}"))
+        doc.figure(figure(study, report.out, specimen, order=list(report.table["optimizer"])),
+                   f"{specimen}: good fits in the paper's and the identifiable coordinates")

@@ -22,7 +22,7 @@ from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.problems.switched_vpp.figure_common import axis_label, synthetic, truth
 from bwbench.report.palette import MAX_WIDTH_IN, OKABE_ITO, TRUTH, canvas, figure, legend, save, slug, styles, theme
 
-R_HAT_MAX, ESS_MIN = 1.01, 400  # Vehtari et al. (2021): converged when R̂ ≤ 1.01 and bulk ESS ≥ 400
+R_HAT_MAX, ESS_MIN = mcmc.R_HAT_MAX, mcmc.ESS_MIN  # Vehtari et al. (2021): converged when R̂ ≤ 1.01 and bulk ESS ≥ 400
 NOT_CONVERGED_BOX = {"fc": "#FBE3D6", "ec": OKABE_ITO[3], "boxstyle": "round,pad=0.4"}
 CONVERGED_BOX = {"fc": "#DDEFE7", "ec": OKABE_ITO[2], "boxstyle": "round,pad=0.4"}
 
@@ -48,9 +48,14 @@ def verdict(diagnostics: pd.DataFrame | None) -> tuple[bool | None, str]:
                    + ". The histograms show where the chain has been, not the posterior.")
 
 
-def _coordinates(values: dict, names, state: str):
+def _coordinates(values: dict, names, state: str, problem=None):
     """A parameter vector in the chain's coordinates ``names``: taken as is when ``values`` has
-    them all, mapped from the paper's 14 to the identifiable ones otherwise; None if neither."""
+    them all, mapped from the model's direct parameters (the paper's 14 without ``problem``) to the
+    identifiable ones otherwise; None if neither."""
+    if problem is not None:
+        from bwbench.problems.switched_vpp.posterior_draws import in_coordinates
+
+        return in_coordinates(values, problem)
     if all(np.isfinite(values.get(n, np.nan)) for n in names):
         return np.array([float(values[n]) for n in names])
     if all(np.isfinite(values.get(n, np.nan)) for n in PARAM_NAMES) and tuple(names) == fm.hysteretic_names(state):
@@ -68,7 +73,7 @@ def _ticks(axis, bins: int) -> None:
 
 
 def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, max_csv: int = 4000, *,
-              diagnostics=None, from_unit=None, names=None, order=None) -> Path:
+              diagnostics=None, from_unit=None, names=None, order=None, problem=None, posterior=None) -> Path:
     """MCMC posterior of one chain: the marginal of every parameter and the joint density of the
     ``pairs`` most correlated pairs, with the overall best fit on the specimen (any run) and the
     truth marked, and the convergence verdict printed on the figure. ``burn`` steps are dropped
@@ -77,14 +82,29 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
     ``names`` and ``from_unit``: the chain's coordinates and its map from unit coordinates (default:
     the paper's 14 in the Table 5 box; for the identifiable ones e.g. ``hysteretic_names(state)``
     and ``scaled_bounds(x, f, state).from_unit``). ``diagnostics``: R̂ and bulk ESS per parameter
-    (``mcmc.convergence``); computed here from the kept walkers when not given (False: none)."""
+    (``mcmc.convergence``); computed here from the kept walkers when not given (False: none).
+    ``problem`` and ``posterior`` (a ``posterior_draws.PosteriorChain``): any model's chain — names,
+    labels, units and box from the problem, the main mode's walkers kept, its ArviZ table shown,
+    parameters a reduced model held fixed named in the title instead of drawn."""
     from bwbench.analysis.identifiability import posterior_correlation, strongest_pairs
+    from bwbench.problems.switched_vpp.posterior_draws import axis
+    from bwbench.problems.switched_vpp.posterior_draws import truth as truth_of
 
     theme()
-    names = list(PARAM_NAMES if names is None else names)
     state = study.settings.get("state", "shared")
     burn = chain.steps // 2 if burn is None else burn
-    stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
+    fixed = []
+    if posterior is not None:
+        problem = posterior.problem
+        names, from_unit, fixed = list(posterior.names), problem.from_unit, list(posterior.fixed)
+        keep = np.zeros(chain.walkers, dtype=bool)
+        keep[posterior.main.walkers] = True
+        stuck = ~keep
+        if diagnostics is None:
+            diagnostics = posterior.assessment["diagnostics"][posterior.assessment["modes"].index(posterior.main)]
+    else:
+        names = list(PARAM_NAMES if names is None else names)
+        stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
     samples = chain.physical(burn, ~stuck, from_unit=from_unit)
     if diagnostics is None:
         diagnostics = mcmc.convergence(chain.samples[:, ~stuck], names, burn)
@@ -93,12 +113,28 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
     box = (np.vstack([LOWER, UPPER]) if from_unit is None else
            np.vstack([from_unit(np.zeros((1, len(names))))[0], from_unit(np.ones((1, len(names))))[0]]))
     specimen = chain.specimen
-    true = truth(study, specimen)
-    true = None if true is None else _coordinates(dict(zip(PARAM_NAMES, true)), names, state)
+    if problem is not None:
+        known = truth_of(study, problem, specimen)
+        true = None if known is None else np.array([known.get(n, np.nan) for n in names])
+        label = lambda n: axis(problem, n)  # noqa: E731
+    else:
+        true = truth(study, specimen)
+        true = None if true is None else _coordinates(dict(zip(PARAM_NAMES, true)), names, state)
+        label = axis_label
+    # the best ranking fit (the posterior run's own best point comes from its start's searches, in the
+    # full model even when the chain samples a reduced one); the ranking's when there is one
     runs = study.runs[(study.runs["specimen"] == specimen) & (study.runs["status"] == "ok")
                       & np.isfinite(study.runs["mse"].astype(float))]
+    if (runs["kind"] == "ranking").any():
+        runs = runs[runs["kind"] == "ranking"]
     best_run: Any = runs.loc[runs["mse"].idxmin()] if len(runs) else None
-    best = None if best_run is None else _coordinates(best_run.to_dict(), names, state)
+    best = None if best_run is None else _coordinates(best_run.to_dict(), names, state, problem)
+    if problem is not None and posterior is not None and posterior.fixed:
+        # in the reduced model's gauge a full-model value (truth, fit) is not comparable: not marked
+        gauge = [j for j, n in enumerate(names) if n in problem.model.reduced_gauge(posterior.fixed, problem.state)]
+        for marked in (true, best):
+            if marked is not None:
+                marked[gauge] = np.nan
     colour = styles(study, order)[best_run["optimizer"]].colour if best_run is not None else "black"
 
     lo_q, hi_q = np.quantile(samples, [0.005, 0.995], axis=0)
@@ -106,14 +142,15 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
     lo, hi = np.maximum(lo_q - pad, box.min(axis=0)), np.minimum(hi_q + pad, box.max(axis=0))
     for marked in (true, best):  # keep the marks on the frame
         if marked is not None:
-            lo, hi = np.minimum(lo, marked), np.maximum(hi, marked)
+            lo, hi = np.fmin(lo, marked), np.fmax(hi, marked)  # fmin: a mark left out (NaN) moves nothing
     margin = 0.04 * (hi - lo)
     lo, hi = lo - margin, hi + margin
 
-    d = len(names)
+    shown = [j for j, n in enumerate(names) if n not in fixed]
+    d = len(shown)
     ncols = 5 if d > 8 else 4
     nrows = -(-d // ncols)
-    corr = posterior_correlation(samples, names)
+    corr = posterior_correlation(samples[:, shown], [names[j] for j in shown])
     top = strongest_pairs(corr, pairs)
     fig = canvas(MAX_WIDTH_IN, 0.8 + 2.35 * nrows + 3.2 + 1.0)
     grid = fig.add_gridspec(nrows + 2, ncols, height_ratios=[0.45] + [1] * nrows + [1.45])
@@ -123,17 +160,18 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         note.text(0.5, 0.5, sentence, ha="center", va="center", fontsize=11, fontweight="bold", wrap=True,
                   transform=note.transAxes, bbox=CONVERGED_BOX if converged else NOT_CONVERGED_BOX)
     diag = {} if diagnostics is None else diagnostics.set_index("parameter").to_dict("index")
-    for j, name in enumerate(names):
-        ax = fig.add_subplot(grid[1 + j // ncols, j % ncols])
+    for k, j in enumerate(shown):
+        name = names[j]
+        ax = fig.add_subplot(grid[1 + k // ncols, k % ncols])
         ax.hist(samples[:, j], bins=40, range=(lo[j], hi[j]), color="0.6", density=True, histtype="stepfilled")
         ax.set_xlim(lo[j], hi[j])
         ax.set_yticks([])
         ax.grid(False)
-        ax.set_xlabel(axis_label(name))
+        ax.set_xlabel(label(name))
         _ticks(ax.xaxis, 2)
-        if best is not None:
+        if best is not None and np.isfinite(best[j]):
             ax.axvline(best[j], color=colour, lw=2.0)
-        if true is not None:
+        if true is not None and np.isfinite(true[j]):
             ax.axvline(true[j], color="black", lw=1.2, ls="--")
         if name in diag:
             r, e = diag[name]["r_hat"], diag[name]["ess_bulk"]
@@ -149,8 +187,8 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
             ax.plot(best[ia], best[ib], marker="*", ms=15, color=colour, mec="black", mew=0.8, ls="", zorder=5)
         if true is not None:
             ax.plot(true[ia], true[ib], **TRUTH, zorder=6)
-        ax.set_xlabel(axis_label(a))
-        ax.set_ylabel(axis_label(b))
+        ax.set_xlabel(label(a))
+        ax.set_ylabel(label(b))
         ax.set_title(f"correlation r = {r:+.2f}")
         _ticks(ax.xaxis, 2)
         _ticks(ax.yaxis, 4)
@@ -162,9 +200,15 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
     if true is not None:
         handles.append(Line2D([], [], ls="--", lw=1.2, marker="x", color="black", ms=8, mew=2, label="truth"))
     legend(fig, handles, ncol=len(handles))
-    dropped = f", {int(stuck.sum())} stuck walker(s) left out" if stuck.any() else ""
+    if posterior is not None:
+        modes = len(posterior.assessment["modes"])
+        dropped = f", mode 1 of {modes} ({len(posterior.main.walkers)} walkers)" if modes > 1 else ""
+    else:
+        dropped = f", {int(stuck.sum())} stuck walker(s) left out" if stuck.any() else ""
+    held = (("\nheld fixed (reduced model): " + ", ".join(f"{label(n)} = {samples[0, names.index(n)]:.4g}"
+                                                           for n in fixed)) if fixed else "")
     fig.suptitle(f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
-                 f"{burn:,} steps dropped as burn-in{dropped}")
+                 f"{burn:,} steps dropped as burn-in{dropped}{held}")
     thin = max(1, -(-len(samples) // max_csv))  # ceil: at most max_csv rows
     frame = pd.DataFrame(samples[::thin], columns=names).assign(source="posterior", optimizer=chain.optimizer)
     extra = []
@@ -297,7 +341,12 @@ def profiles(analysis: dict, out_dir, synthetic_data: bool = False) -> Path:
             low = min([threshold, analysis["mse"], *finite]) if finite.size else threshold
             high = max([threshold, analysis["mse"], *finite]) if finite.size else threshold
             ax.set_ylim(low - 0.08 * (high - low), high + 0.35 * (high - low))  # room for the note on top
-        ax.set_xlabel(axis_label(name))
+        if name in analysis.get("labels", {}) and name in analysis.get("units", {}):
+            from bwbench.problems.switched_vpp.posterior_draws import pretty
+
+            ax.set_xlabel(f"{analysis['labels'][name]} ({pretty(analysis['units'][name])})")
+        else:
+            ax.set_xlabel(axis_label(name))
         ax.set_ylabel("MSE (N²)")
         rows.append(points.assign(parameter=name, threshold_mse=threshold, bounded=side))
     for ax in axes.flat[len(names):]:

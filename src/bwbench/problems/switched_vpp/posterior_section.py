@@ -1,10 +1,12 @@
-"""The report's posterior section: a long MCMC run, its convergence by ArviZ, and what it says.
+"""The report's posterior section, for any model: a long MCMC run, its convergence by ArviZ mode by
+mode, what the sampler did (starts, a reduced model), the credible intervals against the truth, and
+the posterior predictive band on the loops.
 
-A chain of the identifiable formulation samples the 7 (shared) or 6 (split) hysteretic parameters
-with the linear coefficients integrated out analytically (``marginal.log_marginal``); the linear
-coefficients are then drawn exactly from their conditional Gaussian for each kept sample
-(``marginal.draw_linear``), so the summary covers all of them. A chain of the paper formulation
-samples its 14 parameters directly.
+A chain of the identifiable formulation samples the hysteretic parameters with the linear
+coefficients integrated out analytically (``marginal.log_marginal``); the linear coefficients are then
+drawn exactly from their conditional Gaussian for each kept sample (``marginal.draw_linear``), so the
+summary covers all of them. A chain of a direct formulation samples its parameters directly.
+Parameter names, labels and units come from the problem (``posterior_draws``).
 """
 
 from __future__ import annotations
@@ -14,55 +16,72 @@ import pandas as pd
 
 from bwbench.analysis import mcmc
 from bwbench.analysis.identifiability import posterior_correlation, strongest_pairs
+from bwbench.problems.switched_vpp.posterior_draws import axis, cached, parameters, truth
 from bwbench.report.format import number
 
-R_HAT_MAX = 1.01
-ESS_MIN = 400
-DRAWS = 1000  # kept samples summarised (thinned evenly)
+R_HAT_MAX, ESS_MIN = mcmc.R_HAT_MAX, mcmc.ESS_MIN
+LEVEL = 0.95  # credible intervals: central 95 %
 
 
-def coordinates(study, chain):
-    """(problem, names, labels) of the chain: the paper's 14 or the identifiable hysteretic ones."""
-    from bwbench.models.switched_bouc_wen import PARAM_NAMES
-    from bwbench.problems.switched_vpp.formulations import make_problem
-    from bwbench.problems.switched_vpp.identifiability import label
+def convergence_table(pc) -> pd.DataFrame:
+    """R̂, bulk and tail ESS of every parameter, one column group per mode; a parameter a reduced
+    model held fixed says so."""
+    table = parameters(pc.problem)
+    rows = {n: {"parameter": axis(pc.problem, n, table)} for n in pc.names}
+    several = len(pc.assessment["modes"]) > 1
+    for i, diag in enumerate(pc.assessment["diagnostics"]):
+        tag = f" (mode {i + 1})" if several else ""
+        for r in diag.itertuples():
+            rows[r.parameter].update({f"R̂{tag}": f"{r.r_hat:.3f}", f"bulk ESS{tag}": f"{r.ess_bulk:,.0f}",
+                                      f"tail ESS{tag}": f"{r.ess_tail:,.0f}"})
+    for n in pc.fixed:
+        value = pc.problem.from_unit(pc.chain.samples[:1, 0])[0][pc.names.index(n)]
+        rows[n]["R̂"] = f"held at {number(float(value))} (reduced model)"
+    return pd.DataFrame(list(rows.values())).fillna("")
 
-    s = study.settings
-    identifiable = chain.samples.shape[2] != len(PARAM_NAMES)
-    settings = {"state": s.get("state", "shared"), "excitation": s.get("excitation", "measured"),
-                "formulation": "identifiable" if identifiable else "paper", "fix_mass": s.get("fix_mass", "auto"),
-                "bounds": s.get("bounds", {})}
-    from bwbench.data.specimen import read_specimen
 
-    problem = make_problem(read_specimen(study.specimen_path(chain.specimen)), settings)
-    names = list(problem.param_names)
-    return problem, names, [label(n) for n in names]
-
-
-def summary(problem, samples: np.ndarray, rng) -> pd.DataFrame:
-    """Median and 90 % interval of every parameter over ``samples`` (physical, (n, d)); for the
-    identifiable formulation also the linear coefficients, drawn from their conditional Gaussian."""
-    from bwbench.problems.switched_vpp.figure_common import axis_label
-
-    columns = {axis_label(n): samples[:, j] for j, n in enumerate(problem.param_names)}
-    if getattr(problem, "formulation", "paper") == "identifiable":
-        from bwbench.problems.marginal import draw_linear
-
-        solution = problem.solve(samples)
-        names, units = problem.linear_names, problem.linear_units
-        coef = np.full((len(samples), len(names)), np.nan)
-        for i in range(len(samples)):
-            try:
-                coef[i] = draw_linear(solution.row(i), rng, 1)["coef"][0]
-            except ValueError:  # a sample whose design is not of full rank: no draw
-                pass
-        columns.update({f"{n} ({units[n]})": coef[:, j] for j, n in enumerate(names)})
-    rows = []
-    for name, values in columns.items():
+def summary(pc, rng, true: dict | None) -> tuple[pd.DataFrame, list]:
+    """Median and central 95 % interval of every parameter over the main mode's kept draws, the truth
+    beside where there is one; and the names whose truth lies outside its interval."""
+    draws = pc.draws(rng)
+    table = parameters(pc.problem)
+    rows, outside = [], []
+    tail = (1 - LEVEL) / 2
+    gauge = pc.problem.model.reduced_gauge(pc.fixed, pc.problem.state)
+    for name, values in draws.items():
         values = values[np.isfinite(values)]
-        if values.size:
-            q5, q50, q95 = np.quantile(values, [0.05, 0.5, 0.95])
-            rows.append({"parameter": name, "median": number(q50), "5 %": number(q5), "95 %": number(q95)})
+        if not values.size:
+            continue
+        lo, mid, hi = np.quantile(values, [tail, 0.5, 1 - tail])
+        row = {"parameter": axis(pc.problem, name, table), "median": number(mid), "2.5 %": number(lo),
+               "97.5 %": number(hi)}
+        # held: by a reduced model, or by the problem itself (an unfitted inertia, a coefficient fixed)
+        held = name in pc.fixed or np.ptp(values) == 0
+        if held:
+            row.update({"2.5 %": "held", "97.5 %": "held"})
+        if true is not None and name in true:
+            t = true[name]
+            inside = held or name in gauge or lo <= t <= hi
+            row.update({"truth": number(t), "truth inside": "held fixed" if held else
+                        "not comparable (the reduced model's gauge)" if name in gauge else
+                        ("yes" if inside else "**no**")})
+            if not inside:
+                outside.append(name)
+        rows.append(row)
+    return pd.DataFrame(rows), outside
+
+
+def modes_table(pc) -> pd.DataFrame:
+    """One row per mode: its ensembles, median log-probability and the median of each sampled parameter."""
+    table = parameters(pc.problem)
+    rows = []
+    for i, mode in enumerate(pc.assessment["modes"]):
+        P = pc.problem.from_unit(pc.unit_draws(mode))
+        row = {"mode": i + 1, "ensembles": ", ".join(str(e + 1) for e in mode.ensembles),
+               "median log p": f"{mode.log_prob:.1f}"}
+        row.update({axis(pc.problem, n, table): number(float(np.median(P[:, j])), 3)
+                    for j, n in enumerate(pc.names) if n not in pc.fixed})
+        rows.append(row)
     return pd.DataFrame(rows)
 
 
@@ -70,51 +89,92 @@ def section(report) -> list:
     from bwbench.problems.switched_vpp import figures
 
     doc, study = report.doc, report.study
-    chains = [c for c in study.chains if c.kind == "posterior"]
+    chains = cached(report)
     if not chains:
         return []
     doc.h(2, "Posterior sampling")
-    doc.p("A long emcee run on one specimen, kept out of the ranking. In the identifiable formulation it samples "
-          "the symmetry-free hysteretic parameters with the linear coefficients (mass, damping, stiffnesses, offsets) "
-          "integrated out analytically under a flat prior and σ under Jeffreys' prior; the linear coefficients are "
-          "then drawn exactly from their conditional Gaussian for each kept sample. Convergence by ArviZ: "
-          "rank-normalised split-R̂ and bulk and tail effective sample sizes, each walker taken as a chain, the "
-          f"first half of the chain dropped as burn-in; converged when R̂ ≤ {R_HAT_MAX:g} and bulk ESS ≥ "
-          f"{ESS_MIN} for every parameter (Vehtari et al. 2021).")
+    doc.p("A long emcee run per specimen, kept out of the ranking. In the identifiable formulation it samples the "
+          "hysteretic parameters with the linear coefficients integrated out analytically (flat prior on the "
+          "coefficients of the fixed signals, the scale-free g-prior on those of the hysteretic column, so the "
+          "arbitrary scale of w does not weigh in) and σ under Jeffreys' prior; the prior on the hysteretic "
+          "parameters is uniform on the search box (log-uniform where the box is). The linear coefficients are then "
+          "drawn exactly from their conditional Gaussian for each kept sample. The sampler starts independent "
+          "ensembles around distinct good optima of independent local searches and stops when converged or when "
+          "its budget ends. Convergence by ArviZ: rank-normalised split-R̂ and bulk and tail effective sample "
+          "sizes, each walker taken as a chain, the first half of the chain dropped as burn-in, mode by mode "
+          f"(ensembles that settled in different regions are not pooled); converged when R̂ ≤ {R_HAT_MAX:g} and "
+          f"bulk ESS ≥ {ESS_MIN} for every sampled parameter (Vehtari et al. 2021).")
     verdicts = []
     rng = np.random.default_rng(0)  # the conditional draws: the same summary every time
     order = list(report.table["optimizer"])
-    for chain in chains:
-        problem, names, labels = coordinates(study, chain)
-        burn = chain.steps // 2
-        diag = mcmc.convergence(chain.samples, names, burn)
-        converged = bool((diag["r_hat"] <= R_HAT_MAX).all() and (diag["ess_bulk"] >= ESS_MIN).all())
-        verdicts.append((chain, {"converged": converged, "steps": chain.steps,
-                                 "worst_r_hat": float(diag["r_hat"].max()), "min_ess": float(diag["ess_bulk"].min())}))
-        doc.h(3, f"{chain.specimen} ({chain.optimizer}, {problem.formulation} formulation)")
-        shown = diag.assign(parameter=labels, r_hat=diag["r_hat"].map(lambda x: f"{x:.3f}"),
-                            ess_bulk=diag["ess_bulk"].map(lambda x: f"{x:,.0f}"),
-                            ess_tail=diag["ess_tail"].map(lambda x: f"{x:,.0f}"))
-        doc.table(shown.rename(columns={"r_hat": "R̂", "ess_bulk": "bulk ESS", "ess_tail": "tail ESS"}),
-                  f"{chain.steps:,} steps × {chain.walkers} walkers (acceptance fraction "
-                  f"{number(chain.acceptance_fraction, 2)}), second half kept")
-        verdict = (f"**Converged**: R̂ ≤ {R_HAT_MAX:g} (worst {diag['r_hat'].max():.3f}) and bulk ESS ≥ {ESS_MIN} "
-                   f"(least {diag['ess_bulk'].min():,.0f}) for every parameter." if converged else
-                   f"NOT converged: worst R̂ {diag['r_hat'].max():.3f}, least bulk ESS {diag['ess_bulk'].min():,.0f} "
-                   f"(need ≤ {R_HAT_MAX:g} and ≥ {ESS_MIN}): the summaries below are not reliable; run it longer.")
-        (doc.p if converged else doc.banner)(verdict)
-        kept = chain.physical(burn, from_unit=problem.from_unit)
-        thin = max(1, len(kept) // DRAWS)
-        doc.table(summary(problem, kept[::thin], rng), "Posterior medians and 90 % intervals"
+    for pc in chains:
+        chain, a = pc.chain, pc.assessment
+        worst = max((float(d["r_hat"].max()) for d in a["diagnostics"]), default=float("nan"))
+        least = min((float(d["ess_bulk"].min()) for d in a["diagnostics"]), default=float("nan"))
+        verdicts.append((chain, {"converged": a["converged"], "steps": chain.steps, "worst_r_hat": worst,
+                                 "min_ess": least, "modes": len(a["modes"])}))
+        doc.h(3, f"{chain.specimen} ({chain.optimizer}, {pc.problem.formulation} formulation)")
+        nfev = pc.run.get("nfev")
+        doc.table(convergence_table(pc), f"{chain.steps:,} stored steps × {chain.walkers} walkers in {pc.ensembles} "
+                                         f"ensemble(s) (acceptance fraction {number(chain.acceptance_fraction, 2)}"
+                                         + (f", {int(nfev):,} evaluations" if nfev == nfev and nfev else "")
+                                         + "), second half kept")
+        if a["converged"]:
+            doc.p(f"**Converged**: R̂ ≤ {R_HAT_MAX:g} (worst {worst:.3f}) and bulk ESS ≥ {ESS_MIN} (least {least:,.0f}) "
+                  "for every sampled parameter" + (" in every mode." if len(a["modes"]) > 1 else "."))
+        else:
+            doc.banner(f"NOT converged: worst R̂ {worst:.3f}, least bulk ESS {least:,.0f} (need ≤ {R_HAT_MAX:g} and ≥ "
+                       f"{ESS_MIN}): the summaries below are not reliable. " + "; ".join(a["why"]) + ".")
+        if pc.run.get("message"):
+            doc.p(f"What the sampler did and why it stopped: {pc.run['message']}.")
+        if len(a["modes"]) > 1:
+            doc.p(f"The {pc.ensembles} ensembles settled in {len(a['modes'])} separate regions (their central 90 % "
+                  "intervals do not overlap in every parameter): separate modes, or one mode the chains have not "
+                  "crossed. They are summarised apart, not pooled; the summary below is mode 1's region with the most "
+                  "ensembles. Separate ensembles cannot weigh one mode against another.")
+            doc.table(modes_table(pc), "Modes: median log-probability and the median of each sampled parameter")
+        true = truth(study, pc.problem, chain.specimen)
+        table, outside = summary(pc, rng, true)
+        doc.table(table, f"Posterior medians and central {LEVEL:.0%} intervals"
                   + (" (linear coefficients drawn from their conditional Gaussian)"
-                     if problem.formulation == "identifiable" else ""))
-        pairs = strongest_pairs(posterior_correlation(kept, names), 3)
-        doc.p("Strongest posterior correlations (kept samples): "
-              + "; ".join(f"{labels[names.index(a)]}–{labels[names.index(b)]} r = {r:+.2f}" for a, b, r in pairs) + ".")
-        png = figures.posterior(study, doc.out_dir, chain, diagnostics=diag, from_unit=problem.from_unit,
-                                names=names, order=order)
+                     if pc.problem.formulation == "identifiable" else ""))
+        if true is not None:
+            doc.p("The truth lies inside every central 95 % interval." if not outside else
+                  f"The truth lies outside the central 95 % interval of {', '.join(outside)}.")
+        kept = pc.problem.from_unit(pc.unit_draws())
+        moving = [j for j, n in enumerate(pc.names) if n not in pc.fixed]
+        labels = parameters(pc.problem)
+        pairs = strongest_pairs(posterior_correlation(kept[:, moving], [pc.names[j] for j in moving]), 3)
+        if pairs:
+            doc.p("Strongest posterior correlations (kept samples): " + "; ".join(
+                f"{labels[x][0]}–{labels[y][0]} r = {r:+.2f}" for x, y, r in pairs) + ".")
+        png = figures.posterior(study, doc.out_dir, chain, problem=pc.problem, posterior=pc, order=order)
         doc.figure(png, f"{chain.specimen}: posterior marginals and the most correlated pairs, with the best fit on "
                         "the specimen, the truth and the chain's convergence verdict")
+        if chain.specimen == report.featured[0]:
+            doc.p("The loops figure of this specimen above carries the posterior predictive 95 % band (model force "
+                  "plus noise) on the force and on the residual.")
+        else:
+            png = _loops_with_band(study, doc.out_dir, pc, order)
+            if png is not None:
+                doc.figure(png, f"{chain.specimen}: the best fits and the posterior predictive check — the measured "
+                                "force against the 95 % band of the posterior's predictions (model force plus noise), "
+                                "and the residual")
     report.options["chain_diagnostics"] = verdicts
     return verdicts
 
+
+def _loops_with_band(study, out_dir, pc, order):
+    """The loops figure of ``pc``'s specimen with its posterior predictive band; None when the specimen
+    has no finished ranking run to draw the fits of, or no draw gives a finite force. (Here, not in
+    ``posterior_predictive``: the loops figure itself asks that module for the band.)"""
+    from bwbench.problems.switched_vpp import posterior_predictive
+    from bwbench.problems.switched_vpp.fit_figures import hysteresis_loops
+
+    ranking = study.ranking
+    runs = ranking[(ranking["specimen"] == pc.chain.specimen) & (ranking["status"] == "ok")
+                   & np.isfinite(ranking["mse"].astype(float))]
+    band = posterior_predictive.predictive(pc, np.random.default_rng(0))
+    if not len(runs) or band is None:
+        return None
+    return hysteresis_loops(study, out_dir, pc.chain.specimen, order=order, band=band)

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from bwbench.errors import UserError
@@ -143,7 +142,7 @@ def coordinates(report) -> str:
 
 
 def add_sections(report) -> None:
-    from bwbench.problems.switched_vpp import adequacy, identifiability_section, parameter_tables
+    from bwbench.problems.switched_vpp import adequacy, identifiability_section, non_uniqueness, parameter_tables
 
     study, doc, out = report.study, report.doc, report.out
     featured, paper = report.featured, paper_data(report)
@@ -171,8 +170,7 @@ def add_sections(report) -> None:
                 doc.figure(figures.parameters_vs_underpressure(study, out, backend, material, order=order),
                            f"{material}: parameters against underpressure, {backend} (the paper's Figs 18–19)")
     parameter_tables.section(report, formulation, paper)
-    if "paper" in searched(study):
-        _section_non_uniqueness(report, paper)
+    non_uniqueness.section(report, paper)
     report.progress("identifiability")
     identifiability_section.section(report, formulation, paper)
     posterior_section.section(report)
@@ -197,43 +195,3 @@ def limits(report) -> list[str]:
             items.append(f"The posterior chain on {chain.specimen} has not converged ({d['steps']:,} steps; worst "
                          f"R̂ {d['worst_r_hat']:.3f}, least bulk ESS {d['min_ess']:,.0f}): its summaries are not reliable.")
     return items
-
-
-def _section_non_uniqueness(report, paper: bool) -> None:
-    from bwbench.problems.switched_vpp import non_uniqueness
-
-    doc, study = report.doc, report.study
-    doc.h(2, "Non-uniqueness: the exact symmetry, and what is left")
-    if not paper:  # the section measures in the paper's box: about the paper's data, not about these
-        doc.p("The paper formulation's 14 parameters have an exact symmetry: z → s·z with A → s·A, β, γ → "
-              "s^(1−n)·β, s^(1−n)·γ and (1 − α)·ωn² → (1 − α)·ωn²/s leaves the force unchanged, so its fits lie on "
-              "curves of equally good parameter vectors and its parameters cannot be compared between fits; the "
-              "identifiable coordinates have no such curve. The spread of the fits in the coordinates each searched "
-              "is in the identifiability section below.")
-        return
-    doc.p("The paper's 14 parameters have an exact symmetry: z → s·z with A → s·A, β, γ → s^(1−n)·β, "
-          "s^(1−n)·γ and (1 − α)·ωn² → (1 − α)·ωn²/s leaves the force unchanged (one s for the shared state, "
-          "one per branch for the split), so every fit lies on a curve of equally good parameter vectors. "
-          "Below, the good fits of each specimen (within 10 % of the best known MSE) as fitted, after moving each "
-          "to the same point of its curve (the gauge nearest the centre of Table 5), and in the identifiable "
-          "coordinates, which have no such curve.")
-    for specimen in report.featured[:2]:
-        table, s = non_uniqueness.spread_table(study, specimen)
-        if s["runs"] < 2:
-            doc.p(f"{specimen}: only {s['runs']} good fit(s): no spread to analyse.")
-            continue
-        shown = table.copy()
-        for column in shown.columns:
-            if shown[column].dtype.kind == "f":
-                shown[column] = shown[column].map(lambda x: "–" if not np.isfinite(x) else f"{x:.0%}")
-        doc.table(shown.fillna(""), f"{specimen}: range of the {s['runs']} good fits, as a fraction of each "
-                                    "parameter's search range")
-        share = s["share"]
-        if np.isfinite(share):
-            doc.p(f"{specimen}: of the scatter of the paper parameters across the {s['share_runs']} of these fits "
-                  "that searched the paper's coordinates (total variance in "
-                  f"Table 5 units), **{share:.0%} is the exact symmetry** (it disappears when the gauge is fixed); "
-                  f"the remaining {1 - share:.0%} lies in directions the data determine only weakly, the scatter "
-                  "the identifiable coordinates show as well.")
-        doc.figure(non_uniqueness.figure(study, report.out, specimen, order=list(report.table["optimizer"])),
-                   f"{specimen}: good fits in the paper's and the identifiable coordinates")
