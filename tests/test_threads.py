@@ -3,6 +3,9 @@ opts in; the settings are restored afterwards."""
 
 import os
 import shutil
+import subprocess
+import sys
+import textwrap
 from pathlib import Path
 
 import numba
@@ -69,3 +72,24 @@ def test_environment_fills_only_what_the_user_left_unset_and_restores_it(monkeyp
     with threads.environment(1):
         assert os.environ["MKL_NUM_THREADS"] == "3" and os.environ["OPENBLAS_NUM_THREADS"] == "1"
     assert "OPENBLAS_NUM_THREADS" not in os.environ and os.environ["MKL_NUM_THREADS"] == "3"
+
+
+def test_numba_imported_before_the_environment_starts_its_pool_with_it_and_compiles_after():
+    # What `compare --workers 1` does: the command modules import numba (which reads its variables
+    # then), the environment says one thread, a run starts numba's pool and later compiles a ufunc;
+    # numba re-reads its variables at each compilation and refused a size other than its pool's.
+    script = textwrap.dedent("""
+        import os
+        os.environ.pop("NUMBA_NUM_THREADS", None)
+        import numba
+        from bwbench import threads
+        with threads.environment(1):
+            numba.get_num_threads()  # starts the pool
+            numba.vectorize(["float64(float64)"])(lambda x: x + 1.0)  # a compilation re-reads the variables
+        numba.vectorize(["float64(float64)"])(lambda x: x + 2.0)  # and after the block too
+        from numba.core import config
+        print(config.NUMBA_NUM_THREADS)
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "1"

@@ -11,6 +11,7 @@ fill the cores, and a BLAS-heavy backend's result must not depend on the thread 
 from __future__ import annotations
 
 import os
+import sys
 from contextlib import contextmanager
 
 from bwbench.errors import UserError
@@ -54,9 +55,29 @@ def environment(threads: int = 1):
         yield
         return
     added = [name for name in VARIABLES if name not in os.environ]
+    if "NUMBA_NUM_THREADS" in added and _numba_pool_started():
+        added.remove("NUMBA_NUM_THREADS")  # numba's pool exists: its size is fixed; ``limited`` caps its use
     os.environ.update({name: str(threads) for name in added})
+    _numba_reread()
     try:
         yield
     finally:
         for name in added:
-            os.environ.pop(name, None)
+            # Numba re-reads its variables at every compilation and refuses a pool size other than the
+            # one its pool started with: once started, the variable stays as it was started with.
+            if not (name == "NUMBA_NUM_THREADS" and _numba_pool_started()):
+                os.environ.pop(name, None)
+
+
+def _numba_pool_started() -> bool:
+    parallel = sys.modules.get("numba.np.ufunc.parallel")
+    return bool(getattr(parallel, "_is_initialized", False))
+
+
+def _numba_reread() -> None:
+    """An already imported numba read its variables at import: make it read them now, before its pool
+    starts (else it starts with the old size and refuses the new one at its next compilation)."""
+    if "numba" in sys.modules and not _numba_pool_started():
+        from numba.core import config
+
+        config.reload_config()
