@@ -147,3 +147,20 @@ def test_the_rule_is_stated_with_its_thresholds():
     assert f"at most {PRACTICAL:.0%} higher" in text and f"{SUCCESS_MARGIN * 100:.0f} percentage points" in text
     assert "ERT × measured seconds per evaluation" in text and "Random search" in text
     assert "Formulations first" in text and "TEST on log10 final losses" in text
+
+
+def test_the_formulation_is_told_from_the_side_most_backends_favour_even_when_the_pair_sits_in_the_other():
+    """lsq-trf is as good in both formulations and faster in the paper's, so the pair is lsq-trf [paper];
+    every other backend ends lower in the identifiable formulation, and the text says it that way round."""
+    labels = {"lsq-trf [identifiable]": (2e-3, always(1.0, 600)),
+              "lsq-trf [paper]": (1e-3, always(1.0, 300)),
+              "cmaes [identifiable]": (1e-3, always(1.0, 1500)),
+              "cmaes [paper]": (1e-3, always(60.0, 900)),
+              "random [identifiable]": (5e-4, always(1.4, 900)),
+              "random [paper]": (5e-4, always(5000.0, 900))}
+    rec = decide(*tables(labels, seeds=6), noun="formulation")
+    assert rec["choice"] == "lsq-trf [paper]"
+    text = rec["text"]
+    assert text.startswith("In the identifiable formulation, 2 of 3 backends end at lower final losses than in "
+                           "the paper formulation (paper over identifiable: Hodges–Lehmann ratio ")
+    assert "**Use lsq-trf in the paper formulation**" in text

@@ -84,18 +84,25 @@ def _success(table, label, tau=TARGET) -> str:
 
 
 def variant_text(verdict: Verdict, noun: str) -> str:
-    """'In the identifiable formulation 4 of 4 backends end lower than in the paper formulation …'."""
+    """'In the identifiable formulation 4 of 4 backends end lower than in the paper formulation …', told
+    from the side where most backends end lower (the recommended pair may sit in the other one)."""
     frame = verdict.by_variant
     if frame is None or not len(frame):
         return ""
     ref = verdict.reference_variant
     parts = []
     for variant, g in frame.groupby("variant", sort=False):
-        better = g[g["ratio"] > 1]  # the other variant's losses above the reference variant's
+        g = g.copy()
+        winner, loser = ref, variant  # ratio: the loser's losses over the winner's
+        if (g["ratio"] < 1).sum() > (g["ratio"] > 1).sum():
+            winner, loser = variant, ref
+            # the inverse ratio, its interval's ends swapped
+            g["ratio"], g["ratio_low"], g["ratio_high"] = 1.0 / g["ratio"], 1.0 / g["ratio_high"], 1.0 / g["ratio_low"]
+        better = g[g["ratio"] > 1]
         significant = better[better["significant"]]
         worse = g[g["ratio"] < 1]
-        text = (f"In the {ref} {noun}, {len(better)} of {len(g)} backends end at lower final losses than in the "
-                f"{variant} {noun} ({variant} over {ref}: Hodges–Lehmann ratio "
+        text = (f"In the {winner} {noun}, {len(better)} of {len(g)} backends end at lower final losses than in the "
+                f"{loser} {noun} ({loser} over {winner}: Hodges–Lehmann ratio "
                 + (f"{_ratio(better['ratio'].min())} to {_ratio(better['ratio'].max())}" if len(better) else "–")
                 + f"), {len(significant)} of them significantly (Holm over the {len(g)} comparisons")
         quiet = better[~better["significant"]]
@@ -104,7 +111,7 @@ def variant_text(verdict: Verdict, noun: str) -> str:
                                                   for b, r in zip(quiet["backend"], quiet.to_dict("records"))])
         text += ")"
         if len(worse):
-            text += "; " + join([f"{b} ends lower in the {variant} {noun} (ratio {ratio_text(r)}"
+            text += "; " + join([f"{b} ends lower in the {loser} {noun} (ratio {ratio_text(r)}"
                                  f"{', significant' if r['significant'] else ''})"
                                  for b, r in zip(worse["backend"], worse.to_dict("records"))])
         parts.append(text + ".")
