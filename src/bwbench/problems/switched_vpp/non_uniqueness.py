@@ -205,8 +205,14 @@ def section(report, paper: bool) -> None:
             continue
         doc.table(sd.shown_table(pc, d), f"{specimen}: the scatter of the {len(d['fits'])} good fits against the "
                                          "posterior, per parameter (positions as fractions of the search box)")
-        doc.p(sd.sentence(pc, d))
-        doc.figure(sd.figure(study, report.out, pc, d), f"{specimen}: the good fits against the posterior")
+        text = sd.sentence(pc, d)
+        if not pc.assessment["converged"]:  # the reference itself is unreliable: say so first
+            text = ("**Provisional: this specimen's posterior has not converged (see the posterior section), so its "
+                    "ranges are where the chain has been, not the posterior; read the split below with that "
+                    "caution.** " + text)
+        doc.p(text)
+        doc.figure(sd.figure(study, report.out, pc, d), f"{specimen}: the good fits against the posterior"
+                   + ("" if pc.assessment["converged"] else " (posterior not converged: provisional)"))
     if not (symmetric and paper):
         return
     for specimen in [s for s in report.featured[:2] if s not in done]:
