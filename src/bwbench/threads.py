@@ -70,6 +70,7 @@ def environment(threads: int = 1):
 
 
 def _numba_pool_started() -> bool:
+    # numba's own flag: no public call says whether the pool started without starting it
     parallel = sys.modules.get("numba.np.ufunc.parallel")
     return bool(getattr(parallel, "_is_initialized", False))
 

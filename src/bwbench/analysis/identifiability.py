@@ -53,7 +53,9 @@ def jacobian(residual, u, step: float = STEP, bounds=(0.0, 1.0)) -> np.ndarray:
         if bounds is not None:
             hi[i] = min(hi[i], bounds[1])
             lo[i] = max(lo[i], bounds[0])
-        columns.append((np.asarray(residual(hi), float) - np.asarray(residual(lo), float)) / (hi[i] - lo[i]))
+        # a blow-up on both sides gives inf − inf = NaN: the callers test the Jacobian for finiteness
+        with np.errstate(invalid="ignore"):
+            columns.append((np.asarray(residual(hi), float) - np.asarray(residual(lo), float)) / (hi[i] - lo[i]))
     return np.column_stack(columns)
 
 
