@@ -185,16 +185,11 @@ class JointProblem:
     def parameters(self, params) -> dict:
         """The searched parameters, and in the identifiable formulation the joint coefficients and the
         model's direct parameters of the same force where they exist."""
-        params = np.asarray(params, dtype=float)
-        out = dict(zip(self.param_names, map(float, params)))
-        if self.design is None or not np.all(np.isfinite(params)):
-            return out
-        coef = dict(zip(self.linear_names, map(float, self.linear(params))))
-        out.update(coef)
-        direct = self.model.to_direct(params, coef, self.state)
-        if direct is not None:
-            out.update(zip((p.name for p in self.model.direct_parameters(self.state)), map(float, direct)))
-        return out
+        from bwbench.problems.model_problem import identifiable_parameters
+
+        if self.design is None:  # a direct formulation: the searched parameters are all there is
+            return dict(zip(self.param_names, map(float, np.asarray(params, dtype=float))))
+        return identifiable_parameters(self, params)
 
     def forces(self, params) -> list[np.ndarray]:
         """The model force (N) on each file with these parameters (one set for all); +inf on blow-up."""

@@ -169,16 +169,23 @@ class IdentifiableProblem(ModelFit):
 
     def parameters(self, params) -> dict:
         """θ, the solved coefficients and the model's direct parameters of the same force, where they exist."""
-        params = np.asarray(params, dtype=float)
-        out = dict(zip(self.param_names, map(float, params)))
-        if not np.all(np.isfinite(params)):
-            return out
-        coef = dict(zip(self.linear_names, map(float, self.linear(params))))
-        out.update(coef)
-        direct = self.model.to_direct(params, coef, self.state)
-        if direct is not None:
-            out.update(zip((p.name for p in self.model.direct_parameters(self.state)), map(float, direct)))
+        return identifiable_parameters(self, params)
+
+
+def identifiable_parameters(problem, params) -> dict:
+    """{name: value} of the searched θ of an identifiable ``problem`` (one file or joint), its solved
+    coefficients and the model's direct parameters of the same force where they exist; θ alone when
+    it is not finite."""
+    params = np.asarray(params, dtype=float)
+    out = dict(zip(problem.param_names, map(float, params)))
+    if not np.all(np.isfinite(params)):
         return out
+    coef = dict(zip(problem.linear_names, map(float, problem.linear(params))))
+    out.update(coef)
+    direct = problem.model.to_direct(params, coef, problem.state)
+    if direct is not None:
+        out.update(zip((p.name for p in problem.model.direct_parameters(problem.state)), map(float, direct)))
+    return out
 
 
 def coefficient_bounds_of(model, layout, signal, f, given: dict | None = None) -> tuple[dict, list[str]]:
