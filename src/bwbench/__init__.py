@@ -7,13 +7,20 @@ The Python API (``bwbench.api``; imported on first use, so ``import bwbench`` st
   one fit, or a joint fit of several files (one parameter set);
 - ``FitResult.model`` / ``bwbench.load_fit(path)`` → ``FittedModel``: ``.predict(file)`` (a
   ``Prediction``: RMSE in N, NRMSE, forces) and ``.simulate(file)``, every coefficient as stored;
-- ``bwbench.load_study(db)`` → a study with ``.runs`` and ``.traces`` as pandas DataFrames.
+- ``FitResult.summary()`` / ``.report()`` / ``.correlation()`` / ``.plot()``: standard errors, a text
+  report like lmfit's, correlations, a matplotlib Figure; the fit's notes as ``FitWarning`` warnings;
+- ``bwbench.compare(config=... | specimens=[...], optimizers=[...], ...)`` / ``bwbench.load_study(db)``
+  → ``Study``: ``.runs``, ``.traces``, ``.ranking()``, ``.recommendation``, ``.report(out_dir)``,
+  ``.posterior(specimen)``, ``.to_inference_data(specimen)``;
+- ``bwbench.UserError``: every bad input, with the command line's one-line message.
 """
 
 from bwbench.version import __version__
 
-__all__ = ["fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction", "__version__"]
-_API = {"fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction"}
+__all__ = ["fit", "load_fit", "load_study", "compare", "FitResult", "FittedModel", "Prediction", "Study",
+           "UserError", "FitWarning", "__version__"]
+_API = {"fit", "load_fit", "load_study", "compare", "FitResult", "FittedModel", "Prediction", "Study", "UserError",
+        "FitWarning"}
 
 
 def __getattr__(name):

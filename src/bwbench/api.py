@@ -3,12 +3,17 @@
     import bwbench
 
     fit = bwbench.fit("a.csv", "b.csv", model="spencer", optimizer="lsq-trf", budget=4100, seed=1)
+    fit.summary()                  # every parameter: value, standard error, unit, role, at its box's edge
+    print(fit.report())            # like lmfit's fit_report: χ², AIC/BIC, errors, correlations, notes
+    fit.plot()                     # a matplotlib Figure: loops, force and residual against time
     fit.table()                    # each file's RMSE (N) and NRMSE (RMSE / max|F|)
     p = fit.predict("c.csv")       # another test, every coefficient as stored
     p.rmse_N, p.nrmse, p.frame()   # numbers, and a DataFrame of measured and predicted force
     fit.save("fit.json")           # the result JSON of `bwbench fit --out`
     model = bwbench.load_fit("fit.json")   # a FittedModel: .predict(file), .simulate(file)
     study = bwbench.load_study("study.sqlite")   # .runs and .traces as pandas DataFrames
+    study = bwbench.compare(specimens=["a.csv", "b.csv"], optimizers=["cmaes", "random"], seeds=3, budget=500)
+    study.ranking(), study.recommendation, study.report("out")
 
 Units are the specimen files': mm, s, N (MSE in N²).
 """
@@ -17,56 +22,134 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from bwbench.errors import UserError
+from bwbench.fit_notes import FitWarning
 from bwbench.optimize.fit_result import FitResult
 from bwbench.problems.fitted_model import FittedModel, Prediction
+from bwbench.study_api import Study
 
-__all__ = ["fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction"]
+__all__ = ["fit", "load_fit", "load_study", "compare", "FitResult", "FittedModel", "Prediction", "Study",
+           "UserError", "FitWarning"]
 
 
-def fit(*specimens, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, model: str | None = None,
+def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, model: str | None = None,
         formulation: str | None = None, state: str | None = None, excitation: str = "measured",
-        fix_mass="auto", weighting: str = "equal", bounds: dict | str | Path | None = None,
-        options: dict | None = None, threads: int = 1) -> FitResult:
-    """Fit one specimen, or several jointly (one parameter set for all), as ``bwbench fit`` does.
+        fix_mass="auto", offsets: str | None = None, weighting: str = "equal",
+        bounds: dict | str | Path | None = None, options: dict | None = None, threads: int = 1,
+        name: str | None = None) -> FitResult:
+    """Fit one test, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
-    ``specimens``: paths of specimen CSVs (or ``Specimen`` objects). ``optimizer``: a backend name
-    (``bwbench optimizers``), run on exactly ``budget`` evaluations (one evaluation = one simulation
-    of every file) from ``seed``. ``model``: a registered model (default: the switched Bouc-Wen);
-    ``formulation``: "paper"/"direct" or "identifiable" (default: the model's own); ``state``:
-    "shared"/"split" (switched model); ``excitation``: "measured" or "sine". ``fix_mass``
-    (identifiable): "auto" (the inertia rule), None (always fitted) or a mass in N·s²/mm.
-    ``weighting``: "equal" (each file's MSE counts the same) or "samples". ``bounds``: {name:
-    (lower, upper)} or a JSON file of them; searched names set the search box, solved coefficients
-    bound the linear solve. ``options``: the backend's options. ``threads``: numba/BLAS threads.
+    ``data``: one or more tests, each a specimen CSV's path, a ``Specimen`` or a pandas DataFrame with
+    the file's columns (``time_s``, ``displacement_mm``, ``force_N``, optionally ``velocity_mm_s``,
+    ``acceleration_mm_s2``); a list of them counts as several (``name``: a DataFrame's name, default
+    its ``attrs["name"]`` or "data"). ``optimizer``: a backend name (``bwbench optimizers``), run on
+    exactly ``budget`` evaluations (one evaluation = one simulation of every file) from ``seed``.
+    ``model``: a registered model (default: the switched Bouc-Wen); ``formulation``: "paper"/"direct"
+    or "identifiable" (default: the model's own); ``state``: "shared"/"split" (switched model);
+    ``excitation``: "measured" or "sine". ``fix_mass`` (identifiable): "auto" (the inertia rule),
+    None or "fit" (always fitted) or a mass in N·s²/mm; ``offsets`` (identifiable, switched model):
+    "branch" or "continuous". ``weighting``: "equal" (each file's MSE counts the same) or "samples".
+    ``bounds``: {name: (lower, upper)} or a JSON file of them; searched names set the search box,
+    solved coefficients bound the linear solve. ``options``: the backend's options. ``threads``:
+    numba/BLAS threads.
 
-    Returns a ``FitResult`` (``.params``, ``.rmse_N``, ``.table()``, ``.model``, ``.predict(file)``,
-    ``.save(path)``). Raises ``bwbench.errors.UserError`` for bad input (a file, a name, an option).
+    Returns a ``FitResult``: ``.summary()`` (every parameter with its standard error), ``.report()``,
+    ``.correlation()``, ``.plot()``, ``.params``, ``.rmse_N``, ``.table()``, ``.model``,
+    ``.predict(data)``, ``.save(path)``. The notes ``bwbench fit`` prints (what the data do not
+    determine, a parameter on its box's edge) are issued as ``bwbench.FitWarning`` warnings and kept
+    in ``.notes``. Raises ``bwbench.UserError`` with the command line's message for bad input.
     """
+    from bwbench import fit_notes
     from bwbench import threads as threads_mod
-    from bwbench.data import bounds as bounds_mod
     from bwbench.data import manifest
-    from bwbench.data.specimen import read_specimen
+    from bwbench.data_input import as_specimen
+    from bwbench.errors import UserError
+    from bwbench.optimize import registry as backends
+    from bwbench.optimize.fit_result import run_fit
+    from bwbench.problems.switched_vpp.formulations import make_problem
+
+    items = [d for item in data for d in (item if isinstance(item, (list, tuple)) else [item])]
+    if not items:
+        raise UserError("bwbench.fit needs at least one test (a specimen CSV's path, a Specimen or a DataFrame)")
+    check_count("budget", budget, "a positive number of evaluations")
+    from bwbench import limits
+
+    limits.check("budget", budget, "BWBENCH_MAX_BUDGET")
+    check_count("seed", seed, "a non-negative integer", minimum=0)
+    paths = [str(Path(d).resolve()) for d in items if isinstance(d, (str, Path))]
+    if len(set(paths)) < len(paths):
+        raise UserError("a specimen is named twice: a joint fit takes each file once (use weighting= to weight)")
+    options = backends.resolve_options(optimizer, options)  # checked before any file is read or anything runs
+    settings = settings_of(model=model, formulation=formulation, state=state, excitation=excitation,
+                           fix_mass=fix_mass, offsets=offsets, weighting=weighting, bounds=bounds)
+    loaded = [as_specimen(d, name) for d in items]
+    synthetic = all(isinstance(d, (str, Path)) and manifest.is_synthetic(d) for d in items)
+    with threads_mod.limited(threads_mod.check(threads)):
+        problem = make_problem(loaded if len(loaded) > 1 else loaded[0], settings)
+        if "bounds" in settings:
+            from bwbench.data import bounds as bounds_mod
+
+            bounds_mod.refuse_if_blows_up(problem, "bounds")
+        result = run_fit(problem, optimizer, budget, seed, options, synthetic)
+    if not result.success:
+        import warnings
+
+        warnings.warn(f"none of the {result.nfev} evaluations gave a finite force: the model blows up everywhere "
+                      "in the search box on these data (check the units: mm, N, s; and the bounds)",
+                      fit_notes.FitWarning, stacklevel=2)
+    fit_notes.issue(result)
+    return result
+
+
+def check_count(label: str, value, what: str, minimum: int = 1) -> int:
+    """``value`` if it is an integer ≥ ``minimum`` (not a bool), else ``UserError`` naming ``label``."""
+    import numbers
+
+    from bwbench.errors import UserError
+
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise UserError(f"{label} must be {what}, got {value!r}")
+    return int(value)
+
+
+def settings_of(*, model=None, formulation=None, state=None, excitation="measured", fix_mass="auto",
+                offsets=None, weighting="equal", bounds=None) -> dict:
+    """The problem settings of a fit's keywords, each checked (``UserError`` with the CLI's wording)."""
+    from bwbench.data import bounds as bounds_mod
     from bwbench.errors import UserError
     from bwbench.models import registry
-    from bwbench.optimize.fit_result import run_fit
-    from bwbench.problems.switched_vpp.formulations import bound_names, make_problem, resolve_formulation
+    from bwbench.problems.joint_problem import WEIGHTINGS
+    from bwbench.problems.switched_vpp.commands import fix_mass_value
+    from bwbench.problems.switched_vpp.formulations import bound_names, resolve_formulation
 
-    if not specimens:
-        raise UserError("bwbench.fit needs at least one specimen file")
     chosen = registry.get(model or registry.DEFAULT)
+    if state is not None and not chosen.states:
+        raise UserError(f"state does not apply to model {chosen.name!r} (no state convention to choose)")
+    if state is not None and state not in chosen.states:
+        raise UserError(f"state must be one of {', '.join(map(repr, chosen.states))}, got {state!r}")
+    if excitation not in ("measured", "sine"):
+        raise UserError(f"excitation must be 'measured' or 'sine', got {excitation!r}")
+    if weighting not in WEIGHTINGS:
+        raise UserError(f"weighting must be one of {', '.join(map(repr, WEIGHTINGS))}, got {weighting!r}")
     settings: dict = {"model": chosen.name, "formulation": resolve_formulation(chosen, formulation),
-                "state": state or "shared", "excitation": excitation, "weighting": weighting}
-    if fix_mass != "auto":
-        settings["fix_mass"] = fix_mass
+                      "state": state or "shared", "excitation": excitation, "weighting": weighting}
+    mass = fix_mass_value(None if fix_mass is None else str(fix_mass), "fix_mass") if fix_mass != "auto" else "auto"
+    if fix_mass is None:
+        mass = None
+    if mass != "auto":
+        if settings["formulation"] != "identifiable":
+            raise UserError(f"fix_mass applies to the identifiable formulation (the {settings['formulation']} "
+                            "formulation has no solved mass)")
+        settings["fix_mass"] = mass
+    if offsets is not None:
+        if offsets not in ("branch", "continuous"):
+            raise UserError(f"offsets must be 'branch' or 'continuous', got {offsets!r}")
+        settings["offsets"] = offsets
     if bounds is not None:
         names = bound_names([settings["formulation"]], settings["state"], [chosen.name])
         settings["bounds"] = (bounds_mod.read_json(bounds, names) if isinstance(bounds, (str, Path))
                               else bounds_mod.validate(dict(bounds), names, "bounds"))
-    loaded = [read_specimen(s) if isinstance(s, (str, Path)) else s for s in specimens]
-    synthetic = all(isinstance(s, (str, Path)) and manifest.is_synthetic(s) for s in specimens)
-    with threads_mod.limited(threads_mod.check(threads)):
-        problem = make_problem(loaded if len(loaded) > 1 else loaded[0], settings)
-        return run_fit(problem, optimizer, budget, seed, options, synthetic)
+    return settings
 
 
 def load_fit(path) -> FittedModel:
@@ -76,10 +159,20 @@ def load_fit(path) -> FittedModel:
 
 
 def load_study(db, data_dir=None):
-    """A study database (``bwbench compare``) as a ``Study``: ``.runs`` (one row per run: specimen,
-    optimizer, replicate, variant, mse N², rmse_N N, nfev, every parameter by name, timings) and
-    ``.traces`` (best-so-far MSE, N², against evaluations) as pandas DataFrames, ``.settings`` and
-    ``.specimen_path(name)``. ``data_dir``: where the study's files are now, if they moved."""
-    from bwbench.store.reader import load_study as load
+    """A study database (``bwbench compare``, ``bwbench.compare``) as a ``Study``: ``.runs`` (one row per
+    run, typed: backend, formulation, model, nfev, finished, mse N², rmse_N N, every parameter by
+    name), ``.traces`` (best-so-far MSE, N², against evaluations), ``.ranking()``,
+    ``.recommendation``, ``.report(out_dir)``, ``.posterior(specimen)``. ``data_dir``: where the
+    study's files are now, if they moved."""
+    from bwbench.study_api import load
 
     return load(db, data_dir)
+
+
+def compare(config=None, **settings):
+    """Run (or resume) a study as ``bwbench compare`` does; returns its ``Study``. See
+    ``bwbench.study_api.compare`` for the keywords (specimens=, optimizers=, seeds=, budget=, model=,
+    formulation=, db=, workers=, ...)."""
+    from bwbench.study_api import compare as run
+
+    return run(config, **settings)

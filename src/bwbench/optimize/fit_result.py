@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -84,10 +85,70 @@ class FitResult:
 
         return pd.DataFrame(list(self.files))
 
+    # -- what a notebook reads next: uncertainty, notes, the figure (bwbench.fit_summary, fit_plots) --
+    @property
+    def specimens(self) -> list:
+        """The fitted ``Specimen`` objects (one, or a joint fit's several)."""
+        p = self.problem
+        return list(p.specimens) if hasattr(p, "specimens") else [p.specimen]
+
+    @property
+    def notes(self) -> list:
+        """What ``bwbench fit`` prints beside the loss: the linear solve's and the checks' notes, and the
+        warnings (a parameter on its box's edge, ...); ``bwbench.fit`` issues them as ``FitWarning``."""
+        from bwbench import fit_notes
+
+        return fit_notes.notes(self)
+
+    @cached_property
+    def uncertainty(self):
+        """The linearised covariance of the free parameters (``bwbench.fit_summary.Uncertainty``)."""
+        from bwbench import fit_summary
+
+        return fit_summary.uncertainty(self)
+
+    def summary(self):
+        """A DataFrame indexed by parameter: value, stderr (standard error, the same unit), unit, role
+        (searched / solved / held / derived), at_edge (on an edge of its box or bound), lower, upper.
+        Standard errors from the Jacobian at the optimum, the solved linear coefficients included
+        through the variable-projection covariance; inf where the data do not determine a parameter."""
+        from bwbench import fit_summary
+
+        return fit_summary.summary(self, self.uncertainty)
+
+    def correlation(self):
+        """The correlation matrix of the free (searched and solved) parameters, a DataFrame."""
+        from bwbench import fit_summary
+
+        return fit_summary.correlation(self.uncertainty)
+
+    def report(self, min_correlation: float = 0.1) -> str:
+        """A text report like lmfit's ``fit_report``: data points, variables, χ², RMSE, NRMSE, AIC/BIC,
+        every parameter with its standard error, the correlations above ``min_correlation``, the notes."""
+        from bwbench import fit_summary
+
+        return fit_summary.report(self, self.uncertainty, self.notes, min_correlation)
+
+    def plot(self, ax=None):
+        """A matplotlib ``Figure``: per file the loops F–x and F–v, force and residual against time,
+        measured and fitted. ``ax``: draw into it instead (one Axes: the F–x loops; four: every panel).
+        The global backend and rcParams are left as they were."""
+        from bwbench import fit_plots
+
+        model = self.model
+        title = (f"{model.describe()}: {self.result.optimizer}, {self.result.nfev} evaluations"
+                 + (" of every file" if len(self.files) > 1 else ""))
+        return fit_plots.figure([model.predict(s) for s in self.specimens], title, ax)
+
     def __repr__(self) -> str:
-        files = ", ".join(f"{f['specimen']} {f['rmse_N']:.4g} N ({f['nrmse']:.3g})" for f in self.files)
-        return (f"<FitResult {self.problem.model.name} {self.problem.formulation} by {self.result.optimizer}, "
-                f"{self.result.nfev} evaluations: RMSE {files}>")
+        from bwbench import reprs
+
+        return reprs.fit_repr(self)
+
+    def _repr_html_(self) -> str:
+        from bwbench import reprs
+
+        return reprs.fit_html(self)
 
     # -- the result JSON ------------------------------------------------------------------------
     def to_json_dict(self) -> dict:

@@ -40,6 +40,7 @@ class Prediction:
     displacement_mm: np.ndarray
     force_N: np.ndarray
     measured_N: np.ndarray
+    velocity_mm_s: np.ndarray | None = field(default=None, repr=False)  # what drove the model (for the F–v loop)
 
     @property
     def n(self) -> int:
@@ -74,6 +75,23 @@ class Prediction:
         return pd.DataFrame({"time_s": self.time_s, "displacement_mm": self.displacement_mm,
                              "force_measured_N": self.measured_N, "force_model_N": self.force_N,
                              "residual_N": self.force_N - self.measured_N})
+
+    def plot(self, ax=None):
+        """A matplotlib ``Figure``: loops F–x and F–v, force and residual against time, measured and
+        predicted (``ax``: draw into it instead). The global backend and rcParams are left as they were."""
+        from bwbench import fit_plots
+
+        return fit_plots.figure([self], f"prediction of {self.specimen}", ax)
+
+    def __repr__(self) -> str:
+        from bwbench import reprs
+
+        return reprs.prediction_repr(self)
+
+    def _repr_html_(self) -> str:
+        from bwbench import reprs
+
+        return reprs.prediction_html(self)
 
 
 @dataclass(frozen=True)
@@ -190,13 +208,14 @@ class FittedModel:
         return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
 
     def predict(self, specimen) -> Prediction:
-        """The force on ``specimen`` (a path to a specimen CSV, or a ``Specimen``) against its measured one."""
-        from bwbench.data.specimen import read_specimen
+        """The force on ``specimen`` (a specimen CSV's path, a ``Specimen`` or a DataFrame with the file's
+        columns) against its measured one."""
+        from bwbench.data_input import as_specimen
 
-        spec = read_specimen(specimen) if isinstance(specimen, (str, Path)) else specimen
+        spec = as_specimen(specimen)
         signal = self.signal(spec)
         return Prediction(spec.name, np.asarray(spec.t, dtype=float), np.asarray(signal.x, dtype=float),
-                          self.force(signal), np.asarray(spec.f, dtype=float))
+                          self.force(signal), np.asarray(spec.f, dtype=float), np.asarray(signal.v, dtype=float))
 
     def simulate(self, specimen):
         """``predict(specimen).frame()`` with the velocity and acceleration that drove the model: a
@@ -204,12 +223,22 @@ class FittedModel:
         force_model_N, force_measured_N."""
         import pandas as pd
 
-        from bwbench.data.specimen import read_specimen
+        from bwbench.data_input import as_specimen
 
-        spec = read_specimen(specimen) if isinstance(specimen, (str, Path)) else specimen
+        spec = as_specimen(specimen)
         s = self.signal(spec)
         return pd.DataFrame({"time_s": s.t, "displacement_mm": s.x, "velocity_mm_s": s.v, "acceleration_mm_s2": s.a,
                              "force_model_N": self.force(s), "force_measured_N": spec.f})
+
+    def __repr__(self) -> str:
+        from bwbench import reprs
+
+        return reprs.model_repr(self)
+
+    def _repr_html_(self) -> str:
+        from bwbench import reprs
+
+        return reprs.model_html(self)
 
     def to_dict(self) -> dict:
         """What a result JSON holds of this model: model, formulation, state, excitation, params, units."""

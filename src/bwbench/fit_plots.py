@@ -1,0 +1,94 @@
+"""The figure of ``FitResult.plot()`` and ``Prediction.plot()``: per record, the loops F–x and F–v, and
+the force and its residual against time, measured against model.
+
+Drawn on a ``matplotlib.figure.Figure`` made directly (not through pyplot) inside a style context:
+the global backend, the rcParams and pyplot's list of figures are what they were. In IPython the
+figure still shows inline when it is a cell's value: a PNG formatter is registered for ``Figure``
+where none is (what matplotlib's inline backend does itself once pyplot is imported).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+STYLE = {"font.size": 9, "axes.grid": True, "grid.alpha": 0.3, "axes.spines.top": False,
+         "axes.spines.right": False, "legend.frameon": False}
+MEASURED = {"color": "0.35", "lw": 0.9, "label": "measured"}
+MODEL = {"color": "tab:red", "lw": 1.1, "label": "model"}
+PANELS = 4
+
+
+def velocity_of(prediction) -> np.ndarray:
+    """The velocity (mm/s) that drove the model, or a central difference of the displacement."""
+    v = getattr(prediction, "velocity_mm_s", None)
+    return np.asarray(v, float) if v is not None else np.gradient(prediction.displacement_mm, prediction.time_s)
+
+
+def draw(prediction, axes) -> None:
+    """The four panels of one record onto ``axes`` (a sequence of 1 to 4 Axes, in the order F–x, F–v,
+    F(t), residual(t)); one Axes gets the F–x loops only."""
+    p = prediction
+    x, v, t = p.displacement_mm, velocity_of(p), p.time_s
+    model = np.where(np.isfinite(p.force_N), p.force_N, np.nan)
+    rmse = f"RMSE {p.rmse_N:.3g} N, NRMSE {p.nrmse:.3g}"
+    panels = [
+        (lambda ax: (ax.plot(x, p.measured_N, **MEASURED), ax.plot(x, model, **MODEL)),
+         "displacement (mm)", "force (N)", f"{p.specimen}: {rmse}"),
+        (lambda ax: (ax.plot(v, p.measured_N, **MEASURED), ax.plot(v, model, **MODEL)),
+         "velocity (mm/s)", "force (N)", "force–velocity"),
+        (lambda ax: (ax.plot(t, p.measured_N, **MEASURED), ax.plot(t, model, **MODEL)),
+         "time (s)", "force (N)", "force against time"),
+        (lambda ax: (ax.plot(t, model - p.measured_N, color="tab:blue", lw=0.8, label="model − measured"),
+                     ax.axhline(0.0, color="0.5", lw=0.6)),
+         "time (s)", "residual (N)", "residual"),
+    ]
+    for ax, (plot, xlabel, ylabel, title) in zip(axes, panels):
+        plot(ax)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.set_title(title, fontsize="medium")
+    axes[0].legend(loc="best", fontsize="small")
+
+
+def figure(predictions, title: str | None = None, ax=None):
+    """A Figure of ``predictions`` (one row of four panels each), or drawn into ``ax`` (one Axes: the
+    first record's F–x loops; a sequence: its four panels) and that Axes' figure returned."""
+    import matplotlib
+    from matplotlib.figure import Figure
+
+    predictions = list(predictions)
+    with matplotlib.rc_context(STYLE):
+        if ax is not None:
+            axes = list(np.ravel(ax)) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
+            draw(predictions[0], axes[:PANELS])
+            return axes[0].figure
+        fig = Figure(figsize=(12, 2.9 * len(predictions) + 0.4), layout="constrained")
+        grid = fig.subplots(len(predictions), PANELS, squeeze=False)
+        for row, prediction in zip(grid, predictions):
+            draw(prediction, row)
+        if title:
+            fig.suptitle(title, fontsize="medium")
+    show_inline()
+    return fig
+
+
+def show_inline() -> None:
+    """In IPython, let a bare ``Figure`` display as PNG (once, only where nothing else does it)."""
+    import sys
+
+    if "IPython" not in sys.modules:
+        return
+    from IPython import get_ipython
+
+    shell = get_ipython()
+    if shell is None:
+        return
+    from matplotlib.figure import Figure
+
+    formatter = shell.display_formatter.formatters["image/png"]
+    try:
+        formatter.lookup_by_type(Figure)
+    except KeyError:
+        from IPython.core.pylabtools import print_figure
+
+        formatter.for_type(Figure, lambda fig: print_figure(fig, "png", bbox_inches="tight"))
