@@ -126,7 +126,8 @@ class Study:
         runs = self.runs[(self.runs["kind"] == "ranking") & (self.runs["optimizer"] == label)]
         formulation = _one(runs, "formulation")
         model = _one(runs, "model")
-        use = next((s for s in re.split(r"(?<=[.)])\s+(?=\*\*Use|\w)", text) if s.startswith("**Use")), text)
+        found = re.search(r"\*\*Use.*?\.(?=\s+[A-Z*]|\s*$)", text, re.S)
+        use = found.group(0) if found else text
         return Recommendation(label, split_label(label)[0], formulation, model,
                               int(budget) if isinstance(budget, (int, float)) else None, _plain(use), text)
 
