@@ -51,7 +51,7 @@ def from_frame(frame, name: str | None = None):
             raise UserError(f"{where}: column {column} is not numeric") from None
         bad = np.flatnonzero(~np.isfinite(array))
         if bad.size:
-            raise UserError(f"{where}, row {int(bad[0])}: {column} is {array[bad[0]]!r}: every value must be finite")
+            raise UserError(f"{where}, row {int(bad[0])}: {column} is {float(array[bad[0]])}: every value must be finite")
         array = np.ascontiguousarray(array)
         array.flags.writeable = False
         values[column] = array
