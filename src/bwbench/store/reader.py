@@ -63,6 +63,9 @@ class Chain:
         unit coordinates (default: the switched model's linear Table 5 box)."""
         kept = self.samples[burn:] if walkers is None else self.samples[burn:, np.asarray(walkers, bool)]
         flat = kept.reshape(-1, self.samples.shape[2])
+        if from_unit is None and flat.shape[1] != len(LOWER):
+            raise UserError(f"this chain samples {flat.shape[1]} coordinates, not the paper's 14: read it in physical "
+                            "units with bwbench.load_study(db).posterior(specimen), or pass from_unit=")
         return LOWER + flat * (UPPER - LOWER) if from_unit is None else from_unit(flat)
 
 
