@@ -39,5 +39,5 @@ def issue(fit, stacklevel: int = 3) -> None:
     """Each of ``notes(fit)`` but the report-only ones as a ``FitWarning`` (``stacklevel``: the caller's
     caller, the user's line)."""
     for text in notes(fit):
-        if not text.startswith(_QUIET):
+        if not any(quiet in text for quiet in _QUIET):  # a joint fit's notes start with the file's name
             warnings.warn(text, FitWarning, stacklevel=stacklevel)

@@ -26,6 +26,7 @@ from functools import cached_property
 from pathlib import Path
 
 from bwbench.errors import UserError
+from bwbench.matplotlib_state import untouched
 
 
 @dataclass(frozen=True)
@@ -136,13 +137,14 @@ class Study:
         """Write the report of ``bwbench report`` into ``out_dir`` (report.html, report.md, figures and
         CSVs; ``profiles``: profile likelihoods on the first specimen, 0 = none); returns report.html's
         path. ``log``: where progress goes (default: nowhere)."""
-        from bwbench.report.build import build_report
-
         from bwbench.api import check_count
 
         check_count("profiles", profiles, "0 or more", minimum=0)
-        return build_report(self._stored.path, out_dir, data_dir=data_dir, profile_params=profiles,
-                            log=io.StringIO() if log is None else log)
+        with untouched():
+            from bwbench.report.build import build_report
+
+            return build_report(self._stored.path, out_dir, data_dir=data_dir, profile_params=profiles,
+                                log=io.StringIO() if log is None else log)
 
     def posterior(self, specimen: str, thin: int | None = None):
         """The posterior draws of ``specimen`` as a DataFrame in physical units (``walker``, ``step``, one
@@ -150,13 +152,15 @@ class Study:
         about 4,000 draws)."""
         from bwbench import posterior_api
 
-        return posterior_api.frame(self._stored, specimen, thin)
+        with untouched():
+            return posterior_api.frame(self._stored, specimen, thin)
 
     def to_inference_data(self, specimen: str, thin: int | None = None):
         """The same draws as ArviZ ``InferenceData`` (chains = walkers), for ``arviz.summary``, plots, R-hat."""
         from bwbench import posterior_api
 
-        return posterior_api.inference_data(self._stored, specimen, thin)
+        with untouched():
+            return posterior_api.inference_data(self._stored, specimen, thin)
 
     # -- display ----------------------------------------------------------------------------------
     def _counts(self) -> str:
@@ -218,6 +222,15 @@ def compare(config=None, *, specimens=None, optimizers=None, seeds: int = 5, bud
     A study that is already complete in ``db`` is read, not run again. Raises ``UserError`` with the
     command line's message for bad input; runs that failed are in ``runs`` (``finished`` False).
     """
+    with untouched():  # the study code imports the report's figure modules (Agg, a theme)
+        return _compare(config, specimens=specimens, optimizers=optimizers, seeds=seeds, budget=budget, seed=seed,
+                        model=model, formulation=formulation, state=state, excitation=excitation, bounds=bounds,
+                        fix_mass=fix_mass, offsets=offsets, validate=validate, name=name, db=db, workers=workers,
+                        threads=threads, data=data, log=log)
+
+
+def _compare(config, *, specimens, optimizers, seeds, budget, seed, model, formulation, state, excitation, bounds,
+             fix_mass, offsets, validate, name, db, workers, threads, data, log) -> Study:
     from bwbench import threads as threads_mod
     from bwbench.study.commands import refuse_blowing_box, study_inputs
     from bwbench.study.config import config_from_arguments, load_study_config

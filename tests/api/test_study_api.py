@@ -158,3 +158,26 @@ def test_a_study_without_a_posterior_says_so(study):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert math.isfinite(study.ranking()["median_rmse_N"].iloc[0])
+
+
+def test_report_and_posterior_leave_a_notebook_matplotlib_as_it_was(posterior_study, tmp_path):
+    # The report's figure modules select Agg and set a theme when imported: a notebook keeps its own.
+    import subprocess
+    import sys
+
+    script = f"""
+import matplotlib
+matplotlib.use("pdf")
+import matplotlib.pyplot as plt
+plt.rcParams["font.size"] = 13.0
+before = matplotlib.rcParams.copy()
+import bwbench
+study = bwbench.load_study({str(posterior_study.path)!r})
+study.posterior("toy1")
+study.report({str(tmp_path / "out")!r}, profiles=0)
+print(plt.get_backend(), matplotlib.rcParams.copy() == before, matplotlib.rcParams["font.size"])
+"""
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["pdf", "True", "13.0"]
+    assert (tmp_path / "out" / "report.html").is_file()
