@@ -9,10 +9,12 @@ where none is (what matplotlib's inline backend does itself once pyplot is impor
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-STYLE = {"font.size": 9, "axes.grid": True, "grid.alpha": 0.3, "axes.spines.top": False,
-         "axes.spines.right": False, "legend.frameon": False}
+STYLE: Any = {"font.size": 9, "axes.grid": True, "grid.alpha": 0.3, "axes.spines.top": False,
+             "axes.spines.right": False, "legend.frameon": False}  # Any: matplotlib types the keys as literals
 MEASURED = {"color": "0.35", "lw": 0.9, "label": "measured"}
 MODEL = {"color": "tab:red", "lw": 1.1, "label": "model"}
 PANELS = 4

@@ -232,13 +232,12 @@ def compare(config=None, *, specimens=None, optimizers=None, seeds: int = 5, bud
 def _compare(config, *, specimens, optimizers, seeds, budget, seed, model, formulation, state, excitation, bounds,
              fix_mass, offsets, validate, name, db, workers, threads, data, log) -> Study:
     from bwbench import threads as threads_mod
+    from bwbench.api import check_count
+    from bwbench.data.output_paths import refuse_inputs
     from bwbench.study.commands import refuse_blowing_box, study_inputs
     from bwbench.study.config import config_from_arguments, load_study_config
     from bwbench.study.execute import run_study
     from bwbench.study.stop import StudyStopped
-
-    from bwbench.api import check_count
-    from bwbench.data.output_paths import refuse_inputs
 
     if (config is None) == (specimens is None):
         raise UserError("bwbench.compare needs either config= (a study TOML) or specimens= (CSV files), not both")

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from api_toy import toy_frame
 
 import bwbench
+from api_toy import toy_frame
 
 REPO = Path(__file__).resolve().parents[2]
 SPECIMEN = REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"

@@ -8,9 +8,9 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
-from api_toy import TRUTH, toy_frame
 
 import bwbench
+from api_toy import TRUTH, toy_frame
 
 FIT = {"model": "bouc-wen", "budget": 200, "seed": 0, "fix_mass": 0.0}
 

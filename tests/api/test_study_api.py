@@ -7,9 +7,9 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
-from api_toy import toy_frame
 
 import bwbench
+from api_toy import toy_frame
 
 
 @pytest.fixture(scope="module")
