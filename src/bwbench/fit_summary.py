@@ -309,6 +309,15 @@ def report(fit, unc: Uncertainty, notes, min_correlation: float = 0.1) -> str:
         lines.append(f"[[Correlations]] (unreported correlations are < {min_correlation:.3f})")
         for _, a, b, c in sorted(pairs, reverse=True):
             lines.append(f"    C({a}, {b}){' ' * max(0, 2 * width - len(a) - len(b) - 4)} = {c:+.4f}")
+    notes = list(notes)
+    undetermined = unc.undetermined
+    if undetermined:
+        text = (f"{len(undetermined)} of the {len(unc.free)} free parameters are not determined by these data "
+                f"({', '.join(undetermined)}): the residual does not change along some combination of them")
+        if p.formulation != "identifiable" and "identifiable" in p.model.formulations:
+            text += ("; the identifiable formulation (formulation='identifiable') has none of the model's exact "
+                     "symmetries")
+        notes.append(text)
     if notes:
         lines.append("[[Notes]]")
         lines += [f"    {n}" for n in notes]

@@ -106,4 +106,4 @@ def test_exact_symmetries_of_the_paper_formulation_are_not_determined():
     paper = quiet_fit(path, model=None, fix_mass="auto", optimizer="cmaes", budget=150)
     s = paper.summary()
     assert s.loc["A+", "stderr"] == math.inf and s.loc["alpha-", "stderr"] == math.inf
-    assert "not determined by the data" in paper.report()
+    assert "not determined by the data" in paper.report() and "formulation='identifiable'" in paper.report()
