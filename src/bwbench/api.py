@@ -61,6 +61,7 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
     """
     from bwbench import fit_notes
     from bwbench import threads as threads_mod
+    from bwbench.arguments import count
     from bwbench.data import manifest
     from bwbench.data_input import as_specimen
     from bwbench.errors import UserError
@@ -71,11 +72,11 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
     items = [d for item in data for d in (item if isinstance(item, (list, tuple)) else [item])]
     if not items:
         raise UserError("bwbench.fit needs at least one test (a specimen CSV's path, a Specimen or a DataFrame)")
-    check_count("budget", budget, "a positive number of evaluations")
+    count("budget", budget, "a positive number of evaluations")
     from bwbench import limits
 
     limits.check("budget", budget, "BWBENCH_MAX_BUDGET")
-    check_count("seed", seed, "a non-negative integer", minimum=0)
+    count("seed", seed, "a non-negative integer", minimum=0)
     paths = [str(Path(d).resolve()) for d in items if isinstance(d, (str, Path))]
     if len(set(paths)) < len(paths):
         raise UserError("a specimen is named twice: a joint fit takes each file once (use weighting= to weight)")
@@ -99,17 +100,6 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
                       fit_notes.FitWarning, stacklevel=2)
     fit_notes.issue(result)
     return result
-
-
-def check_count(label: str, value, what: str, minimum: int = 1) -> int:
-    """``value`` if it is an integer ≥ ``minimum`` (not a bool), else ``UserError`` naming ``label``."""
-    import numbers
-
-    from bwbench.errors import UserError
-
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise UserError(f"{label} must be {what}, got {value!r}")
-    return int(value)
 
 
 def settings_of(*, model=None, formulation=None, state=None, excitation="measured", fix_mass="auto",

@@ -137,7 +137,7 @@ class Study:
         """Write the report of ``bwbench report`` into ``out_dir`` (report.html, report.md, figures and
         CSVs; ``profiles``: profile likelihoods on the first specimen, 0 = none); returns report.html's
         path. ``log``: where progress goes (default: nowhere)."""
-        from bwbench.api import check_count
+        from bwbench.arguments import count as check_count
 
         check_count("profiles", profiles, "0 or more", minimum=0)
         with untouched():
@@ -232,7 +232,7 @@ def compare(config=None, *, specimens=None, optimizers=None, seeds: int = 5, bud
 def _compare(config, *, specimens, optimizers, seeds, budget, seed, model, formulation, state, excitation, bounds,
              fix_mass, offsets, validate, name, db, workers, threads, data, log) -> Study:
     from bwbench import threads as threads_mod
-    from bwbench.api import check_count
+    from bwbench.arguments import count as check_count
     from bwbench.data.output_paths import refuse_inputs
     from bwbench.study.commands import refuse_blowing_box, study_inputs
     from bwbench.study.config import config_from_arguments, load_study_config

@@ -40,7 +40,7 @@ import sys
 from datetime import datetime, timezone
 from pathlib import Path
 
-from bwbench import __version__
+from bwbench.version import __version__
 from bwbench.data.input_files import not_regular
 from bwbench.errors import UserError
 from bwbench.store.timing import machine_description
