@@ -40,12 +40,12 @@ import sys
 from datetime import datetime, timezone
 from pathlib import Path
 
-from bwbench.version import __version__
 from bwbench.data.input_files import not_regular
 from bwbench.errors import UserError
 from bwbench.store.timing import machine_description
 from bwbench.study.config import StudyConfig, canonical_json, describe_differences
 from bwbench.study.failures import is_transient_text
+from bwbench.version import __version__
 
 GENERIC_COLUMNS = ("problem", "params_json", "metrics_json", "model", "formulation", "variant")  # any problem
 RUN_COLUMNS = (
