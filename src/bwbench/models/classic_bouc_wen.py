@@ -119,6 +119,13 @@ class ClassicBoucWen(Model):
         theta = np.array([z_s / A, n, (beta - gamma) / (beta + gamma)])
         return theta, {"m": 1.0, "c": 2 * xi * wn, "k": alpha * wn**2, "h": (1 - alpha) * wn**2 * z_s, "f": 0.0}
 
+    def coefficient_limits(self, state=None) -> dict:
+        return {"k": (0.0, np.inf, "k ≥ 0: the spring in parallel with the hysteretic element pushes back"),
+                "h": (0.0, np.inf, "h ≥ 0: the hysteretic force lags the motion and so dissipates")}
+
+    def parameter_limits(self, state=None) -> dict:
+        return {"eta": {"upper": "η = 1 is γ = 0, the model's limit (beyond it unloading runs away from "
+                                 "saturation)"}}
 
     def viscous_coefficients(self, values: dict, state=None) -> dict | None:
         if "c" in values:
