@@ -1,9 +1,9 @@
 """Checks of a fit that can fail: what the linear solve does not force, and the shape of the residual.
 
 **Energy by branch and at the reversals.** The energy a fitted model dissipates per cycle, ∮F·dx,
-matches the measured loop's whatever the fit's quality: the least-squares coefficients (a viscous
-c, a stiffness, an offset) absorb the mismatch (measured MR-damper fits at NRMSE 0.058 and 0.236
-both matched it to four digits). What they do not force is *where* the energy goes: the work of
+is close to the measured loop's for any fit that is not far off: the least-squares coefficients (a
+viscous c, a stiffness, an offset) absorb the mismatch (measured MR-damper fits at NRMSE 0.058 and
+0.236 both matched it to four digits), so it cannot tell a good fit from a poor one. What they do not force is *where* the energy goes: the work of
 each branch (ẋ ≥ 0 and ẋ < 0; a constant force offset moves work from one to the other) and the work
 in the **reversal zones** (|x − x_mid| ≥ ``REVERSAL_ZONE`` × the amplitude, where the hysteresis
 turns and a wrong yield shape shows). Each is compared with the measured one as a share of the
