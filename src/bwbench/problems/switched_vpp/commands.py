@@ -103,10 +103,10 @@ def problem_from_args(args):
 
         start = time.perf_counter()
         print(f"probing the search box of --bounds {args.bounds} ({bounds_mod.PROBE_CORNERS} corners, one "
-              f"evaluation each) …", file=sys.stderr, flush=True)
+              f"evaluation each) …", flush=True)
         bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
         problem.box_probe_s = time.perf_counter() - start
-        print(f"probing the search box: done in {problem.box_probe_s:.1f} s", file=sys.stderr, flush=True)
+        print(f"probing the search box: done in {problem.box_probe_s:.1f} s", flush=True)
     return problem
 
 
