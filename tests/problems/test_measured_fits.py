@@ -5,7 +5,6 @@ the provenance and NRMSEs of the result JSON."""
 import hashlib
 import json
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bwbench.data.plausibility import LOOP_SIGN_FRACTION, loop_work
+from bwbench.problems.linear_bounds import VISCOUS_UNIT
 
 MASS_NOTE = "1 N·s²/mm = 1 t = 1000 kg"
 
@@ -169,7 +170,11 @@ def physical_limit_findings(problem, params, at_bound: dict, out: FitChecks) -> 
         if name not in unbounded or lo <= unbounded[name] <= hi:
             continue
         unit = units.get(name, "")
-        why = coefficient[name][2] if name in coefficient else f"{name} bounded to [{lo:g}, {hi:g}]"
+        why = (coefficient[name][2] if name in coefficient else
+               f"{name} ≥ 0: a dashpot cannot push the way it moves" if unit == VISCOUS_UNIT and lo == 0 else
+               f"{name} in [{lo:g}, {hi:g}] N·s²/mm: a negative mass is no mass, and no damper or specimen on a "
+               "test rig moves a tonne" if name == getattr(problem.model.linear_layout(problem.state), "mass", None)
+               else f"{name} bounded to [{lo:g}, {hi:g}]")
         entry = {"value": solved.get(name), "unbounded": unbounded[name], "bound": [lo, hi],
                  "rmse_N": rmse, "rmse_unbounded_N": rmse_free, "meaning": why}
         out.json.setdefault("physical_limits", {})[name] = entry

@@ -98,7 +98,6 @@ def problem_from_args(args):
     specimens = [read_specimen(p) for p in paths]
     problem = make_problem(specimens if len(specimens) > 1 else specimens[0], settings)
     if "bounds" in settings:
-        import sys
         import time
 
         start = time.perf_counter()
