@@ -207,7 +207,7 @@ def failing_checks(problem, params, out: FitChecks) -> None:
                           if part["mismatch"] > energy["tolerance"])
         out.findings.append(f"energy check failed: the fitted model's work misses the measured one by {parts} of the "
                             f"loop energy (tolerance {energy['tolerance']:.0%}): the loop's shape is wrong where the "
-                            "total ∮F·dx (matched by the linear solve) cannot tell")
+                            "total ∮F·dx (which a least-squares fit matches closely) cannot tell")
     else:
         out.notes.append(f"energy check passed: work per branch and at the reversals within "
                          f"{energy['worst_mismatch']:.2%} of the measured loop energy (tolerance {energy['tolerance']:.0%})")
