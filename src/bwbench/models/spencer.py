@@ -234,8 +234,8 @@ def plausibility(values: dict, signal) -> list:
         "n and η are not determined)" if xy > a else "")
     row("n", "-", "smoothness of the yield (the literature's fits: 1–4)",
         "a sharper yield than the literature's fits (n > 4)" if n > 4 else "")
-    row("eta", "-", "unloading ratio (β − γ)/(β + γ) (Spencer's fits: 0)",
-        "β < 0: the force unloads faster after a reversal than it loads" if eta < -1 else "")
+    row("eta", "-", "unloading ratio (β − γ)/(β + γ) (Spencer's fits: 0); below −1 (β < 0) the force unloads "
+        "faster after a reversal than it loads")
     row("vy", "mm/s", "relative velocity at which the damper reaches its yield force",
         f"above the test's peak velocity {v:.3g} mm/s: the damper never yields in this test" if vy > v else "")
     row("r0", "-", "c₀/c₁, post-yield over pre-yield damping (Spencer's damper: 0.07–0.10)",
