@@ -155,7 +155,7 @@ def fit_all(made: dict, out: Path, optimizer: str) -> None:
     bwbench = str(Path(sys.executable).with_name("bwbench"))
     volts = {name: v for name, _, _, v, *_ in TESTS}
     rows = []
-    for name, (path, F_true, f_meas) in made.items():
+    for name, (path, _, f_meas) in made.items():
         res = work / f"{name}.json"
         start = time.perf_counter()
         proc = subprocess.run([bwbench, "fit", str(path.resolve()), "--model", "spencer", "--optimizer", optimizer,
