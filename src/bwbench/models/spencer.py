@@ -102,6 +102,7 @@ PARAMETER_LIMITS = {
     "n": {"lower": "n = 1 is the model's limit (below it ż is not Lipschitz at z = 0): the data want a yield "
                    "rounder than the model can make"},
     "eta": {"upper": "η = 1 is γ = 0, the model's limit (beyond it unloading runs away from saturation)"},
+    "k0": {"lower": "k₀ = 0, no spring at large velocities: a physical limit (k₀ ≥ 0), not a search limit"},
 }
 
 
