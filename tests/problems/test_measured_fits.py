@@ -194,3 +194,17 @@ def test_kappa0_on_its_floor_is_a_physical_limit_not_a_box_edge(tmp_path):
     checks = fit_checks.check(problem, theta, at_bound={"kappa0": "lower"})
     assert "kappa0" in checks.explained
     assert any(f.startswith("kappa0 on its lower limit") and "physical limit (k₀ ≥ 0)" in f for f in checks.findings)
+
+
+def test_the_box_probe_says_so_and_its_time_is_in_the_result(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    spencer_record(tmp_path / "s.csv")
+    (tmp_path / "box.json").write_text(json.dumps({"n": [1.5, 3.0]}))
+    assert main(["fit", "s.csv", "--model", "spencer", "--optimizer", "random", "--budget", "8",
+                 "--bounds", "box.json", "--out", "r.json"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == "probing the search box of --bounds box.json (32 corners, one evaluation each) …"
+    result = json.loads((tmp_path / "r.json").read_text())
+    assert out[1] == f"probing the search box: done in {result['box_probe_s']:.1f} s"
+    assert result["box_probe_s"] > 0 and [i["role"] for i in result["inputs"]] == ["specimen", "bounds"]
+    assert result["bounds"]["n"] == [1.5, 3.0]
