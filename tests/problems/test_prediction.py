@@ -60,8 +60,9 @@ def test_predict_on_the_fits_own_file_reproduces_its_rmse(damper, tmp_path, caps
 def test_a_joint_fit_of_two_copies_of_one_file_equals_the_single_file_fit(damper, tmp_path):
     shutil.copy(damper / "a.csv", tmp_path / "copy.csv")
     # lsq-trf: the stacked Jacobian rounds differently and the trust region's path follows the roundoff
-    # along the weakly determined n, so only the loss is compared there, not the point reached
-    for optimizer, budget, rel in (("random", 60, 1e-12), ("lsq-trf", 100, 1e-4)):
+    # along the weakly determined n, so only the loss is compared there, not the point reached (to 1e-3:
+    # k1 sits on its physical limit 0 here, and where the bound switches on and off the paths part sooner)
+    for optimizer, budget, rel in (("random", 60, 1e-12), ("lsq-trf", 100, 1e-3)):
         single = fit([damper / "a.csv"], tmp_path / "one.json", "--model", "spencer", budget=budget,
                      optimizer=optimizer)
         joint = fit([damper / "a.csv", tmp_path / "copy.csv"], tmp_path / "two.json", "--model", "spencer",

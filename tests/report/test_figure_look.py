@@ -223,7 +223,9 @@ def test_plot_fit_titles_the_formulation_and_shows_the_residual(study, drawn, tm
     switched_figures.plot_fit(problem, result, tmp_path / "fit.png", synthetic=True)
     assert (tmp_path / "fit.png").stat().st_size > 10_000
     (record,) = drawn
-    assert "cmaes (paper formulation)" in record.texts and f"residual: RMSE {np.sqrt(run['mse']):.3g} N" in record.texts
+    # the model is named in every title (the switched model too), and NRMSE is given with its definition
+    assert "switched-bouc-wen (paper formulation), cmaes" in record.texts
+    assert f"residual: RMSE {np.sqrt(run['mse']):.3g} N, NRMSE" in record.texts and "(RMSE/max F" in record.texts
     assert record.width_in <= palette.MAX_WIDTH_IN and record.smallest_font >= palette.MIN_FONT_PT
 
 

@@ -26,6 +26,9 @@ def check(args) -> int:
             print(f"ok: {path}: {spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s, displacement "
                   f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N")
             print(f"  {signals_text(spec)}")
+            ramps = ramps_text(spec)
+            if ramps:
+                print(f"  {ramps}")
             texts = plausibility.warnings(spec, synthetic=manifest.is_synthetic(path)) + plausibility.signal_warnings(spec)
             for text in texts:
                 print(text if text.startswith("note:") else f"warning: {path}: {text}",
@@ -36,6 +39,17 @@ def check(args) -> int:
 # A viscous coefficient to express a velocity error as a force: round, and of the order of the paper's
 # identified 2·ξ·ωn (Tables 6–8: 20–18,000 N·s/mm).
 REFERENCE_VISCOUS = 1000.0  # N·s/mm
+
+
+def ramps_text(spec) -> str:
+    """The ramp-in/out cycles of a constant-amplitude test and its steady part; "" when it has none."""
+    from bwbench.data.steady_part import steady_part
+
+    steady = steady_part(spec.t, spec.x)
+    if not steady.ramped:
+        return ""
+    return (f"ramps: {steady.describe()}; steady part t = {spec.t[steady.start]:.4g} … {spec.t[steady.stop - 1]:.4g} s "
+            "(the inertia rule judges the excitation there; fit figures draw the ramp cycles lighter)")
 
 
 def signals_text(spec) -> str:

@@ -180,12 +180,36 @@ class Model:
         """(θ, coefficients by name) of one direct parameter vector P; the inverse of ``to_direct``."""
         raise NotImplementedError
 
+    # -- physical limits (optional) -------------------------------------------------------------
+    def coefficient_limits(self, state=None) -> dict:
+        """{solved coefficient: (lower, upper, why)}: the physical limits of the coefficients the
+        identifiable formulation solves, applied (``linear_bounds.physical_bounds``) when the measured
+        loops dissipate energy; ``why`` says what the limit means. {} when the model has none."""
+        return {}
+
+    def parameter_limits(self, state=None) -> dict:
+        """{searched parameter: {"lower" | "upper": why}}: the search-box edges that are physical limits
+        (a spring that cannot be negative), not search limits: a fit on one is a finding about the model
+        or the data, not a box to widen. {} when the model has none."""
+        return {}
+
+    def plausibility(self, values: dict, signal, state=None) -> list:
+        """[(parameter, value, unit, meaning, verdict or "")] for a fit's ``values`` (every reported
+        parameter by name) on the excitation ``signal``: what each fitted parameter means physically and,
+        where it is implausible, why (verdict). [] when the model has no such table."""
+        return []
+
     # -- checks of a fit (optional) -----------------------------------------------------------
     def viscous_coefficients(self, values: dict, state=None) -> dict | None:
         """∂F/∂ẋ (N·s/mm) of a fit whose parameters are ``values`` (by name, any formulation), per
         branch ({"+": .., "-": ..} for a model that switches with the sign of ẋ, else {"": ..}); None
         when the model cannot say. Used to turn a velocity error into a force error."""
         return None
+
+    def initial_state(self, signal, state=None) -> str:
+        """Which state the model starts the record ``signal`` from, in words ("" when the model does not
+        say): the fit's result records it."""
+        return ""
 
     def linear_branches(self, theta, trajectory, signal, state=None) -> dict:
         """{branch: True when the fitted branch is linear in x (no yield within the stroke)} for the

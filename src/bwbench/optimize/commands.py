@@ -52,7 +52,7 @@ def fit(args) -> int:
 
     from bwbench.data import manifest
     from bwbench.optimize import fitting, registry
-    from bwbench.optimize.fit_result import run_fit
+    from bwbench.optimize.fit_result import provenance, run_fit
     from bwbench.problems.switched_vpp.commands import problem_from_args
 
     if args.budget < 1:
@@ -68,8 +68,10 @@ def fit(args) -> int:
     synthetic = all(manifest.is_synthetic(p) for p in args.specimen)
     with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
         problem = problem_from_args(args)
-        fitted = run_fit(problem, args.optimizer, args.budget, args.seed, options, synthetic,
-                         extra={"bounds_file": args.bounds})
+        extra = {"bounds_file": args.bounds, **provenance(args.specimen, args.bounds)}
+        if hasattr(problem, "box_probe_s"):
+            extra["box_probe_s"] = problem.box_probe_s  # not in wall_s, the backend's own time
+        fitted = run_fit(problem, args.optimizer, args.budget, args.seed, options, synthetic, extra=extra)
     result, checks = fitted.result, fitted.checks
     with writing(args.out):
         fitted.write_json(args.out)
@@ -83,18 +85,27 @@ def fit(args) -> int:
         with writing(args.plot):
             _plot(problem, fitted, args.plot, synthetic)
     joint = len(fitted.files) > 1
+    probe = f" (+ {problem.box_probe_s:.1f} s probing the --bounds box)" if hasattr(problem, "box_probe_s") else ""
+    accuracy = "" if joint else f", {_nrmse_text(fitted.files[0])}"
     print(f"{args.optimizer}: {'loss' if joint else 'MSE'} {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE "
-          f"{result.rmse_N:.3g} N) in {result.nfev} evaluations{' of every file' if joint else ''}, "
-          f"{result.wall_s:.2f} s -> {args.out}")
+          f"{result.rmse_N:.3g} N{accuracy}) in {result.nfev} evaluations{' of every file' if joint else ''}, "
+          f"{result.wall_s:.2f} s{probe} -> {args.out}")
     for row in fitted.files if joint else ():
-        print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, NRMSE {row['nrmse']:.4g} (weight {row['weight']:.3g})")
+        print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, {_nrmse_text(row)} (weight {row['weight']:.3g})")
     for note in getattr(problem, "notes", []):
         print(f"  linear solve: {note}")
     for line in checks.notes if checks else []:
         print(f"  {line}")
+    for line in checks.findings if checks else []:
+        print(f"  finding: {line}")
     for text in fitting.edge_warnings(problem, result, checks.explained if checks else ()) + (checks.warnings if checks else []):
         print(f"warning: {where}: {text}", file=sys.stderr)
     return 0
+
+
+def _nrmse_text(row: dict) -> str:
+    """Both NRMSEs of a file's row, the literature's named (``fit_result.NRMSE_DEFINITIONS``)."""
+    return (f"NRMSE {row['nrmse_max_F']:.4g} (RMSE/max F, the literature's; {row['nrmse']:.4g} RMSE/max|F|)")
 
 
 def _plot(problem, fitted, path, synthetic: bool) -> None:
@@ -108,8 +119,10 @@ def _plot(problem, fitted, path, synthetic: bool) -> None:
 
     model = fitted.model
     predictions = [model.predict(spec) for spec in problem.specimens]
+    nrmse = ", ".join(f"{row['nrmse_max_F']:.3g}" for row in fitted.files)
     plot_predictions(predictions, path, f"joint fit of {len(predictions)} tests: {model.describe()}\n"
-                                        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file",
+                                        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file; "
+                                        f"NRMSE (RMSE/max F) {nrmse}",
                      what="fitted", synthetic=synthetic)
 
 

@@ -19,13 +19,20 @@ import numpy as np
 
 from bwbench.optimize.result import Result, finite_or_null
 
+# Two normalisations of the RMSE: by the largest force magnitude (bwbench's ``nrmse``, symmetric in the
+# sign of F) and by the largest force (``nrmse_max_F``), the one the MR-damper literature reports (e.g.
+# per-test fits of Spencer's model); they differ where the compression peak exceeds the tension peak.
+NRMSE_DEFINITIONS = {"nrmse": "RMSE / max|F measured| (bwbench's)",
+                     "nrmse_max_F": "RMSE / max F measured (the MR-damper literature's)"}
 # Units of the result JSON's own numbers (the parameters' units come from the problem).
 METRIC_UNITS = {
     "mse": "N²", "f_err": "N² (−MSE, the paper's eq 6)", "rmse_N": "N", "nrmse": "– (RMSE / max|F measured|)",
+    "nrmse_max_F": "– (RMSE / max F measured, the literature's)", "box_probe_s": "s",
+    "inputs.size_bytes": "bytes",
     "nfev": "evaluations (one evaluation = one simulation of every file)", "budget": "evaluations",
     "wall_s": "s", "trace.nfev": "evaluations", "trace.mse": "N²", "energy_per_cycle_Nmm": "N·mm",
     "files.n": "samples", "files.weight": "– (share of the loss)", "files.mse": "N²", "files.rmse_N": "N",
-    "files.nrmse": "–", "bounds": "the unit of each parameter",
+    "files.nrmse": "–", "files.nrmse_max_F": "–", "bounds": "the unit of each parameter",
 }
 
 
@@ -167,6 +174,8 @@ class FitResult:
         out["files"] = [{**row, **by_file.get(row["specimen"], {})} for row in self.files]
         if len(self.files) == 1:
             out["nrmse"] = self.files[0]["nrmse"]
+            out["nrmse_max_F"] = self.files[0]["nrmse_max_F"]
+        out["nrmse_definitions"] = dict(NRMSE_DEFINITIONS)
         out["units"] = {**self.result.units, **METRIC_UNITS}
         from bwbench.version import __version__
 
@@ -186,17 +195,45 @@ class FitResult:
 
 
 def per_file(problem, result: Result) -> tuple:
-    """Each file's errors at the best parameters of ``result`` (see ``FitResult.files``)."""
+    """Each file's errors at the best parameters of ``result`` (see ``FitResult.files``), with both
+    NRMSEs (``NRMSE_DEFINITIONS``)."""
     if hasattr(problem, "per_file"):
         params = np.array([result.params.get(n, np.nan) for n in problem.param_names])
+        specimens = [p.specimen for p in problem.parts]
         if np.all(np.isfinite(params)):
-            return tuple(problem.per_file(params))
-        names = [p.specimen.name for p in problem.parts]
-        return tuple({"specimen": n, "n": p.n_data, "weight": float(w), "mse": math.inf, "rmse_N": math.inf,
-                      "nrmse": math.inf} for n, p, w in zip(names, problem.parts, problem.file_weight))
+            rows = list(problem.per_file(params))
+        else:
+            rows = [{"specimen": p.specimen.name, "n": p.n_data, "weight": float(w), "mse": math.inf,
+                     "rmse_N": math.inf, "nrmse": math.inf} for p, w in zip(problem.parts, problem.file_weight)]
+        return tuple({**row, "nrmse_max_F": _over_max_force(row["rmse_N"], spec.f)} for row, spec in zip(rows, specimens))
     peak = float(np.max(np.abs(problem.specimen.f)))
     return ({"specimen": problem.specimen.name, "n": problem.n_data, "weight": 1.0, "mse": result.mse,
-             "rmse_N": result.rmse_N, "nrmse": result.rmse_N / peak if peak > 0 else math.inf},)
+             "rmse_N": result.rmse_N, "nrmse": result.rmse_N / peak if peak > 0 else math.inf,
+             "nrmse_max_F": _over_max_force(result.rmse_N, problem.specimen.f)},)
+
+
+def _over_max_force(rmse: float, f) -> float:
+    peak = float(np.max(np.asarray(f, dtype=float)))
+    return rmse / peak if peak > 0 else math.inf
+
+
+def provenance(specimens, bounds=None, argv=None) -> dict:
+    """What the result JSON records of its inputs: each file's role ("specimen" or "bounds"), path
+    (absolute), size (bytes) and SHA-256 (of its bytes: ``sha256sum`` gives the same), and the command
+    line that made it (``argv``, default ``sys.argv``)."""
+    import hashlib
+    import shlex
+    import sys
+    from pathlib import Path
+
+    inputs = []
+    for role, path in [("specimen", p) for p in specimens] + ([("bounds", bounds)] if bounds else []):
+        p = Path(path)
+        data = p.read_bytes()
+        inputs.append({"role": role, "path": str(p.resolve()), "size_bytes": len(data),
+                       "sha256": hashlib.sha256(data).hexdigest()})
+    argv = sys.argv if argv is None else argv
+    return {"inputs": inputs, "command_line": " ".join(shlex.quote(str(a)) for a in argv)}
 
 
 def run_fit(problem, optimizer: str, budget: int, seed, options: dict | None = None,

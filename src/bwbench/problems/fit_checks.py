@@ -9,7 +9,15 @@
   loops run clockwise as the paper's identified parameters make them);
 - when the velocity is estimated from the displacement: the force error that estimate is expected to
   cause at the fitted viscous coefficients, |∂F/∂ẋ| (``Model.viscous_coefficients``, of the branch
-  active at each sample, RMS over the record) × the estimated RMS velocity error.
+  active at each sample, RMS over the record) × the estimated RMS velocity error;
+- checks that can fail (``residual_checks``): the work of each branch and at the reversals against the
+  measured (the total ∮F·dx the linear solve matches whatever the fit), and the residual's structure
+  (RMSE against the force noise, its share at the reversals, its autocorrelation);
+- physical limits (``Model.coefficient_limits``, ``Model.parameter_limits``): a solved coefficient held
+  on its physical limit that the unbounded solve would put beyond it, and a searched parameter on a
+  box edge that is a physical limit, are findings about the model or the data — not box warnings;
+- plausibility of every fitted parameter with its physical meaning (``Model.plausibility``);
+- the model's initial state on the record (``Model.initial_state``).
 """
 
 from __future__ import annotations
@@ -19,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bwbench.data.plausibility import LOOP_SIGN_FRACTION, loop_work
+from bwbench.problems.linear_bounds import VISCOUS_UNIT
 
 MASS_NOTE = "1 N·s²/mm = 1 t = 1000 kg"
 
@@ -26,12 +35,15 @@ MASS_NOTE = "1 N·s²/mm = 1 t = 1000 kg"
 @dataclass
 class FitChecks:
     """``json``: entries for the result JSON; ``notes`` (stdout) and ``warnings`` (stderr): one line each;
-    ``explained``: parameters on a box edge that a note accounts for (x_y on its cap of a linear branch)."""
+    ``explained``: parameters on a box edge that a note accounts for (x_y on its cap of a linear branch, a
+    physical limit); ``findings`` (stdout, "finding:"): what the fit says about the model or the data
+    (a physical limit the fit wants to leave, an implausible parameter, a check that failed)."""
 
     json: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
     warnings: list = field(default_factory=list)
     explained: set = field(default_factory=set)
+    findings: list = field(default_factory=list)
 
 
 def units(problem, names) -> dict:
@@ -115,6 +127,13 @@ def check(problem, params, synthetic: bool = False, at_bound: dict | None = None
                              f"by these data, only h{b}/xy{b}")
             if at_bound.get(f"xy{b}") == "upper":
                 out.explained.add(f"xy{b}")
+    physical_limit_findings(problem, params, at_bound, out)
+    failing_checks(problem, params, out)
+    plausibility_findings(problem, params, out)
+    start = problem.model.initial_state(problem.signal, problem.state) if hasattr(problem, "signal") else ""
+    if start:
+        out.json["initial_state"] = start
+        out.notes.append(f"initial state: {start}")
     error = expected_force_error(problem, params)
     if error is not None:
         out.json["velocity_estimate"] = error
@@ -122,3 +141,101 @@ def check(problem, params, synthetic: bool = False, at_bound: dict | None = None
                          f"mm/s rms × ∂F/∂ẋ {error['sensitivity_N_s_per_mm']:.4g} N·s/mm (rms of the fitted damping) "
                          f"= {error['expected_force_error_N']:.3g} N rms of expected force error")
     return out
+
+
+def physical_limit_findings(problem, params, at_bound: dict, out: FitChecks) -> None:
+    """Solved coefficients held on a physical limit the unbounded solve would cross, and searched
+    parameters on a box edge that is a physical limit (``Model.parameter_limits``): findings, and the
+    latter taken out of the box-edge warnings (``explained``)."""
+    limits = problem.model.parameter_limits(problem.state)
+    for name, side in at_bound.items():
+        why = limits.get(name, {}).get(side)
+        if why:
+            out.explained.add(name)
+            out.json.setdefault("physical_limits", {})[name] = {"side": side, "meaning": why}
+            out.findings.append(f"{name} on its {side} limit: {why}")
+    design = getattr(problem, "design", None)
+    if design is None or not hasattr(problem, "solve"):
+        return
+    coefficient = problem.model.coefficient_limits(problem.state)
+    solution = problem.solve(np.asarray(params, dtype=float)[None, :])
+    if not solution.bound_active[0]:
+        return
+    unbounded = dict(zip(solution.free_names, map(float, solution.coef_ls[0])))
+    solved = dict(zip(solution.names, map(float, solution.coef[0])))
+    rmse_free = float(np.sqrt(solution.rss_ls[0] / solution.n_data))
+    rmse = float(np.sqrt(solution.mse[0]))
+    units = getattr(problem, "linear_units", {})
+    for name, (lo, hi) in design.bounds.items():
+        if name not in unbounded or lo <= unbounded[name] <= hi:
+            continue
+        unit = units.get(name, "")
+        why = (coefficient[name][2] if name in coefficient else
+               f"{name} ≥ 0: a dashpot cannot push the way it moves" if unit == VISCOUS_UNIT and lo == 0 else
+               f"{name} in [{lo:g}, {hi:g}] N·s²/mm: a negative mass is no mass, and no damper or specimen on a "
+               "test rig moves a tonne" if name == getattr(problem.model.linear_layout(problem.state), "mass", None)
+               else f"{name} bounded to [{lo:g}, {hi:g}]")
+        entry = {"value": solved.get(name), "unbounded": unbounded[name], "bound": [lo, hi],
+                 "rmse_N": rmse, "rmse_unbounded_N": rmse_free, "meaning": why}
+        out.json.setdefault("physical_limits", {})[name] = entry
+        gain = 1.0 - rmse_free / rmse if rmse > 0 else 0.0
+        verdict = (f"the limit costs {gain:.1%} of the RMSE: the data barely ask for it ({name} is not determined "
+                   "by this test)" if gain < 0.01 else
+                   f"the limit costs {gain:.1%} of the RMSE: the model or the data want what the damper cannot do "
+                   "physically (model error, or a sign or offset in the data)")
+        out.findings.append(f"{name} = {solved.get(name, float('nan')):.4g} {unit} held on its physical limit — {why}; "
+                            f"the data alone would put it at {unbounded[name]:.4g} {unit} (RMSE {rmse:.4g} N → "
+                            f"{rmse_free:.4g} N): {verdict}")
+
+
+def failing_checks(problem, params, out: FitChecks) -> None:
+    """The energy split and the residual structure of ``residual_checks`` (one file; a joint fit: each
+    file's own), as JSON and, where they fail, findings."""
+    from bwbench.problems import residual_checks
+    from bwbench.problems.inertia_rule import force_noise
+
+    if not hasattr(problem, "simulate") or not hasattr(problem, "specimen"):
+        return
+    force = problem.simulate(np.asarray(params, dtype=float))
+    if not np.all(np.isfinite(force)):
+        return
+    signal, measured = problem.signal, np.asarray(problem.specimen.f, dtype=float)
+    energy = residual_checks.energy_split(signal.x, signal.v, force, measured)
+    out.json["energy_check"] = energy
+    if not energy["passed"]:
+        parts = ", ".join(f"{name} {part['mismatch']:.1%}" for name, part in energy["parts"].items()
+                          if part["mismatch"] > energy["tolerance"])
+        out.findings.append(f"energy check failed: the fitted model's work misses the measured one by {parts} of the "
+                            f"loop energy (tolerance {energy['tolerance']:.0%}): the loop's shape is wrong where the "
+                            "total ∮F·dx (which a least-squares fit matches closely) cannot tell")
+    else:
+        out.notes.append(f"energy check passed: work per branch and at the reversals within "
+                         f"{energy['worst_mismatch']:.2%} of the measured loop energy (tolerance {energy['tolerance']:.0%})")
+    _, cycles = loop_work(signal.x, measured)
+    cycle_s = float(signal.t[-1] - signal.t[0]) / cycles if cycles >= 0.5 else None
+    structure = residual_checks.residual_structure(signal.t, signal.x, force - measured, force_noise(measured), cycle_s)
+    out.json["residual_structure"] = structure
+    text = (f"residual: RMSE {structure['rmse_N']:.3g} N = {structure['rmse_over_noise']:.2g} × the force noise "
+            f"{structure['noise_N']:.3g} N; {structure['reversal_error_share']:.0%} of the squared error at the reversals "
+            f"({structure['reversal_sample_share']:.0%} of the samples); autocorrelation {structure['autocorrelation']:.2f} "
+            f"at {structure['lag_samples']} sample{'s' if structure['lag_samples'] > 1 else ''}")
+    if structure["reversals_missed"]:
+        out.findings.append(f"{text}: the model misses the reversals")
+    elif structure["model_error_dominates"]:
+        out.findings.append(f"{text}: model error, not noise, dominates the residual")
+    else:
+        out.notes.append(f"{text}: the residual is close to the noise")
+
+
+def plausibility_findings(problem, params, out: FitChecks) -> None:
+    """``Model.plausibility`` of the fit's parameters: the table in the JSON, a finding per implausible one."""
+    values = problem.parameters(np.asarray(params, dtype=float)) if hasattr(problem, "parameters") else {}
+    rows = problem.model.plausibility(values, problem.signal, problem.state) if hasattr(problem, "signal") else []
+    if not rows:
+        return
+    out.json["plausibility"] = {name: {"value": value, "unit": unit, "meaning": meaning, "flag": verdict or None}
+                                for name, value, unit, meaning, verdict in rows}
+    for name, value, unit, meaning, verdict in rows:
+        if verdict:
+            unit = "" if unit in ("-", "") else f" {unit}"
+            out.findings.append(f"{name} = {value:.4g}{unit} ({meaning}): {verdict}")

@@ -11,7 +11,9 @@ mass; a reference to say how large an inertia force could be, not a value anythi
   near-singular.
 
 The informative acceleration is ẍ, except in a **sine test**: a record whose displacement is a sine
-to within ``SINE_TOLERANCE`` (rms of the misfit over the amplitude). There ẍ = −ω²·(x − x₀), which
+to within ``SINE_TOLERANCE`` (rms of the misfit over the amplitude), over the whole record or over
+its steady part (``bwbench.data.steady_part``: a rig ramps a sine in and out over a cycle or so;
+those cycles are left out of the judgement, and the reason says so). There ẍ = −ω²·(x − x₀), which
 lies in the span of the stiffness and offset columns: m is confounded with k however large the
 inertia force and however small the noise. What a recorded sine's ẍ has outside that span is
 harmonic distortion and the error of a differentiated signal, and the force misfit of any model is
@@ -83,10 +85,33 @@ def pivoted_qr(cols):
 
 def sine_acceleration(t, x):
     """−ω²·(x − x₀) of the sine fitted to x(t) (mm/s²) when x is a sine within ``SINE_TOLERANCE``, else None."""
+    found = sine_test(t, x)
+    return None if found is None else found[0]
+
+
+def sine_test(t, x):
+    """(−ω²·(x − x₀) over the whole record in mm/s², the ``SteadyPart`` it was judged on) when x is a sine
+    within ``SINE_TOLERANCE`` — the whole record, or else its steady part: a rig ramps a sine test in
+    and out over a cycle or so, and those cycles are not the test (``bwbench.data.steady_part``);
+    None when it is not a sine test. The sine's ω and x₀ are the steady part's, and ẍ = −ω²·(x − x₀)
+    replaces the acceleration over the whole record: the ramps alone would separate m from k only by
+    their envelope, far less than the model error a fitted m would then follow."""
+    from bwbench.data.steady_part import steady_part
+
+    t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
+    steady = steady_part(t, x)
+    for part in (slice(0, len(x)),) + ((steady.part,) if steady.ramped else ()):
+        sine = _fitted_sine(t[part], x[part])
+        if sine is not None:
+            return -((2.0 * np.pi / sine.period) ** 2) * (x - sine.offset), steady if part != slice(0, len(x)) else None
+    return None
+
+
+def _fitted_sine(t, x):
+    """The sine fitted to x(t) when x is one within ``SINE_TOLERANCE``, else None."""
     from bwbench.models.excitation import fit_sine
 
-    x = np.asarray(x, dtype=float)
-    amplitude = 0.5 * float(np.ptp(x))
+    amplitude = 0.5 * float(np.ptp(x)) if len(x) else 0.0
     if len(x) < 8 or not amplitude > 0:
         return None
     try:
@@ -94,22 +119,28 @@ def sine_acceleration(t, x):
     except (ValueError, np.linalg.LinAlgError):
         return None
     misfit = float(np.sqrt(np.mean((sine.evaluate(t)[0] - x) ** 2)))
-    if not misfit <= SINE_TOLERANCE * amplitude:
-        return None
-    return -((2.0 * np.pi / sine.period) ** 2) * (x - sine.offset)
+    return sine if misfit <= SINE_TOLERANCE * amplitude else None
 
 
 def informative_acceleration(signal) -> tuple[np.ndarray, int]:
     """(ã, number of sine tests): ẍ of each record of ``signal`` (one, or its ``segments`` when it
     stacks several), with a sine test's ẍ replaced by −ω²·(x − x₀) (module docstring)."""
-    a = np.array(signal.a, dtype=float)
-    sines = 0
-    for part in getattr(signal, "segments", None) or (slice(0, len(a)),):
-        replaced = sine_acceleration(np.asarray(signal.t)[part], np.asarray(signal.x)[part])
-        if replaced is not None:
-            a[part] = replaced
-            sines += 1
+    a, sines, _ = _informative(signal)
     return a, sines
+
+
+def _informative(signal) -> tuple[np.ndarray, int, list]:
+    """``informative_acceleration`` and the ramps each sine test was judged without (descriptions)."""
+    a = np.array(signal.a, dtype=float)
+    sines, ramps = 0, []
+    for part in getattr(signal, "segments", None) or (slice(0, len(a)),):
+        found = sine_test(np.asarray(signal.t)[part], np.asarray(signal.x)[part])
+        if found is not None:
+            a[part] = found[0]
+            sines += 1
+            if found[1] is not None:
+                ramps.append(found[1].describe())
+    return a, sines, ramps
 
 
 def inertia_check(signal, f, layout, offsets=True, m_ref: float = M_REF, kappa: float = KAPPA) -> InertiaCheck:
@@ -124,7 +155,7 @@ def inertia_check(signal, f, layout, offsets=True, m_ref: float = M_REF, kappa: 
     base = [m.astype(float) for m in masks.values() if m.any()] if has_offsets else []
     a = np.asarray(signal.a, dtype=float)
     a_c = a - (Q := pivoted_qr(base)[0]) @ (Q.T @ a) if base else a.copy()
-    informative, sines = informative_acceleration(signal)
+    informative, sines, ramps = _informative(signal)
     ai_c = informative - Q @ (Q.T @ informative) if base else informative.copy()
     Q = pivoted_qr(fixed_columns(signal, layout, masks, offsets)[1])[0]
     a_o = informative - Q @ (Q.T @ informative)
@@ -140,6 +171,9 @@ def inertia_check(signal, f, layout, offsets=True, m_ref: float = M_REF, kappa: 
         which = ("the record is a sine test" if len(records) == 1 else "every record is a sine test"
                  if sines == len(records) else f"{sines} of {len(records)} records are sine tests")
         head += f"; {which} (ẍ = −ω²·x)"
+        if ramps:
+            head += (f", judged on its steady part ({'; '.join(ramps)} left out)" if len(records) == 1
+                     else f", {len(ramps)} judged on their steady part (ramp-in/out cycles left out)")
     fixed = f"m fixed at {M_UNFITTED:g}"
     if not excited:
         reason = f"inertia not excited ({head}): {fixed}"

@@ -221,6 +221,7 @@ class JointProblem:
         if not np.all(np.isfinite(params)):
             return merged
         values = result.params
+        findings = []
         for force, part in zip(self.forces(params), self.parts):
             view = _FileView(part, force, values)
             checks = fit_checks.check(view, params, synthetic, result.at_bound)
@@ -228,6 +229,12 @@ class JointProblem:
             merged.notes += [f"{part.specimen.name}: {n}" for n in checks.notes]
             merged.warnings += [f"{part.specimen.name}: {w}" for w in checks.warnings]
             merged.explained |= checks.explained
+            findings.append((part.specimen.name, checks.findings))
+        # A finding every file makes (a parameter on a physical limit) is said once, the others per file.
+        common = set.intersection(*(set(f) for _, f in findings)) if findings else set()
+        merged.findings += [f for f in findings[0][1] if f in common] if findings else []
+        merged.findings += [f"{name}: {f}" for name, fs in findings for f in fs if f not in common]
+        fit_checks.physical_limit_findings(self, params, {}, merged)  # the solved coefficients, jointly
         return merged
 
 

@@ -5,6 +5,9 @@ study's ``[bounds]`` may set any solved coefficient by name, e.g. ``{"m": [0, 0.
 
 - a fitted inertia m in [0, ``M_MAX``] = [0, 1] N·s²/mm (0 to 1 t): a negative mass is no mass, and
   no specimen or damper on a test machine moves a tonne (1 t is the paper's normalisation, m = 1);
+- the model's own physical limits on its solved coefficients (``Model.coefficient_limits``), on the
+  same condition as the viscous sign below: Spencer's accumulator stiffness k₁ ≥ 0, the classic
+  Bouc-Wen's spring k ≥ 0 and hysteretic weight h ≥ 0;
 - a viscous coefficient (unit N·s/mm: c₁ of Spencer's model) ≥ 0 when the data follow the README's
   sign convention, i.e. the measured loops dissipate energy (∮F·dx > 0): a dashpot cannot push the
   way it moves. Data whose loops run the other way get no sign bound, nor does a model whose
@@ -30,10 +33,13 @@ M_MAX = 1.0  # N·s²/mm (1 t): the largest inertia a solved m may take by defau
 VISCOUS_UNIT = "N·s/mm"
 
 
-def physical_bounds(layout, signal, f, coefficient_units: dict, viscous_sign: bool = True) -> tuple[dict, list[str]]:
+def physical_bounds(layout, signal, f, coefficient_units: dict, viscous_sign: bool = True,
+                    model_bounds: dict | None = None) -> tuple[dict, list[str]]:
     """({coefficient: (lower, upper)}, notes) of the module docstring for one record (or a stacked
     set: ``signal`` with ``segments``) and its force ``f`` (N); ``viscous_sign`` False: no sign bound
-    on the viscous coefficients (a model whose branches may carry either sign, ``Model.viscous_sign_bound``)."""
+    on the viscous coefficients (a model whose branches may carry either sign, ``Model.viscous_sign_bound``);
+    ``model_bounds``: the model's own {coefficient: (lower, upper, why)} (``Model.coefficient_limits``),
+    which hold, like the viscous sign, when the measured loops dissipate."""
     from bwbench.data.plausibility import loop_work
 
     bounds: dict = {}
@@ -41,7 +47,8 @@ def physical_bounds(layout, signal, f, coefficient_units: dict, viscous_sign: bo
     if layout.mass:
         bounds[layout.mass] = (0.0, M_MAX)
     viscous = [n for n, unit in coefficient_units.items() if unit == VISCOUS_UNIT]
-    if not viscous:
+    model_bounds = {n: b for n, b in (model_bounds or {}).items() if n in coefficient_units}
+    if not viscous and not model_bounds:
         return bounds, notes
     if not viscous_sign:
         notes.append(f"{', '.join(viscous)} of either sign: the model's branches may carry a negative viscous term "
@@ -53,11 +60,16 @@ def physical_bounds(layout, signal, f, coefficient_units: dict, viscous_sign: bo
     work = sum(loop_work(x[part], np.asarray(f, dtype=float)[part])[0] for part in parts)
     if work > 0:
         bounds.update({n: (0.0, np.inf) for n in viscous})
-        notes.append(f"{', '.join(viscous)} ≥ 0: the measured loops dissipate energy (∮F·dx > 0), so a viscous "
-                     "force opposes the motion")
+        if viscous:
+            notes.append(f"{', '.join(viscous)} ≥ 0: the measured loops dissipate energy (∮F·dx > 0), so a viscous "
+                         "force opposes the motion")
+        for name, (lo, hi, why) in model_bounds.items():
+            bounds[name] = (float(lo), float(hi))
+            notes.append(why)
     else:
-        notes.append(f"{', '.join(viscous)} of either sign: the measured loops run clockwise (∮F·dx ≤ 0), against "
-                     "the sign convention (force positive in tension, displacement positive in elongation)")
+        notes.append(f"{', '.join(viscous + list(model_bounds))} of either sign: the measured loops run clockwise "
+                     "(∮F·dx ≤ 0), against the sign convention (force positive in tension, displacement positive "
+                     "in elongation)")
     return bounds, notes
 
 

@@ -195,7 +195,8 @@ def coefficient_bounds_of(model, layout, signal, f, given: dict | None = None) -
     from bwbench.problems.linear_columns import coefficient_units
 
     bounds, notes = physical_bounds(layout, signal, f, coefficient_units(layout),
-                                    viscous_sign=getattr(model, "viscous_sign_bound", True))
+                                    viscous_sign=getattr(model, "viscous_sign_bound", True),
+                                    model_bounds=model.coefficient_limits() if hasattr(model, "coefficient_limits") else None)
     for name, (lo, hi) in (given or {}).items():
         bounds[name] = (float(lo), float(hi))
         notes.append(f"{name} bounded to [{lo:g}, {hi:g}] by the caller")

@@ -98,7 +98,14 @@ def problem_from_args(args):
     specimens = [read_specimen(p) for p in paths]
     problem = make_problem(specimens if len(specimens) > 1 else specimens[0], settings)
     if "bounds" in settings:
+        import time
+
+        start = time.perf_counter()
+        print(f"probing the search box of --bounds {args.bounds} ({bounds_mod.PROBE_CORNERS} corners, one "
+              f"evaluation each) …", flush=True)
         bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
+        problem.box_probe_s = time.perf_counter() - start
+        print(f"probing the search box: done in {problem.box_probe_s:.1f} s", flush=True)
     return problem
 
 

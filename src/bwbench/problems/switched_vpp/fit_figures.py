@@ -58,13 +58,25 @@ def _panels(height: float = 6.6):
     return fig, loop, force, residual
 
 
-def _draw_measured(loop, force, t, x, f, fitted, style: Style, turns, x_model=None) -> None:
+RAMP_ALPHA = 0.22  # ramp-in/out cycles drawn this light on the loop: the steady loop stays readable
+
+
+def _draw_measured(loop, force, t, x, f, fitted, style: Style, turns, x_model=None, steady=None) -> None:
     """Measured points (at displacement ``x``) on top of the model line (at ``x_model``, default
-    ``x``), travel arrows and reversals on the loop; the same against time."""
+    ``x``), travel arrows and reversals on the loop; the same against time. ``steady``: a slice of the
+    steady part (``bwbench.data.steady_part``): the ramp cycles outside it are drawn lighter on the loop."""
     x_model = np.asarray(x if x_model is None else x_model)
-    loop.plot(x_model, fitted, **style.line(lw=2.2, ls="-"), zorder=3)
-    loop.plot(x, f, **MEASURED)
-    travel_arrows(loop, x_model, np.asarray(fitted), turns, "black")
+    x, f, fitted = np.asarray(x), np.asarray(f), np.asarray(fitted)
+    keep = np.zeros(len(x), dtype=bool)
+    keep[steady if steady is not None else slice(None)] = True
+    for part in (slice(None, keep.argmax() + 1), slice(len(keep) - keep[::-1].argmax() - 1, None)) if not keep.all() else ():
+        loop.plot(x_model[part], fitted[part], **{**style.line(lw=1.0, ls="-"), "alpha": RAMP_ALPHA}, zorder=2)
+        loop.plot(x[part], f[part], **{**MEASURED, "alpha": RAMP_ALPHA, "zorder": 2})
+    steady_turns = [i for i in turns if keep[i]]
+    loop.plot(np.where(keep, x_model, np.nan), np.where(keep, fitted, np.nan), **style.line(lw=2.2, ls="-"), zorder=3)
+    loop.plot(x[keep], f[keep], **MEASURED)
+    travel_arrows(loop, x_model[keep], fitted[keep], [i - int(keep.argmax()) for i in steady_turns], "black")
+    turns = steady_turns
     loop.plot(np.asarray(x)[turns], np.asarray(f)[turns], ls="", marker="D", ms=7, mfc="white", mec="black",
               mew=1.3, zorder=6)
     loop.set_xlabel("displacement x (mm)")
@@ -98,13 +110,17 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     """One fit: the loop with its direction of travel, force against time, and the residual against
     time with its RMSE; PNG at ``path``. The title names the formulation when the problem has one."""
     theme()
+    from bwbench.data.steady_part import steady_part
+
     spec = problem.specimen
     params = np.array([result.params[name] for name in problem.param_names])
     fitted = problem.simulate(params)
     turns = reversals(spec.x)
     style = Style(result.optimizer, OKABE_ITO[0], "-", "o", True)
     fig, loop, force, residual = _panels()
-    _draw_measured(loop, force, spec.t, spec.x, spec.f, fitted, style, turns, x_model=problem.signal.x)
+    steady = steady_part(spec.t, spec.x)
+    _draw_measured(loop, force, spec.t, spec.x, spec.f, fitted, style, turns, x_model=problem.signal.x,
+                   steady=steady.part if steady.ramped else None)
     error = fitted - spec.f
     rmse = float(np.sqrt(np.mean(error**2)))
     residual.plot(spec.t, error, **style.line(lw=0.9, ls="-"))
@@ -113,17 +129,27 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     residual.set_ylim(-limit, limit)
     residual.set_ylabel("model − measured (N)")
     residual.set_xlabel("time t (s)")
-    residual.set_title(f"residual: RMSE {rmse:.3g} N", loc="left")
+    residual.set_title(f"residual: RMSE {rmse:.3g} N, NRMSE {nrmse_pair(rmse, spec.f)[1]:.3g} (RMSE/max F)", loc="left")
     _mark_reversals([force, residual], spec.t, turns)
     formulation = getattr(problem, "formulation", "paper")
-    legend(fig, [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
-                 style.handle(f"fitted model ({result.optimizer})", marker=False),
-                 REVERSAL], ncol=3)
-    model = "" if problem.model.name == "switched-bouc-wen" else f"{problem.model.name}, "
-    fig.suptitle(f"{spec.name} — {result.optimizer} ({model}{formulation} formulation), seed {result.seed}, "
-                 f"{result.nfev} evaluations: RMSE {result.rmse_N:.3g} N, F_err {result.f_err:.4g} N²\n"
-                 f"{conditions(problem)}, {_velocity_source(problem)}")
+    handles = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
+               style.handle(f"fitted model ({result.optimizer})", marker=False), REVERSAL]
+    if steady.ramped:
+        handles.append(Line2D([], [], color="black", marker=".", ls="", alpha=RAMP_ALPHA,
+                              label=f"ramp cycles, lighter ({steady.describe()})"))
+    legend(fig, handles, ncol=2 if steady.ramped else 3)
+    nrmse_abs, nrmse_max = nrmse_pair(rmse, spec.f)
+    fig.suptitle(f"{spec.name} — {problem.model.name} ({formulation} formulation), {result.optimizer}, seed "
+                 f"{result.seed}, {result.nfev} evaluations\nRMSE {result.rmse_N:.3g} N, NRMSE {nrmse_max:.3g} "
+                 f"(RMSE/max F; {nrmse_abs:.3g} RMSE/max|F|); {conditions(problem)}, {_velocity_source(problem)}")
     write_png(fig, path, synthetic)
+
+
+def nrmse_pair(rmse: float, f) -> tuple[float, float]:
+    """(RMSE / max|F|, RMSE / max F) of a record's measured force ``f`` (see ``fit_result.NRMSE_DEFINITIONS``)."""
+    f = np.asarray(f, dtype=float)
+    peak_abs, peak = float(np.max(np.abs(f))), float(np.max(f))
+    return (rmse / peak_abs if peak_abs > 0 else np.inf), (rmse / peak if peak > 0 else np.inf)
 
 
 def _velocity_source(problem) -> str:
