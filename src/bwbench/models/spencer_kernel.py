@@ -221,12 +221,31 @@ def _ydot_into(p, t, x, v, a, preroll, out):
     return bool(np.isfinite(w))
 
 
-@numba.njit(cache=True, parallel=True, error_model="numpy")
 def ydot_batch(TH, t, x, v, a):
-    """ẏ (mm/s) of each parameter row of TH (m, 6) at the samples: (m, L); +inf rows on blow-up."""
+    """ẏ (mm/s) of each parameter row of TH (m, 6) at the samples: (m, L); +inf rows on blow-up.
+
+    On numba's threads only when there are enough rows for each thread (on a busy machine a parallel
+    loop waits for a thread that has no core: tens of ms per call); the rows are independent, so the
+    result is the same either way."""
     out = np.empty((TH.shape[0], x.shape[0]))
     preroll = preroll_end(x, v)
+    threads = numba.get_num_threads()
+    if threads > 1 and TH.shape[0] >= 4 * threads:
+        _ydot_parallel(TH, t, x, v, a, preroll, out)
+    else:
+        _ydot_serial(TH, t, x, v, a, preroll, out)
+    return out
+
+
+@numba.njit(cache=True, parallel=True, error_model="numpy")
+def _ydot_parallel(TH, t, x, v, a, preroll, out):
     for i in numba.prange(TH.shape[0]):
         if not _ydot_into(TH[i], t, x, v, a, preroll, out[i]):
             out[i, :] = np.inf
-    return out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _ydot_serial(TH, t, x, v, a, preroll, out):
+    for i in range(TH.shape[0]):
+        if not _ydot_into(TH[i], t, x, v, a, preroll, out[i]):
+            out[i, :] = np.inf
