@@ -120,6 +120,9 @@ class Model:
     # the measured loops dissipate (``bwbench.problems.linear_bounds``): right for one dashpot, wrong for a
     # model whose identified branches may have either sign (the switched model: see there).
     viscous_sign_bound = True
+    # Simulations this model's kernel stopped at its step budget (a stiff corner of a search box: the
+    # loss is +inf), in this process so far; a model whose kernel caps its work adds to it.
+    step_budget_stops = 0
 
     @property
     def formulations(self) -> tuple:

@@ -183,11 +183,14 @@ def _series_damping(values: dict) -> dict | None:
 
 
 def _ydot(theta6, signal) -> np.ndarray:
-    """ẏ (mm/s) of kernel rows (m, 6) = (x_y, n, η, v_y, r₀, κ₀) at the samples; +inf rows on blow-up."""
-    from bwbench.models.spencer_kernel import ydot_batch
+    """ẏ (mm/s) of kernel rows (m, 6) = (x_y, n, η, v_y, r₀, κ₀) at the samples; +inf rows on blow-up
+    and where the simulation ran out of its step budget (counted in ``MODEL.step_budget_stops``)."""
+    from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET, ydot_batch
 
     arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]
-    return ydot_batch(np.ascontiguousarray(theta6, dtype=float), *arrays)
+    out, status = ydot_batch(np.ascontiguousarray(theta6, dtype=float), *arrays)
+    MODEL.step_budget_stops += int(np.count_nonzero(status == STATUS_STEP_BUDGET))
+    return out
 
 
 def _box(parameters, rows: dict) -> Box:
