@@ -26,7 +26,7 @@ __all__ = ["fit", "load_fit", "load_study", "FitResult", "FittedModel", "Predict
 def fit(*specimens, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, model: str | None = None,
         formulation: str | None = None, state: str | None = None, excitation: str = "measured",
         fix_mass="auto", weighting: str = "equal", bounds: dict | str | Path | None = None,
-        options: dict | None = None, threads: int = 1) -> FitResult:
+        options: dict | None = None, threads: int = 1, stop: str = "agreed") -> FitResult:
     """Fit one specimen, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
     ``specimens``: paths of specimen CSVs (or ``Specimen`` objects). ``optimizer``: a backend name
@@ -38,6 +38,9 @@ def fit(*specimens, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 
     ``weighting``: "equal" (each file's MSE counts the same) or "samples". ``bounds``: {name:
     (lower, upper)} or a JSON file of them; searched names set the search box, solved coefficients
     bound the linear solve. ``options``: the backend's options. ``threads``: numba/BLAS threads.
+    ``stop``: "agreed" (a backend that restarts local searches, lsq-trf, may stop before the budget
+    once 3 of them ended at the same optimum; ``nfev`` and the result's message say so) or "budget"
+    (spend it all, as a study does).
 
     Returns a ``FitResult`` (``.params``, ``.rmse_N``, ``.table()``, ``.model``, ``.predict(file)``,
     ``.save(path)``). Raises ``bwbench.errors.UserError`` for bad input (a file, a name, an option).
@@ -66,7 +69,7 @@ def fit(*specimens, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 
     synthetic = all(isinstance(s, (str, Path)) and manifest.is_synthetic(s) for s in specimens)
     with threads_mod.limited(threads_mod.check(threads)):
         problem = make_problem(loaded if len(loaded) > 1 else loaded[0], settings)
-        return run_fit(problem, optimizer, budget, seed, options, synthetic)
+        return run_fit(problem, optimizer, budget, seed, options, synthetic, stop=stop)
 
 
 def load_fit(path) -> FittedModel:

@@ -69,7 +69,7 @@ def fit(args) -> int:
     with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
         problem = problem_from_args(args)
         fitted = run_fit(problem, args.optimizer, args.budget, args.seed, options, synthetic,
-                         extra={"bounds_file": args.bounds})
+                         extra={"bounds_file": args.bounds}, stop=args.stop)
     result, checks = fitted.result, fitted.checks
     with writing(args.out):
         fitted.write_json(args.out)
@@ -86,6 +86,8 @@ def fit(args) -> int:
     print(f"{args.optimizer}: {'loss' if joint else 'MSE'} {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE "
           f"{result.rmse_N:.3g} N) in {result.nfev} evaluations{' of every file' if joint else ''}, "
           f"{result.wall_s:.2f} s -> {args.out}")
+    if result.nfev < args.budget:
+        print(f"  {result.message} ({result.nfev} of {args.budget} evaluations)")
     for row in fitted.files if joint else ():
         print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, NRMSE {row['nrmse']:.4g} (weight {row['weight']:.3g})")
     for note in getattr(problem, "notes", []):
@@ -137,6 +139,10 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bounds", metavar="FILE.json", help="a JSON object of name -> [lower, upper]: searched "
                         "parameters set the search box (names left out keep the default range), solved coefficients "
                         "(m, c+, f-, c1, ...) bound the linear solve")
+    parser.add_argument("--stop", choices=["agreed", "budget"], default="agreed",
+                        help="agreed (default): a backend that restarts local searches (lsq-trf) stops before the "
+                             "budget once 3 of them ended within 1%% of the best MSE, and says so; budget: spend "
+                             "the whole budget, as a study does")
     parser.add_argument("--out", required=True, help="result JSON")
     parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
     parser.add_argument("--threads", type=int, default=1,
