@@ -144,9 +144,10 @@ def main():
                                                    seed=1, stop=args.stop))
         reference = sum(simulation_time(p, {k: joint.params[k] for k in DIRECT}) for p in train)
         prediction = joint.predict(held_out)
+        in_sample = ", ".join(f"{row['nrmse']:.4f}" for row in joint.files)
         print(f"joint fit of {len(train)} files: {seconds:.1f} s, {joint.nfev} evaluations, "
               f"{seconds / reference:.1f}× one LSODA simulation of the five ({reference:.2f} s); "
-              f"in-sample NRMSE {', '.join(f'{row['nrmse']:.4f}' for row in joint.files)}")
+              f"in-sample NRMSE {in_sample}")
         print(f"prediction of {held_out.stem}: NRMSE {prediction.nrmse:.4f}")
 
 

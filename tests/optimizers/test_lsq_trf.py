@@ -124,27 +124,33 @@ def test_reaches_the_noise_floor_on_the_identifiable_problem():
     assert result.mse / floor == pytest.approx(RATIO, abs=2e-3)
 
 
-def test_stops_early_once_three_local_searches_end_at_the_same_optimum_and_says_so():
+def test_stops_early_once_the_local_searches_agree_on_one_optimum_and_says_so():
     problem = testing.SphereProblem(dim=4)
     early = fitting.run(problem, "lsq-trf", 5000, 2, {"stop_agree": 3})
-    assert early.nfev < 1000 and early.extras["stop_reason"] == "restarts agree"
-    assert early.extras["local_searches"] == 3 and "3 of 3 independent local searches" in early.message
+    # One optimum, found by every search: the Bayesian rule stops after the eighth (7/5 < 1.5 optima).
+    assert early.nfev < 2000 and early.extras["stop_reason"] == "restarts agree"
+    assert early.extras["local_searches"] == 8 and "8 of 8 independent local searches" in early.message
     exact = fitting.run(testing.SphereProblem(dim=4), "lsq-trf", 5000, 2)  # a study's rule: the whole budget
     assert exact.nfev == 5000 and exact.message == "budget exhausted"
     assert early.mse <= 1e-12 and exact.mse <= 1e-12
-    # The budget still caps: a budget that ends before the third search ends stops there.
+    # The budget still caps: a budget that ends before the last search ends stops there.
     capped = fitting.run(testing.SphereProblem(dim=4), "lsq-trf", early.nfev - 1, 2, {"stop_agree": 3})
     assert capped.nfev == early.nfev - 1 and capped.message == "budget exhausted"
 
 
-def test_searches_that_end_on_a_plateau_far_apart_do_not_agree():
-    """Three starts where the hysteresis does nothing end at the same MSE (that of a linear fit) at
-    different points: not one optimum. Three ends within 2 % of the box and 1 % of the MSE are."""
+def test_searches_agree_only_on_one_optimum_found_often_enough():
+    """Starts where the hysteresis does nothing end at the same MSE (that of a linear fit) at different
+    points: not one optimum. Ends within 2 % of the box and 1 % of the MSE are one; stopping also needs
+    the searches to have found few enough distinct optima (Boender & Rinnooy Kan)."""
     rng = np.random.default_rng(0)
-    plateau = [(7474.16, rng.random(6)) for _ in range(3)]
+    plateau = [(7474.16, rng.random(6)) for _ in range(8)]
     assert lsq_trf._agreed(plateau, 3, 1e-2) == 0
     centre = rng.random(6)
-    one = [(34.51, centre), (34.60, centre + 0.015), (200.0, rng.random(6)), (34.52, centre - 0.01)]
-    assert lsq_trf._agreed(one, 3, 1e-2) == 3
-    assert lsq_trf._agreed(one, 4, 1e-2) == 0
-    assert lsq_trf._agreed(one, 0, 1e-2) == 0  # 0: never stop early
+    same = [(34.51 + 0.01 * i, centre + 0.002 * i) for i in range(8)]
+    assert lsq_trf._agreed(same[:7], 3, 1e-2) == 0  # 7 of 7 in one: 6/4 = 1.5 optima expected, not < 1.5
+    assert lsq_trf._agreed(same, 3, 1e-2) == 8  # 8 of 8: 7/5 = 1.4: stop
+    assert lsq_trf._agreed(same, 0, 1e-2) == 0  # 0: never stop early
+    other = same[:4] + [(200.0, rng.random(6))]  # two optima in five searches: go on
+    assert lsq_trf._agreed(other, 3, 1e-2) == 0
+    many = same * 3 + [(200.0, rng.random(6))]  # 24 in one, 1 elsewhere: 2·24/21 = 2.3 < 2.5
+    assert lsq_trf._agreed(many, 3, 1e-2) == 24
