@@ -130,8 +130,8 @@ def main():
         print(f"{'file':<22} {'samples':>7} {'fit s':>7} {'nfev':>5} {'LSODA s':>8} {'fit/LSODA':>9} {'NRMSE':>7}")
         ratios = []
         for path in files:
-            fit, seconds = timed(lambda: bwbench.fit(path, model="spencer", optimizer="lsq-trf", budget=args.budget,
-                                                     seed=1, stop=args.stop))
+            fit, seconds = timed(lambda path=path: bwbench.fit(path, model="spencer", optimizer="lsq-trf", budget=args.budget,
+                                                               seed=1, stop=args.stop))
             reference = simulation_time(path, {k: fit.params[k] for k in DIRECT})
             ratios.append(seconds / reference)
             print(f"{path.stem:<22} {fit.files[0]['n']:>7} {seconds:>7.2f} {fit.nfev:>5} {reference:>8.3f} "

@@ -23,7 +23,10 @@ run's randomness is only the starting points, drawn from ``rng``. ``batched=True
 is one call of d points (a step is one point).
 
 Options: ``diff_step`` (1e-5, unit coordinates), ``xtol`` (1e-8), ``ftol`` (1e-8),
-``x_scale`` ("jac": variables scaled by the inverse column norms of the Jacobian, updated every
+``jacobian`` ("auto": exact where the problem has it — the model's forward sensitivities through the
+linear solve, ``Objective.residual_jacobian``, charged what it costs in plain evaluations, e.g. 2 for
+Spencer's model instead of the d = 6 of differences — else forward differences; "differences":
+always differences), ``x_scale`` ("jac": variables scaled by the inverse column norms of the Jacobian, updated every
 iteration; or "unit": no scaling), ``max_nfev_per_start`` (None: until converged; else scipy's ``max_nfev``
 of one local search, i.e. its residual evaluations, Jacobians not included), ``stall_iters`` (5;
 0 = never) and ``stall_rtol`` (1e-3); ``stop_agree`` (0: spend the whole budget, as a study does)
@@ -76,6 +79,7 @@ OPTIONS = {
     "max_nfev_per_start": Int(None, minimum=1, none="until the local search converges or stalls"),
     "stall_iters": Int(5, minimum=0, maximum=10_000),
     "stall_rtol": Float(1e-3, minimum=0.0, maximum=1.0),
+    "jacobian": Choice("auto", ("auto", "differences")),
     "stop_agree": Int(0, minimum=0, maximum=1000),
     "agree_rtol": Float(1e-2, minimum=0.0, maximum=1.0),
 }
@@ -88,8 +92,10 @@ class _Stalled(Exception):
 class _Residuals:
     """The objective as a finite residual function for least_squares, with a batched Jacobian."""
 
-    def __init__(self, objective, diff_step: float, stall_iters: int = 0, stall_rtol: float = 0.0):
+    def __init__(self, objective, diff_step: float, stall_iters: int = 0, stall_rtol: float = 0.0,
+                 exact: bool = False):
         self.objective = objective
+        self.exact = exact and objective.jacobian_cost > 0
         self.stall_iters, self.stall_rtol = int(stall_iters), float(stall_rtol)
         self.costs: list[float] = []  # mean square at each Jacobian of the current local search
         self.step = float(diff_step)
@@ -150,6 +156,12 @@ class _Residuals:
         u = np.asarray(u, dtype=float)
         r0 = self.fun(u)  # normally remembered: scipy takes the Jacobian at the point fun just ran
         self._check_progress(float(np.mean(r0**2)))
+        if self.exact:
+            found = self.objective.residual_jacobian(u)
+            # Sensitivities grow without bound near a blow-up; trf squares the columns: keep those it can.
+            if found is not None and np.all(np.isfinite(found[1])) and np.max(np.abs(found[1])) <= 1e100:
+                return found[1]
+            self._stop_if_spent()  # no sensitivities here (a stiff corner): differences, if the budget allows
         h = np.where(u + self.step <= 1.0, self.step, -self.step)  # inward at the upper bound
         R = self.raw(u + np.diag(h))
         self._stop_if_spent()
@@ -188,12 +200,12 @@ class _Residuals:
     batched=True,
 )
 def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="jac", max_nfev_per_start=None,
-             stall_iters=5, stall_rtol=1e-3, stop_agree=0, agree_rtol=1e-2):
+             stall_iters=5, stall_rtol=1e-3, jacobian="auto", stop_agree=0, agree_rtol=1e-2):
     from scipy.optimize import least_squares  # here: scipy.optimize costs ~0.5 s to import
 
     x_scale = 1.0 if x_scale == "unit" else x_scale
     d = objective.dim
-    residuals = _Residuals(objective, diff_step, stall_iters, stall_rtol)
+    residuals = _Residuals(objective, diff_step, stall_iters, stall_rtol, exact=jacobian == "auto")
     max_nfev = None if max_nfev_per_start is None else int(max_nfev_per_start)
     ends: list[tuple] = []  # (lowest MSE, where) of each finished local search
     # One BLAS thread: trf takes an SVD of the (L + d) × d Jacobian every iteration, 5 ms on one
@@ -228,27 +240,26 @@ AGREE_UTOL = 0.02
 def _agreed(ends: list[tuple], needed: int, rtol: float, floor: float = 0.0) -> int:
     """How many local searches ended at the best optimum, when the search may stop there; else 0.
 
-    Two ends are one optimum when their MSEs agree within ``rtol`` (relative; or within ``floor``
-    for an exact fit, whose MSE is rounding) and every unit coordinate within ``AGREE_UTOL``. Stop
-    when at least ``needed`` (≥ 2) searches ended at the best one AND Boender & Rinnooy Kan's (1987)
-    Bayesian estimate of the number of optima, w·(n − 1)/(n − w − 2) for w distinct ends of n
-    searches, is below w + 0.5: a few searches that all fell into one wide basin do not stop the
-    fit (three starts of seven in one local optimum are not evidence that there is no other)."""
+    Ends at one loss level (MSEs within ``rtol`` relative, or within ``floor`` for an exact fit, whose
+    MSE is rounding) are one basin, however far apart (a plateau where the hysteresis does nothing is
+    one). Stop when at least ``needed`` (≥ 2) searches ended at the best level AND at the same point
+    (every unit coordinate within ``AGREE_UTOL``: an optimum, not a plateau), and Boender & Rinnooy
+    Kan's (1987) Bayesian estimate of the number of basins, w·(n − 1)/(n − w − 2) for w levels among
+    n searches, is below w + 0.5: a few searches that all fell into one wide basin do not stop the
+    fit (three starts of three in one local optimum are not evidence that there is no other)."""
     if needed < 2:
         return 0
-    clusters: list[tuple] = []  # (MSE, where, count), best first
-    for mse, u in sorted(ends, key=lambda e: e[0]):
-        if not np.isfinite(mse):
-            continue
-        for i, (m0, u0, k) in enumerate(clusters):
-            if mse <= m0 * (1.0 + rtol) + floor and np.max(np.abs(u - u0)) <= AGREE_UTOL:
-                clusters[i] = (m0, u0, k + 1)
-                break
-        else:
-            clusters.append((mse, u, 1))
-    if not clusters:
+    finite = sorted((e for e in ends if np.isfinite(e[0])), key=lambda e: e[0])
+    if not finite:
         return 0
-    n, w, best = len(ends), len(clusters), clusters[0][2]
-    if best < needed or n - w - 2 <= 0 or w * (n - 1) / (n - w - 2) >= w + 0.5:
+    levels = [finite[0][0]]
+    for mse, _ in finite[1:]:
+        if mse > levels[-1] * (1.0 + rtol) + floor:
+            levels.append(mse)
+    best_mse, where = finite[0]
+    agreeing = sum(1 for mse, u in finite
+                   if mse <= best_mse * (1.0 + rtol) + floor and np.max(np.abs(u - where)) <= AGREE_UTOL)
+    n, w = len(ends), len(levels)
+    if agreeing < needed or n - w - 2 <= 0 or w * (n - 1) / (n - w - 2) >= w + 0.5:
         return 0
-    return best
+    return agreeing

@@ -140,17 +140,18 @@ def test_stops_early_once_the_local_searches_agree_on_one_optimum_and_says_so():
 
 def test_searches_agree_only_on_one_optimum_found_often_enough():
     """Starts where the hysteresis does nothing end at the same MSE (that of a linear fit) at different
-    points: not one optimum. Ends within 2 % of the box and 1 % of the MSE are one; stopping also needs
-    the searches to have found few enough distinct optima (Boender & Rinnooy Kan)."""
+    points: one basin, but not an optimum to stop at. Ends within 2 % of the box and 1 % of the MSE
+    are one optimum; stopping also needs the searches to have found few enough loss levels
+    (Boender & Rinnooy Kan)."""
     rng = np.random.default_rng(0)
     plateau = [(7474.16, rng.random(6)) for _ in range(8)]
     assert lsq_trf._agreed(plateau, 3, 1e-2) == 0
     centre = rng.random(6)
     same = [(34.51 + 0.01 * i, centre + 0.002 * i) for i in range(8)]
-    assert lsq_trf._agreed(same[:7], 3, 1e-2) == 0  # 7 of 7 in one: 6/4 = 1.5 optima expected, not < 1.5
+    assert lsq_trf._agreed(same[:7], 3, 1e-2) == 0  # 7 of 7 in one: 6/4 = 1.5 basins expected, not < 1.5
     assert lsq_trf._agreed(same, 3, 1e-2) == 8  # 8 of 8: 7/5 = 1.4: stop
     assert lsq_trf._agreed(same, 0, 1e-2) == 0  # 0: never stop early
-    other = same[:4] + [(200.0, rng.random(6))]  # two optima in five searches: go on
+    other = same[:4] + [(200.0, rng.random(6))]  # two levels in five searches: go on
     assert lsq_trf._agreed(other, 3, 1e-2) == 0
-    many = same * 3 + [(200.0, rng.random(6))]  # 24 in one, 1 elsewhere: 2·24/21 = 2.3 < 2.5
-    assert lsq_trf._agreed(many, 3, 1e-2) == 24
+    many = same * 2 + plateau  # 16 at the optimum, 8 on one plateau: 2·23/20 = 2.3 < 2.5
+    assert lsq_trf._agreed(many, 3, 1e-2) == 16

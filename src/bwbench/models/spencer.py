@@ -162,6 +162,19 @@ class Spencer(Model):
             raise ValueError(f"theta must have shape (m, {len(HYSTERETIC)}), got {theta.shape}")
         return _ydot(theta, signal)
 
+    # An evaluation with its six sensitivities took 1.85 plain simulations at a fit's optimum (1,501
+    # samples, benchmarks/bench_call_cost.py): charged as 2 evaluations.
+    sensitivity_cost = 2
+
+    def trajectory_sensitivities(self, theta, signal, state=None):
+        """(ẏ (L,) mm/s, ∂ẏ/∂θ (L, 6)) of one θ row, by forward sensitivities (``spencer_sensitivity``);
+        None where the simulation did not finish or needed its stiff fallback."""
+        from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
+
+        arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]
+        Z, S, status = ydot_sensitivity_batch(np.atleast_2d(np.asarray(theta, dtype=float)), *arrays)
+        return (Z[0], S[0]) if status[0] == 0 else None
+
     def to_direct(self, theta, coef: dict, state=None):
         return direct_from_theta(theta, [coef[n] for n in LAYOUT.names])
 

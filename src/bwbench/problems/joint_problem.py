@@ -177,6 +177,23 @@ class JointProblem:
             ok = np.all(np.isfinite(R), axis=1)
         return np.where(ok[:, None], R, np.inf)
 
+    @property
+    def jacobian_cost(self) -> int:
+        """Plain evaluations (of every file) one ``residual_jacobian`` is charged; 0: none to be had."""
+        return int(self.model.sensitivity_cost) if self.design is not None else 0
+
+    def residual_jacobian(self, params):
+        """(weighted residuals (N,), their Jacobian (N, d) in physical units) of one θ vector, exact;
+        None where the sensitivities cannot be had on some file (then take differences)."""
+        if self.design is None:
+            return None
+        found = [self.model.trajectory_sensitivities(np.asarray(params, dtype=float), p.signal, self.state)
+                 for p in self.parts]
+        if any(f is None for f in found):
+            return None
+        return self.design.residual_jacobian(np.concatenate([f[0] for f in found]),
+                                             np.concatenate([f[1] for f in found], axis=0))
+
     # -- one parameter vector -------------------------------------------------------------------
     def linear(self, params) -> np.ndarray:
         """The jointly solved coefficients (``linear_names``) of one θ vector."""

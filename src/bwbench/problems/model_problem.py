@@ -159,6 +159,18 @@ class IdentifiableProblem(ModelFit):
         ok = np.isfinite(solution.mse) & np.all(np.isfinite(R), axis=1)
         return np.where(ok[:, None], R, np.inf)
 
+    @property
+    def jacobian_cost(self) -> int:
+        """Plain evaluations one ``residual_jacobian`` is charged (0: the model has no sensitivities)."""
+        return int(self.model.sensitivity_cost)
+
+    def residual_jacobian(self, params):
+        """(residual (L,) N, ∂residual/∂θ (L, d) in physical units) of one θ vector, exact (the model's
+        sensitivities through the linear solve: ``LinearDesign.residual_jacobian``); None where they
+        cannot be had (then take differences)."""
+        found = self.model.trajectory_sensitivities(np.asarray(params, dtype=float), self.signal, self.state)
+        return None if found is None else self.design.residual_jacobian(*found)
+
     def linear(self, params) -> np.ndarray:
         """The solved coefficients (``linear_names``) of one θ vector."""
         return self.solve(np.asarray(params, dtype=float)[None, :]).coef[0]
