@@ -9,7 +9,9 @@ across machines and runs:
 - ``per call ÷ simulation``: the time of a one-point call over the bare simulation of that point
   (1.0 = no fixed cost per call);
 - ``batched ÷ simulation``: the same for the batched call (what the loss adds per point);
-- the slowest point's time and the median, in ms: what a stiff corner of the box costs.
+- the slowest point's time and the median, in ms: what a stiff corner of the box costs;
+- for a model with sensitivities (Spencer's), what one simulation with them costs in plain simulations
+  of the same points: the price ``sensitivity_cost`` charges an exact Jacobian against the budget.
 
 ``--threads`` sets numba's threads (default: numba's own default, one per core, where a fixed cost
 of a parallel loop shows on a busy machine).
@@ -78,6 +80,24 @@ def main():
         batched = time.perf_counter() - start
         print(f"{name:<18} {formulation:<12} {problem.n_data:>7} {1e3 * sim / len(P):>9.2f} "
               f"{1e3 * np.median(each):>9.2f} {1e3 * max(each):>8.1f} {per_call / sim:>12.2f} {batched / sim:>11.2f}")
+        if formulation == "identifiable" and problem.model.sensitivity_cost:
+            sensitivity_price(problem, P)
+
+
+def sensitivity_price(problem, P):
+    """Time of the simulations with sensitivities ÷ time of the plain ones, at the same points."""
+    model, signal = problem.model, problem.signal
+    model.trajectory_sensitivities(P[0], signal)  # compile outside the timing
+    plain = with_sens = 0.0
+    for p in P:
+        start = time.perf_counter()
+        model.trajectories(p[None, :], signal)
+        plain += time.perf_counter() - start
+        start = time.perf_counter()
+        model.trajectory_sensitivities(p, signal)
+        with_sens += time.perf_counter() - start
+    print(f"{'':<18} {'':<12} sensitivities: {with_sens / plain:.2f} plain simulations of the same points "
+          f"(charged {model.sensitivity_cost})")
 
 
 if __name__ == "__main__":

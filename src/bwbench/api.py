@@ -26,7 +26,7 @@ __all__ = ["fit", "load_fit", "load_study", "FitResult", "FittedModel", "Predict
 def fit(*specimens, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, model: str | None = None,
         formulation: str | None = None, state: str | None = None, excitation: str = "measured",
         fix_mass="auto", weighting: str = "equal", bounds: dict | str | Path | None = None,
-        options: dict | None = None, threads: int = 1, stop: str = "agreed") -> FitResult:
+        options: dict | None = None, threads: int = 1, stop: str = "agreed", workers: int = 1) -> FitResult:
     """Fit one specimen, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
     ``specimens``: paths of specimen CSVs (or ``Specimen`` objects). ``optimizer``: a backend name
@@ -40,7 +40,8 @@ def fit(*specimens, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 
     bound the linear solve. ``options``: the backend's options. ``threads``: numba/BLAS threads.
     ``stop``: "agreed" (a backend that restarts local searches, lsq-trf, may stop before the budget
     once 3 of them ended at the same optimum; ``nfev`` and the result's message say so) or "budget"
-    (spend it all, as a study does).
+    (spend it all, as a study does). ``workers``: threads for the files of a joint fit, else for the
+    points of a batch; the result is the same as with one.
 
     Returns a ``FitResult`` (``.params``, ``.rmse_N``, ``.table()``, ``.model``, ``.predict(file)``,
     ``.save(path)``). Raises ``bwbench.errors.UserError`` for bad input (a file, a name, an option).
@@ -67,8 +68,10 @@ def fit(*specimens, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 
                               else bounds_mod.validate(dict(bounds), names, "bounds"))
     loaded = [read_specimen(s) if isinstance(s, (str, Path)) else s for s in specimens]
     synthetic = all(isinstance(s, (str, Path)) and manifest.is_synthetic(s) for s in specimens)
+    workers = threads_mod.check(workers, "workers")
     with threads_mod.limited(threads_mod.check(threads)):
         problem = make_problem(loaded if len(loaded) > 1 else loaded[0], settings)
+    with threads_mod.for_workers(problem, max(workers, threads)):
         return run_fit(problem, optimizer, budget, seed, options, synthetic, stop=stop)
 
 

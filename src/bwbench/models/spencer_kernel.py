@@ -250,7 +250,7 @@ def ydot_batch(TH, t, x, v, a):
     status = np.zeros(TH.shape[0], dtype=np.int8)
     preroll = preroll_end(x, v)
     threads = numba.get_num_threads()
-    if threads > 1 and TH.shape[0] >= 4 * threads:
+    if threads > 1 and TH.shape[0] >= 2 * threads:
         _ydot_parallel(TH, t, x, v, a, preroll, out, status)
     else:
         _ydot_serial(TH, t, x, v, a, preroll, out, status)
@@ -265,7 +265,7 @@ def _ydot_parallel(TH, t, x, v, a, preroll, out, status):
             out[i, :] = np.inf
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
 def _ydot_serial(TH, t, x, v, a, preroll, out, status):
     for i in range(TH.shape[0]):
         status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i])

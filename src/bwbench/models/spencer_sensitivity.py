@@ -193,7 +193,7 @@ def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S):
     return status
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
 def _ydot_sens_serial(TH, t, x, v, a, preroll, out, out_S, status):
     for i in range(TH.shape[0]):
         status[i] = _ydot_sens_into(TH[i], t, x, v, a, preroll, out[i], out_S[i])

@@ -66,8 +66,10 @@ def fit(args) -> int:
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
     synthetic = all(manifest.is_synthetic(p) for p in args.specimen)
+    workers = threads.check(args.workers, "--workers")
     with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
         problem = problem_from_args(args)
+    with threads.for_workers(problem, max(workers, args.threads)):
         fitted = run_fit(problem, args.optimizer, args.budget, args.seed, options, synthetic,
                          extra={"bounds_file": args.bounds}, stop=args.stop)
     result, checks = fitted.result, fitted.checks
@@ -147,4 +149,8 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
     parser.add_argument("--threads", type=int, default=1,
                         help="numba/BLAS threads (default 1: many more are slower on a busy machine)")
+    parser.add_argument("--workers", type=int, default=1,
+                        help="threads for the independent parts of one evaluation: the files of a joint fit, "
+                             "else the points of a batch (a Jacobian by differences); the result is the same "
+                             "as with 1 (default 1: on a busy machine more are slower)")
     parser.set_defaults(func=fit)

@@ -21,7 +21,7 @@ def w_solve(Z, good, col, Q, r0, nw, want_residual, residual):
     full = np.zeros(m, dtype=np.bool_)
     r0_2 = _sum_squares(r0)
     threads = numba.get_num_threads()
-    if threads > 1 and m >= 4 * threads:
+    if threads > 1 and m >= 2 * threads:
         _w_parallel(Z, good, col, Q, r0, r0_2, nw, want_residual, residual, C, Rw, qwy, h, rss, full)
     else:
         _w_serial(Z, good, col, Q, r0, r0_2, nw, want_residual, residual, C, Rw, qwy, h, rss, full)
@@ -42,7 +42,7 @@ def _w_parallel(Z, good, col, Q, r0, r0_2, nw, want_residual, residual, C, Rw, q
         _w_row(i, Z, good, col, Q, r0, r0_2, nw, want_residual, residual, C, Rw, qwy, h, rss, full)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
 def _w_serial(Z, good, col, Q, r0, r0_2, nw, want_residual, residual, C, Rw, qwy, h, rss, full):
     for i in range(Z.shape[0]):
         _w_row(i, Z, good, col, Q, r0, r0_2, nw, want_residual, residual, C, Rw, qwy, h, rss, full)
