@@ -95,7 +95,7 @@ class _Residuals:
     def __init__(self, objective, diff_step: float, stall_iters: int = 0, stall_rtol: float = 0.0,
                  exact: bool = False):
         self.objective = objective
-        self.exact = exact and objective.jacobian_cost > 0
+        self.exact = exact and getattr(objective, "jacobian_cost", 0) > 0  # a budget share has none
         self.stall_iters, self.stall_rtol = int(stall_iters), float(stall_rtol)
         self.costs: list[float] = []  # mean square at each Jacobian of the current local search
         self.step = float(diff_step)
