@@ -90,6 +90,9 @@ def fit(args) -> int:
           f"{result.wall_s:.2f} s -> {args.out}")
     if result.nfev < args.budget:
         print(f"  {result.message} ({result.nfev} of {args.budget} evaluations)")
+    if result.extras.get("step_budget_stops"):
+        print(f"  {result.extras['step_budget_stops']} evaluations stopped at the simulation's step budget (stiff "
+              "corners of the search box): loss +inf")
     for row in fitted.files if joint else ():
         print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, NRMSE {row['nrmse']:.4g} (weight {row['weight']:.3g})")
     for note in getattr(problem, "notes", []):
