@@ -92,6 +92,30 @@ def theta_from_direct(P) -> tuple[np.ndarray, np.ndarray]:
     return theta, np.column_stack([c1, k1, -k1 * x0])
 
 
+def _theta_jacobian(P) -> np.ndarray:
+    """∂θ/∂P (6, 10) of ``theta_from_direct`` at one direct vector P (A > 0, β + γ > 0, c₁ ≠ 0)."""
+    c0, c1, k0, k1, x0, alpha, beta, gamma, A, n = np.asarray(P, dtype=float)
+    s = beta + gamma
+    z_s = (A / s) ** (1.0 / n)
+    # ∂z_s: z_s = (A/s)^(1/n) → ∂/∂A = z_s/(n·A), ∂/∂β = ∂/∂γ = −z_s/(n·s), ∂/∂n = −z_s·ln(A/s)/n².
+    dz = np.zeros(10)
+    dz[8] = z_s / (n * A)
+    dz[6] = dz[7] = -z_s / (n * s)
+    dz[9] = -z_s * np.log(A / s) / n**2
+    J = np.zeros((6, 10))
+    J[0] = dz / A
+    J[0, 8] -= z_s / A**2
+    J[1, 9] = 1.0
+    J[2, 6] = 2.0 * gamma / s**2  # η = (β − γ)/(β + γ)
+    J[2, 7] = -2.0 * beta / s**2
+    J[3] = alpha * dz / c1
+    J[3, 5] += z_s / c1
+    J[3, 1] -= alpha * z_s / c1**2
+    J[4, 0], J[4, 1] = 1.0 / c1, -c0 / c1**2
+    J[5, 2], J[5, 1] = 1.0 / c1, -k0 / c1**2
+    return J
+
+
 def direct_from_theta(theta, coef, gauge_A: float = GAUGE_A):
     """Direct parameters (10,) of θ (6,) and (c₁, k₁, f₀) in the gauge A = ``gauge_A``. Spencer's model
     makes an offset only as −k₁·x₀: with k₁ = 0, x₀ = 0 and f₀ is left out (reported beside)."""
@@ -174,6 +198,28 @@ class Spencer(Model):
         arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]
         Z, S, status = ydot_sensitivity_batch(np.atleast_2d(np.asarray(theta, dtype=float)), *arrays)
         return (Z[0], S[0]) if status[0] == 0 else None
+
+    def force_sensitivities(self, P, signal, state=None):
+        """(force (L,) N, ∂F/∂P (L, 10)) of one direct parameter vector P: F = c₁·ẏ(θ(P)) + k₁·(x − x₀),
+        ∂ẏ/∂θ from the sensitivities and ∂θ/∂P of the map ``theta_from_direct``; None where the
+        map is undefined or the sensitivities could not be had."""
+        P = np.asarray(P, dtype=float)
+        theta, _ = theta_from_direct(P[None, :])
+        if not (np.all(np.isfinite(theta)) and theta[0, 0] > 0):
+            return None
+        found = self.trajectory_sensitivities(theta[0], signal)
+        if found is None:
+            return None
+        ydot, S = found
+        c0, c1, k0, k1, x0, alpha, beta, gamma, A, n = P
+        x = np.asarray(signal.x, dtype=float)
+        F = c1 * ydot + k1 * (x - x0)
+        dF = np.zeros((len(x), len(DIRECT)))
+        dF[:] = (c1 * S) @ _theta_jacobian(P)
+        dF[:, 1] += ydot
+        dF[:, 3] += x - x0
+        dF[:, 4] -= k1
+        return F, dF
 
     def to_direct(self, theta, coef: dict, state=None):
         return direct_from_theta(theta, [coef[n] for n in LAYOUT.names])
