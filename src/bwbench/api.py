@@ -36,7 +36,7 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
         formulation: str | None = None, state: str | None = None, excitation: str = "measured",
         fix_mass="auto", offsets: str | None = None, weighting: str = "equal",
         bounds: dict | str | Path | None = None, options: dict | None = None, threads: int = 1,
-        name: str | None = None) -> FitResult:
+        name: str | None = None, stop: str = "agreed", workers: int = 1) -> FitResult:
     """Fit one test, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
     ``data``: one or more tests, each a specimen CSV's path, a ``Specimen`` or a pandas DataFrame with
@@ -51,7 +51,10 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
     "branch" or "continuous". ``weighting``: "equal" (each file's MSE counts the same) or "samples".
     ``bounds``: {name: (lower, upper)} or a JSON file of them; searched names set the search box,
     solved coefficients bound the linear solve. ``options``: the backend's options. ``threads``:
-    numba/BLAS threads.
+    numba/BLAS threads. ``stop``: "agreed" (a backend that restarts local searches, lsq-trf, may stop
+    before the budget once its searches agree on the optimum; ``nfev`` and the result's message say
+    so) or "budget" (spend it all, as a study does). ``workers``: threads for the files of a joint
+    fit, else for the points of a batch; the result is the same as with one.
 
     Returns a ``FitResult``: ``.summary()`` (every parameter with its standard error), ``.report()``,
     ``.correlation()``, ``.plot()``, ``.params``, ``.rmse_N``, ``.table()``, ``.model``,
@@ -85,13 +88,17 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
                            fix_mass=fix_mass, offsets=offsets, weighting=weighting, bounds=bounds)
     loaded = [as_specimen(d, name) for d in items]
     synthetic = all(isinstance(d, (str, Path)) and manifest.is_synthetic(d) for d in items)
+    workers = threads_mod.check(workers, "workers")
+    if stop not in ("agreed", "budget"):
+        raise UserError(f"stop must be 'agreed' or 'budget', got {stop!r}")
     with threads_mod.limited(threads_mod.check(threads)):
         problem = make_problem(loaded if len(loaded) > 1 else loaded[0], settings)
         if "bounds" in settings:
             from bwbench.data import bounds as bounds_mod
 
             bounds_mod.refuse_if_blows_up(problem, "bounds")
-        result = run_fit(problem, optimizer, budget, seed, options, synthetic)
+    with threads_mod.for_workers(problem, max(workers, threads)):
+        result = run_fit(problem, optimizer, budget, seed, options, synthetic, stop=stop)
     if not result.success:
         import warnings
 

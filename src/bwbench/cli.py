@@ -53,7 +53,9 @@ def main(argv=None) -> int:
     command = next((a for a in argv if not a.startswith("-")), None)
     args = build_parser(command).parse_args(argv)
     try:
-        with threads.environment(getattr(args, "threads", 1)):  # one thread per process unless --threads
+        # one thread per process unless --threads (or fit's --workers) asks for more
+        fit_workers = getattr(args, "workers", 1) if command == "fit" else 1  # compare's are processes
+        with threads.environment(max(getattr(args, "threads", 1), fit_workers or 1)):
             return args.func(args)
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)

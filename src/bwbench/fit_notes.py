@@ -18,8 +18,9 @@ class FitWarning(UserWarning):
     on the edge of its search box, a loop that generates energy."""
 
 
-# The energy a model dissipates is a number for the report, not something to be warned about.
-_QUIET = ("energy dissipated per cycle",)
+# The energy a model dissipates and the state a record starts from are facts for the report, not
+# something to be warned about.
+_QUIET = ("energy dissipated per cycle", "initial state:")
 
 
 def notes(fit) -> list[str]:

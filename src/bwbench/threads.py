@@ -17,12 +17,29 @@ from contextlib import contextmanager
 from bwbench.errors import UserError
 
 
-def check(threads: int) -> int:
+def check(threads: int, flag: str = "--threads") -> int:
     """``threads``, or ``UserError`` unless 1 ≤ threads ≤ the cores of this machine."""
     cores = os.cpu_count() or 1
     if not 1 <= threads <= cores:
-        raise UserError(f"--threads must be 1 to {cores} (the cores of this machine), got {threads}")
+        raise UserError(f"{flag} must be 1 to {cores} (the cores of this machine), got {threads}")
     return threads
+
+
+@contextmanager
+def for_workers(problem, workers: int):
+    """Within the block, one fit of ``problem`` uses ``workers`` threads for the independent parts of an
+    evaluation: a joint problem's files (each file's kernel on one thread: numba's pool must not be
+    entered from two threads at once), else numba's pool (and BLAS) for the points of a batch
+    (``limited``). Restored after."""
+    joint = hasattr(problem, "workers")
+    if joint:
+        problem.workers = workers
+    try:
+        with limited(1 if joint else workers):
+            yield
+    finally:
+        if joint:
+            problem.workers = 1
 
 
 @contextmanager

@@ -132,3 +132,26 @@ def test_a_test_recorded_in_motion_starts_in_its_steady_state():
     w = 2 * np.pi
     ours = MODEL.force_batch(_vector(p)[None], _signal(t, x, 10.0 * w * np.cos(w * t), -10.0 * w * w * np.sin(w * t)))[0]
     assert np.max(np.abs(ours - force)) <= 1e-6 * np.ptp(force)
+
+
+def test_a_stiff_corner_stops_at_the_step_budget_as_inf_with_its_reason_counted():
+    """A yield displacement of 1e-6 mm at 100 mm/s would need ~10⁸ s⁻¹ of stability: thousands of steps
+    per sample. The simulation stops at its step budget (+inf, counted as such), while the published
+    damper beside it in the same batch runs to the end."""
+    from bwbench.models import spencer_kernel
+
+    t = np.arange(0.0, 1.0, 1.0 / 500.0)
+    w = 2 * np.pi * 2.0
+    signal = _signal(t, 10.0 * np.sin(w * t), 10.0 * w * np.cos(w * t), -10.0 * w * w * np.sin(w * t))
+    stiff = dict(PUBLISHED_1V, beta=5e5, gamma=5e5, A=10.0, n=1.0)  # z_s = 1e-5, x_y = 1e-6 mm
+    theta, _ = theta_from_direct(_vector(stiff)[None])
+    assert theta[0, 0] == pytest.approx(1e-6)
+    arrays = [np.ascontiguousarray(getattr(signal, k)) for k in "txva"]
+    rows = np.vstack([theta_from_direct(_vector(PUBLISHED_1V)[None])[0], theta])
+    out, status = spencer_kernel.ydot_batch(rows, *arrays)
+    assert list(status) == [spencer_kernel.STATUS_OK, spencer_kernel.STATUS_STEP_BUDGET]
+    assert np.all(np.isfinite(out[0])) and np.all(np.isinf(out[1]))
+    before = MODEL.step_budget_stops
+    F = MODEL.force_batch(np.stack([_vector(PUBLISHED_1V), _vector(stiff)]), signal)
+    assert MODEL.step_budget_stops == before + 1
+    assert np.all(np.isfinite(F[0])) and np.all(np.isinf(F[1]))

@@ -122,3 +122,35 @@ def test_reaches_the_noise_floor_on_the_identifiable_problem():
     assert result.nfev == 1500
     assert result.mse <= 1.05 * floor
     assert result.mse / floor == pytest.approx(RATIO, abs=2e-3)
+
+
+def test_stops_early_once_the_local_searches_agree_on_one_optimum_and_says_so():
+    problem = testing.SphereProblem(dim=4)
+    early = fitting.run(problem, "lsq-trf", 5000, 2, {"stop_agree": 3})
+    # One optimum, found by every search: it stops after the ninth (lsq_trf.MIN_SEARCHES).
+    assert early.nfev < 2000 and early.extras["stop_reason"] == "restarts agree"
+    assert early.extras["local_searches"] == 9 and "9 of 9 independent local searches" in early.message
+    exact = fitting.run(testing.SphereProblem(dim=4), "lsq-trf", 5000, 2)  # a study's rule: the whole budget
+    assert exact.nfev == 5000 and exact.message == "budget exhausted"
+    assert early.mse <= 1e-12 and exact.mse <= 1e-12
+    # The budget still caps: a budget that ends before the last search ends stops there.
+    capped = fitting.run(testing.SphereProblem(dim=4), "lsq-trf", early.nfev - 1, 2, {"stop_agree": 3})
+    assert capped.nfev == early.nfev - 1 and capped.message == "budget exhausted"
+
+
+def test_searches_agree_only_on_one_optimum_found_often_enough():
+    """Starts where the hysteresis does nothing end at the same MSE (that of a linear fit) at different
+    points: not an optimum to stop at. Ends within 2 % of the box and 1 % of the MSE are one optimum;
+    stopping also needs nine searches (a basin attracting 30 % of starts missed with probability < 5 %)."""
+    rng = np.random.default_rng(0)
+    plateau = [(7474.16, rng.random(6)) for _ in range(9)]
+    assert lsq_trf._agreed(plateau, 3, 1e-2) == 0
+    centre = rng.random(6)
+    same = [(34.51 + 0.01 * i, centre + 0.002 * i) for i in range(3)]
+    assert lsq_trf._agreed(same, 3, 1e-2) == 0  # 3 of 3: too few searches to say
+    assert lsq_trf._agreed(same + plateau[:5], 3, 1e-2) == 0  # 8 searches
+    assert lsq_trf._agreed(same + plateau[:6], 3, 1e-2) == 3  # 9: stop
+    assert lsq_trf._agreed(same[:2] + plateau, 3, 1e-2) == 0  # the best found twice only
+    assert lsq_trf._agreed(same + plateau, 0, 1e-2) == 0  # 0: never stop early
+    worse = [(34.51 * 1.02, centre)] * 2 + [(34.51, centre)] + plateau  # MSE 2 % apart: not one optimum
+    assert lsq_trf._agreed(worse, 3, 1e-2) == 0

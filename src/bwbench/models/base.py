@@ -120,6 +120,9 @@ class Model:
     # the measured loops dissipate (``bwbench.problems.linear_bounds``): right for one dashpot, wrong for a
     # model whose identified branches may have either sign (the switched model: see there).
     viscous_sign_bound = True
+    # Simulations this model's kernel stopped at its step budget (a stiff corner of a search box: the
+    # loss is +inf), in this process so far; a model whose kernel caps its work adds to it.
+    step_budget_stops = 0
 
     @property
     def formulations(self) -> tuple:
@@ -169,6 +172,17 @@ class Model:
 
     def trajectories(self, theta, signal, state=None) -> np.ndarray:
         raise NotImplementedError
+
+    # What one simulation with its sensitivities (``trajectory_sensitivities``) costs, in plain
+    # simulations (measured: benchmarks/bench_call_cost.py): what an exact Jacobian is charged against a
+    # budget, so that a backend using it is compared fairly with one taking differences.
+    sensitivity_cost = 0
+
+    def trajectory_sensitivities(self, theta, signal, state=None):
+        """(the θ-dependent column z (L,), ∂z/∂θ (L, d)) of one θ row (d,), integrated together; None
+        when the model has no sensitivities, or where they could not be had (then callers take
+        differences)."""
+        return None
 
     def to_direct(self, theta, coef: dict, state=None):
         """The direct parameters (a vector) of the same loops as (θ, coefficients by name), or None when

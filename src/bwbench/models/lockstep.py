@@ -324,7 +324,7 @@ def _finish(mode, r, ok, z, Z, P, x, v, a, f_meas, fbuf, out):
         out[r] = np.inf
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
 def _serial(H, order, K, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out):
     zbuf = np.empty((x.shape[0], K))
     fbuf = np.empty(x.shape[0])

@@ -119,6 +119,30 @@ def theta_from_direct(P) -> tuple[np.ndarray, np.ndarray]:
     return theta, np.column_stack([c1, k1, -k1 * x0])
 
 
+def _theta_jacobian(P) -> np.ndarray:
+    """∂θ/∂P (6, 10) of ``theta_from_direct`` at one direct vector P (A > 0, β + γ > 0, c₁ ≠ 0)."""
+    c0, c1, k0, k1, x0, alpha, beta, gamma, A, n = np.asarray(P, dtype=float)
+    s = beta + gamma
+    z_s = (A / s) ** (1.0 / n)
+    # ∂z_s: z_s = (A/s)^(1/n) → ∂/∂A = z_s/(n·A), ∂/∂β = ∂/∂γ = −z_s/(n·s), ∂/∂n = −z_s·ln(A/s)/n².
+    dz = np.zeros(10)
+    dz[8] = z_s / (n * A)
+    dz[6] = dz[7] = -z_s / (n * s)
+    dz[9] = -z_s * np.log(A / s) / n**2
+    J = np.zeros((6, 10))
+    J[0] = dz / A
+    J[0, 8] -= z_s / A**2
+    J[1, 9] = 1.0
+    J[2, 6] = 2.0 * gamma / s**2  # η = (β − γ)/(β + γ)
+    J[2, 7] = -2.0 * beta / s**2
+    J[3] = alpha * dz / c1
+    J[3, 5] += z_s / c1
+    J[3, 1] -= alpha * z_s / c1**2
+    J[4, 0], J[4, 1] = 1.0 / c1, -c0 / c1**2
+    J[5, 2], J[5, 1] = 1.0 / c1, -k0 / c1**2
+    return J
+
+
 def direct_from_theta(theta, coef, gauge_A: float = GAUGE_A):
     """Direct parameters (10,) of θ (6,) and (c₁, k₁, f₀) in the gauge A = ``gauge_A``. Spencer's model
     makes an offset only as −k₁·x₀: with k₁ = 0, x₀ = 0 and f₀ is left out (reported beside)."""
@@ -194,6 +218,41 @@ class Spencer(Model):
             raise ValueError(f"theta must have shape (m, {len(HYSTERETIC)}), got {theta.shape}")
         return _ydot(theta, signal)
 
+    # An evaluation with its six sensitivities took 1.85 plain simulations at a fit's optimum (1,501
+    # samples, benchmarks/bench_call_cost.py): charged as 2 evaluations.
+    sensitivity_cost = 2
+
+    def trajectory_sensitivities(self, theta, signal, state=None):
+        """(ẏ (L,) mm/s, ∂ẏ/∂θ (L, 6)) of one θ row, by forward sensitivities (``spencer_sensitivity``);
+        None where the simulation did not finish or needed its stiff fallback."""
+        from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
+
+        arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]
+        Z, S, status = ydot_sensitivity_batch(np.atleast_2d(np.asarray(theta, dtype=float)), *arrays)
+        return (Z[0], S[0]) if status[0] == 0 else None
+
+    def force_sensitivities(self, P, signal, state=None):
+        """(force (L,) N, ∂F/∂P (L, 10)) of one direct parameter vector P: F = c₁·ẏ(θ(P)) + k₁·(x − x₀),
+        ∂ẏ/∂θ from the sensitivities and ∂θ/∂P of the map ``theta_from_direct``; None where the
+        map is undefined or the sensitivities could not be had."""
+        P = np.asarray(P, dtype=float)
+        theta, _ = theta_from_direct(P[None, :])
+        if not (np.all(np.isfinite(theta)) and theta[0, 0] > 0):
+            return None
+        found = self.trajectory_sensitivities(theta[0], signal)
+        if found is None:
+            return None
+        ydot, S = found
+        c0, c1, k0, k1, x0, alpha, beta, gamma, A, n = P
+        x = np.asarray(signal.x, dtype=float)
+        F = c1 * ydot + k1 * (x - x0)
+        dF = np.zeros((len(x), len(DIRECT)))
+        dF[:] = (c1 * S) @ _theta_jacobian(P)
+        dF[:, 1] += ydot
+        dF[:, 3] += x - x0
+        dF[:, 4] -= k1
+        return F, dF
+
     def to_direct(self, theta, coef: dict, state=None):
         return direct_from_theta(theta, [coef[n] for n in LAYOUT.names])
 
@@ -268,17 +327,20 @@ def _series_damping(values: dict) -> dict | None:
 
 
 def _ydot(theta6, signal) -> np.ndarray:
-    """ẏ (mm/s) of kernel rows (m, 6) = (x_y, n, η, v_y, r₀, κ₀) at the samples; +inf rows on blow-up.
+    """ẏ (mm/s) of kernel rows (m, 6) = (x_y, n, η, v_y, r₀, κ₀) at the samples; +inf rows on blow-up
+    and where the simulation ran out of its step budget (counted in ``MODEL.step_budget_stops``).
 
     A record that starts from rest (``starts_from_rest``) is given to the kernel with its first velocity
     sample at exactly 0: the kernel then starts the model at rest instead of after a pre-roll cycle."""
-    from bwbench.models.spencer_kernel import ydot_batch
+    from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET, ydot_batch
 
     t, x, v, a = (np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva")
     if v[0] != 0.0 and starts_from_rest(t, x, v):
         v = v.copy()
         v[0] = 0.0
-    return ydot_batch(np.ascontiguousarray(theta6, dtype=float), t, x, v, a)
+    out, status = ydot_batch(np.ascontiguousarray(theta6, dtype=float), t, x, v, a)
+    MODEL.step_budget_stops += int(np.count_nonzero(status == STATUS_STEP_BUDGET))
+    return out
 
 
 REST_VELOCITY = 0.02  # × max|ẋ|: the record's first samples move slower than this: it starts from rest

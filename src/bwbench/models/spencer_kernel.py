@@ -110,9 +110,11 @@ _MAX_STEPS = 4096  # per sample interval; beyond it the interval is finished by 
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale):
+def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance):
     """Advance (y, w) over [t0, t1] with Dormand–Prince 5(4) and step-size control; ``h`` is the
-    step (s) to try first (the last accepted one of the previous interval). Returns (y, w, h).
+    step (s) to try first (the last accepted one of the previous interval). Returns (y, w, h, steps
+    tried); (NaN, NaN, h, steps) once more than ``allowance`` steps were tried (the simulation's step
+    budget, ``_run``).
 
     The explicit method's stability bounds the step at ~3/λ where the system is stiff (an MR damper
     in saturation), ~10× the RK4 step that accuracy needed there; the error control shortens the step
@@ -133,7 +135,9 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale):
                 y, w = _backward_euler(y, w, x, xd, rest / _IMPLICIT_SUBSTEPS, p)
                 if not np.isfinite(w):
                     break
-            return y, w, h
+            return y, w, h, steps
+        if steps >= allowance:
+            return np.nan, np.nan, h, steps
         steps += 1
         h = min(h, span - s)
         for j in range(1, 7):
@@ -154,7 +158,7 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale):
         err = max(abs(h * ey) / (_TOL * y_scale), abs(h * ew) / (_TOL * max(1.0, abs(w_new))))
         if not np.isfinite(err) or not np.isfinite(w_new):
             if h <= 1e-14 * span:
-                return np.nan, np.nan, h
+                return np.nan, np.nan, h, steps
             h *= 0.2
             continue
         if err <= 1.0:
@@ -163,7 +167,7 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale):
             ky[0], kw[0] = ky[6], kw[6]  # first same as last
         factor = 0.9 * err ** -0.2 if err > 0.0 else 5.0
         h *= min(5.0, max(0.2, factor))
-    return y, w, h
+    return y, w, h, steps
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -184,25 +188,36 @@ def preroll_end(x, v) -> int:
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run(p, t, x, v, a, y, w, stop, out):
+def _run(p, t, x, v, a, y, w, stop, out, budget):
     """Integrate from (y, w) at sample 0 to sample ``stop``, writing ẏ into ``out`` when it is not
-    empty; returns the final (y, w) (NaN on blow-up)."""
+    empty, on at most ``budget`` Dormand–Prince steps. Returns (y, w, steps left): (NaN, NaN, ≥ 0)
+    on blow-up, (NaN, NaN, −1) when the step budget ran out."""
     if out.shape[0]:
         out[0], _ = _rates(y, w, x[0], v[0], p)
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
-        y, w, h = _interval(y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale)
+        y, w, h, steps = _interval(y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale, budget)
+        budget -= steps
         if not (np.isfinite(y) and np.isfinite(w)):
-            return np.nan, np.nan
+            return np.nan, np.nan, (budget if budget > 0 else -1)
         if out.shape[0]:
             out[k + 1], _ = _rates(y, w, x[k + 1], v[k + 1], p)
-    return y, w
+    return y, w, budget
+
+
+# The work a simulation may do: this many Dormand–Prince steps per sample interval on average, over
+# the whole record (pre-roll included). A fit of a measured MR-damper test takes 1–10 per interval
+# (stability bounds the step at ~3/λ, λ ≈ 10³–10⁴ s⁻¹); a corner of the search box with a yield
+# displacement of a micrometre would take thousands per interval (seconds per simulation). Such a
+# simulation stops and its loss is +inf, the reason counted (``STATUS_STEP_BUDGET``).
+STEPS_PER_SAMPLE = 64
+STATUS_OK, STATUS_BLOW_UP, STATUS_STEP_BUDGET = 0, 1, 2
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _ydot_into(p, t, x, v, a, preroll, out):
-    """ẏ (mm/s) at every sample into ``out``; False when the state is not finite.
+    """ẏ (mm/s) at every sample into ``out``; the status (``STATUS_*``).
 
     Initial state: a record that starts at rest starts from rest (y = x, w = 0). A record that starts
     in motion was recorded in the middle of a test; its first state is then taken as the one the
@@ -211,22 +226,48 @@ def _ydot_into(p, t, x, v, a, preroll, out):
     there (y shifted by the same x). For a periodic test that is its steady state; without it the
     first ~40 ms of an MR-damper test recorded in motion carry a transient of ~200 N.
     """
+    budget = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
     y, w = x[0], 0.0
     if preroll > 0:
-        y, w = _run(p, t, x, v, a, y, w, preroll, out[:0])
+        y, w, budget = _run(p, t, x, v, a, y, w, preroll, out[:0], budget)
         y += x[0] - x[preroll]
     if not np.isfinite(w):
-        return False
-    y, w = _run(p, t, x, v, a, y, w, x.shape[0] - 1, out)
-    return bool(np.isfinite(w))
+        return STATUS_STEP_BUDGET if budget < 0 else STATUS_BLOW_UP
+    y, w, budget = _run(p, t, x, v, a, y, w, x.shape[0] - 1, out, budget)
+    if not np.isfinite(w):
+        return STATUS_STEP_BUDGET if budget < 0 else STATUS_BLOW_UP
+    return STATUS_OK
+
+
+def ydot_batch(TH, t, x, v, a):
+    """(ẏ (mm/s) of each parameter row of TH (m, 6) at the samples: (m, L), +inf rows where the
+    simulation did not finish; the status of each row (m,), ``STATUS_*``).
+
+    On numba's threads only when there are enough rows for each thread (on a busy machine a parallel
+    loop waits for a thread that has no core: tens of ms per call); the rows are independent, so the
+    result is the same either way."""
+    out = np.empty((TH.shape[0], x.shape[0]))
+    status = np.zeros(TH.shape[0], dtype=np.int8)
+    preroll = preroll_end(x, v)
+    threads = numba.get_num_threads()
+    if threads > 1 and TH.shape[0] >= 2 * threads:
+        _ydot_parallel(TH, t, x, v, a, preroll, out, status)
+    else:
+        _ydot_serial(TH, t, x, v, a, preroll, out, status)
+    return out, status
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def ydot_batch(TH, t, x, v, a):
-    """ẏ (mm/s) of each parameter row of TH (m, 6) at the samples: (m, L); +inf rows on blow-up."""
-    out = np.empty((TH.shape[0], x.shape[0]))
-    preroll = preroll_end(x, v)
+def _ydot_parallel(TH, t, x, v, a, preroll, out, status):
     for i in numba.prange(TH.shape[0]):
-        if not _ydot_into(TH[i], t, x, v, a, preroll, out[i]):
+        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i])
+        if status[i] != STATUS_OK:
             out[i, :] = np.inf
-    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
+def _ydot_serial(TH, t, x, v, a, preroll, out, status):
+    for i in range(TH.shape[0]):
+        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i])
+        if status[i] != STATUS_OK:
+            out[i, :] = np.inf

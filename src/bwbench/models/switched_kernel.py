@@ -270,7 +270,7 @@ def _mse_one(p, t, x, v, a, f_meas, split, force):
     return _mse_of_force(force, f_meas)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
 def _hysteretic_batch_scalar(H, t, x, v, split):
     Z = np.empty((H.shape[0], x.shape[0]))
     for i in range(H.shape[0]):
@@ -287,7 +287,7 @@ def _mse_parallel(P, t, x, v, a, f_meas, split):
     return out
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
 def _mse_serial(P, t, x, v, a, f_meas, split):
     out = np.empty(P.shape[0])
     force = np.empty(x.shape[0])

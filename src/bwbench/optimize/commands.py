@@ -66,12 +66,15 @@ def fit(args) -> int:
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
     synthetic = all(manifest.is_synthetic(p) for p in args.specimen)
+    workers = threads.check(args.workers, "--workers")
     with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
         problem = problem_from_args(args)
         extra = {"bounds_file": args.bounds, **provenance(args.specimen, args.bounds)}
         if hasattr(problem, "box_probe_s"):
             extra["box_probe_s"] = problem.box_probe_s  # not in wall_s, the backend's own time
-        fitted = run_fit(problem, args.optimizer, args.budget, args.seed, options, synthetic, extra=extra)
+    with threads.for_workers(problem, max(workers, args.threads)):
+        fitted = run_fit(problem, args.optimizer, args.budget, args.seed, options, synthetic, extra=extra,
+                         stop=args.stop)
     result, checks = fitted.result, fitted.checks
     with writing(args.out):
         fitted.write_json(args.out)
@@ -90,6 +93,11 @@ def fit(args) -> int:
     print(f"{args.optimizer}: {'loss' if joint else 'MSE'} {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE "
           f"{result.rmse_N:.3g} N{accuracy}) in {result.nfev} evaluations{' of every file' if joint else ''}, "
           f"{result.wall_s:.2f} s{probe} -> {args.out}")
+    if result.nfev < args.budget:
+        print(f"  {result.message} ({result.nfev} of {args.budget} evaluations)")
+    if result.extras.get("step_budget_stops"):
+        print(f"  {result.extras['step_budget_stops']} evaluations stopped at the simulation's step budget (stiff "
+              "corners of the search box): loss +inf")
     for row in fitted.files if joint else ():
         print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, {_nrmse_text(row)} (weight {row['weight']:.3g})")
     for note in getattr(problem, "notes", []):
@@ -150,8 +158,16 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bounds", metavar="FILE.json", help="a JSON object of name -> [lower, upper]: searched "
                         "parameters set the search box (names left out keep the default range), solved coefficients "
                         "(m, c+, f-, c1, ...) bound the linear solve")
+    parser.add_argument("--stop", choices=["agreed", "budget"], default="agreed",
+                        help="agreed (default): a backend that restarts local searches (lsq-trf) stops before the "
+                             "budget once 3 of them ended within 1%% of the best MSE, and says so; budget: spend "
+                             "the whole budget, as a study does")
     parser.add_argument("--out", required=True, help="result JSON")
     parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
     parser.add_argument("--threads", type=int, default=1,
                         help="numba/BLAS threads (default 1: many more are slower on a busy machine)")
+    parser.add_argument("--workers", type=int, default=1,
+                        help="threads for the independent parts of one evaluation: the files of a joint fit, "
+                             "else the points of a batch (a Jacobian by differences); the result is the same "
+                             "as with 1 (default 1: on a busy machine more are slower)")
     parser.set_defaults(func=fit)

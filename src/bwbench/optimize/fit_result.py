@@ -236,13 +236,25 @@ def provenance(specimens, bounds=None, argv=None) -> dict:
     return {"inputs": inputs, "command_line": " ".join(shlex.quote(str(a)) for a in argv)}
 
 
-def run_fit(problem, optimizer: str, budget: int, seed, options: dict | None = None,
-            synthetic: bool = False, extra: dict | None = None) -> FitResult:
-    """Fit ``problem`` with backend ``optimizer`` on exactly ``budget`` evaluations (``fitting.run``),
-    then its per-file errors and checks. ``synthetic``: the data are the manifest's synthetic
-    specimens (changes the wording of a check). Raises ``UserError`` for a bad option or seed."""
-    from bwbench.optimize import fitting
+# Local searches that must end at the same optimum before ``bwbench fit`` stops early (``stop="agreed"``).
+AGREEING_SEARCHES = 3
 
+
+def run_fit(problem, optimizer: str, budget: int, seed, options: dict | None = None,
+            synthetic: bool = False, extra: dict | None = None, stop: str = "budget") -> FitResult:
+    """Fit ``problem`` with backend ``optimizer`` on at most ``budget`` evaluations (``fitting.run``),
+    then its per-file errors and checks. ``stop``: "budget" spends the whole budget (a study's
+    rule); "agreed" lets a backend with a ``stop_agree`` option (lsq-trf) stop once
+    ``AGREEING_SEARCHES`` of its independent local searches ended at the same optimum, unless
+    ``options`` set it. ``synthetic``: the data are the manifest's synthetic specimens (changes the
+    wording of a check). Raises ``UserError`` for a bad option or seed."""
+    from bwbench.optimize import fitting, registry
+
+    if stop not in ("budget", "agreed"):
+        raise ValueError(f"stop must be 'budget' or 'agreed', got {stop!r}")
+    options = dict(options or {})
+    if stop == "agreed" and "stop_agree" in registry.get(optimizer).options and not options.get("stop_agree"):
+        options["stop_agree"] = AGREEING_SEARCHES
     result = fitting.run(problem, optimizer, budget, seed, options)
     checks = problem.fit_checks(result, synthetic) if hasattr(problem, "fit_checks") else None
     box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}

@@ -29,6 +29,8 @@ def run(problem, optimizer: str, budget: int, seed, options: dict | None = None)
     seed_seq = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(int(seed))
     rng = np.random.default_rng(seed_seq)
     objective = Objective(problem, budget)
+    model = getattr(problem, "model", None)
+    stops_before = getattr(model, "step_budget_stops", 0)
     started = time.perf_counter()
     extras: dict = {}
     try:
@@ -37,6 +39,9 @@ def run(problem, optimizer: str, budget: int, seed, options: dict | None = None)
     except BudgetExhausted:
         message = "budget exhausted"
     wall = time.perf_counter() - started
+    stops = getattr(model, "step_budget_stops", 0) - stops_before
+    if stops:  # say why those evaluations read +inf: stiff corners of the box, not a failure of the fit
+        extras["step_budget_stops"] = int(stops)
     if objective.best_u is None:
         params = {name: float("nan") for name in problem.param_names}
     elif hasattr(problem, "parameters"):  # a problem may report more than its search coordinates

@@ -127,6 +127,46 @@ class Objective:
         self._record(U_run, losses)
         return R[0] if single else R
 
+    @property
+    def jacobian_cost(self) -> int:
+        """Evaluations one ``residual_jacobian`` is charged; 0 when the problem has no exact Jacobian."""
+        return int(getattr(self.problem, "jacobian_cost", 0)) if callable(getattr(self.problem, "residual_jacobian", None)) else 0
+
+    def residual_jacobian(self, u):
+        """(residual (n,), its Jacobian (n, d) in unit coordinates) of one point u (d,), exact (the
+        problem's ``residual_jacobian``: the model's sensitivities integrated with its state); None when
+        the problem could not give it at this point (a caller then takes differences).
+
+        Charged ``jacobian_cost`` evaluations whether or not it succeeds (the work was done): the
+        cost of a simulation with sensitivities measured in plain simulations, so a backend using
+        exact Jacobians spends the budget as fairly as one taking differences. Past the budget: the
+        evaluations left are charged and ``BudgetExhausted`` raised."""
+        cost = self.jacobian_cost
+        if cost < 1:
+            raise TypeError(f"{type(self.problem).__name__} has no exact Jacobian")
+        u = np.clip(np.asarray(u, dtype=float), 0.0, 1.0)
+        if u.shape != (self.dim,):
+            raise ValueError(f"expected a point of shape ({self.dim},), got {u.shape}")
+        if self.exhausted:
+            raise BudgetExhausted(f"budget of {self.budget} evaluations is spent")
+        if self.remaining < cost:
+            self.nfev = self.budget
+            raise BudgetExhausted(f"budget of {self.budget} evaluations is spent")
+        P = self.problem.from_unit(u)
+        found = self.problem.residual_jacobian(P)
+        if found is None:
+            self.nfev += cost
+            return None
+        r, J = found
+        from bwbench.problems.box import box_derivative
+
+        J = J * box_derivative(P, self.problem.lower, self.problem.upper, self.problem.log_scaled)[None, :]
+        with np.errstate(over="ignore"):
+            loss = float(np.mean(r**2)) if np.all(np.isfinite(r)) else np.inf
+        self._record(u[None, :], np.array([loss]))
+        self.nfev += cost - 1
+        return r, J
+
     def apply(self, U, simulate) -> np.ndarray:
         """``simulate(P)`` (physical rows (m, d) → rows (m, ...)) of the rows of U, each counted as one
         evaluation, cut and refused past the budget like ``batch`` (rows not run are NaN): for a

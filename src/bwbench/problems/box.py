@@ -25,6 +25,13 @@ def box_to_unit(P, lower, upper, log_scaled) -> np.ndarray:
     return (x - lo) / (hi - lo)
 
 
+def box_derivative(P, lower, upper, log_scaled) -> np.ndarray:
+    """∂P/∂u of ``box_from_unit`` at physical point(s) P (..., d): the span, or P·ln 10·the log span."""
+    lo, hi = _box_span(lower, upper, log_scaled)
+    P = np.asarray(P, dtype=float)
+    return np.where(log_scaled, P * np.log(10.0) * (hi - lo), hi - lo)
+
+
 def _box_span(lower, upper, log_scaled):
     lower = np.asarray(lower, dtype=float)
     upper = np.asarray(upper, dtype=float)

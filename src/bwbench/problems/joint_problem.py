@@ -81,6 +81,9 @@ class JointProblem:
         self.formulation, self.parameter_list = first.formulation, first.parameter_list
         self.param_names, self.log_scaled = first.param_names, first.log_scaled
         self.weighting = weighting
+        # Threads over the files of one evaluation (``bwbench fit --workers``): each file's simulation is
+        # independent and the results are joined in file order, so the numbers do not depend on it.
+        self.workers = 1
         self.lengths = np.array([p.n_data for p in parts])
         self.file_weight = file_weights(self.lengths, weighting)
         self.N = int(self.lengths.sum())
@@ -152,7 +155,7 @@ class JointProblem:
     def solve(self, P, residual: bool = False):
         """The joint linear solve (``LinearSolution`` over the stacked files) of each θ row of P."""
         theta = np.atleast_2d(np.asarray(P, dtype=float))
-        Z = np.concatenate([self.model.trajectories(theta, p.signal, self.state) for p in self.parts], axis=1)
+        Z = np.concatenate(self._each_file(lambda p: self.model.trajectories(theta, p.signal, self.state)), axis=1)
         assert self.design is not None  # the identifiable formulation's: solve is not called otherwise
         return self.design.solve(Z, residual)
 
@@ -161,7 +164,7 @@ class JointProblem:
         P = np.atleast_2d(np.asarray(P, dtype=float))
         if self.design is not None:
             return self.solve(P).mse
-        losses = sum(w * p.loss_batch(P) for w, p in zip(self.file_weight, self.parts))
+        losses = sum(w * loss for w, loss in zip(self.file_weight, self._each_file(lambda p: p.loss_batch(P))))
         return np.where(np.isfinite(losses), losses, np.inf)
 
     def residual_batch(self, P) -> np.ndarray:
@@ -173,9 +176,36 @@ class JointProblem:
             R = solution.residual * np.sqrt(self.sample_weight)
             ok = np.isfinite(solution.mse) & np.all(np.isfinite(R), axis=1)
         else:
-            R = np.concatenate([p.residual_batch(P) for p in self.parts], axis=1) * np.sqrt(self.sample_weight)
+            R = np.concatenate(self._each_file(lambda p: p.residual_batch(P)), axis=1) * np.sqrt(self.sample_weight)
             ok = np.all(np.isfinite(R), axis=1)
         return np.where(ok[:, None], R, np.inf)
+
+    @property
+    def jacobian_cost(self) -> int:
+        """Plain evaluations (of every file) one ``residual_jacobian`` is charged; 0: none to be had."""
+        return int(self.model.sensitivity_cost) if self.design is not None else 0
+
+    def residual_jacobian(self, params):
+        """(weighted residuals (N,), their Jacobian (N, d) in physical units) of one θ vector, exact;
+        None where the sensitivities cannot be had on some file (then take differences)."""
+        if self.design is None:
+            return None
+        theta = np.asarray(params, dtype=float)
+        found = self._each_file(lambda p: self.model.trajectory_sensitivities(theta, p.signal, self.state))
+        if any(f is None for f in found):
+            return None
+        return self.design.residual_jacobian(np.concatenate([f[0] for f in found]),
+                                             np.concatenate([f[1] for f in found], axis=0))
+
+    def _each_file(self, run) -> list:
+        """``run(part)`` of every file, in file order; on ``workers`` threads when more than one (the
+        kernels release the GIL)."""
+        if self.workers <= 1:
+            return [run(p) for p in self.parts]
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(max_workers=min(self.workers, len(self.parts))) as pool:
+            return list(pool.map(run, self.parts))
 
     # -- one parameter vector -------------------------------------------------------------------
     def linear(self, params) -> np.ndarray:

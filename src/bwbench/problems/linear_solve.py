@@ -216,6 +216,41 @@ class LinearDesign:
             apply_bounds(self, out, Zg, qwy, good)
         return out
 
+    def residual_jacobian(self, z, dZ):
+        """(residual (L,), its Jacobian (L, d)) of one trajectory z (L,) whose derivatives by the d
+        searched parameters are dZ (L, d); None where the derivative of the solve is not the
+        unbounded one below (a bound active, a dependent column, a trajectory that did not finish).
+
+        Variable projection (Golub & Pereyra 1973): with X = [G | W(θ)] (W: the masked w-columns),
+        β̂ = X⁺y and r = Xβ̂ − y (weighted by √weights, like the solve),
+        ∂r/∂θ_j = P⊥·(∂X/∂θ_j)·β̂ − X·(XᵀX)⁻¹·(∂X/∂θ_j)ᵀ·r, where ∂X/∂θ_j has only the w-columns.
+        The residual is the one ``solve`` gives (model − data), weighted as there."""
+        solution = self.solve(np.asarray(z, dtype=float)[None, :], residual=True)
+        if not (np.isfinite(solution.mse[0]) and solution.full_rank[0]) or solution.bound_active[0]:
+            return None
+        sw = np.ones(self.L) if self.sw is None else self.sw
+        r = solution.residual[0] * sw
+        nw = len(self.w_names)
+        W = np.zeros((self.L, nw))
+        dW = np.zeros((nw, self.L, dZ.shape[1]))
+        for k in range(nw):
+            mask = self._col == k
+            W[mask, k] = z[mask] * sw[mask]
+            dW[k][mask] = dZ[mask] * sw[mask, None]
+        X = np.column_stack([self.G, W]) if self.G.size else W
+        Q, R = np.linalg.qr(X)
+        q = X.shape[1] - nw
+        beta_w = solution.coef_ls[0, q:]
+        J = np.zeros((self.L, dZ.shape[1]))
+        for k in range(nw):
+            dXb = beta_w[k] * dW[k]  # (∂X/∂θ)·β̂ through column k
+            J += dXb - Q @ (Q.T @ dXb)
+            # X·(XᵀX)⁻¹·e_k = Q·R⁻ᵀ·e_k, times (∂W_k/∂θ)ᵀ·r
+            e = np.zeros(X.shape[1])
+            e[q + k] = 1.0
+            J -= np.outer(Q @ np.linalg.solve(R.T, e), dW[k].T @ r)
+        return r, J
+
     def _tie(self, coef):
         for tied, source in self.tied.items():
             coef[:, self.names.index(tied)] = coef[:, self.names.index(source)]

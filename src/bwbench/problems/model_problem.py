@@ -93,6 +93,20 @@ class DirectProblem(ModelFit):
             R = F - self.specimen.f
         return np.where(np.all(np.isfinite(R), axis=1)[:, None], R, np.inf)
 
+    @property
+    def jacobian_cost(self) -> int:
+        """Plain evaluations one ``residual_jacobian`` is charged (0: the model has no sensitivities)."""
+        return int(self.model.sensitivity_cost) if hasattr(self.model, "force_sensitivities") else 0
+
+    def residual_jacobian(self, params):
+        """(model − measured force (L,) N, its Jacobian (L, d) in physical units) of one direct vector,
+        exact (``force_sensitivities`` of the model); None where it cannot be had."""
+        found = self.model.force_sensitivities(np.asarray(params, dtype=float), self.signal, self.state)
+        if found is None:
+            return None
+        F, dF = found
+        return F - self.specimen.f, dF
+
     def simulate(self, params) -> np.ndarray:
         """Model force (N) at the specimen's samples; +inf everywhere on blow-up."""
         return self.model.force_batch(np.asarray(params, dtype=float)[None, :], self.signal, self.state)[0]
@@ -158,6 +172,18 @@ class IdentifiableProblem(ModelFit):
         R = solution.residual
         ok = np.isfinite(solution.mse) & np.all(np.isfinite(R), axis=1)
         return np.where(ok[:, None], R, np.inf)
+
+    @property
+    def jacobian_cost(self) -> int:
+        """Plain evaluations one ``residual_jacobian`` is charged (0: the model has no sensitivities)."""
+        return int(self.model.sensitivity_cost)
+
+    def residual_jacobian(self, params):
+        """(residual (L,) N, ∂residual/∂θ (L, d) in physical units) of one θ vector, exact (the model's
+        sensitivities through the linear solve: ``LinearDesign.residual_jacobian``); None where they
+        cannot be had (then take differences)."""
+        found = self.model.trajectory_sensitivities(np.asarray(params, dtype=float), self.signal, self.state)
+        return None if found is None else self.design.residual_jacobian(*found)
 
     def linear(self, params) -> np.ndarray:
         """The solved coefficients (``linear_names``) of one θ vector."""

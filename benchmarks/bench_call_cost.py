@@ -1,0 +1,104 @@
+"""What one call of the objective costs beyond its simulations, and what a point of the search box costs.
+
+Run by hand (never by CI): `.venv/bin/python benchmarks/bench_call_cost.py`. For each model and
+formulation on one file, the same random points of the default search box (fixed seed) are run
+three ways in the same process: one point per ``Objective.batch`` call, all points in one call, and
+the model's bare simulation of all points (no loss, no linear solve). The ratios are what to compare
+across machines and runs:
+
+- ``per call ÷ simulation``: the time of a one-point call over the bare simulation of that point
+  (1.0 = no fixed cost per call);
+- ``batched ÷ simulation``: the same for the batched call (what the loss adds per point);
+- the slowest point's time and the median, in ms: what a stiff corner of the box costs;
+- for a model with sensitivities (Spencer's), what one simulation with them costs in plain simulations
+  of the same points: the price ``sensitivity_cost`` charges an exact Jacobian against the budget.
+
+``--threads`` sets numba's threads (default: numba's own default, one per core, where a fixed cost
+of a parallel loop shows on a busy machine).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from bwbench.data.specimen import read_specimen
+from bwbench.optimize.objective import Objective
+from bwbench.problems.switched_vpp.formulations import make_problem
+
+REPO = Path(__file__).resolve().parents[1]
+CASES = (
+    ("switched-bouc-wen", "identifiable", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
+    ("switched-bouc-wen", "paper", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
+    ("spencer", "identifiable", REPO / "data" / "mr_damper" / "mr_25mm_1Hz_0V.csv"),
+    ("spencer", "direct", REPO / "data" / "mr_damper" / "mr_25mm_1Hz_0V.csv"),
+    ("bouc-wen", "identifiable", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
+)
+
+
+def simulate(problem, P):
+    """The bare simulation of rows P: the model's θ-dependent column, or its force (direct)."""
+    if hasattr(problem, "design"):
+        return problem.model.trajectories(P, problem.signal, problem.state)
+    return problem.model.force_batch(P, problem.signal, problem.state)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--points", type=int, default=40, help="random points of the box per case")
+    parser.add_argument("--threads", type=int, default=0, help="numba threads (0: numba's default)")
+    args = parser.parse_args()
+    if args.threads:
+        numba.set_num_threads(args.threads)
+    print(f"numba threads: {numba.get_num_threads()}; {args.points} random points of the default box per case")
+    print(f"{'model':<18} {'formulation':<12} {'samples':>7} {'sim ms/pt':>9} {'median ms':>9} {'max ms':>8} "
+          f"{'per call/sim':>12} {'batched/sim':>11}")
+    for name, formulation, path in CASES:
+        problem = make_problem(read_specimen(path), {"model": name, "formulation": formulation})
+        U = np.random.default_rng(0).random((args.points, problem.dim))
+        P = problem.from_unit(U)
+        for rows in (1, 2):  # compile (or load the cache) of the one-row and the batched paths outside the timing
+            Objective(problem, 2).batch(U[:rows])
+            simulate(problem, P[:rows])
+        each = []
+        for p in P:
+            start = time.perf_counter()
+            simulate(problem, p[None, :])
+            each.append(time.perf_counter() - start)
+        sim = sum(each)
+        objective = Objective(problem, 10 * args.points)
+        start = time.perf_counter()
+        for u in U:
+            objective.batch(u[None, :])
+        per_call = time.perf_counter() - start
+        start = time.perf_counter()
+        objective.batch(U)
+        batched = time.perf_counter() - start
+        print(f"{name:<18} {formulation:<12} {problem.n_data:>7} {1e3 * sim / len(P):>9.2f} "
+              f"{1e3 * np.median(each):>9.2f} {1e3 * max(each):>8.1f} {per_call / sim:>12.2f} {batched / sim:>11.2f}")
+        if formulation == "identifiable" and problem.model.sensitivity_cost:
+            sensitivity_price(problem, P)
+
+
+def sensitivity_price(problem, P):
+    """Time of the simulations with sensitivities ÷ time of the plain ones, at the same points."""
+    model, signal = problem.model, problem.signal
+    model.trajectory_sensitivities(P[0], signal)  # compile outside the timing
+    plain = with_sens = 0.0
+    for p in P:
+        start = time.perf_counter()
+        model.trajectories(p[None, :], signal)
+        plain += time.perf_counter() - start
+        start = time.perf_counter()
+        model.trajectory_sensitivities(p, signal)
+        with_sens += time.perf_counter() - start
+    print(f"{'':<18} {'':<12} sensitivities: {with_sens / plain:.2f} plain simulations of the same points "
+          f"(charged {model.sensitivity_cost})")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,107 @@
+"""Spencer's model with forward sensitivities: the same ẏ as the plain kernel, ∂ẏ/∂θ as central
+differences of it, and the exact Jacobian of the identifiable formulation (single file and joint)
+against differences, charged its measured cost against the budget."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bwbench.data.specimen import read_specimen
+from bwbench.errors import BudgetExhausted
+from bwbench.models.spencer import MODEL
+from bwbench.models.spencer_kernel import ydot_batch
+from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
+from bwbench.optimize.objective import Objective
+from bwbench.problems.switched_vpp.formulations import make_problem
+
+DATA = Path(__file__).resolve().parents[2] / "data" / "mr_damper"
+# A fit's optimum on mr_25mm_1Hz_0V (x_y mm, n, η, v_y mm/s, r₀, κ₀ 1/s) and a point of the box far from it.
+OPTIMUM = np.array([0.02435, 1.5079, 0.0527, 2.2478, 0.05188, 0.2055])
+ELSEWHERE = np.array([0.3, 2.5, -0.8, 40.0, 0.5, 3.0])
+
+
+def arrays(path):
+    problem = make_problem(read_specimen(path), {"model": "spencer", "formulation": "identifiable"})
+    return problem, [np.ascontiguousarray(np.asarray(getattr(problem.signal, k), dtype=float)) for k in "txva"]
+
+
+@pytest.mark.parametrize("theta", [OPTIMUM, ELSEWHERE], ids=["optimum", "elsewhere"])
+def test_sensitivities_match_central_differences_of_the_plain_kernel(theta):
+    _, signal = arrays(DATA / "mr_25mm_1Hz_0V.csv")
+    Z, S, status = ydot_sensitivity_batch(theta[None], *signal)
+    plain, _ = ydot_batch(theta[None], *signal)
+    assert status[0] == 0
+    assert np.max(np.abs(Z[0] - plain[0])) <= 1e-8 * np.ptp(plain[0])  # the same steps, the same ẏ
+    for j in range(6):
+        # Steps large enough that the step control's jitter (~1e-9 per step) is small against them:
+        # relative for the log-scaled x_y, v_y, r₀; at least 3e-3 for n, η, κ₀ (ranges of order 1).
+        h = 3e-3 * (theta[j] if j in (0, 3, 4) else max(abs(theta[j]), 1.0))
+        up, down = theta.copy(), theta.copy()
+        up[j] += h
+        down[j] -= h
+        fd = (ydot_batch(up[None], *signal)[0][0] - ydot_batch(down[None], *signal)[0][0]) / (2 * h)
+        assert np.linalg.norm(S[0, :, j] - fd) <= 1e-3 * np.linalg.norm(fd), f"column {j}"
+
+
+@pytest.mark.parametrize("files", [["mr_25mm_1Hz_0V.csv"], ["mr_25mm_1Hz_0V.csv", "mr_10mm_2Hz_1V.csv"]],
+                         ids=["single", "joint"])
+def test_the_identifiable_jacobian_matches_differences_and_costs_its_measured_price(files):
+    specimens = [read_specimen(DATA / f) for f in files]
+    problem = make_problem(specimens if len(specimens) > 1 else specimens[0],
+                           {"model": "spencer", "formulation": "identifiable"})
+    objective = Objective(problem, 100)
+    u = problem.to_unit(OPTIMUM)
+    r, J = objective.residual_jacobian(u)
+    assert objective.nfev == MODEL.sensitivity_cost == 2
+    r0 = objective.residuals(u)
+    assert np.max(np.abs(r - r0)) <= 1e-6 * np.max(np.abs(r0))  # ẏ to rounding (|w|^n by exp and log)
+    for j in range(problem.dim):
+        e = np.zeros(problem.dim)
+        e[j] = min(1e-4, 0.1 * u[j], 0.1 * (1.0 - u[j]))  # well inside the box (κ₀ sits near its lower edge)
+        fd = (objective.residuals(u + e) - objective.residuals(u - e)) / (2 * e[j])
+        assert np.linalg.norm(J[:, j] - fd) <= 2e-3 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
+
+
+def test_an_exact_jacobian_past_the_budget_spends_what_is_left_and_stops():
+    problem, _ = arrays(DATA / "mr_10mm_2Hz_1V.csv")
+    objective = Objective(problem, 3)
+    u = problem.to_unit(OPTIMUM)
+    objective.residuals(u)
+    objective.residuals(u)
+    with pytest.raises(BudgetExhausted):
+        objective.residual_jacobian(u)  # 1 left, 2 needed
+    assert objective.nfev == 3
+
+
+def test_lsq_trf_with_exact_jacobians_reaches_the_optimum_differences_reach():
+    """On a generator test (6 N force noise) both reach the noise; exact Jacobians, charged 2
+    evaluations instead of 6, leave more of the budget to restarts."""
+    from bwbench.optimize import fitting
+
+    problem, _ = arrays(DATA / "mr_10mm_5Hz_0V.csv")
+    exact = fitting.run(problem, "lsq-trf", 800, 1)
+    differences = fitting.run(problem, "lsq-trf", 800, 1, {"jacobian": "differences"})
+    assert exact.nfev == differences.nfev == 800
+    assert np.sqrt(exact.mse) < 6.6 and np.sqrt(differences.mse) < 6.6
+
+
+def test_the_direct_jacobian_matches_differences():
+    """The direct formulation: F = c₁·ẏ(θ(P)) + k₁·(x − x₀), the map θ(P) differentiated by hand."""
+    from bwbench.models.spencer import direct_from_theta
+
+    problem = make_problem(read_specimen(DATA / "mr_25mm_1Hz_0V.csv"), {"model": "spencer", "formulation": "direct"})
+    objective = Objective(problem, 100)
+    P = direct_from_theta(OPTIMUM, [96.8, -6.65, -167.8])
+    P[8] = 200.0  # A away from the gauge the box centres
+    u = problem.to_unit(P)
+    assert np.all((u > 0.01) & (u < 0.99))
+    r, J = objective.residual_jacobian(u)
+    assert objective.nfev == 2
+    r0 = objective.residuals(u)
+    assert np.max(np.abs(r - r0)) <= 1e-6 * np.max(np.abs(r0))
+    for j in range(problem.dim):
+        e = np.zeros(problem.dim)
+        e[j] = 3e-4  # below ~1e-5 the step control's jitter dominates the differences
+        fd = (objective.residuals(u + e) - objective.residuals(u - e)) / 6e-4
+        assert np.linalg.norm(J[:, j] - fd) <= 1e-3 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
