@@ -1,4 +1,4 @@
-"""The ``bwbench`` command line (DESIGN.md §5): the argument parser only.
+"""The ``bwbench`` command line (docs/commands.md): the argument parser only.
 
 Each command's body lives with its concern; its module is imported only when that command runs,
 so ``bwbench data check`` does not pay for matplotlib, seaborn and scipy.stats. A user's mistake

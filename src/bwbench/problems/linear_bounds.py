@@ -5,7 +5,7 @@ study's ``[bounds]`` may set any solved coefficient by name, e.g. ``{"m": [0, 0.
 
 - a fitted inertia m in [0, ``M_MAX``] = [0, 1] N·s²/mm (0 to 1 t): a negative mass is no mass, and
   no specimen or damper on a test machine moves a tonne (1 t is the paper's normalisation, m = 1);
-- a viscous coefficient (unit N·s/mm: c₁ of Spencer's model) ≥ 0 when the data follow the README's
+- a viscous coefficient (unit N·s/mm: c₁ of Spencer's model) ≥ 0 when the data follow docs/file-formats.md's
   sign convention, i.e. the measured loops dissipate energy (∮F·dx > 0): a dashpot cannot push the
   way it moves. Data whose loops run the other way get no sign bound, nor does a model whose
   branches may carry either sign (``Model.viscous_sign_bound``: the switched model's c± — the
