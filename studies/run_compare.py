@@ -6,7 +6,7 @@
 
 import sys
 
-from bwbench.study.commands import run_cli
+from bwbench.commands.compare import run_cli
 
 if __name__ == "__main__":  # guard: the worker processes are spawned and re-import this file
     sys.exit(run_cli(prog="run_compare.py"))

@@ -2,7 +2,7 @@
 in the models' own published parameters (not bwbench's symmetry-free coordinates), driven by an
 excitation given as functions x(t), ẋ(t).
 
-Deliberately written from the equations of DESIGN.md §9 and §1, not from bwbench.models.
+Deliberately written from the equations of docs/design.md (#models-as-plug-ins, #the-model), not from bwbench.models.
 """
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
-"""The ``bwbench`` command line (DESIGN.md §5): the argument parser only.
+"""The ``bwbench`` command line (docs/commands.md): the argument parser only.
 
-Each command's body lives with its concern; its module is imported only when that command runs,
-so ``bwbench data check`` does not pay for matplotlib, seaborn and scipy.stats. A user's mistake
-(bad file, bad option) prints one line ``error: ...`` on stderr and exits 2; it never shows a
-traceback.
+Each command's body lives with its concern; its module is imported only when that command runs
+(``--help`` included), so ``bwbench --help`` and ``bwbench data check`` do not pay for matplotlib,
+seaborn and scipy.stats. A user's mistake (bad file, bad option) prints one line ``error: ...`` on
+stderr and exits 2; it never shows a traceback.
 """
 
 from __future__ import annotations
@@ -12,37 +12,78 @@ import argparse
 import importlib
 import sys
 import warnings
+from typing import NamedTuple
 
 from bwbench import threads
 from bwbench.errors import UserError
+from bwbench.version import __version__
 
-# name -> (module, function adding the command's arguments and its ``func``, help)
+DESCRIPTION = """Fit hysteresis models of dampers to force–displacement tests, and compare optimisers on
+them fairly: the same exact evaluation budget, data and seeds for every backend."""
+EPILOG = """first steps:
+  bwbench data check data/specimens/pom-mt24u01_0.05MPa_r1.csv
+  bwbench fit data/specimens/pom-mt24u01_0.05MPa_r1.csv --out fit.json --plot fit.png
+  bwbench fit mytest.csv --formulation identifiable --out fit.json   # your own data
+  bwbench COMMAND --help                                           # each command's options
+
+documentation: README.md and docs/ in the source repository"""
+
+
+class Command(NamedTuple):
+    module: str  # imported only when the command runs
+    adder: str  # the module's function adding the command's arguments and its ``func``
+    summary: str  # one line: the command's help in ``bwbench --help`` and its description
+    example: str  # shown under ``bwbench COMMAND --help``
+
+
 COMMANDS = {
-    "data": ("bwbench.data.commands", "add_arguments", "check or regenerate specimen files"),
-    "simulate": ("bwbench.problems.switched_vpp.commands", "add_simulate_arguments",
-                 "model force for a parameter set on a specimen"),
-    "evaluate": ("bwbench.problems.switched_vpp.commands", "add_evaluate_arguments",
-                 "MSE, F_err and RMSE of a parameter set on a specimen"),
-    "optimizers": ("bwbench.optimize.commands", "add_list_arguments", "list the registered optimiser backends"),
-    "models": ("bwbench.models.commands", "add_arguments", "list the registered hysteresis models"),
-    "fit": ("bwbench.optimize.commands", "add_fit_arguments", "fit one specimen, or several jointly, with one optimiser"),
-    "predict": ("bwbench.problems.switched_vpp.predict_command", "add_arguments",
-                "a fitted model's force on other tests, every coefficient as stored"),
-    "compare": ("bwbench.study.commands", "add_arguments", "run or resume a study: specimens × backends × seeds"),
-    "report": ("bwbench.report.build", "add_arguments", "figures, statistics and recommendation of a study"),
-    "identifiability": ("bwbench.problems.switched_vpp.commands", "add_identifiability_arguments",
-                        "which parameters a specimen cannot pin down"),
+    "data": Command("bwbench.data.commands", "add_arguments", "check specimen files, or regenerate the shipped ones",
+                    "bwbench data check mytest.csv other.csv\n  bwbench data generate --out /tmp/specimens"),
+    "simulate": Command("bwbench.problems.switched_vpp.commands", "add_simulate_arguments",
+                        "the model force of a parameter set (or a fit result) on a specimen's motion",
+                        "bwbench simulate --params fit.json --specimen test.csv --out force.csv"),
+    "evaluate": Command("bwbench.problems.switched_vpp.commands", "add_evaluate_arguments",
+                        "MSE, F_err and RMSE of a parameter set (or a fit result) on a specimen",
+                        "bwbench evaluate --params fit.json --specimen test.csv"),
+    "optimizers": Command("bwbench.optimize.commands", "add_list_arguments",
+                          "list the registered optimiser backends, their options, ranges and defaults",
+                          "bwbench optimizers"),
+    "models": Command("bwbench.models.commands", "add_arguments",
+                      "list the registered hysteresis models, their formulations and parameters",
+                      "bwbench models"),
+    "fit": Command("bwbench.optimize.commands", "add_fit_arguments",
+                   "fit one specimen, or several jointly (one parameter set), with one optimiser",
+                   "bwbench fit mytest.csv --formulation identifiable --out fit.json --plot fit.png\n"
+                   "  bwbench fit a.csv b.csv --model spencer --optimizer cmaes --budget 2000 --out joint.json"),
+    "predict": Command("bwbench.problems.switched_vpp.predict_command", "add_arguments",
+                       "a fitted model's force on other tests, every coefficient as stored, nothing refitted",
+                       "bwbench predict --fit fit.json other.csv --out prediction.json --plot prediction.png"),
+    "compare": Command("bwbench.commands.compare", "add_arguments",
+                       "run or resume a study: specimens × backends × seeds, each on the same exact budget",
+                       "bwbench compare --config studies/quick.toml\n"
+                       "  bwbench compare --specimens 'tests/*.csv' --optimizers lsq-trf,cmaes,random "
+                       "--formulation identifiable --db study.sqlite"),
+    "report": Command("bwbench.commands.report", "add_arguments",
+                      "a study's report: the recommended optimiser and why, figures and statistics",
+                      "bwbench report --db study.sqlite --out report   # report/report.html, report.md"),
+    "identifiability": Command("bwbench.problems.switched_vpp.commands", "add_identifiability_arguments",
+                               "which parameter combinations a specimen cannot pin down",
+                               "bwbench identifiability test.csv --params fit.json"),
 }
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The full parser; a command's own options are only added when ``command`` names it."""
-    parser = argparse.ArgumentParser(prog="bwbench", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    for name, (module_name, adder, help_text) in COMMANDS.items():
-        command_parser = sub.add_parser(name, help=help_text)
+    parser = argparse.ArgumentParser(prog="bwbench", description=DESCRIPTION, epilog=EPILOG,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=f"bwbench {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, spec in COMMANDS.items():
+        command_parser = sub.add_parser(name, help=spec.summary, description=spec.summary[0].upper() + spec.summary[1:],
+                                        epilog=f"example:\n  {spec.example}",
+                                        formatter_class=argparse.RawDescriptionHelpFormatter)
         if name == command:
-            getattr(importlib.import_module(module_name), adder)(command_parser)
+            getattr(importlib.import_module(spec.module), spec.adder)(command_parser)
     return parser
 
 

@@ -50,7 +50,7 @@ def test_identified_tables_6_to_8(identified):
     assert identified[NAMES + ["F_err_N2"]].notna().all().all()
     assert (identified.F_err_N2 < 0).all()  # eq 6 is a negative mean squared error
     row = identified.set_index(["table", "underpressure_MPa"])
-    assert row.loc[(6, 0.07), "alpha+"] == 1.481  # DESIGN.md §2: α may exceed 1
+    assert row.loc[(6, 0.07), "alpha+"] == 1.481  # docs/design.md#parameters: α may exceed 1
     assert row.loc[(6, 0.01), "F_err_N2"] == -833.793
     assert row.loc[(7, 0.07), "n+"] == 10.057
     assert row.loc[(8, 0.09), "F_err_N2"] == -5495.133

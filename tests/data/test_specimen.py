@@ -1,4 +1,4 @@
-"""Specimen CSV reading (DESIGN.md §4): valid files read exactly, every malformed file is refused
+"""Specimen CSV reading (docs/file-formats.md): valid files read exactly, every malformed file is refused
 with one line ``error: FILE:LINE: what is wrong`` and exit status 2."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Optional velocity and acceleration columns in specimen files (DESIGN.md §9): read in any order and
+"""Optional velocity and acceleration columns in specimen files (docs/design.md#signals): read in any order and
 both formats, part of the data identity, named by ``data check``, and checked against the displacement."""
 
 import numpy as np

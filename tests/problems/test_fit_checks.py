@@ -52,7 +52,7 @@ def test_a_parameter_on_its_box_edge_is_warned_about_and_flagged(folder, capsys)
     assert result["units"]["m"].startswith("N·s²/mm")
     edge = [line for line in err.splitlines() if "edge of its search box" in line]
     assert edge == [f"warning: {SPECIMEN}: eta- = {result['params']['eta-']:.6g} ended on the lower edge of its "
-                    "search box [-2, 1]: the best fit may lie beyond it (widen it with --bounds, or see the README "
+                    "search box [-2, 1]: the best fit may lie beyond it (widen it with --bounds, or see docs/models.md "
                     "on the box)"]
     # the synthetic specimen's loop runs clockwise, as the paper's parameters make it: a note, no alarm
     assert "note: the fitted loop runs clockwise" in out and "generates energy" not in err

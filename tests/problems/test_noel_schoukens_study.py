@@ -26,7 +26,7 @@ RUN_COMPARE = REPO / "studies" / "run_compare.py"
 DATA_DIR = default_data_dir()
 needs_data = pytest.mark.skipif(
     not all((DATA_DIR / f).is_file() for f in BENCHMARK_FILES),
-    reason=f"Bouc-Wen benchmark data not found at {DATA_DIR} (../shared/benchmarks/bouc-wen beside the repository)",
+    reason=f"Bouc-Wen benchmark data not found at {DATA_DIR} (see docs/benchmark.md)",
 )
 # The configuration of studies/quick.toml as databases written before specimens were identified by
 # their bytes store it (issue 6's format): such a database must still resume (migrated on open).

@@ -69,9 +69,11 @@ def test_report_has_tables_identifiability_and_mcmc_sections(built):
 
 
 def _cli(args):
+    from bwbench.commands import report as report_command
+
     parser = argparse.ArgumentParser()
-    report.add_arguments(parser)
-    return report.cli_main(parser.parse_args(args))
+    report_command.add_arguments(parser)
+    return report_command.cli_main(parser.parse_args(args))
 
 
 def test_cli_refuses_a_missing_database(tmp_path):

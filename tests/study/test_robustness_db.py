@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
+from bwbench.commands.compare import run_cli
 from bwbench.optimize import registry
 from bwbench.study import execute, failures
-from bwbench.study.commands import run_cli
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.lock import lock_path

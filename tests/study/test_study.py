@@ -19,10 +19,11 @@ import pandas as pd
 import pytest
 
 import robustness_helpers
+from bwbench.commands.compare import run_cli
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.optimize import registry
-from bwbench.study.commands import export_csv, run_cli
+from bwbench.study.commands import export_csv
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.tasks import plan_tasks, task_seed

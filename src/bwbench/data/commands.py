@@ -84,11 +84,18 @@ def generate(args) -> int:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="data_command", required=True)
-    p = sub.add_parser("check", help="validate specimen CSV files")
+    sub = parser.add_subparsers(dest="data_command", required=True, metavar="SUBCOMMAND")
+    text = argparse.RawDescriptionHelpFormatter
+    p = sub.add_parser("check", help="validate specimen CSV files", formatter_class=text,
+                       description="Validate specimen CSV files: exit 0 if every file is valid, else 2 with one\n"
+                                   "line per bad file; say which signals are measured and which estimated.",
+                       epilog="example:\n  bwbench data check mytest.csv data/mr_damper/*.csv")
     p.add_argument("files", nargs="+", help="specimen CSV files")
     p.set_defaults(func=check)
-    p = sub.add_parser("generate", help="rebuild a synthetic dataset, byte-identical")
+    p = sub.add_parser("generate", help="rebuild a synthetic dataset, byte-identical", formatter_class=text,
+                       description="Rebuild a shipped synthetic dataset, byte for byte, from its generator.",
+                       epilog="example:\n  bwbench data generate --out /tmp/specimens\n"
+                              "  bwbench data generate --mr-damper --out /tmp/mr_damper")
     p.add_argument("--mr-damper", action="store_true",
                    help="the MR-damper dataset (Spencer et al. 1997's model, data/mr_damper) instead of the "
                         "paper's VPP specimens (data/specimens)")

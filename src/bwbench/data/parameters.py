@@ -12,7 +12,7 @@ from bwbench.data.json_input import read_json_file
 from bwbench.errors import InputFileError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 
-# Paper Table 5. ξ₋ is printed "−23 to −575"; stored as lower −575, upper −23 (DESIGN.md §2).
+# Paper Table 5. ξ₋ is printed "−23 to −575"; stored as lower −575, upper −23 (docs/design.md#parameters).
 TABLE5 = {
     "A+": (0.001, 0.025), "n+": (0.43, 10.75), "alpha+": (0.07, 1.75), "beta+": (0.1, 2.5),
     "gamma+": (0.3, 7.5), "xi+": (20.0, 500.0), "wn+": (0.3, 7.5),

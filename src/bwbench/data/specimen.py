@@ -1,4 +1,4 @@
-"""Specimen files: one force-displacement test as CSV (DESIGN.md §4).
+"""Specimen files: one force-displacement test as CSV (docs/design.md#data-formats).
 
 Format::
 
@@ -11,7 +11,7 @@ Format::
   re-ordered export still reads correctly); whitespace around names and a UTF-8 BOM are allowed.
   Optionally also ``velocity_mm_s`` (mm/s) and ``acceleration_mm_s2`` (mm/s²), what a test machine
   logs beside the displacement (commanded or measured): when present they drive the model instead
-  of being estimated from the displacement (DESIGN.md §9). No other columns.
+  of being estimated from the displacement (docs/design.md#signals). No other columns.
 - If the header contains ``;`` the file is a European spreadsheet export: cells are separated by
   ``;`` and a decimal comma (``1,25``) is read as a decimal point.
 - One row per sample, at least ``MIN_SAMPLES`` rows, time strictly increasing and uniformly

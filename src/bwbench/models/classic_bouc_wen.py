@@ -1,6 +1,6 @@
 """The classic, symmetric Bouc-Wen model as a model plug-in: one parameter set for both directions.
 
-Bouc (1967), Wen (1976); the paper's eq 1 with ωn² in the z term (DESIGN.md §1), in mm, s, N:
+Bouc (1967), Wen (1976); the paper's eq 1 with ωn² in the z term (docs/design.md#the-model), in mm, s, N:
 
     F  = ẍ + 2·ξ·ωn·ẋ + α·ωn²·x + (1 − α)·ωn²·z
     dz = (A − (β + γ·sign(z·dx))·|z|^n)·dx
@@ -37,7 +37,7 @@ LAYOUT = LinearLayout(
     units={"m": "N·s²/mm", "c": "N·s/mm", "k": "N/mm", "h": "N", "f": "N"},
     fixed=(("c", "v"), ("k", "x"), ("f", "1")), varying="h", mass="m",
 )
-# Table 5's tension ranges (DESIGN.md §2), the paper's box for eq 1.
+# Table 5's tension ranges (docs/design.md#parameters), the paper's box for eq 1.
 TABLE5_PLUS = {"A": (0.001, 0.025), "n": (0.43, 10.75), "alpha": (0.07, 1.75), "beta": (0.1, 2.5),
                "gamma": (0.3, 7.5), "xi": (20.0, 500.0), "wn": (0.3, 7.5)}
 # As the switched model's identifiable box (bwbench.models.switched_identifiable), except η: an MR

@@ -6,8 +6,12 @@ import argparse
 
 
 def list_models(args) -> int:
+    import sys
+
     from bwbench.models import registry
 
+    for line in registry.broken().values():  # the others are listed; this one is named with its error
+        print(f"warning: {line}", file=sys.stderr)
     for name, model in registry.available().items():
         default = " (default)" if name == registry.DEFAULT else ""
         print(f"{name}{default}: {model.title}")

@@ -1,7 +1,7 @@
 """Velocity and acceleration estimated from a sampled displacement, when the file does not record them.
 
 The estimator (chosen by ``benchmarks/bench_differentiator.py`` on exact ramps with smooth reversals,
-sines and random motions at 0.5–10 Hz with 0–5 µm encoder noise; README "Signals"):
+sines and random motions at 0.5–10 Hz with 0–5 µm encoder noise; docs/file-formats.md#signals-recorded-or-estimated):
 
 1. σ̂, the displacement noise, from the 4th differences of the record (``robust_noise``): a robust
    estimate that smooth motion barely touches (its 4th differences are tiny) and that sees the

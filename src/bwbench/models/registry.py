@@ -15,6 +15,7 @@ import threading
 from importlib.metadata import entry_points
 from types import ModuleType
 
+from bwbench import plugins
 from bwbench.errors import UserError
 from bwbench.models.base import Model
 
@@ -55,15 +56,17 @@ def _load_plugins() -> None:
         for ep in entry_points(group=ENTRY_POINT_GROUP):
             # A broken plug-in (a missing module, a wrong value) must not take every model down with it.
             try:
-                model = _as_model(ep.load())
+                model = _as_model(plugins.load(ep, "model"))
                 _FROM_ENTRY_POINTS.add(register(model).name)
-            except Exception as err:
-                _BROKEN[ep.name] = f"entry point {ep.value!r}: {type(err).__name__}: {err}"
+            except plugins.PluginError as err:
+                _BROKEN[ep.name] = str(err)
+            except Exception as err:  # register() refused the value: still the plug-in's fault, named
+                _BROKEN[ep.name] = str(plugins.failed(ep, "model", f"failed to load: {type(err).__name__}: {err}"))
         _plugins_loaded = True
 
 
 def broken() -> dict[str, str]:
-    """The installed model plug-ins that failed to load: entry point name -> why."""
+    """The installed model plug-ins that failed to load: entry point name -> the line naming it."""
     _load_plugins()
     with _LOCK:
         return dict(_BROKEN)
@@ -80,7 +83,9 @@ def get(name: str) -> Model:
     with _LOCK:
         if name in _REGISTERED:
             return _REGISTERED[name]
-    failed = "".join(f"; plug-in {n!r} failed to load ({why})" for n, why in broken().items())
+    if name in broken():
+        raise plugins.PluginError(broken()[name])
+    failed = "".join(f"; {line}" for line in broken().values())
     raise UserError(f"unknown model {name!r}; known: {', '.join(names())}{failed}")
 
 

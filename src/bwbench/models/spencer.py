@@ -1,7 +1,7 @@
 """Spencer, Dyke, Sain & Carlson (1997)'s phenomenological MR-damper model, as a model plug-in.
 
 "Phenomenological model for magnetorheological dampers", J. Eng. Mech. 123(3):230–238, the
-"modified Bouc-Wen" model, displacement-driven, for one test at a fixed current (DESIGN.md §9):
+"modified Bouc-Wen" model, displacement-driven, for one test at a fixed current (docs/design.md#models-as-plug-ins):
 
     F = c₁·ẏ + k₁·(x − x₀)
     ẏ = (α·z + c₀·ẋ + k₀·(x − y)) / (c₀ + c₁)
@@ -66,7 +66,7 @@ LAYOUT = LinearLayout(
     names=("c1", "k1", "f0"), units={"c1": "N·s/mm", "k1": "N/mm", "f0": "N"},
     fixed=(("k1", "x"), ("f0", "1")), varying="c1", labels={"c1": "c₁", "k1": "k₁", "f0": "f₀"},
 )
-GAUGE_A = 300.0  # the published fits' A (DESIGN.md §9): the gauge direct parameters are reported in
+GAUGE_A = 300.0  # the published fits' A (docs/design.md#models-as-plug-ins): the gauge of the direct parameters
 
 # Identifiable box, scaled from the data (a = displacement amplitude, v = max|ẋ|, ω = v/a).
 # x_y: an MR damper yields within ~1e-3·a (Spencer's damper: 0.021 mm at ±15 mm); 10·a means no

@@ -1,4 +1,4 @@
-"""The paper's switched (asymmetric) Bouc-Wen model as a model plug-in (DESIGN.md §1, §8).
+"""The paper's switched (asymmetric) Bouc-Wen model as a model plug-in (docs/design.md#the-model, #formulations).
 
 The equations and their integration are in ``bwbench.models.switched_bouc_wen``; the symmetry-free
 coordinates and the exact maps to and from the paper's 14 in

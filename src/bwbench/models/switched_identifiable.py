@@ -1,6 +1,6 @@
 """The identifiable formulation: symmetry-free hysteretic parameters + linearly solved coefficients.
 
-Symmetry. In the paper model (DESIGN.md §1) z → s·z, A → s·A, β → s^(1−n)·β, γ → s^(1−n)·γ maps
+Symmetry. In the paper model (docs/design.md#the-model), z → s·z, A → s·A, β → s^(1−n)·β, γ → s^(1−n)·γ maps
 dz = (A − (β + γ·sign(z·dx))·|z|^n)·dx onto itself, and the force is unchanged if the coefficient
 h = (1 − α)·ωn² of z becomes h/s (ωn² = k + h/s, α = k/ωn², ξ = c/(2ωn) with k = α·ωn², c = 2ξ·ωn
 kept). Shared state: one s for both branches; split: one s per branch. The invariants per branch
@@ -30,7 +30,7 @@ that depend on it (u = Table 5 unit coordinates), a 1-D search in log s (grid, t
 the interval where every ωn_b² > 0; split: one independent search per branch. m ≠ 1 or f ≠ 0
 has no paper equivalent: ``to_paper`` then returns params None and the reason.
 
-Bounds (``scaled_bounds``), amplitude a = ½·ptp(x) (README "The identifiable box"):
+Bounds (``scaled_bounds``), amplitude a = ½·ptp(x) (docs/models.md, "The identifiable box"):
 - x_y log-uniform in [1e-4, 50]·a. Lower end: an MR damper yields within ~1e-3·a (Spencer et al. 1997:
   x_y ≈ 0.02 mm at ±25 mm, where fits reached the 1e-3·a edge); below 1e-4·a w is a sign function at
   any sampling of a test. Upper end, the cap (``XY_CAP``): Tables 6–8 reach x_y₊ ≈ 22·a; from w = 0 a

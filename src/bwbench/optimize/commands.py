@@ -12,10 +12,14 @@ from bwbench.errors import UserError
 
 def list_backends(args) -> int:
     """One line per backend (name, family, how it asks, description), then one line per option."""
+    import sys
+
     from bwbench.optimize import registry
     from bwbench.optimize.options import show
 
     backends = registry.available()
+    for line in registry.broken().values():  # the others are listed; this one is named with its error
+        print(f"warning: {line}", file=sys.stderr)
     width = max(len(name) for name in backends)
     for backend in backends.values():
         asks = "populations per call" if backend.batched else "one point per call"
@@ -143,14 +147,16 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("specimen", nargs="+", help="specimen CSV; several: one joint fit of them all (one parameter "
                                                     "set; one evaluation simulates every file)")
-    parser.add_argument("--optimizer", required=True, help="backend name (see `bwbench optimizers`)")
+    parser.add_argument("--optimizer", default="lsq-trf",
+                        help="backend name (default lsq-trf, as bwbench.fit; see `bwbench optimizers`)")
     parser.add_argument("--budget", type=int, default=4100,
                         help="evaluations (default 4100, the paper's GA); one evaluation simulates every file once")
     parser.add_argument("--seed", type=int, default=0, help="random seed, a non-negative integer (default 0)")
     parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                         help="backend option, repeatable; VALUE is read as JSON (3, 0.5, true, null, [0.5, 1]), "
                         "else as a string (see `bwbench optimizers` for each backend's options and ranges)")
-    add_model_options(parser)
+    add_model_options(parser, formulation_advice="; for data that are not the paper's, use identifiable: the "
+                      "paper's box fits no other amplitudes or force levels")
     add_fit_options(parser)
     parser.add_argument("--weighting", choices=["equal", "samples"], default="equal",
                         help="joint fit: equal (default) gives each file's MSE the same weight whatever its length; "

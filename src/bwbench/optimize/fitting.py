@@ -1,4 +1,4 @@
-"""Run one backend on one problem with an exact budget: the thin composer of DESIGN.md."""
+"""Run one backend on one problem with an exact budget: the thin composer of docs/design.md#objective-and-budget."""
 
 from __future__ import annotations
 
@@ -90,5 +90,5 @@ def edge_warnings(problem, result, explained=()) -> list[str]:
         unit = "" if unit in ("", "-") else f" {unit}"
         out.append(f"{name} = {result.params[name]:.6g}{unit} ended on the {side} edge of its search box "
                    f"[{problem.lower[i]:.6g}, {problem.upper[i]:.6g}]: the best fit may lie beyond it "
-                   "(widen it with --bounds, or see the README on the box)")
+                   "(widen it with --bounds, or see docs/models.md on the box)")
     return out

@@ -1,6 +1,6 @@
 """The objective: counts every evaluation, enforces an exact budget, keeps the best so far.
 
-The budget is enforced here and nowhere else (DESIGN.md §3): evaluation number budget+1 raises
+The budget is enforced here and nowhere else (docs/design.md#objective-and-budget): evaluation number budget+1 raises
 ``BudgetExhausted``; a batch larger than what is left is cut, the cut rows get +inf, and the
 next call raises. Optimisers work in unit coordinates u ∈ [0, 1]^d; points outside are clipped to
 the box (and counted) so every backend sees the same feasible set.

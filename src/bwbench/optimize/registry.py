@@ -61,7 +61,9 @@ Registration
 ------------
 Built-in backends live in ``bwbench.optimizers``; other packages plug in theirs through the
 entry-point group ``bwbench.optimizers`` (each entry point names a module to import, whose
-``register`` calls add its backends). A second backend of an existing name is refused.
+``register`` calls add its backends). A second backend of an existing name is refused. A plug-in
+that fails to import breaks only itself (``bwbench.plugins``): asking for it by its entry point's
+name gives one line naming it and its error.
 """
 
 from __future__ import annotations
@@ -73,6 +75,7 @@ from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Callable
 
+from bwbench import plugins
 from bwbench.errors import UserError
 from bwbench.optimize.options import Option, show
 
@@ -106,6 +109,7 @@ _REGISTRY: dict[str, Backend] = {}
 # see the registry half-loaded (it would record "unknown optimiser 'pso'" as the run's result).
 _LOCK = threading.RLock()
 _loaded = False
+_BROKEN: dict[str, str] = {}  # entry point name -> the line naming it and its error
 
 
 def register(name: str, *, family: str, description: str, options: dict | None = None,
@@ -146,8 +150,19 @@ def _load() -> None:
         for module in pkgutil.iter_modules(builtin.__path__):
             importlib.import_module(f"{builtin.__name__}.{module.name}")
         for ep in entry_points(group=ENTRY_POINT_GROUP):
-            ep.load()
+            # A broken plug-in must not take every backend down with it (the policy of bwbench.plugins).
+            try:
+                plugins.load(ep, "optimiser")
+            except plugins.PluginError as err:
+                _BROKEN[ep.name] = str(err)
         _loaded = True
+
+
+def broken() -> dict[str, str]:
+    """The installed optimiser plug-ins that failed to load: entry point name -> the line naming it."""
+    _load()
+    with _LOCK:
+        return dict(_BROKEN)
 
 
 def available() -> dict[str, Backend]:
@@ -167,8 +182,11 @@ def get(name: str) -> Backend:
             if name in _REGISTRY:
                 return _REGISTRY[name]
     backends = available()
+    if name not in backends and name in broken():
+        raise plugins.PluginError(broken()[name])
     if name not in backends:
-        raise UserError(f"unknown optimiser {name!r}; available: {', '.join(backends)}")
+        failed = "".join(f"; {line}" for line in broken().values())
+        raise UserError(f"unknown optimiser {name!r}; available: {', '.join(backends)}{failed}")
     return backends[name]
 
 

@@ -50,7 +50,7 @@ class Result:
         return record
 
     def to_json_dict(self) -> dict:
-        """The result JSON of DESIGN.md §4 (plus the trace and options)."""
+        """The result JSON of docs/design.md#data-formats (plus the trace and options)."""
         out = {
             "params": self.params, "mse": self.mse, "f_err": self.f_err, "rmse_N": self.rmse_N,
             "nfev": self.nfev, "budget": self.budget, "optimizer": self.optimizer, "seed": self.seed,

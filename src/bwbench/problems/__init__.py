@@ -23,6 +23,7 @@ import threading
 from importlib.metadata import entry_points
 from types import ModuleType
 
+from bwbench import plugins
 from bwbench.errors import UserError
 from bwbench.problems.base import Problem, ProblemSetup, ProblemType, SpecimenEntry
 
@@ -89,16 +90,13 @@ def get(name: str) -> ProblemType:
 
 
 def _load(ep) -> ProblemType:
-    where = f"problem plug-in {ep.name!r} (entry point {ep.value!r} of group {ENTRY_POINT_GROUP!r})"
-    try:
-        loaded = ep.load()
-    except Exception as err:  # a missing module, an error in it: the plug-in's, named in one line
-        raise UserError(f"{where} failed to load: {type(err).__name__}: {err}") from None
+    """The entry point's problem type, or ``PluginError`` naming it (the policy of ``bwbench.plugins``)."""
+    loaded = plugins.load(ep, "problem")
     problem_type = loaded.PROBLEM_TYPE if isinstance(loaded, ModuleType) else loaded
     if not isinstance(problem_type, ProblemType):
-        raise UserError(f"{where} gives {problem_type!r}, not a bwbench.problems.ProblemType instance "
-                        "(or a module with a PROBLEM_TYPE)")
+        raise plugins.failed(ep, "problem", f"gives {problem_type!r}, not a bwbench.problems.ProblemType instance "
+                             "(or a module with a PROBLEM_TYPE)")
     if problem_type.name != ep.name:
-        raise UserError(f"{where} gives a problem named {problem_type.name!r}: the entry point's name must be "
-                        "the problem's")
+        raise plugins.failed(ep, "problem", f"gives a problem named {problem_type.name!r}: the entry point's name "
+                             "must be the problem's")
     return problem_type

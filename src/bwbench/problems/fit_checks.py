@@ -1,11 +1,11 @@
-"""What `bwbench fit` states about a fitted model beyond its loss (README "Checks of a fit"):
+"""What `bwbench fit` states about a fitted model beyond its loss (docs/fitting.md#checks-of-a-fit):
 
 - units of every reported parameter;
 - linear branches (models that have the notion, ``Model.linear_branches``): a branch of the
   identifiable formulation whose rate dw/dx varies by less than 5 % over its samples is linear in x
   ("no yield within the stroke"): its n and η are not determined by the data, only h/x_y (a stiffness);
 - the energy the fitted model dissipates per cycle, ∮F·dx (N·mm), positive for a passive specimen
-  under the README's sign convention; flagged when not (a note for manifest-synthetic data, whose
+  under docs/file-formats.md's sign convention; flagged when not (a note for manifest-synthetic data, whose
   loops run clockwise as the paper's identified parameters make them);
 - when the velocity is estimated from the displacement: the force error that estimate is expected to
   cause at the fitted viscous coefficients, |∂F/∂ẋ| (``Model.viscous_coefficients``, of the branch

@@ -8,7 +8,7 @@ study's ``[bounds]`` may set any solved coefficient by name, e.g. ``{"m": [0, 0.
 - the model's own physical limits on its solved coefficients (``Model.coefficient_limits``), on the
   same condition as the viscous sign below: Spencer's accumulator stiffness k₁ ≥ 0, the classic
   Bouc-Wen's spring k ≥ 0 and hysteretic weight h ≥ 0;
-- a viscous coefficient (unit N·s/mm: c₁ of Spencer's model) ≥ 0 when the data follow the README's
+- a viscous coefficient (unit N·s/mm: c₁ of Spencer's model) ≥ 0 when the data follow docs/file-formats.md's
   sign convention, i.e. the measured loops dissipate energy (∮F·dx > 0): a dashpot cannot push the
   way it moves. Data whose loops run the other way get no sign bound, nor does a model whose
   branches may carry either sign (``Model.viscous_sign_bound``: the switched model's c± — the

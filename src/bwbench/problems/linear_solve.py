@@ -4,7 +4,7 @@ A model with a linear part (``bwbench.models.base.LinearLayout``) writes its for
 F = Σ_j β_j·g_j, where the columns g_j are signals of the excitation (x, ẋ, ẍ, 1) or one column
 w(θ) that depends on the searched parameters θ (the switched model's z/z_s, Spencer's ẏ). A
 branched model (the switched Bouc-Wen) has a '+' copy of each column where ẋ ≥ 0 and a '−' copy
-where ẋ < 0 (DESIGN.md §8):
+where ẋ < 0 (docs/design.md#formulations):
 
     F = m·ẍ + c_b·ẋ + k_b·x + h_b·w + f_b
 

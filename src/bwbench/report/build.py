@@ -9,14 +9,13 @@ tables, identifiability, its figures) come from its ``ProblemType`` hooks.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from bwbench.analysis import comparisons, statistics
-from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder, writing
+from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder
 from bwbench.errors import UserError
 from bwbench.report import sections
 from bwbench.report.document import Document
@@ -166,23 +165,3 @@ def report_inputs(study) -> list[Path]:
         return [*files, *dict.fromkeys(f.parent / MANIFEST for f in files)]
     folder = Path(study.data_dir)
     return [p for p in folder.iterdir() if p.is_file()] if folder.is_dir() else []
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--db", required=True, help="study database (SQLite, written by bwbench compare)")
-    parser.add_argument("--out", required=True, help="output folder, e.g. reports/NAME")
-    parser.add_argument("--data", help="folder with the study's data files (default: where the study last found them)")
-    parser.add_argument("--profiles", type=int, default=2,
-                        help="profile likelihoods of this many parameters on the first specimen (default 2; 0 = none)")
-    parser.set_defaults(func=cli_main)
-
-
-def cli_main(args) -> int:
-    """``bwbench report --db PATH --out reports/NAME``; prints the path of report.html."""
-    if args.profiles < 0:
-        raise UserError(f"--profiles must be 0 or more, got {args.profiles}")
-    with writing(args.out):  # a full disk names the report's folder
-        path = build_report(args.db, args.out, data_dir=getattr(args, "data", None),
-                            profile_params=getattr(args, "profiles", 2))
-    print(path)
-    return 0

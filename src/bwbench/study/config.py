@@ -53,7 +53,7 @@ except ModuleNotFoundError:  # Python 3.10
 GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem")
 POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
 # What a [posterior] run of a backend gets before its own options: the settings that converge on the
-# shipped specimens and on others of the same kind (README "Posterior sampling"), not the backend's
+# shipped specimens and on others of the same kind (docs/posterior.md), not the backend's
 # defaults, which are a sampler used as an optimiser in the ranking (walkers uniform in the box, one
 # ensemble, the whole budget spent).
 POSTERIOR_OPTIONS = {"emcee": {"start": "optima", "moves": "de", "ensembles": 3, "n_walkers": None,

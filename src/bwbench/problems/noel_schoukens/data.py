@@ -1,7 +1,7 @@
 """The Noël–Schoukens benchmark's data files: ``time_s,force_N,displacement_m`` at 750 Hz.
 
-The files are read from a folder the user gives (default ``../shared/benchmarks/bouc-wen`` beside
-the repository root); they are never copied into the project.
+The files are read from a folder the user gives (default: a ``shared/benchmarks/bouc-wen`` folder
+beside the repository's folder); they are never copied into the project.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ _TIME_TOLERANCE_S = 2e-6
 
 
 def default_data_dir() -> Path:
-    """``../shared/benchmarks/bouc-wen`` seen from the repository root."""
+    """The ``shared/benchmarks/bouc-wen`` folder beside the repository's folder."""
     from bwbench.data.synthetic import REPO
 
     return REPO.parent / "shared" / "benchmarks" / "bouc-wen"

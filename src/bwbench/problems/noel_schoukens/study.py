@@ -1,7 +1,7 @@
 """The Noël–Schoukens benchmark as a study problem (``problem = "bouc-wen-benchmark"``).
 
 One "specimen", ``train_multisine``. ``[study] data`` is the benchmark folder (default
-``data.default_data_dir()``, i.e. ``../shared/benchmarks/bouc-wen`` beside the repository);
+``data.default_data_dir()``, a ``shared/benchmarks/bouc-wen`` folder beside the repository's);
 ``--data PATH`` overrides it. ``[specimens]``, ``state`` and ``excitation`` do not apply and are
 refused. The study's identity holds the SHA-256 of the three benchmark files, not their folder:
 the same data moved elsewhere (or reached through ``--data``) resume the same study, changed data

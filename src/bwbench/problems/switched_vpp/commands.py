@@ -15,7 +15,7 @@ BLOWS_UP = "the model blows up with these parameters on this specimen (force not
 WALK_BLOWS_UP = "the walk along this direction reached parameters where the model blows up"
 
 
-def add_model_options(p) -> None:
+def add_model_options(p, formulation_advice: str = "") -> None:
     p.add_argument("--model", help="the model (default switched-bouc-wen; see `bwbench models`)")
     p.add_argument("--state", choices=["shared", "split"],
                    help="hysteretic state convention of the switched model (default: shared)")
@@ -24,7 +24,7 @@ def add_model_options(p) -> None:
     p.add_argument("--formulation", choices=["paper", "direct", "identifiable"],
                    help="paper/direct: the model's own parameters in its box; identifiable: symmetry-free "
                         "parameters in a box scaled from the data, linear coefficients solved (default: the "
-                        "model's own: paper for the switched model, identifiable for the others)")
+                        "model's own: paper for the switched model, identifiable for the others)" + formulation_advice)
 
 
 def model_settings(args) -> dict:
