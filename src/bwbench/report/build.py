@@ -18,10 +18,10 @@ from pathlib import Path
 from bwbench.analysis import comparisons, statistics
 from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder, writing
 from bwbench.errors import UserError
-from bwbench.report import sections
+from bwbench.report import sections, time_noise
 from bwbench.report.document import Document
 from bwbench.report.labels import variant_noun
-from bwbench.report.recommend import recommend
+from bwbench.report.recommend import one_line, recommend
 from bwbench.report.verdict import TARGET
 from bwbench.store import reader as results_db
 
@@ -81,13 +81,15 @@ def featured_specimens(study, k: int = 3) -> list[str]:
 
 
 def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, profile_params: int = 2,
-                 profile_grid: int = 7, log=None) -> Path:
+                 profile_grid: int = 7, log=None, announce=None) -> Path:
     """Write report.md, report.html, the figures and their CSVs into ``out``; return report.html's path.
 
     ``profile_params``: profile likelihoods of that many parameters (the widest free ranges) on the
     first featured specimen (0: none; they cost about a second per grid point).
     A study with fewer runs than it plans (stopped part-way, or still running) is reported as
     provisional ("provisional: 16 of 36 runs") in the title, the first paragraph and the recommendation.
+    ``log``: where progress goes (default stderr); ``announce``: where the recommendation is printed
+    in one line once the report is written (None: nowhere).
     Raises ``UserError`` for a missing or non-study database, or one without finished ranking runs.
     """
     log = sys.stderr if log is None else log
@@ -103,12 +105,8 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     check_folder("--out", out)
     out.mkdir(parents=True, exist_ok=True)
     problem_type = study.problem_type
-    table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
-    tests = statistics.compare_backends(study.runs)
-    success = statistics.success_by_specimen(study.runs, study.traces, TARGET)
-    rec = recommend(table, success, comparisons.log_losses(study.ranking), tests, study.settings.get("budget", "?"),
-                    problem_type.residual_unit, variant_noun(study.settings))
-    table = table.set_index("optimizer").loc[rec["order"]].reset_index()  # the rule's order, everywhere
+    print("ranking: statistics and the recommendation ...", file=log, flush=True)
+    table, tests, rec = study_recommendation(study)
     provisional = study.provisional  # "provisional: 16 of 36 runs" for an unfinished study
     if provisional:
         rec["text"] = (f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished (still running, "
@@ -140,7 +138,23 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     (out / "report.md").write_text(doc.markdown(), encoding="utf-8")
     html_path = out / "report.html"
     html_path.write_text(doc.html(f"bwbench report: {title}"), encoding="utf-8")
+    if announce is not None:
+        line = one_line(report.verdict, table.set_index("optimizer"), study.settings.get("budget", "?"))
+        print((f"{provisional[0].upper()}{provisional[1:]}: " if provisional else "") + line, file=announce)
     return html_path
+
+
+def study_recommendation(study):
+    """(ranking table in the rule's order, ``statistics.Comparison``, ``recommend.recommend``'s dict)
+    of a loaded study: what the report and ``bwbench compare`` both say."""
+    table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
+    tests = statistics.compare_backends(study.runs)
+    success = statistics.success_by_specimen(study.runs, study.traces, TARGET)
+    rec = recommend(table, success, comparisons.log_losses(study.ranking), tests, study.settings.get("budget", "?"),
+                    study.problem_type.residual_unit, variant_noun(study.settings),
+                    times=time_noise.intervals(study.runs, study.traces))
+    table = table.set_index("optimizer").loc[rec["order"]].reset_index()  # the rule's order, everywhere
+    return table, tests, rec
 
 
 def refuse_changed_data(study) -> None:
@@ -178,11 +192,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def cli_main(args) -> int:
-    """``bwbench report --db PATH --out reports/NAME``; prints the path of report.html."""
+    """``bwbench report --db PATH --out reports/NAME``; prints the recommendation in one line, then the
+    path of report.html."""
     if args.profiles < 0:
         raise UserError(f"--profiles must be 0 or more, got {args.profiles}")
     with writing(args.out):  # a full disk names the report's folder
         path = build_report(args.db, args.out, data_dir=getattr(args, "data", None),
-                            profile_params=getattr(args, "profiles", 2))
+                            profile_params=getattr(args, "profiles", 2), announce=sys.stdout)
     print(path)
     return 0
