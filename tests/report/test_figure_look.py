@@ -65,14 +65,19 @@ def _backend_entries(record, names):
     return out
 
 
-def test_styles_follow_the_ranking_order_with_random_in_dark_grey():
-    looks = palette.styles_for(["b", "random", "a"])
-    assert looks["b"].colour == palette.OKABE_ITO[0] and looks["a"].colour == palette.OKABE_ITO[1]
-    assert looks["random"].colour == palette.RANDOM_COLOUR
-    many = palette.styles_for([f"backend{i}" for i in range(10)] + ["random"])
-    combos = {(s.colour, s.linestyle, s.marker) for s in many.values()}
-    assert len(combos) == 11  # colours repeat past seven, but never with the same line and marker
-    assert all(s.colour in palette.OKABE_ITO for name, s in many.items() if name != "random")
+def test_a_backend_keeps_its_colour_and_marker_by_name_whatever_its_rank_or_company():
+    alone = palette.styles_for(["cmaes", "random"])
+    ranked_last = palette.styles_for(["de", "nlopt-bobyqa", "lsq-trf [paper]", "cmaes [paper]", "random [paper]"])
+    assert (alone["cmaes"].colour, alone["cmaes"].marker) == ("#0072B2", "o")
+    assert (ranked_last["cmaes [paper]"].colour, ranked_last["cmaes [paper]"].marker) == ("#0072B2", "o")
+    assert alone["random"].colour == ranked_last["random [paper]"].colour == palette.RANDOM_COLOUR
+    builtin = palette.styles_for([*palette.BACKEND_LOOK, "random"])
+    assert len({(s.colour, s.marker) for s in builtin.values()}) == len(builtin)  # no two alike
+    assert len({s.colour for s in builtin.values()}) == len(builtin)  # not even in colour
+    # plug-ins: free looks, in name order, never one a built-in of the study uses
+    many = palette.styles_for([f"backend{i}" for i in range(10)] + ["cmaes", "de", "random"])
+    assert len({(s.colour, s.marker) for s in many.values()}) == 13
+    assert many["backend0"].colour == palette.EXTRA_LOOKS[0][0]
 
 
 def test_both_formulations_of_a_backend_share_its_colour_and_differ_in_line_and_fill():

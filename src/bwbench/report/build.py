@@ -69,6 +69,30 @@ class Report:
     def progress(self, what: str) -> None:
         print(f"{what} ...", file=self.log, flush=True)
 
+    def counter(self, what: str, unit: str = "step"):
+        """A ``(done, total)`` callback that shows long work: a tqdm bar on a terminal, otherwise a
+        line at about every quarter (logs, CI)."""
+        from tqdm import tqdm
+
+        interactive = hasattr(self.log, "isatty") and self.log.isatty()
+        state = {"bar": None, "next": 0.25}
+
+        def update(done: int, total: int) -> None:
+            if state["bar"] is None:
+                state["bar"] = tqdm(total=total, desc=what, unit=unit, file=self.log, disable=not interactive,
+                                    dynamic_ncols=True, leave=False)
+            bar = state["bar"]
+            bar.update(done - bar.n)
+            if not interactive and (done / total >= state["next"] or done == total):
+                print(f"{what}: {done} of {total} {unit}s", file=self.log, flush=True)
+                while state["next"] <= done / total:
+                    state["next"] += 0.25
+            if done >= total:
+                bar.close()
+                state["bar"], state["next"] = None, 0.25
+
+        return update
+
 
 def featured_specimens(study, k: int = 3) -> list[str]:
     """Up to ``k`` specimens for the per-specimen figures: posterior ones first, and those where some
@@ -130,7 +154,7 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     sections.ranking(report)
     table.assign(verdict=[report.verdict.role(n) for n in table["optimizer"]]).to_csv(out / "ranking.csv", index=False)
     sections.comparisons_frame(report).to_csv(out / "comparisons.csv", index=False)
-    report.progress("figures")
+    report.progress("figures: convergence, runtime distributions, waterfall")
     sections.run_figures(report)
     problem_type.report_sections(report)
     sections.limits(report)

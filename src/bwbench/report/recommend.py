@@ -147,7 +147,7 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     if verdict.choice is None:
         out.append(f"Only the baseline ({join(verdict.baselines)}) ran: there is nothing to recommend.")
         return " ".join(out)
-    choice, tau = verdict.choice, verdict.tie_target
+    choice = verdict.choice
     row = table.loc[choice]
     named = f"**Use {_pair(choice, noun).replace('**', '')}** ({choice})" if noun else f"**Use {choice}**"
     out.append(f"{named} at a budget of {budget_text} evaluations: it reached the {TARGET:.0%} target in "
@@ -287,7 +287,7 @@ def effect_sentence(verdict: Verdict, noun: str | None) -> str:
         winner, count = (variant, lower_in_other) if lower_in_other > lower_in_ref else (ref, lower_in_ref)
         loser = ref if winner == variant else variant
         significant = int((g["significant"] & ((g["ratio"] < 1) if winner == variant else (g["ratio"] > 1))).sum())
-        parts.append(f"in the {winner} {noun}, {count} of {len(g)} backends end at lower final losses than in the "
+        parts.append(f"in the {winner} {noun} {count} of {len(g)} backends end at lower final losses than in the "
                      f"{loser} {noun} ({significant} significantly, Holm)")
     text = "; ".join(parts)
     return text[0].upper() + text[1:] + "."
@@ -304,34 +304,32 @@ def box(verdict: Verdict, table, budget, noun: str | None, what: dict | None = N
     row = table.loc[choice]
     backend = split_label(choice)[0]
     facts = (what or {}).get(choice, {})
-    described = [f"backend **{backend}**"]
-    described += [f"{key} **{facts[key]}**" for key in ("model", "formulation") if facts.get(key)]
-    items = [f"**Use**: {', '.join(described)}, budget **{budget_text} evaluations** per run (label `{choice}`)."]
-    items.append(f"**Success and time**: within {TARGET:.0%} of the best known loss in {_success(table, choice)}; "
-                 f"expected time to that target {seconds_text(row[f'time_{TARGET:.0%}'])} (ERT "
-                 f"{evals_text(row[f'ert_{TARGET:.0%}'])} evaluations × {seconds_text(row['s_per_eval'])} per "
-                 "evaluation on the machine that ran it).")
+    context = [f"model {facts['model']}"] if facts.get("model") else []
+    context += [f"{facts['formulation']} formulation"] if facts.get("formulation") else []
+    items = [f"**Use {backend}**" + (f" ({', '.join(context)})" if context else "")
+             + f" at **{budget_text} evaluations** per run (label `{choice}`)."]
+    items.append(f"**Reaches the target** (within {TARGET:.0%} of the best known loss) in {_success(table, choice)}; "
+                 f"expected time {seconds_text(row[f'time_{TARGET:.0%}'])} ({evals_text(row[f'ert_{TARGET:.0%}'])} "
+                 f"evaluations × {seconds_text(row['s_per_eval'])} on the machine that ran it).")
     if verdict.tied:
-        items.append(f"**Tied alternatives** (as good by the rule, expected times within the noise; the "
-                     f"recommended one needs the fewest evaluations): "
-                     + join([f"{n} (ERT {evals_text(table.loc[n, f'ert_{tau:.0%}'])} evaluations, "
-                             f"{_success(table, n)} on target)" for n in verdict.tied]) + ".")
+        items.append("**Tied**: " + join([f"{n} ({evals_text(table.loc[n, f'ert_{tau:.0%}'])} evaluations)"
+                                          for n in verdict.tied])
+                     + f": as good by the rule and as fast within the noise; {choice} needs the fewest evaluations.")
     else:
         others = [n for n in verdict.peers if n != choice and n not in verdict.avoid]
-        items.append("**Tied alternatives**: none"
-                     + (f"; as good but slower beyond the time noise: {join(others)}." if others else
-                        ": no other label is as good by the rule."))
+        items.append("**Tied**: none" + (f"; as good but slower beyond the time noise: {join(others)}." if others else
+                                          "; no other label is as good by the rule."))
     avoid = [n for n in verdict.avoid if n != choice]
-    avoid_text = (f"{join(avoid)} (final losses significantly worse than random search's)" if avoid else
-                  "no label is significantly worse than random search")
+    parts = [f"**Avoid** {join(avoid)} (worse than random search)." if avoid else
+             "**Avoid**: no label is worse than random search."]
     if verdict.behind:
-        avoid_text += f"; behind the recommended (final losses > {PRACTICAL:.0%} higher): {join(verdict.behind)}"
+        parts.append(f"Behind (final losses > {PRACTICAL:.0%} higher): {join(verdict.behind)}.")
     if verdict.less_reliable:
-        avoid_text += f"; less reliable at reaching the target: {join(verdict.less_reliable)}"
-    items.append(f"**Avoid**: {avoid_text}.")
+        parts.append(f"Less reliable: {join(verdict.less_reliable)}.")
+    items.append(" ".join(parts))
     effect = effect_sentence(verdict, noun)
     if effect:
-        items.append(f"**The {noun}'s effect**: {effect}")
+        items.append(f"**{noun.capitalize()}**: {effect}")
     return items
 
 
