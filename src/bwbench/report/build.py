@@ -69,29 +69,35 @@ class Report:
     def progress(self, what: str) -> None:
         print(f"{what} ...", file=self.log, flush=True)
 
-    def counter(self, what: str, unit: str = "step"):
-        """A ``(done, total)`` callback that shows long work: a tqdm bar on a terminal, otherwise a
-        line at about every quarter (logs, CI)."""
+    def counter(self, what: str, unit: str = "step") -> Counter:
+        """A ``(done, total)`` callback that shows long work (see ``Counter``)."""
+        return Counter(what, unit, self.log)
+
+
+class Counter:
+    """Progress of a counted piece of work, called as ``(done, total)``: a tqdm bar on a terminal,
+    otherwise a line at about every quarter (logs, CI)."""
+
+    def __init__(self, what: str, unit: str, log):
+        self.what, self.unit, self.log = what, unit, log
+        self.interactive = hasattr(log, "isatty") and log.isatty()
+        self.bar: typing.Any = None  # a tqdm bar while the work runs
+        self.next = 0.25
+
+    def __call__(self, done: int, total: int) -> None:
         from tqdm import tqdm
 
-        interactive = hasattr(self.log, "isatty") and self.log.isatty()
-        state = {"bar": None, "next": 0.25}
-
-        def update(done: int, total: int) -> None:
-            if state["bar"] is None:
-                state["bar"] = tqdm(total=total, desc=what, unit=unit, file=self.log, disable=not interactive,
-                                    dynamic_ncols=True, leave=False)
-            bar = state["bar"]
-            bar.update(done - bar.n)
-            if not interactive and (done / total >= state["next"] or done == total):
-                print(f"{what}: {done} of {total} {unit}s", file=self.log, flush=True)
-                while state["next"] <= done / total:
-                    state["next"] += 0.25
-            if done >= total:
-                bar.close()
-                state["bar"], state["next"] = None, 0.25
-
-        return update
+        if self.bar is None:
+            self.bar = tqdm(total=total, desc=self.what, unit=self.unit, file=self.log, disable=not self.interactive,
+                            dynamic_ncols=True, leave=False)
+        self.bar.update(done - self.bar.n)
+        if not self.interactive and (done / total >= self.next or done == total):
+            print(f"{self.what}: {done} of {total} {self.unit}s", file=self.log, flush=True)
+            while self.next <= done / total:
+                self.next += 0.25
+        if done >= total:
+            self.bar.close()
+            self.bar, self.next = None, 0.25
 
 
 def featured_specimens(study, k: int = 3) -> list[str]:

@@ -249,7 +249,8 @@ def _make_room_below(fig, engine, mark_in: float) -> None:
     if leg is not None:
         fig.canvas.draw()  # the legend's size is known only once drawn
         width = fig.get_size_inches()[0] * fig.dpi
-        while leg.get_window_extent().width > 0.99 * width and leg._ncols > 1:  # noqa: SLF001
+        # 6 % to spare: text grows a little more than the figure at the saving DPI (hinting)
+        while leg.get_window_extent().width > 0.94 * width and leg._ncols > 1:  # noqa: SLF001
             # long labels: fewer columns rather than a legend cut off at both sides
             handles, ncols, title = leg.legend_handles, leg._ncols - 1, leg.get_title().get_text() or None  # noqa: SLF001
             leg.remove()

@@ -206,6 +206,8 @@ def tie_text(verdict: Verdict, table) -> str:
     """How the tie-break went: which peers are slower beyond the noise, which are tied on time, and
     the deterministic key that broke the tie."""
     tau, choice = verdict.tie_target, verdict.choice
+    if choice is None:
+        return ""
     noise = (f"{time_noise.LEVEL:.0%} bootstrap interval over the runs, widened by the ±{time_noise.LOAD:.0%} a "
              "machine's load can move one label's times against another's")
     parts = []
@@ -328,7 +330,7 @@ def box(verdict: Verdict, table, budget, noun: str | None, what: dict | None = N
         parts.append(f"Less reliable: {join(verdict.less_reliable)}.")
     items.append(" ".join(parts))
     effect = effect_sentence(verdict, noun)
-    if effect:
+    if effect and noun:
         items.append(f"**{noun.capitalize()}**: {effect}")
     return items
 
