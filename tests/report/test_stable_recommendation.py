@@ -88,3 +88,19 @@ def test_a_wide_spread_of_wall_times_keeps_even_a_twofold_difference_within_the_
     runs.loc[b, "wall_s"] /= 2
     v = decide(runs, traces)["verdict"]
     assert v.choice == "b" and v.slower == ["a"]
+
+
+def test_compare_prints_what_it_counts_and_ends_with_the_reports_recommendation(study_db):
+    from bwbench.study.commands import recommendation_line, summary_table
+
+    text = summary_table(study_db)
+    header, *rows, note = text.splitlines()
+    assert header.split()[:4] == ["label", "runs", "finished", "within"] and "success" not in header
+    assert "range over 2 specimens" in header  # RMSE per specimen, never pooled across force levels
+    cells = {r.split()[0]: r.split() for r in rows}
+    assert cells["cmaes"][1:4] == ["8", "8", "8"] and cells["random"][3] == "0"  # 8 runs, finished, on target
+    assert "'finished': a finite loss" in note
+    line = recommendation_line(study_db)
+    assert line == ("Recommendation: use cmaes at 400 evaluations (8 of 8 runs within 1% of the best known loss, "
+                    f"expected time {line.split('expected time ')[1].split(')')[0]}); tied on time: de and pso "
+                    "(broken by fewest evaluations to the target).")
