@@ -246,3 +246,11 @@ def test_a_legend_too_wide_for_the_page_gets_fewer_columns(tmp_path, monkeypatch
     leg, fig = drawn["legend"], drawn["fig"]
     assert leg._ncols < 5 and len(leg.legend_handles) == 24
     assert leg.get_window_extent().width <= fig.get_size_inches()[0] * fig.dpi
+
+
+def test_three_models_of_one_backend_are_three_line_styles_fixed_by_name():
+    labels = ["lsq-trf [spencer]", "lsq-trf [bouc-wen]", "lsq-trf [switched-bouc-wen]"]
+    looks = palette.styles_for(labels)
+    assert len({(s.linestyle, s.filled) for s in looks.values()}) == 3
+    again = palette.styles_for(labels[::-1])  # another ranking: the same look for each model
+    assert all((looks[n].linestyle, looks[n].filled) == (again[n].linestyle, again[n].filled) for n in labels)

@@ -39,11 +39,14 @@ def test_html_is_self_contained(built):
     assert "SYNTHETIC DATA" in html
 
 
-def test_the_rule_is_stated_before_the_recommendation_that_applies_it(built):
+def test_the_answer_comes_first_then_the_rule_then_the_rule_applied(built):
     _, out, _ = built
     ranking = pd.read_csv(out / "ranking.csv")
     md = (out / "report.md").read_text(encoding="utf-8")
-    assert md.index("## How the recommendation is decided") < md.index("## Recommendation") < md.index("## Ranking")
+    assert md.split("\n## ")[1].startswith("Recommendation\n\n- **Use cmaes**")  # the first section: the box
+    assert (md.index("## Recommendation") < md.index("## How the recommendation is decided")
+            < md.index("## The rule applied to this study") < md.index("## Ranking"))
+    assert '<meta name="viewport"' in (out / "report.html").read_text(encoding="utf-8")
     named = re.search(r"\*\*Use ([^*]+)\*\*", md).group(1)
     assert named == ranking.iloc[0]["optimizer"] == "cmaes"  # the ranking table is in the rule's order
     assert list(ranking["verdict"]) == ["recommended", "behind", "baseline"]

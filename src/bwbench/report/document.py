@@ -100,8 +100,8 @@ class Document:
         body = []
         for block in self.blocks:
             kind = block[0]
-            if kind == "h":
-                body.append(f"<h{block[1]}>{self._inline(block[2])}</h{block[1]}>")
+            if kind == "h":  # an id to link to (report.html#ranking)
+                body.append(f'<h{block[1]} id="{_slug(block[2], 8)}">{self._inline(block[2])}</h{block[1]}>')
             elif kind == "p":
                 body.append(f"<p>{self._inline(block[1])}</p>")
             elif kind == "banner":

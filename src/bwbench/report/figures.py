@@ -188,7 +188,7 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
         count_text = f" ({counts.pop()} runs per label)" if len(counts) == 1 else ""
         where = f"{variant}: " if variant is not None else ""
         # wrapped to the panel's width: side-by-side panels' titles would otherwise run into each other
-        ax.set_title(textwrap.fill(where + title + floor_text + count_text, width=int(MAX_WIDTH_IN / ncols * 13.5)),
+        ax.set_title(textwrap.fill(where + title + floor_text + count_text, width=int((MAX_WIDTH_IN / ncols - 0.8) * 12.5)),
                      loc="left", fontsize=10)
         if grey:
             ax.text(0.99, 0.97, "grey: " + ", ".join(split_label(n)[0] for n in grey), transform=ax.transAxes,

@@ -8,7 +8,7 @@ dark grey. A backend not in the table (a plug-in) gets the first free colour and
 ``EXTRA_LOOKS`` in name order. When a study compares formulations side by side (labels
 ``"cmaes [paper]"``, ``"cmaes [identifiable]"``), both formulations of a backend share its colour and
 marker: solid line and filled marker for the identifiable formulation, dashed line and open marker
-for the paper's.
+for the paper's. Other variants (models compared side by side) get a line style each, in name order.
 
 Figures are sized for a 1,200 px HTML column: at most ``MAX_WIDTH_IN`` inches wide at ``DPI``,
 no text below ``MIN_FONT_PT``.
@@ -56,7 +56,8 @@ EXTRA_LOOKS = tuple(zip(("#332288", "#88CCEE", "#AA4499", "#44AA99", "#DDCC77"),
     tuple((colour, marker) for colour in OKABE_ITO for marker in ("d", "8"))
 # Formulations compared side by side: solid/filled for the identifiable one, dashed/open for the paper's.
 VARIANT_LOOK = {"identifiable": ("-", True), "paper": ("--", False)}
-OTHER_VARIANT_LOOK = ((":", True), ("-.", False))
+# Other variants (models compared side by side), in name order: a line style and fill each.
+OTHER_VARIANT_LOOK = (("-", True), ("--", False), (":", True), ("-.", False), ((0, (5, 1, 1, 1, 1, 1)), True))
 TRUTH: dict = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
 
 @dataclass(frozen=True)
@@ -127,7 +128,7 @@ def styles_for(labels) -> dict[str, Style]:
     marker by backend name (see the module docstring), line style and fill by formulation."""
     labels = list(dict.fromkeys(labels))
     split = {label: split_label(label) for label in labels}
-    variants = list(dict.fromkeys(v for _, v in split.values() if v is not None))
+    variants = sorted({v for _, v in split.values() if v is not None and v not in VARIANT_LOOK})
     looks = backend_looks(base for base, _ in split.values())
     out = {}
     for label, (base, variant) in split.items():
