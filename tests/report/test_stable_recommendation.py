@@ -67,7 +67,7 @@ def test_expected_times_within_the_noise_are_tied_and_broken_by_evaluations_to_t
     v = rec["verdict"]
     assert v.time_bounds["b"][1] * time_noise.LOAD_FACTOR > v.time_bounds["a"][0]  # within the noise
     assert rec["choice"] == "a" and v.tied == ["b"] and v.slower == []
-    assert v.role("b") == "tied (as good, time within noise)"
+    assert v.role("b") == "tied on time"
     assert ("a and b are **tied** on time" in rec["text"]
             and "the tie is broken by the deterministic key, ERT in evaluations (fewest first), then the rule's "
                 "order: **a** (ERT a 300 and b 400 evaluations)" in rec["text"])

@@ -121,8 +121,9 @@ class Document:
                 head = "".join(f"<th{a}>{self._inline(str(c))}</th>" for a, c in zip(align, frame.columns))
                 rows = "".join("<tr>" + "".join(f"<td{a}>{self._inline(str(c))}</td>" for a, c in zip(align, row))
                                + "</tr>" for row in frame.itertuples(index=False))
-                cap = f"<caption>{self._inline(caption)}</caption>" if caption and not csv else ""
-                table = (f'<div class="scroll"><table>{cap}<thead><tr>{head}</tr></thead>'
+                # the caption outside the scrolling box: it wraps to the page, not to the table's width
+                cap = f'<p class="caption">{self._inline(caption)}</p>' if caption and not csv else ""
+                table = (f'{cap}<div class="scroll"><table><thead><tr>{head}</tr></thead>'
                          f"<tbody>{rows}</tbody></table></div>")
                 if csv:
                     link = f'<a href="{html.escape(csv)}">{html.escape(csv)}</a>'
@@ -165,8 +166,8 @@ h2 { border-bottom: 1px solid #bbb; padding-bottom: .15em; margin-top: 2em; }
 .answer { background: #eef6ee; border: 2px solid #2e7d32; border-radius: 6px; padding: .3em 1em .3em 0;
           margin: 1em 0 1.5em; font-size: 1.05em; }
 .answer li { margin: .35em 0; }
-table { border-collapse: separate; border-spacing: 0; margin: .6em 0 1.2em; font-size: .88em; }
-caption { caption-side: top; text-align: left; font-style: italic; padding-bottom: .3em; }
+table { border-collapse: separate; border-spacing: 0; margin: 0 0 1.2em; font-size: .88em; }
+.caption { font-style: italic; font-size: .9em; margin: 1em 0 .3em; }
 th, td { border: 1px solid #ccc; border-width: 0 1px 1px 0; padding: .25em .5em; text-align: right;
          white-space: nowrap; background: #fff; }
 tr > :first-child { border-left-width: 1px; }

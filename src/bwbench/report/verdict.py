@@ -87,7 +87,7 @@ class Verdict:
         if label == self.choice:
             return "recommended"
         if label in self.tied:
-            return "tied (as good, time within noise)"
+            return "tied on time"
         if label in self.slower:
             return "as good, slower"
         for name, group in (("as good", self.equal), ("avoid", self.avoid), ("less reliable", self.less_reliable),
