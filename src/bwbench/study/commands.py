@@ -46,7 +46,7 @@ def export_csv(db, path) -> None:
 
 
 def summary_table(db, problem_type=None) -> str:
-    """Per label (ranking runs only), in the report's order when the rule can be applied: runs, how
+    """Per label (ranking runs only), lowest median loss ratio first: runs, how
     many finished (a finite loss, no error), how many reached the report's target (within 1 % of
     the best known loss of their specimen), the median final loss over the best known (each run
     against its own specimen's best, so specimens of different force levels can share one median),
