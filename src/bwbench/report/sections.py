@@ -188,7 +188,7 @@ def ranking(report) -> None:
     budget = study.settings.get("budget", "?")
     doc.h(2, "Ranking")
     doc.table(ranking_frame(report), f"Every label at a budget of {budget} evaluations, in the rule's order "
-                                     "(success at the 1 % target, then mean rank, then expected time to the target)")
+                                     "(success at the 1 % target, then mean rank, then ERT in evaluations, then name)")
     doc.p("Success at τ: the run's best loss came within (1 + τ) × the best known loss of its specimen (the lowest "
           "of any run in this database, ranking or posterior). ERT (expected running time, COCO definition) = "
           "evaluations spent by all runs (evaluations to target for the successful ones, all their evaluations for "
