@@ -57,7 +57,7 @@ EXTRA_LOOKS = tuple(zip(("#332288", "#88CCEE", "#AA4499", "#44AA99", "#DDCC77"),
 # Formulations compared side by side: solid/filled for the identifiable one, dashed/open for the paper's.
 VARIANT_LOOK = {"identifiable": ("-", True), "paper": ("--", False)}
 # Other variants (models compared side by side), in name order: a line style and fill each.
-OTHER_VARIANT_LOOK = (("-", True), ("--", False), (":", True), ("-.", False), ((0, (5, 1, 1, 1, 1, 1)), True))
+OTHER_VARIANT_LOOK = (("-", True), ("--", False), (":", True), ("-.", False), ("-.", True), (":", False))
 TRUTH: dict = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
 
 @dataclass(frozen=True)
