@@ -114,6 +114,9 @@ def test_the_report_is_the_benchmark_report(tiny, tmp_path):
                        r"(\w+) \d/2 and (\w+) \d/2\.", md)
     assert counts and {counts.group(1), counts.group(2)} == {"cmaes", "random"}
     assert "Noël and M. Schoukens" in md and "SYNTHETIC" not in md
+    # the answer first, as in every report; the data named for what they are
+    assert md.split("\n## ")[1].startswith("Recommendation\n\n- **Use ")
+    assert "> **BENCHMARK DATA (Noël & Schoukens 2016: a simulated Bouc-Wen system with noise) — not measured.**" in md
     # one data set: the seeds are independent samples, and the power statement names the test run
     assert "Power: every comparison uses the unpaired Mann–Whitney U test" in md
     assert "1 specimen × up to 2 seeds per label the smallest p it can give is 0.33" in md

@@ -65,14 +65,19 @@ def _backend_entries(record, names):
     return out
 
 
-def test_styles_follow_the_ranking_order_with_random_in_dark_grey():
-    looks = palette.styles_for(["b", "random", "a"])
-    assert looks["b"].colour == palette.OKABE_ITO[0] and looks["a"].colour == palette.OKABE_ITO[1]
-    assert looks["random"].colour == palette.RANDOM_COLOUR
-    many = palette.styles_for([f"backend{i}" for i in range(10)] + ["random"])
-    combos = {(s.colour, s.linestyle, s.marker) for s in many.values()}
-    assert len(combos) == 11  # colours repeat past seven, but never with the same line and marker
-    assert all(s.colour in palette.OKABE_ITO for name, s in many.items() if name != "random")
+def test_a_backend_keeps_its_colour_and_marker_by_name_whatever_its_rank_or_company():
+    alone = palette.styles_for(["cmaes", "random"])
+    ranked_last = palette.styles_for(["de", "nlopt-bobyqa", "lsq-trf [paper]", "cmaes [paper]", "random [paper]"])
+    assert (alone["cmaes"].colour, alone["cmaes"].marker) == ("#0072B2", "o")
+    assert (ranked_last["cmaes [paper]"].colour, ranked_last["cmaes [paper]"].marker) == ("#0072B2", "o")
+    assert alone["random"].colour == ranked_last["random [paper]"].colour == palette.RANDOM_COLOUR
+    builtin = palette.styles_for([*palette.BACKEND_LOOK, "random"])
+    assert len({(s.colour, s.marker) for s in builtin.values()}) == len(builtin)  # no two alike
+    assert len({s.colour for s in builtin.values()}) == len(builtin)  # not even in colour
+    # plug-ins: free looks, in name order, never one a built-in of the study uses
+    many = palette.styles_for([f"backend{i}" for i in range(10)] + ["cmaes", "de", "random"])
+    assert len({(s.colour, s.marker) for s in many.values()}) == 13
+    assert many["backend0"].colour == palette.EXTRA_LOOKS[0][0]
 
 
 def test_both_formulations_of_a_backend_share_its_colour_and_differ_in_line_and_fill():
@@ -243,3 +248,11 @@ def test_a_legend_too_wide_for_the_page_gets_fewer_columns(tmp_path, monkeypatch
     leg, fig = drawn["legend"], drawn["fig"]
     assert leg._ncols < 5 and len(leg.legend_handles) == 24
     assert leg.get_window_extent().width <= fig.get_size_inches()[0] * fig.dpi
+
+
+def test_three_models_of_one_backend_are_three_line_styles_fixed_by_name():
+    labels = ["lsq-trf [spencer]", "lsq-trf [bouc-wen]", "lsq-trf [switched-bouc-wen]"]
+    looks = palette.styles_for(labels)
+    assert len({(s.linestyle, s.filled) for s in looks.values()}) == 3
+    again = palette.styles_for(labels[::-1])  # another ranking: the same look for each model
+    assert all((looks[n].linestyle, looks[n].filled) == (again[n].linestyle, again[n].filled) for n in labels)

@@ -39,11 +39,14 @@ def test_html_is_self_contained(built):
     assert "SYNTHETIC DATA" in html
 
 
-def test_the_rule_is_stated_before_the_recommendation_that_applies_it(built):
+def test_the_answer_comes_first_then_the_rule_then_the_rule_applied(built):
     _, out, _ = built
     ranking = pd.read_csv(out / "ranking.csv")
     md = (out / "report.md").read_text(encoding="utf-8")
-    assert md.index("## How the recommendation is decided") < md.index("## Recommendation") < md.index("## Ranking")
+    assert md.split("\n## ")[1].startswith("Recommendation\n\n- **Use cmaes**")  # the first section: the box
+    assert (md.index("## Recommendation") < md.index("## How the recommendation is decided")
+            < md.index("## The rule applied to this study") < md.index("## Ranking"))
+    assert '<meta name="viewport"' in (out / "report.html").read_text(encoding="utf-8")
     named = re.search(r"\*\*Use ([^*]+)\*\*", md).group(1)
     assert named == ranking.iloc[0]["optimizer"] == "cmaes"  # the ranking table is in the rule's order
     assert list(ranking["verdict"]) == ["recommended", "behind", "baseline"]
@@ -64,7 +67,7 @@ def test_report_has_tables_identifiability_and_mcmc_sections(built):
                     "## Limits of this study"):
         assert heading in md
     assert "POM MT24u01: tension set (+)" in md and "truth (synthetic)" in md
-    assert "noise_force_n | 1.0 | N" in md  # the generation settings, with units
+    assert "noise_force_n | 1 | N" in md and "| seed | 20181208 |" in md  # the generation settings, with units
     assert "R̂" in md and "bulk ESS" in md  # ArviZ diagnostics of the fixture chain
 
 
@@ -142,7 +145,8 @@ def test_html_tables_put_text_left_and_numbers_right(built):
     # the backend column is text, the wall-time column numbers; every ranking row has both
     assert re.search(r'<td class="text">cmaes</td>', html)
     assert re.search(r"<td>\d[\d.,]*</td>", html)
-    assert not re.search(r'<td class="text">\d[\d.,]*</td>', html.split("<h2>Ranking</h2>")[1].split("</table>")[0])
+    ranking = html.split('<h2 id="ranking">Ranking</h2>')[1].split("</table>")[0]
+    assert not re.search(r'<td class="text">\d[\d.,]*</td>', ranking)
 
 
 def test_backends_table_finds_the_backend_behind_a_formulation_label(built):

@@ -226,7 +226,8 @@ def follow_invariance(residual, u, direction, scale: float, length: float = 0.1,
 PROFILE_MAXITER = 300  # L-BFGS-B iterations per start of a profile point: enough to converge here
 
 
-def profile(loss_batch, u_best, index: int, grid, maxiter: int = PROFILE_MAXITER, step: float = STEP) -> pd.DataFrame:
+def profile(loss_batch, u_best, index: int, grid, maxiter: int = PROFILE_MAXITER, step: float = STEP,
+            on_point=None) -> pd.DataFrame:
     """Profile of the loss along coordinate ``index``: at each grid value (unit coordinates) the
     other coordinates are re-optimised by scipy's L-BFGS-B on [0, 1], and the lowest loss found
     is kept.
@@ -246,7 +247,8 @@ def profile(loss_batch, u_best, index: int, grid, maxiter: int = PROFILE_MAXITER
     converged, and then only for the minimum the search found.
 
     Returns columns ``unit``, ``loss``, ``converged``, ``iterations`` and ``evaluations`` (loss
-    evaluations spent on the point), sorted by ``unit``.
+    evaluations spent on the point), sorted by ``unit``. ``on_point()`` is called after each grid
+    point (a progress bar: a point costs about a second).
     """
     u_best = np.asarray(u_best, dtype=float)
     free = np.array([i for i in range(u_best.size) if i != index])
@@ -290,6 +292,8 @@ def profile(loss_batch, u_best, index: int, grid, maxiter: int = PROFILE_MAXITER
             warm = x
             rows.append({"unit": float(value), "loss": loss, "converged": converged, "iterations": iterations,
                          "evaluations": sum(r[4] for r in results)})
+            if on_point is not None:
+                on_point()
     return pd.DataFrame(rows).sort_values("unit").reset_index(drop=True)
 
 

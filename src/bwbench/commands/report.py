@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -15,7 +16,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def cli_main(args) -> int:
-    """``bwbench report --db PATH --out reports/NAME``; prints the path of report.html."""
+    """``bwbench report --db PATH --out reports/NAME``; prints the recommendation in one line, then the
+    path of report.html."""
     from bwbench.data.output_paths import writing
     from bwbench.errors import UserError
     from bwbench.report.build import build_report
@@ -24,6 +26,6 @@ def cli_main(args) -> int:
         raise UserError(f"--profiles must be 0 or more, got {args.profiles}")
     with writing(args.out):  # a full disk names the report's folder
         path = build_report(args.db, args.out, data_dir=getattr(args, "data", None),
-                            profile_params=getattr(args, "profiles", 2))
+                            profile_params=getattr(args, "profiles", 2), announce=sys.stdout)
     print(path)
     return 0

@@ -17,10 +17,10 @@ from pathlib import Path
 from bwbench.analysis import comparisons, statistics
 from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder
 from bwbench.errors import UserError
-from bwbench.report import sections
+from bwbench.report import sections, time_noise
 from bwbench.report.document import Document
 from bwbench.report.labels import variant_noun
-from bwbench.report.recommend import recommend
+from bwbench.report.recommend import one_line, recommend
 from bwbench.report.verdict import TARGET
 from bwbench.store import reader as results_db
 
@@ -68,6 +68,36 @@ class Report:
     def progress(self, what: str) -> None:
         print(f"{what} ...", file=self.log, flush=True)
 
+    def counter(self, what: str, unit: str = "step") -> Counter:
+        """A ``(done, total)`` callback that shows long work (see ``Counter``)."""
+        return Counter(what, unit, self.log)
+
+
+class Counter:
+    """Progress of a counted piece of work, called as ``(done, total)``: a tqdm bar on a terminal,
+    otherwise a line at about every quarter (logs, CI)."""
+
+    def __init__(self, what: str, unit: str, log):
+        self.what, self.unit, self.log = what, unit, log
+        self.interactive = hasattr(log, "isatty") and log.isatty()
+        self.bar: typing.Any = None  # a tqdm bar while the work runs
+        self.next = 0.25
+
+    def __call__(self, done: int, total: int) -> None:
+        from tqdm import tqdm
+
+        if self.bar is None:
+            self.bar = tqdm(total=total, desc=self.what, unit=self.unit, file=self.log, disable=not self.interactive,
+                            dynamic_ncols=True, leave=False)
+        self.bar.update(done - self.bar.n)
+        if not self.interactive and (done / total >= self.next or done == total):
+            print(f"{self.what}: {done} of {total} {self.unit}s", file=self.log, flush=True)
+            while self.next <= done / total:
+                self.next += 0.25
+        if done >= total:
+            self.bar.close()
+            self.bar, self.next = None, 0.25
+
 
 def featured_specimens(study, k: int = 3) -> list[str]:
     """Up to ``k`` specimens for the per-specimen figures: posterior ones first, and those where some
@@ -80,13 +110,15 @@ def featured_specimens(study, k: int = 3) -> list[str]:
 
 
 def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, profile_params: int = 2,
-                 profile_grid: int = 7, log=None) -> Path:
+                 profile_grid: int = 7, log=None, announce=None) -> Path:
     """Write report.md, report.html, the figures and their CSVs into ``out``; return report.html's path.
 
     ``profile_params``: profile likelihoods of that many parameters (the widest free ranges) on the
     first featured specimen (0: none; they cost about a second per grid point).
     A study with fewer runs than it plans (stopped part-way, or still running) is reported as
     provisional ("provisional: 16 of 36 runs") in the title, the first paragraph and the recommendation.
+    ``log``: where progress goes (default stderr); ``announce``: where the recommendation is printed
+    in one line once the report is written (None: nowhere).
     Raises ``UserError`` for a missing or non-study database, or one without finished ranking runs.
     """
     log = sys.stderr if log is None else log
@@ -102,12 +134,8 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     check_folder("--out", out)
     out.mkdir(parents=True, exist_ok=True)
     problem_type = study.problem_type
-    table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
-    tests = statistics.compare_backends(study.runs)
-    success = statistics.success_by_specimen(study.runs, study.traces, TARGET)
-    rec = recommend(table, success, comparisons.log_losses(study.ranking), tests, study.settings.get("budget", "?"),
-                    problem_type.residual_unit, variant_noun(study.settings))
-    table = table.set_index("optimizer").loc[rec["order"]].reset_index()  # the rule's order, everywhere
+    print("ranking: statistics and the recommendation ...", file=log, flush=True)
+    table, tests, rec = study_recommendation(study)
     provisional = study.provisional  # "provisional: 16 of 36 runs" for an unfinished study
     if provisional:
         rec["text"] = (f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished (still running, "
@@ -131,7 +159,7 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     sections.ranking(report)
     table.assign(verdict=[report.verdict.role(n) for n in table["optimizer"]]).to_csv(out / "ranking.csv", index=False)
     sections.comparisons_frame(report).to_csv(out / "comparisons.csv", index=False)
-    report.progress("figures")
+    report.progress("figures: convergence, runtime distributions, waterfall")
     sections.run_figures(report)
     problem_type.report_sections(report)
     sections.limits(report)
@@ -139,7 +167,23 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     (out / "report.md").write_text(doc.markdown(), encoding="utf-8")
     html_path = out / "report.html"
     html_path.write_text(doc.html(f"bwbench report: {title}"), encoding="utf-8")
+    if announce is not None:
+        line = one_line(report.verdict, table.set_index("optimizer"), study.settings.get("budget", "?"))
+        print((f"{provisional[0].upper()}{provisional[1:]}: " if provisional else "") + line, file=announce)
     return html_path
+
+
+def study_recommendation(study):
+    """(ranking table in the rule's order, ``statistics.Comparison``, ``recommend.recommend``'s dict)
+    of a loaded study: what the report and ``bwbench compare`` both say."""
+    table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
+    tests = statistics.compare_backends(study.runs)
+    success = statistics.success_by_specimen(study.runs, study.traces, TARGET)
+    rec = recommend(table, success, comparisons.log_losses(study.ranking), tests, study.settings.get("budget", "?"),
+                    study.problem_type.residual_unit, variant_noun(study.settings),
+                    times=time_noise.intervals(study.runs, study.traces))
+    table = table.set_index("optimizer").loc[rec["order"]].reset_index()  # the rule's order, everywhere
+    return table, tests, rec
 
 
 def refuse_changed_data(study) -> None:

@@ -80,7 +80,7 @@ def runtime_distributions(study, out_dir, order=None, noun: str | None = None, t
         coloured, baselines, grey = highlighted(names)
         for rank, name in enumerate(grey + baselines + coloured[::-1]):
             kw = ({"color": GREY, "lw": 1.0, "zorder": 2} if name in grey else
-                  look[name].line(lw=1.9, ls="-", markers=True, ms=5, zorder=10 - min(rank, 8),
+                  look[name].line(lw=1.9, markers=True, ms=5, zorder=10 - min(rank, 8),
                                   markevery=(7 + 29 * rank % 53, 60)))
             y = ecdf(rt.loc[rt["optimizer"] == name, "evals"], grid)
             left.step(grid, y, where="post", **kw)
@@ -114,6 +114,17 @@ def runtime_distributions(study, out_dir, order=None, noun: str | None = None, t
     return save(fig, out_dir, "ecdf", frame, study.problem_type.is_synthetic(study))
 
 
+def excess_label(v, _=None) -> str:
+    """A tick of the excess axis (a fraction above the best known) in per cent, short enough not to
+    collide with its neighbours: '0.1 %', '10 %', '100 %', then powers of ten ('10⁵ %', not '100,000 %')."""
+    prefix = "≤ " if v <= FLOOR * 1.0001 else ""
+    percent = v * 100
+    if percent < 1000:
+        return f"{prefix}{percent:g} %"
+    exponent = int(round(np.log10(percent)))
+    return f"{prefix}$10^{{{exponent}}}$ %" if np.isclose(percent, 10.0 ** exponent) else f"{prefix}{percent:.0e} %"
+
+
 def _axes(left, right, budget: float, high: float) -> None:
     left.set_xscale("log")
     left.set_xlim(1, budget * 1.05)
@@ -128,7 +139,6 @@ def _axes(left, right, budget: float, high: float) -> None:
         right.axvline(tau, color="black", lw=1.0, ls=ls, zorder=1)
     right.xaxis.set_major_locator(matplotlib.ticker.LogLocator(numticks=7))
     right.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-    right.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(
-        lambda v, _: ("≤ " if v <= FLOOR * 1.0001 else "") + (f"{v * 100:,.0f} %" if v >= 0.01 else f"{v * 100:g} %")))
+    right.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(excess_label))
     right.set_xlabel("final loss above the best known (log)")
     right.set_ylabel("fraction of runs (–)")

@@ -10,6 +10,7 @@ data carry the SYNTHETIC mark.
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import matplotlib.ticker
@@ -186,7 +187,9 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
                       if specimen is not None and on_floor else "")
         count_text = f" ({counts.pop()} runs per label)" if len(counts) == 1 else ""
         where = f"{variant}: " if variant is not None else ""
-        ax.set_title(where + title + floor_text + count_text, loc="left", fontsize=10)
+        # wrapped to the panel's width: side-by-side panels' titles would otherwise run into each other
+        ax.set_title(textwrap.fill(where + title + floor_text + count_text, width=int((MAX_WIDTH_IN / ncols - 0.8) * 12.5)),
+                     loc="left", fontsize=10)
         if grey:
             ax.text(0.99, 0.97, "grey: " + ", ".join(split_label(n)[0] for n in grey), transform=ax.transAxes,
                     va="top", ha="right", fontsize=9, color="0.25",

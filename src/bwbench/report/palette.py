@@ -1,12 +1,14 @@
 """The look every study figure shares: one style per backend, the theme, the legend, saving.
 
-A backend keeps one colour, line style and marker in every figure of a report, assigned in
-ranking order (best first): Okabe–Ito's colour-blind-safe colours, black kept for the measured
-data, the truth and the noise floor, random search always dark grey. Past seven backends the
-colours repeat with dashed lines and other marker shapes. When a study compares formulations side
-by side (labels ``"cmaes [paper]"``, ``"cmaes [identifiable]"``), both formulations of a backend
-share its colour and marker: solid line and filled marker for the identifiable formulation,
-dashed line and open marker for the paper's.
+A backend keeps one colour and marker in every figure of every report, fixed by its name
+(``BACKEND_LOOK``): cmaes is blue with circles in the quick study, the paper study and the benchmark
+alike, whatever its rank. The colours are Okabe–Ito's colour-blind-safe seven, then four of Paul
+Tol's; black is kept for the measured data, the truth and the noise floor, random search is always
+dark grey. A backend not in the table (a plug-in) gets the first free colour and marker of
+``EXTRA_LOOKS`` in name order. When a study compares formulations side by side (labels
+``"cmaes [paper]"``, ``"cmaes [identifiable]"``), both formulations of a backend share its colour and
+marker: solid line and filled marker for the identifiable formulation, dashed line and open marker
+for the paper's. Other variants (models compared side by side) get a line style each, in name order.
 
 Figures are sized for a 1,200 px HTML column: at most ``MAX_WIDTH_IN`` inches wide at ``DPI``,
 no text below ``MIN_FONT_PT``.
@@ -34,6 +36,7 @@ DPI = 110
 MAX_WIDTH_IN = 11.0  # 1,210 px at DPI: a report's column, shown at 100 %
 MIN_FONT_PT = 9.0
 SYNTHETIC_LABEL = "SYNTHETIC DATA (generated from the paper's Tables 6–8)"
+MEASURED_LABEL = "MEASURED DATA (files not marked synthetic)"  # what a figure of data without a manifest shows
 
 # Okabe & Ito (2008), without black: the seven most distinct first, yellow (weak on white) last.
 OKABE_ITO = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9", "#F0E442")
@@ -41,9 +44,20 @@ LIGHT = {"#F0E442"}  # drawn with a dark edge
 RANDOM_COLOUR = "#404040"  # the baseline: dark grey, so it reads as the reference
 MARKERS = ("o", "s", "^", "D", "v", "P", "<", ">", "p", "h", "*", "d")
 RANDOM_MARKER = "X"
+# Each built-in backend's colour and marker, by name: the same in every report.
+BACKEND_LOOK = {
+    "cmaes": ("#0072B2", "o"), "lsq-trf": ("#E69F00", "s"), "de": ("#009E73", "^"),
+    "paper-ga": ("#D55E00", "D"), "pso": ("#CC79A7", "v"), "nlopt-bobyqa": ("#56B4E9", "P"),
+    "firefly": ("#F0E442", ">"), "nlopt-sbplx": ("#882255", "<"), "nlopt-neldermead": ("#999933", "p"),
+    "anneal": ("#661100", "h"), "emcee": ("#117733", "*"),
+}
+# Plug-in backends: Paul Tol's other colours, then the built-ins' again with other markers.
+EXTRA_LOOKS = tuple(zip(("#332288", "#88CCEE", "#AA4499", "#44AA99", "#DDCC77"), ("d", "8", "H", "X", "p"))) + \
+    tuple((colour, marker) for colour in OKABE_ITO for marker in ("d", "8"))
 # Formulations compared side by side: solid/filled for the identifiable one, dashed/open for the paper's.
 VARIANT_LOOK = {"identifiable": ("-", True), "paper": ("--", False)}
-OTHER_VARIANT_LOOK = ((":", True), ("-.", False))
+# Other variants (models compared side by side), in name order: a line style and fill each.
+OTHER_VARIANT_LOOK = (("-", True), ("--", False), (":", True), ("-.", False), ("-.", True), (":", False))
 TRUTH: dict = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
 
 @dataclass(frozen=True)
@@ -110,24 +124,33 @@ def styles(study, order=None) -> dict[str, Style]:
 
 
 def styles_for(labels) -> dict[str, Style]:
-    """Label → ``Style`` for ``labels`` given best first (see the module docstring)."""
+    """Label → ``Style`` for ``labels`` (in the given order, which is the legend's): colour and
+    marker by backend name (see the module docstring), line style and fill by formulation."""
     labels = list(dict.fromkeys(labels))
     split = {label: split_label(label) for label in labels}
-    bases = list(dict.fromkeys(base for base, _ in split.values() if base != "random"))
-    variants = list(dict.fromkeys(v for _, v in split.values() if v is not None))
+    variants = sorted({v for _, v in split.values() if v is not None and v not in VARIANT_LOOK})
+    looks = backend_looks(base for base, _ in split.values())
     out = {}
     for label, (base, variant) in split.items():
-        if base == "random":
-            colour, marker, linestyle, filled = RANDOM_COLOUR, RANDOM_MARKER, "-", True
-        else:
-            i = bases.index(base)
-            colour, marker = OKABE_ITO[i % len(OKABE_ITO)], MARKERS[i % len(MARKERS)]
-            linestyle, filled = "-" if i < len(OKABE_ITO) else "--", True
+        colour, marker = looks[base]
+        linestyle, filled = "-", True
         if variant is not None:  # the formulation, not the backend, sets line style and fill
             linestyle, filled = VARIANT_LOOK.get(variant) or OTHER_VARIANT_LOOK[
                 variants.index(variant) % len(OTHER_VARIANT_LOOK)]
         out[label] = Style(label, colour, linestyle, marker, filled)
     return out
+
+
+def backend_looks(backends) -> dict[str, tuple[str, str]]:
+    """Backend name → (colour, marker): random search dark grey, the built-ins from ``BACKEND_LOOK``,
+    any other in name order the first look of ``EXTRA_LOOKS`` no backend here uses."""
+    backends = sorted(set(backends))
+    looks = {b: (RANDOM_COLOUR, RANDOM_MARKER) if b == "random" else BACKEND_LOOK[b]
+             for b in backends if b == "random" or b in BACKEND_LOOK}
+    free = [look for look in EXTRA_LOOKS if look not in looks.values()]
+    for b in (b for b in backends if b not in looks):
+        looks[b] = free.pop(0) if free else EXTRA_LOOKS[len(looks) % len(EXTRA_LOOKS)]
+    return looks
 
 
 def palette(study, order=None) -> dict:
@@ -181,9 +204,10 @@ def truth_handle(text: str = "truth") -> Line2D:
 
 
 def mark_synthetic(fig, label=True) -> None:
-    """The mark every figure of synthetic data carries: ``label`` when it is a text (e.g. a problem's
-    ``is_synthetic``, which names the data's source), else the paper's."""
-    text = label if isinstance(label, str) and label else SYNTHETIC_LABEL
+    """The mark every figure carries, saying what its data are: ``label`` when it is a text (e.g. a
+    problem's ``is_synthetic``, which names the data's source), the paper's synthetic data when it is
+    ``True``, measured data when it is false."""
+    text = label if isinstance(label, str) and label else SYNTHETIC_LABEL if label else MEASURED_LABEL
     fig.text(0.995, 0.003, text, ha="right", va="bottom", fontsize=MIN_FONT_PT, color="0.35", style="italic")
 
 
@@ -204,14 +228,13 @@ def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool | st
 
 
 def write_png(fig, png, synthetic_data: bool | str, rect=(0, 0.03, 1, 0.97)) -> None:
-    """Lay out, mark (SYNTHETIC) and write ``fig`` at ``DPI`` to ``png``, then close it. ``rect``: the
+    """Lay out, mark (what the data are: ``mark_synthetic``) and write ``fig`` at ``DPI`` to ``png``, then close it. ``rect``: the
     area the axes may use under a tight layout; a constrained layout gets the figure less a strip at
     the bottom for the legend below and the mark."""
     engine = fig.get_layout_engine()
-    if synthetic_data:
-        mark_synthetic(fig, synthetic_data)
+    mark_synthetic(fig, synthetic_data)
     if isinstance(engine, matplotlib.layout_engine.ConstrainedLayoutEngine):
-        _make_room_below(fig, engine, 0.22 if synthetic_data else 0.04)
+        _make_room_below(fig, engine, 0.22)
     elif engine is None:
         fig.tight_layout(rect=rect)
     fig.savefig(png, dpi=DPI)
@@ -227,7 +250,8 @@ def _make_room_below(fig, engine, mark_in: float) -> None:
     if leg is not None:
         fig.canvas.draw()  # the legend's size is known only once drawn
         width = fig.get_size_inches()[0] * fig.dpi
-        while leg.get_window_extent().width > 0.99 * width and leg._ncols > 1:  # noqa: SLF001
+        # 6 % to spare: text grows a little more than the figure at the saving DPI (hinting)
+        while leg.get_window_extent().width > 0.94 * width and leg._ncols > 1:  # noqa: SLF001
             # long labels: fewer columns rather than a legend cut off at both sides
             handles, ncols, title = leg.legend_handles, leg._ncols - 1, leg.get_title().get_text() or None  # noqa: SLF001
             leg.remove()

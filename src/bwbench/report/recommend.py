@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import comparisons, statistics
+from bwbench.report import time_noise
 from bwbench.report.format import evals_text, join, number, p_text, seconds_text
 from bwbench.report.labels import split_label
 from bwbench.report.verdict import (
@@ -36,13 +37,20 @@ def rule(test_name: str, noun: str | None = None) -> list[str]:
         + (noun or "variant") + ", is the baseline: compared and described, never recommended.",
         f"**Order.** Candidates by success rate at the {TARGET:.0%} target (higher first), then by the mean rank "
         f"over specimens of their median final loss (losses within {statistics.TIE:.0%} of each other share a "
-        "rank), then by expected time to the target. The first is the reference.",
+        "rank), then by ERT in evaluations, then by name: quantities the seeds set, not the machine. The first "
+        "is the reference.",
         f"**As good as the reference** only when both views agree: final losses at most {PRACTICAL:.0%} higher "
         f"(Hodges–Lehmann ratio ≤ {1 + PRACTICAL:.2f}) **and** on every specimen a success rate at most "
         f"{SUCCESS_MARGIN * 100:.0f} percentage points lower. Final losses as low but a larger success deficit on "
         f"some specimen: *less reliable*. Final losses more than {PRACTICAL:.0%} higher: *behind*.",
-        f"**Tie-break.** Among the reference and its equals, the lowest expected time to the {TARGET:.0%} target "
-        f"is recommended (to the {FALLBACK_TARGET:.0%} target when none of them reaches {TARGET:.0%}).",
+        f"**Tie-break.** Among the reference and its equals, measured time counts only beyond its noise: a label "
+        f"is dropped when another's expected time to the {TARGET:.0%} target (the {FALLBACK_TARGET:.0%} target when "
+        f"none of them reaches {TARGET:.0%}) is lower even after the noise: the upper end of its "
+        f"{time_noise.LEVEL:.0%} bootstrap interval (the label's runs resampled within each specimen, "
+        f"{time_noise.RESAMPLES:,} resamples, fixed seed) × {time_noise.LOAD_FACTOR:.2f} (a machine's load moving "
+        f"one label's times by ±{time_noise.LOAD:.0%} against another's) still below the other's lower end. The "
+        "labels left are *tied on time*; of these the one with the fewest evaluations to the target (ERT) is "
+        "recommended, then the order above. The same seeds give the same answer on any machine at any load.",
         f"**Avoid**: final losses significantly (Holm) and more than {PRACTICAL:.0%} worse than the best baseline's.",
         f"**Statistics.** Each comparison: {test_name} on log10 final losses (a failed run counts one decade "
         f"worse than the worst finished run on its specimen); effect size = Hodges–Lehmann ratio of final losses "
@@ -119,12 +127,12 @@ def variant_text(verdict: Verdict, noun: str) -> str:
 
 
 def recommend(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame, tests, budget,
-              unit: str = "N", noun: str | None = None) -> dict:
+              unit: str = "N", noun: str | None = None, times: pd.DataFrame | None = None) -> dict:
     """Apply the rule to a study: ``table`` (``statistics.ranking_table``), ``success`` (per specimen,
     at ``TARGET``), ``values`` (``comparisons.log_losses`` of the ranking runs), ``tests``
-    (``statistics.Comparison``). Returns ``verdict``, ``best`` (the reference), ``choice``, ``order``
-    and the paragraph ``text`` (markdown)."""
-    verdict = decide(table, success, values)
+    (``statistics.Comparison``), ``times`` (``time_noise.intervals``). Returns ``verdict``, ``best``
+    (the reference), ``choice``, ``order`` and the paragraph ``text`` (markdown)."""
+    verdict = decide(table, success, values, times)
     text = paragraph(verdict, table.set_index("optimizer"), tests, budget, noun)
     return {"verdict": verdict, "best": verdict.reference or verdict.order[0], "choice": verdict.choice,
             "order": verdict.order, "text": text}
@@ -139,7 +147,7 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     if verdict.choice is None:
         out.append(f"Only the baseline ({join(verdict.baselines)}) ran: there is nothing to recommend.")
         return " ".join(out)
-    choice, tau = verdict.choice, verdict.tie_target
+    choice = verdict.choice
     row = table.loc[choice]
     named = f"**Use {_pair(choice, noun).replace('**', '')}** ({choice})" if noun else f"**Use {choice}**"
     out.append(f"{named} at a budget of {budget_text} evaluations: it reached the {TARGET:.0%} target in "
@@ -157,10 +165,9 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
         alike = [n for n in peers if n != verdict.reference]
         described = join([f"{n} (final losses {ratio_text(ref_rows.loc[n])}× the reference's, {_success(table, n)} on "
                           "target)" for n in alike])
-        times = ", ".join(f"{n} {seconds_text(table.loc[n, f'time_{tau:.0%}'])}" for n in peers)
         out.append(f"By the rule, {described} {'is' if len(alike) == 1 else 'are'} as good as the reference "
-                   f"{verdict.reference} ({_success(table, verdict.reference)} on target); the tie-break, the expected "
-                   f"time to the {tau:.0%} target, picks **{choice}** ({times}).")
+                   f"{verdict.reference} ({_success(table, verdict.reference)} on target).")
+        out.append(tie_text(verdict, table))
     else:
         out.append(f"No other backend is as good by the rule (final losses within {PRACTICAL:.0%} and success within "
                    f"{SUCCESS_MARGIN * 100:.0f} points on every specimen).")
@@ -185,6 +192,42 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
              f"({_success(table, n)} on target)" for n in verdict.baselines]) + ".")
     out.append(power_text(verdict, tests))
     return " ".join(t for t in out if t)
+
+
+def interval_text(verdict: Verdict, table, label: str) -> str:
+    """'0.41 s [0.35, 0.47 s]': a label's expected time to the tie-break's target and its interval."""
+    tau = verdict.tie_target
+    low, high = verdict.time_bounds.get(label, (math.nan, math.nan))
+    point = seconds_text(table.loc[label, f"time_{tau:.0%}"])
+    return point + (f" [{seconds_text(low)}, {seconds_text(high)}]" if np.isfinite(low) or np.isfinite(high) else "")
+
+
+def tie_text(verdict: Verdict, table) -> str:
+    """How the tie-break went: which peers are slower beyond the noise, which are tied on time, and
+    the deterministic key that broke the tie."""
+    tau, choice = verdict.tie_target, verdict.choice
+    if choice is None:
+        return ""
+    noise = (f"{time_noise.LEVEL:.0%} bootstrap interval over the runs, widened by the ±{time_noise.LOAD:.0%} a "
+             "machine's load can move one label's times against another's")
+    parts = []
+    if verdict.slower:
+        parts.append(f"Expected time to the {tau:.0%} target ({noise}): "
+                     + join([f"{n} {interval_text(verdict, table, n)}" for n in verdict.slower])
+                     + f" {'is' if len(verdict.slower) == 1 else 'are'} slower beyond the noise than **{choice}** "
+                     f"({interval_text(verdict, table, choice)}).")
+    if verdict.tied:
+        group = [choice, *verdict.tied]
+        erts = join([f"{n} {evals_text(table.loc[n, f'ert_{tau:.0%}'])}" for n in group])
+        parts.append(f"{join(group)} are **tied** on time: their expected times to the {tau:.0%} target "
+                     + ("" if verdict.slower else f"({noise}) ")
+                     + "do not differ beyond the noise ("
+                     + ", ".join(f"{n} {interval_text(verdict, table, n)}" for n in group)
+                     + f"); the tie is broken by the deterministic key, ERT in evaluations (fewest first), then the "
+                     f"rule's order: **{choice}** (ERT {erts} evaluations).")
+    elif not verdict.slower:
+        parts.append(f"**{choice}** is recommended.")
+    return " ".join(parts)
 
 
 def per_variant_text(verdict: Verdict, table, noun) -> str:
@@ -231,3 +274,79 @@ def power_text(verdict: Verdict, tests) -> str:
         return text + (f" ≥ α = {ALPHA:g}: no difference can be significant at this size, so the verdict rests on "
                        "the effect sizes and success rates; more seeds (or specimens) would be needed to test it.")
     return text + f" < α = {ALPHA:g}."
+
+
+def effect_sentence(verdict: Verdict, noun: str | None) -> str:
+    """The effect of the variants in one sentence: for each other variant, the side where most
+    backends end at lower final losses, how many do and how many significantly ('' without variants)."""
+    frame = verdict.by_variant
+    if not noun or frame is None or not len(frame):
+        return ""
+    ref, parts = verdict.reference_variant, []
+    for variant, g in frame.groupby("variant", sort=False):
+        lower_in_other = int((g["ratio"] < 1).sum())
+        lower_in_ref = int((g["ratio"] > 1).sum())
+        winner, count = (variant, lower_in_other) if lower_in_other > lower_in_ref else (ref, lower_in_ref)
+        loser = ref if winner == variant else variant
+        significant = int((g["significant"] & ((g["ratio"] < 1) if winner == variant else (g["ratio"] > 1))).sum())
+        parts.append(f"in the {winner} {noun} {count} of {len(g)} backends end at lower final losses than in the "
+                     f"{loser} {noun} ({significant} significantly, Holm)")
+    text = "; ".join(parts)
+    return text[0].upper() + text[1:] + "."
+
+
+def box(verdict: Verdict, table, budget, noun: str | None, what: dict | None = None) -> list[str]:
+    """The recommendation at a glance, as bullets: what to use (``what``: label -> {"model": …,
+    "formulation": …} as the runs recorded them), how reliable and how fast, the tied alternatives,
+    what to avoid, and the variants' effect in one sentence."""
+    budget_text = f"{budget:,}" if isinstance(budget, (int, float)) else str(budget)
+    if verdict.choice is None:
+        return [f"**Nothing to recommend**: only the baseline ({join(verdict.baselines)}) ran."]
+    choice, tau = verdict.choice, verdict.tie_target
+    row = table.loc[choice]
+    backend = split_label(choice)[0]
+    facts = (what or {}).get(choice, {})
+    context = [f"model {facts['model']}"] if facts.get("model") else []
+    context += [f"{facts['formulation']} formulation"] if facts.get("formulation") else []
+    items = [f"**Use {backend}**" + (f" ({', '.join(context)})" if context else "")
+             + f" at **{budget_text} evaluations** per run (label `{choice}`)."]
+    items.append(f"**Reaches the target** (within {TARGET:.0%} of the best known loss) in {_success(table, choice)}; "
+                 f"expected time {seconds_text(row[f'time_{TARGET:.0%}'])} ({evals_text(row[f'ert_{TARGET:.0%}'])} "
+                 f"evaluations × {seconds_text(row['s_per_eval'])} on the machine that ran it).")
+    if verdict.tied:
+        items.append("**Tied**: " + join([f"{n} ({evals_text(table.loc[n, f'ert_{tau:.0%}'])} evaluations)"
+                                          for n in verdict.tied])
+                     + f": as good by the rule and as fast within the noise; {choice} needs the fewest evaluations.")
+    else:
+        others = [n for n in verdict.peers if n != choice and n not in verdict.avoid]
+        items.append("**Tied**: none" + (f"; as good but slower beyond the time noise: {join(others)}." if others else
+                                          "; no other label is as good by the rule."))
+    avoid = [n for n in verdict.avoid if n != choice]
+    parts = [f"**Avoid** {join(avoid)} (worse than random search)." if avoid else
+             "**Avoid**: no label is worse than random search."]
+    if verdict.behind:
+        parts.append(f"Behind (final losses > {PRACTICAL:.0%} higher): {join(verdict.behind)}.")
+    if verdict.less_reliable:
+        parts.append(f"Less reliable: {join(verdict.less_reliable)}.")
+    items.append(" ".join(parts))
+    effect = effect_sentence(verdict, noun)
+    if effect and noun:
+        items.append(f"**{noun.capitalize()}**: {effect}")
+    return items
+
+
+def one_line(verdict: Verdict, table, budget) -> str:
+    """The recommendation in one line, for the terminal."""
+    if verdict.choice is None:
+        return "Recommendation: none (only the baseline ran)."
+    choice = verdict.choice
+    budget_text = f"{budget:,}" if isinstance(budget, (int, float)) else str(budget)
+    row = table.loc[choice]
+    text = (f"Recommendation: use {choice} at {budget_text} evaluations ({_success(table, choice)} within "
+            f"{TARGET:.0%} of the best known loss, expected time {seconds_text(row[f'time_{TARGET:.0%}'])})")
+    if verdict.tied:
+        text += f"; tied on time: {join(verdict.tied)} (broken by fewest evaluations to the target)"
+    avoid = [n for n in verdict.avoid if n != choice]
+    if avoid:
+        text += f"; avoid {join(avoid)}"
+    return text + "."

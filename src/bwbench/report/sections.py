@@ -12,7 +12,7 @@ from bwbench.report import ecdf_figures, figures
 from bwbench.report.floors import noise_floors
 from bwbench.report.format import evals_text, number, p_text
 from bwbench.report.palette import split_label
-from bwbench.report.recommend import ALPHA, ratio_text, rule
+from bwbench.report.recommend import ALPHA, box, ratio_text, rule
 from bwbench.report.verdict import TARGET
 from bwbench.store.timing import compute_time
 
@@ -75,14 +75,32 @@ def _compute_time_text(study) -> str:
 
 
 def recommendation(report) -> None:
-    """The rule, stated first, then the paragraph that applies it."""
+    """The answer first, in a box a reader takes in at a glance; then the rule, then the paragraph
+    that applies it with its statistics."""
     doc, rec = report.doc, report.recommendation
+    doc.h(2, "Recommendation")
+    provisional = report.study.provisional
+    items = box(report.verdict, report.table.set_index("optimizer"), report.study.settings.get("budget", "?"),
+                report.noun, label_facts(report.study))
+    if provisional:
+        doc.p(f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished; this may change.")
+    doc.box(items)
     doc.h(2, "How the recommendation is decided")
     doc.p("The rule below is fixed in the code (`bwbench.report.verdict`) and applied to every study the same "
           "way; its thresholds are constants, not fitted to this study.")
     doc.bullets(rule(report.tests.test_name, report.noun))
-    doc.h(2, "Recommendation")
+    doc.h(2, "The rule applied to this study")
     doc.p(rec["text"])
+
+
+def label_facts(study) -> dict:
+    """Label -> {"model": …, "formulation": …} as its ranking runs recorded them (one value each)."""
+    ranking = study.ranking
+    facts: dict = {}
+    for label, g in ranking.groupby("optimizer", sort=False):
+        facts[label] = {key: str(g[key].dropna().iloc[0]) for key in ("model", "formulation")
+                        if key in g and g[key].dropna().nunique() == 1}
+    return facts
 
 
 def ranking_frame(report) -> pd.DataFrame:
@@ -170,7 +188,7 @@ def ranking(report) -> None:
     budget = study.settings.get("budget", "?")
     doc.h(2, "Ranking")
     doc.table(ranking_frame(report), f"Every label at a budget of {budget} evaluations, in the rule's order "
-                                     "(success at the 1 % target, then mean rank, then expected time to the target)")
+                                     "(success at the 1 % target, then mean rank, then ERT in evaluations, then name)")
     doc.p("Success at τ: the run's best loss came within (1 + τ) × the best known loss of its specimen (the lowest "
           "of any run in this database, ranking or posterior). ERT (expected running time, COCO definition) = "
           "evaluations spent by all runs (evaluations to target for the successful ones, all their evaluations for "

@@ -13,15 +13,19 @@ Steps (each threshold a constant here, each stated in the report before the verd
 1. The baseline is found by backend: every label of random search, in whichever variant, is
    compared and described, never recommended. The other labels are the candidates.
 2. Order: success rate at ``TARGET`` (higher first), then the mean rank of the median final loss
-   over specimens (losses within ``statistics.TIE`` share a rank), then the expected time to the
-   target, then the name. The first candidate is the reference.
+   over specimens (losses within ``statistics.TIE`` share a rank), then ERT in evaluations at
+   ``TARGET`` and at ``FALLBACK_TARGET``, then the name. Every key is set by the seeds, none by the
+   machine. The first candidate is the reference.
 3. A candidate is *as good as* the reference only when both views agree: its final losses are at
    most ``PRACTICAL`` above the reference's (Hodges–Lehmann ratio ≤ 1.10) AND on every specimen its
    success rate is at most ``SUCCESS_MARGIN`` below the reference's. Final losses as low but a
    larger success deficit somewhere: *less reliable*. Final losses higher: *behind*.
-4. Among the reference and its equals the recommended label is the one with the lowest expected
-   time to the target: ERT × measured seconds per evaluation (the 10 % target when none of them
-   reaches 1 %), then the order of step 2.
+4. Among the reference and its equals, measured time decides only where it is beyond its noise
+   (``bwbench.report.time_noise``): a label is dropped when another's expected time to the target
+   (ERT × measured seconds per evaluation; the 10 % target when none of them reaches 1 %) is
+   lower by more than both its bootstrap interval and the machine's load allow. The labels left
+   are *tied on time*; the recommended one is the first by ERT in evaluations (fewest), then the
+   order of step 2 (``tie_key``). The same seeds give the same recommendation at any load.
 5. *Avoid*: a candidate whose final losses are significantly (Holm) and practically (> ``PRACTICAL``)
    worse than the best baseline's.
 6. Variants (formulations; models alike): the effect of the variant on each backend's final loss
@@ -41,6 +45,7 @@ import pandas as pd
 
 from bwbench.analysis import comparisons, statistics
 from bwbench.report.labels import is_baseline, split_label
+from bwbench.report.time_noise import clearly_faster
 
 ALPHA = statistics.ALPHA
 TARGET = 0.01  # the verdict's target: within 1 % of the best known loss of the specimen
@@ -65,6 +70,9 @@ class Verdict:
     avoid: list = field(default_factory=list)
     deficit: dict = field(default_factory=dict)  # label -> (worst specimen, success deficit there)
     tie_target: float = TARGET
+    tied: list = field(default_factory=list)  # peers tied with the choice on time (within the noise)
+    slower: list = field(default_factory=list)  # peers slower than another beyond the noise
+    time_bounds: dict = field(default_factory=dict)  # label -> (low, high) expected time at tie_target, s
     reference_variant: str | None = None
     vs_reference: pd.DataFrame = None
     vs_baseline: pd.DataFrame = None
@@ -78,6 +86,10 @@ class Verdict:
     def role(self, label: str) -> str:
         if label == self.choice:
             return "recommended"
+        if label in self.tied:
+            return "tied on time"
+        if label in self.slower:
+            return "as good, slower"
         for name, group in (("as good", self.equal), ("avoid", self.avoid), ("less reliable", self.less_reliable),
                             ("behind", self.behind)):
             if label in group:
@@ -94,13 +106,13 @@ def sort_key(table: pd.DataFrame):
     def key(label):
         r = rows.loc[label]
         rank = r["mean_rank"] if np.isfinite(r["mean_rank"]) else math.inf
-        return (-float(r[f"success_{TARGET:.0%}"]), rank, _time(r, TARGET), _time(r, FALLBACK_TARGET), label)
+        return (-float(r[f"success_{TARGET:.0%}"]), rank, _ert(r, TARGET), _ert(r, FALLBACK_TARGET), label)
 
     return key
 
 
-def _time(row, tau) -> float:
-    value = float(row.get(f"time_{tau:.0%}", math.nan))
+def _ert(row, tau) -> float:
+    value = float(row.get(f"ert_{tau:.0%}", math.nan))
     return value if np.isfinite(value) else math.inf
 
 
@@ -115,10 +127,12 @@ def worst_deficit(success: pd.DataFrame, label: str, reference: str) -> tuple[st
     return specimen, float(gap[specimen])
 
 
-def decide(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame) -> Verdict:
+def decide(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame, times: pd.DataFrame | None = None
+           ) -> Verdict:
     """Apply the rule. ``table``: ``statistics.ranking_table``; ``success``: its labels' success
     rates at ``TARGET`` per specimen (``statistics.success_by_specimen``); ``values``: log10 final
-    losses per run (``comparisons.log_losses`` of the ranking runs)."""
+    losses per run (``comparisons.log_losses`` of the ranking runs); ``times``: the expected times'
+    intervals (``time_noise.intervals``; None: no time is beyond its noise, every peer is tied)."""
     order = sorted(table["optimizer"], key=sort_key(table))
     candidates = [n for n in order if not is_baseline(n)]
     baselines = [n for n in order if is_baseline(n)]
@@ -153,12 +167,29 @@ def decide(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame) -> 
             verdict.behind.append(label)
     peers = [n for n in verdict.peers if n not in verdict.avoid] or [ref]
     rows = table.set_index("optimizer")
-    reaches = any(np.isfinite(_time(rows.loc[n], TARGET)) for n in peers)
-    verdict.tie_target = TARGET if reaches else FALLBACK_TARGET
-    verdict.choice = min(peers, key=lambda n: (_time(rows.loc[n], verdict.tie_target), order.index(n)))
+    reaches = any(np.isfinite(_ert(rows.loc[n], TARGET)) for n in peers)
+    verdict.tie_target = tau = TARGET if reaches else FALLBACK_TARGET
+    bounds = {}
+    if times is not None and len(times):
+        at = times[np.isclose(times["tau"], tau)].set_index("optimizer")
+        bounds = {n: (float(at.loc[n, "low"]), float(at.loc[n, "high"])) for n in peers if n in at.index}
+    verdict.time_bounds = bounds
+    unknown = (math.nan, math.nan)
+    # A peer stays in only if no other peer is faster beyond the noise.
+    kept = [n for n in peers if not any(clearly_faster(bounds.get(m, unknown), bounds.get(n, unknown))
+                                        for m in peers if m != n)]
+    verdict.choice = min(kept, key=tie_key(rows, order, tau))
+    verdict.tied = [n for n in sorted(kept, key=tie_key(rows, order, tau)) if n != verdict.choice]
+    verdict.slower = [n for n in peers if n not in kept]
     verdict.reference_variant = split_label(verdict.choice)[1]
     verdict.by_variant = variant_effects(values, candidates + baselines, verdict.reference_variant)
     return verdict
+
+
+def tie_key(rows: pd.DataFrame, order: list, tau: float):
+    """The deterministic key among labels tied on time: ERT in evaluations at ``tau`` (fewest
+    first), then the order of step 2 (success, mean rank, ERT, name)."""
+    return lambda n: (_ert(rows.loc[n], tau), order.index(n))
 
 
 def variant_effects(values: pd.DataFrame, labels, reference_variant: str | None) -> pd.DataFrame:

@@ -45,8 +45,16 @@ def export_csv(db, path) -> None:
 
 
 def summary_table(db, problem_type=None) -> str:
-    """Per backend (ranking runs only): median and best RMSE (in the problem's residual unit), success
-    rate, median evaluations, errors, and the problem's own summary columns. Best median RMSE first."""
+    """Per label (ranking runs only), lowest median loss ratio first: runs, how
+    many finished (a finite loss, no error), how many reached the report's target (within 1 % of
+    the best known loss of their specimen), the median final loss over the best known (each run
+    against its own specimen's best, so specimens of different force levels can share one median),
+    the median RMSE in the problem's residual unit (one specimen: the median; several: the lowest
+    and highest of the per-specimen medians, never pooled), median evaluations, errors, and the
+    problem's own summary columns."""
+    from bwbench.analysis import statistics
+    from bwbench.report.verdict import TARGET
+
     runs = read_runs(db)
     runs = runs[runs["kind"] == "ranking"]
     if runs.empty:
@@ -56,21 +64,33 @@ def summary_table(db, problem_type=None) -> str:
                                     else problems.DEFAULT)
     unit = problem_type.residual_unit
     number = "{:.3g}" if unit != "N" else "{:.3f}"
+    all_runs = read_runs(db)
+    best = statistics.best_known(all_runs)
+    final = statistics.final_mse(runs)
+    ratio = final / runs["specimen"].map(best).astype(float)
+    reached = final <= runs["specimen"].map(best).astype(float) * (1 + TARGET)
+    n_specimens = runs["specimen"].nunique()
+    rmse_name = f"median RMSE ({unit})" if n_specimens == 1 else \
+        f"median RMSE ({unit}), range over {n_specimens} specimens"
     stats = []
     for optimizer, group in runs.groupby("optimizer", sort=False):
         mse = group["mse"].astype(float)
         ok = group[(group["status"] == "ok") & np.isfinite(mse)]
         rmse = np.sqrt(ok["mse"].astype(float))
-        stats.append((rmse.median() if len(ok) else math.inf, optimizer, {
+        medians = rmse.groupby(ok["specimen"]).median()
+        median_ratio = float(ratio[group.index].median())
+        stats.append((median_ratio, optimizer, {
             "runs": str(len(group)),
-            f"median RMSE ({unit})": number.format(rmse.median()) if len(ok) else "-",
-            f"best RMSE ({unit})": number.format(rmse.min()) if len(ok) else "-",
-            "success": f"{len(ok) / len(group):.0%}",
-            "median nfev": f"{ok['nfev'].median():.0f}" if len(ok) else "-",
+            "finished": str(len(ok)),
+            f"within {TARGET:.0%} of best": f"{int(reached[group.index].sum())}",
+            "median loss / best known": (f"{median_ratio:.4g}" if math.isfinite(median_ratio) else "-"),
+            rmse_name: ("-" if not len(ok) else number.format(medians.iloc[0]) if n_specimens == 1 else
+                        f"{number.format(medians.min())}–{number.format(medians.max())}"),
+            "median evaluations": f"{ok['nfev'].median():.0f}" if len(ok) else "-",
             "errors": str(int((group["status"] == "error").sum())),
             **problem_type.summary_columns(group)}))
     stats.sort(key=lambda r: (r[0], r[1]))
-    header = ("optimizer", *stats[0][2])
+    header = ("label", *stats[0][2])
     lines = [(optimizer, *cells.values()) for _, optimizer, cells in stats]
     widths = [max(len(r[i]) for r in [header, *lines]) for i in range(len(header))]
 
@@ -78,7 +98,28 @@ def summary_table(db, problem_type=None) -> str:
         padded = (c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True)))
         return "  ".join(padded)
 
-    return "\n".join([fmt(header), *map(fmt, lines)])
+    note = (f"per label, summed over its specimens; 'finished': a finite loss, no error; 'within {TARGET:.0%} of best': "
+            f"final loss within {TARGET:.0%} of the best known loss of its specimen (the report's target)")
+    return "\n".join([fmt(header), *map(fmt, lines), note])
+
+
+def recommendation_line(db) -> str:
+    """The report's recommendation in one line (the same rule, the same words), or why there is none."""
+    from bwbench.report.build import study_recommendation
+    from bwbench.report.recommend import one_line
+    from bwbench.store.reader import load_study
+
+    try:
+        study = load_study(db)
+        finished = study.ranking[(study.ranking["status"] == "ok") & study.ranking["mse"].map(float).lt(math.inf)]
+        if finished.empty:
+            return "Recommendation: none (no ranking run finished)."
+        table, _, rec = study_recommendation(study)
+    except UserError as err:
+        return f"Recommendation: see the report ({err})."
+    line = one_line(rec["verdict"], table.set_index("optimizer"), study.settings.get("budget", "?"))
+    provisional = study.provisional
+    return (f"{provisional[0].upper()}{provisional[1:]}: " if provisional else "") + line
 
 
 # ------------------------------------------------------------------------------------ entry point
@@ -134,6 +175,8 @@ def _print_results(config, db, outcome, csv) -> None:
         print(summary_table(db, problems.get(config.problem)))
         if csv:
             print(f"wrote {csv}")
+        print(f"the statistics behind the recommendation: bwbench report --db {db} --out reports/{config.name}")
+        print(recommendation_line(db))
         sys.stdout.flush()
     except BrokenPipeError:  # `compare ... | head`: the reader left, the study is recorded all the same
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit

@@ -3,7 +3,7 @@
 The convergence, ECDF and waterfall figures are ``bwbench.report.figures``' own; these two are the
 benchmark's: the best fit against the ``test_multisine`` output, and the identified parameters
 scaled to the search box with the truth marked. Each returns the PNG's path and writes the CSV
-behind it beside it (same name). The data are the public benchmark: no SYNTHETIC mark.
+behind it beside it (same name). The data are the public benchmark: every figure says so (``DATA_MARK``).
 ``order``: the report's ranking (best first), for the backends' styles and legend order, the same
 as in the study's other figures (see ``bwbench.report.palette``).
 """
@@ -33,6 +33,7 @@ from bwbench.report.palette import (
 )
 
 SPREAD_TOLERANCE = 0.10  # parameter spread: runs within 10 % of the best known training MSE
+DATA_MARK = "BENCHMARK DATA (Noël & Schoukens 2016: a simulated Bouc-Wen system with noise)"
 
 LABELS = {"m": "m", "c": "c", "k": "k", "alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "nu": "ν",
           "beta_gamma": "βγ", "beta_delta": "βδ"}
@@ -93,7 +94,7 @@ def test_fit(study, out_dir, problem, params, label: str, window_s=(2.0, 2.4), o
     fig.suptitle(f"Best fit vs the benchmark's test_multisine output, {window_s[0]:g}–{window_s[1]:g} s of the "
                  f"{record.t[-1] - record.t[0] + 1 / bm.SAMPLE_RATE_HZ:.2f} s period")
     frame = pd.DataFrame({"time_s": record.t, "y_test_m": record.y, "y_fit_m": y_fit, "y_truth_m": y_truth})
-    return save(fig, out_dir, "test_multisine_fit", frame, False)
+    return save(fig, out_dir, "test_multisine_fit", frame, DATA_MARK)
 
 
 def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE, order=None) -> Path:
@@ -144,4 +145,4 @@ def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE, order=
     fig.suptitle(f"Identified parameters of every ranking run with training MSE ≤ {1 + tolerance:g} × the best "
                  f"known ({best:.3g} m²), scaled to the search box")
     frame = pd.DataFrame(rows, columns=["optimizer", "replicate", "mse_m2", "parameter", "unit_value"])
-    return save(fig, out_dir, "spread", frame, False)
+    return save(fig, out_dir, "spread", frame, DATA_MARK)

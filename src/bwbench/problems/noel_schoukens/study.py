@@ -91,6 +91,13 @@ class NoelSchoukens(ProblemType):
         return {"median test e_RMS (m)": "-" if not np.isfinite(test).any() else f"{np.nanmedian(test):.2e}",
                 f"test < {TARGET_ERMS_M:g} m": f"{int((test < TARGET_ERMS_M).sum())}/{len(runs)}"}
 
+    def is_synthetic(self, study) -> str:
+        """The benchmark's data are a simulated Bouc-Wen system with noise, published as a benchmark:
+        the mark on every figure and the banner say so."""
+        from bwbench.problems.noel_schoukens.figures import DATA_MARK
+
+        return DATA_MARK
+
     def data_dir(self, study, override=None) -> Path:
         if override is not None:
             return Path(override)

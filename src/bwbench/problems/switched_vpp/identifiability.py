@@ -30,7 +30,7 @@ def _finite(x):
 def analyse(specimen_path, params, state: str = "shared", excitation: str = "measured", *,
             formulation: str = "paper", bounds: dict | None = None, profile_names=(), profile_widest: int = 0,
             grid: int = 9, maxiter: int = PROFILE_MAXITER, step: float = STEP, weakest: int = 3,
-            model: str | None = None) -> dict:
+            model: str | None = None, progress=None) -> dict:
     """Identifiability of the parameters ``params`` (physical units, the formulation's coordinates)
     on one specimen.
 
@@ -42,7 +42,8 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
     undetermined directions, per parameter the free range (physical units and fraction of the
     search range) and standard error, the poorly determined parameters, and a profile (unit grid of
     ``grid`` points over the range, MSE in N²) for each name in ``profile_names`` and for the
-    ``profile_widest`` parameters with the widest free ranges.
+    ``profile_widest`` parameters with the widest free ranges. ``progress(done, total)`` is called
+    after each profile point.
     Raises ``UserError`` for parameters outside the search box or a model that blows up there.
     """
     from bwbench.data.specimen import read_specimen
@@ -101,10 +102,19 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
         "profiles": {},
     }
     widest = sorted(names, key=lambda n: -out["free_range_unit"][n])[:profile_widest]
-    for name in dict.fromkeys([*profile_names, *widest]):
+    profiled = list(dict.fromkeys([*profile_names, *widest]))
+    grids = {n: np.unique(np.append(np.linspace(0.0, 1.0, grid), u[names.index(n)])) for n in profiled}
+    total, done = sum(len(g) for g in grids.values()), 0
+
+    def point():  # progress(done, total) after each profile point, for a progress bar
+        nonlocal done
+        done += 1
+        progress(done, total)
+
+    for name in profiled:
         i = names.index(name)
-        frame = profile(lambda U: problem.loss_batch(problem.from_unit(U)), u, i,
-                        np.append(np.linspace(0.0, 1.0, grid), u[i]), maxiter=maxiter, step=step)
+        frame = profile(lambda U: problem.loss_batch(problem.from_unit(U)), u, i, grids[name], maxiter=maxiter,
+                        step=step, on_point=point if progress is not None else None)
         frame["value"] = [problem.from_unit(_at(u, i, x))[i] for x in frame["unit"]]
         out["profiles"][name] = [{"value": float(r.value), "unit": float(r.unit), "mse": _finite(r.loss),
                                   "converged": bool(r.converged), "iterations": int(r.iterations),

@@ -18,10 +18,9 @@ import pandas as pd
 
 from bwbench.analysis import statistics
 from bwbench.analysis.identifiability import POOR_SE
-from bwbench.data import manifest
 from bwbench.errors import UserError
 from bwbench.problems.switched_vpp import identifiability as switched_identifiability
-from bwbench.problems.switched_vpp.figure_common import formulation_of, model_of, problem_for
+from bwbench.problems.switched_vpp.figure_common import formulation_of, model_of, problem_for, synthetic
 from bwbench.report.format import join, number
 
 GOOD = 0.10  # good runs: final loss within 10 % of the best known
@@ -94,13 +93,15 @@ def section(report, formulation: str, paper_data: bool) -> list:
         run = inside.loc[inside["mse"].idxmin()]
         widest = profile_params if k == 0 else 0
         if widest:
-            print(f"profiling {widest} parameter(s) on {specimen} ...", file=log, flush=True)
+            print(f"profiling {widest} parameter(s) on {specimen} (about a second per point) ...", file=log,
+                  flush=True)
         try:
             result = switched_identifiability.analyse(
                 study.specimen_path(specimen), run[list(problem.param_names)].to_numpy(dtype=float),
                 study.settings.get("state", "shared"), study.settings.get("excitation", "measured"),
                 formulation=formulation, bounds=study.settings.get("bounds"), profile_widest=widest,
-                grid=profile_grid, model=model)
+                grid=profile_grid, model=model,
+                progress=report.counter(f"profiles on {specimen}", "point") if hasattr(report, "counter") else None)
         except UserError as err:
             doc.p(f"{specimen}: identifiability analysis not possible: {err}")
             continue
@@ -140,7 +141,7 @@ def section(report, formulation: str, paper_data: bool) -> list:
         doc.table(pd.DataFrame(rows), f"{specimen}: local identifiability at the best fit (ranges: {box})")
         doc.p(_spread_text(names, poor, spread, n_good, label))
         if result["profiles"]:
-            png = figures.profiles(result, doc.out_dir, manifest.is_synthetic(study.specimen_path(specimen)))
+            png = figures.profiles(result, doc.out_dir, synthetic(study, [specimen]))  # names the data's source
             doc.figure(png, f"Profile likelihoods on {specimen}: each point re-optimises the other parameters "
                             "(L-BFGS-B until its convergence test stops it; open circles: not converged, an upper "
                             "bound only)")

@@ -293,7 +293,7 @@ def _cross(v0, m0, v1, m1, level):
     return v0 + (level - m0) * (v1 - v0) / (m1 - m0) if m1 != m0 else v0
 
 
-def profiles(analysis: dict, out_dir, synthetic_data: bool = False) -> Path:
+def profiles(analysis: dict, out_dir, synthetic_data: bool | str = False) -> Path:
     """Profile likelihoods from ``identifiability.analyse``: MSE against each profiled parameter,
     the others re-optimised. Marked: the analysed fit (★), the 95 % likelihood-ratio threshold
     (profile points below it are statistically as good as the best) with the region below it

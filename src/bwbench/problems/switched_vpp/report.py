@@ -72,7 +72,9 @@ def data_section(report) -> None:
     if synthetic_data and document:
         settings = document.get("settings", {})
         doc.p(f"Generator: {document.get('generator', '?')}. Note: {document.get('note', '')}. Settings:")
-        doc.table(pd.DataFrame([{"setting": k, "value": v, "unit": unit_of(k)} for k, v in settings.items()]),
+        # each value as written (a seed stays an integer: one column of floats would print 1997.0)
+        doc.table(pd.DataFrame([{"setting": k, "value": f"{v:g}" if isinstance(v, float) else str(v),
+                                 "unit": unit_of(k)} for k, v in settings.items()]),
                   "Generation settings (manifest.json; noise values are 1σ)")
     elif document is None:
         doc.p("No manifest.json beside the specimens: no material, underpressure or true parameters are known, "
@@ -147,6 +149,7 @@ def add_sections(report) -> None:
     study, doc, out = report.study, report.doc, report.out
     featured, paper = report.featured, paper_data(report)
     order = list(report.table["optimizer"])
+    report.progress("hysteresis loops and signals")
     png = figures.hysteresis_loops(study, out, featured[0], order=order)
     residuals = pd.read_csv(png.with_suffix(".csv")).drop_duplicates("optimizer")["optimizer"]
     others = [o for o in residuals if split_label(o)[0] != "random"]
@@ -155,6 +158,7 @@ def add_sections(report) -> None:
                     + (" and random search" if len(others) < len(residuals) else "")
                     + (" (the paper's Figs 20–21)" if paper else ""))
     signals_section.paragraph(report)
+    report.progress("model adequacy")
     adequacy.section(report)
     validation_section.section(report)
     formulation = coordinates(report)
@@ -169,10 +173,13 @@ def add_sections(report) -> None:
             for backend in shown:
                 doc.figure(figures.parameters_vs_underpressure(study, out, backend, material, order=order),
                            f"{material}: parameters against underpressure, {backend} (the paper's Figs 18–19)")
+    report.progress("parameter tables")
     parameter_tables.section(report, formulation, paper)
+    report.progress("non-uniqueness")
     non_uniqueness.section(report, paper)
     report.progress("identifiability")
     identifiability_section.section(report, formulation, paper)
+    report.progress("posterior")
     posterior_section.section(report)
 
 
