@@ -26,7 +26,7 @@ def check(args) -> int:
             print(f"ok: {path}: {spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s, displacement "
                   f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N")
             print(f"  {signals_text(spec)}")
-            texts = plausibility.warnings(spec, synthetic=manifest.is_synthetic(path)) + plausibility.signal_warnings(spec)
+            texts = plausibility.all_warnings(spec, synthetic=manifest.is_synthetic(path))
             for text in texts:
                 print(text if text.startswith("note:") else f"warning: {path}: {text}",
                       file=sys.stdout if text.startswith("note:") else sys.stderr)

@@ -124,3 +124,21 @@ def writing(path):
         if err.filename:  # the error knows its file (which may be another one than ``path``)
             raise UserError(f"{err.filename}: {err.strerror or err}") from None
         raise UserError(f"cannot write {path}: {err.strerror or err}") from None
+
+
+@contextmanager
+def replaced_whole(path):
+    """Yield the path to write ``path``'s content to: a hidden file beside it (same suffix, so a figure
+    keeps its format) that replaces ``path`` only once written, so an interrupted or failed write
+    (Ctrl-C, a full disk) leaves the old file or none, never half a file. A path that is not a regular
+    file (a FIFO, /dev/stdout, /dev/full) is written directly: it cannot be replaced."""
+    path = Path(path)
+    if path.exists() and not path.is_file():
+        yield path
+        return
+    partial = path.with_name(f".{path.stem}.partial-{os.getpid()}{path.suffix}")
+    try:
+        yield partial
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)

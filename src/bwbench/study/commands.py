@@ -145,6 +145,7 @@ def main(args) -> int:
             db = Path(args.db) if args.db else config.default_db
             refuse_inputs({"--db": db, "--csv": args.csv}, study_inputs(config, args.bounds))
             refuse_blowing_box(config, args.bounds)
+            screen_specimens(config)
             if args.csv:
                 check_csv_path(args.csv, db)
             outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler,
@@ -197,6 +198,30 @@ def study_inputs(config, bounds=None) -> list[Path]:
         else:
             files += [path, path.parent / MANIFEST]
     return list(dict.fromkeys(files))
+
+
+def screen_specimens(config) -> None:
+    """data check's plausibility checks on every specimen CSV the study fits or predicts, before any run:
+    an unusable one (a dead channel, no force) refused naming the file, the rest warned about."""
+    from bwbench.data import plausibility
+    from bwbench.data.specimen import read_specimen
+
+    entries = [*config.specimens, *(config.posterior.specimens if config.posterior else ())]
+    specimens = []
+    for path in dict.fromkeys(Path(entry.path) for entry in entries):
+        if path.is_file():
+            try:
+                specimens.append(read_specimen(path))
+            except UserError:  # not a specimen CSV: a problem with its own format (its reader checked it)
+                continue
+    plausibility.screen(specimens)
+    held = []
+    for path in dict.fromkeys(Path(entry.path) for entry in config.validation):
+        try:
+            held.append(read_specimen(path))
+        except UserError:
+            continue
+    plausibility.screen(held, force_needed=False)
 
 
 def refuse_blowing_box(config, bounds_file=None) -> None:

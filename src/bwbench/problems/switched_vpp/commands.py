@@ -96,6 +96,11 @@ def problem_from_args(args):
         settings["weighting"] = args.weighting
     paths = args.specimen if isinstance(args.specimen, list) else [args.specimen]
     specimens = [read_specimen(p) for p in paths]
+    # data check's plausibility checks, before any work: a dead channel (or, for a fit or an analysis of
+    # the force, no force) refused with the file named, the rest warned about
+    from bwbench.data import plausibility
+
+    plausibility.screen(specimens, force_needed=getattr(args, "func", None) not in (simulate, evaluate))
     problem = make_problem(specimens if len(specimens) > 1 else specimens[0], settings)
     if "bounds" in settings:
         bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
@@ -239,16 +244,12 @@ def identifiability(args) -> int:
     import sys
 
     from bwbench.data import bounds as bounds_mod
-    from bwbench.data import plausibility
     from bwbench.errors import UserError
     from bwbench.problems.switched_vpp.identifiability import analyse, format_text
 
     if not 2 <= args.grid <= MAX_GRID:
         raise UserError(f"--grid must be 2 to {MAX_GRID} points (each is a local fit), got {args.grid}")
-    problem = problem_from_args(args)
-    flat = plausibility.force_warnings(problem.specimen)
-    if flat:  # every sensitivity is 0 against a force of 0: nothing to identify, only NaN to report
-        raise UserError(f"{args.specimen}: {flat[0]}; nothing to identify")
+    problem = problem_from_args(args)  # refuses a force of 0: every sensitivity would be 0, only NaN to report
     params = read_for(args.params, problem)
     box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
     settings = model_settings(args)

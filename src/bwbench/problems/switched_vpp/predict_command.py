@@ -106,6 +106,9 @@ def predict(args) -> int:
                         "`bwbench fit --out` wrote")
     fitted = stored_model(args, args.fit)
     specimens = [read_specimen(p) for p in args.data]  # every file checked before any is predicted
+    from bwbench.data import plausibility
+
+    plausibility.screen(specimens, force_needed=False)  # a dead channel refused; the rest warned about
     predictions = [fitted.predict(s) for s in specimens]
     for p in predictions:
         print(f"{p.specimen}: RMSE {p.rmse_N:.4g} N, NRMSE {p.nrmse:.4g} (RMSE / max|F| = {p.rmse_N:.4g} / "
