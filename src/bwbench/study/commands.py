@@ -22,27 +22,24 @@ from bwbench.study.stop import Interrupted, StudyStopped, signals_raise
 
 
 def read_runs(db):
-    """The ``runs`` table joined with ``timings`` as a DataFrame, ordered by key."""
+    """The ``runs`` table joined with ``timings`` as a DataFrame, ordered by key, each cell checked
+    (``store.reader.read_runs``): a cell edited by hand is one ``UserError`` naming the run and column."""
     import pandas as pd
 
-    path = Path(db)
-    if not path.is_file():
-        raise UserError(f"{path}: no such study database")
-    with closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as conn:
-        return pd.read_sql(
-            "SELECT runs.*, timings.wall_s, timings.worker, timings.finished_utc FROM runs "
-            "LEFT JOIN timings USING (kind, specimen, optimizer, replicate) "
-            "ORDER BY kind, specimen, optimizer, replicate", conn)
+    from bwbench.store.reader import connect_read_only
+    from bwbench.store.reader import read_runs as read_all
+
+    with closing(connect_read_only(Path(db))) as conn:
+        try:
+            return read_all(conn)
+        except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError, TypeError) as err:
+            raise UserError(f"{db}: unreadable study database: {err}") from None
 
 
 def export_csv(db, path) -> None:
     """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
     each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
-    from bwbench.store.reader import connect_read_only
-    from bwbench.store.reader import read_runs as read_all
-
-    with closing(connect_read_only(Path(db))) as conn:
-        read_all(conn).to_csv(path, index=False)
+    read_runs(db).to_csv(path, index=False)
 
 
 def summary_table(db, problem_type=None) -> str:
