@@ -62,6 +62,13 @@ def main(argv=None) -> int:
         print(f"interrupted: bwbench {command or ''} stopped (Ctrl-C); no output is left half-written",
               file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # The reader of stdout stopped early (``| head -1``): every file was written before the printing.
+        # Send the rest of the output nowhere, so Python's exit does not fail on the closed pipe again.
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

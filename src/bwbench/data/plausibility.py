@@ -138,7 +138,12 @@ def signal_warnings(spec) -> list[str]:
             hint = "the opposite sign convention" if factor < 0 else ""
             for slip, unit in _UNIT_SLIPS.items():
                 if abs(abs(factor) / slip - 1) < 0.1:
-                    hint = (hint + " and " if hint else "") + f"{unit} instead of the header's unit"
+                    slipped = f"{unit} instead of the header's unit"
+                    if slip == 1000.0:  # the time column first: in ms it makes every rate look 1000× too small
+                        rate = (spec.n_samples - 1) / spec.duration_s
+                        slipped = (f"time_s in milliseconds (the test would then last {spec.duration_s / 1000:.4g} s, "
+                                   f"sampled at {rate * 1000:.4g} Hz), or the {what} in {unit}")
+                    hint = (hint + " and " if hint else "") + slipped
             out.append(f"column {column} does not match the displacement: the {what} recorded is "
                        f"{factor:.3g} × the one the displacement implies" + (f" ({hint}?)" if hint else "")
                        + f"; bwbench drives the model with the recorded {what}")

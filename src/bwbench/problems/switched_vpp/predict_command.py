@@ -110,10 +110,6 @@ def predict(args) -> int:
 
     plausibility.screen(specimens, force_needed=False)  # a dead channel refused; the rest warned about
     predictions = [fitted.predict(s) for s in specimens]
-    for p in predictions:
-        print(f"{p.specimen}: RMSE {p.rmse_N:.4g} N, NRMSE {p.nrmse:.4g} (RMSE / max|F| = {p.rmse_N:.4g} / "
-              f"{float(max(abs(p.measured_N))):.4g} N), {p.n} samples")
-    print(f"predicted by {fitted.describe()} of {args.fit}: every coefficient as stored, nothing refitted")
     if args.out:
         document = {"fit": str(args.fit), **_described(fitted, args.fit),
                     "predictions": [p.metrics() for p in predictions]}
@@ -129,6 +125,11 @@ def predict(args) -> int:
             plot_predictions(predictions, args.plot, f"prediction by {fitted.describe()}\n"
                                                      f"every coefficient as stored in {Path(args.fit).name}",
                              synthetic=all(manifest.is_synthetic(p) for p in args.data))
+    # Printed after every file is written: a reader that stops early (``| head -1``) loses no output.
+    for p in predictions:
+        print(f"{p.specimen}: RMSE {p.rmse_N:.4g} N, NRMSE {p.nrmse:.4g} (RMSE / max|F| = {p.rmse_N:.4g} / "
+              f"{float(max(abs(p.measured_N))):.4g} N), {p.n} samples")
+    print(f"predicted by {fitted.describe()} of {args.fit}: every coefficient as stored, nothing refitted")
     blown = [p.specimen for p in predictions if not math.isfinite(p.mse)]
     for name in blown:
         print(f"error: {name}: the fitted model blows up on this record (force not finite)", file=sys.stderr)
