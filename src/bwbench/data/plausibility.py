@@ -190,12 +190,11 @@ def unusable(spec, force_needed: bool = True) -> str | None:
     return None
 
 
-def screen(specimens, synthetic: bool = False, force_needed: bool = True, stream=None) -> None:
+def screen(specimens, synthetic: bool = False, force_needed: bool = True, stream=None, warn: bool = True) -> None:
     """The check of ``data check`` before a command's work: ``UserError`` naming the file for the first
     specimen that is ``unusable`` (``force_needed``: a fit or an analysis of the measured force), then each specimen's other warnings printed as
     ``warning: FILE: ...`` lines on ``stream`` (stderr), notes on stdout. Refusals come first, so a
     refused command prints one line only."""
-    import sys
 
     from bwbench.errors import UserError
 
@@ -204,6 +203,15 @@ def screen(specimens, synthetic: bool = False, force_needed: bool = True, stream
         why = unusable(spec, force_needed)
         if why:
             raise UserError(f"{spec.path}: {why}")
+    if warn:
+        print_warnings(specimens, synthetic, stream)
+
+
+def print_warnings(specimens, synthetic: bool = False, stream=None) -> None:
+    """Each specimen's ``all_warnings`` as ``warning: FILE: ...`` lines on ``stream`` (stderr); a command
+    prints them once every refusal is behind it, so a refused command prints one line only."""
+    import sys
+
     for spec in specimens:
         for text in all_warnings(spec, synthetic):
             if text.startswith("note:"):

@@ -97,6 +97,11 @@ def fit(args) -> int:
         print(f"warning: {where}: {text}", file=sys.stderr)
     for text in worse_than_zero(problem, fitted.files):
         print(f"warning: {text}", file=sys.stderr)
+    from bwbench.data import plausibility
+
+    # data check's words about the files (a flipped or mis-scaled signal, a time column in ms), once the
+    # result is written: a refusal before the fit stays one line
+    plausibility.print_warnings([part.specimen for part in getattr(problem, "parts", None) or [problem]], synthetic)
     return 0
 
 

@@ -36,6 +36,20 @@ def read_runs(db):
             raise UserError(f"{db}: unreadable study database: {err}") from None
 
 
+def refuse_edited_runs(db) -> None:
+    """``UserError`` naming the run and column when an existing study database holds a cell edited by hand:
+    before any run, not after them. A file that is no study database yet is left to ``run_study``."""
+    from bwbench.store.reader import connect_read_only
+
+    if not Path(db).is_file():
+        return
+    try:
+        connect_read_only(Path(db)).close()
+    except UserError:
+        return
+    read_runs(db)
+
+
 def export_csv(db, path) -> None:
     """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
     each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
@@ -142,7 +156,8 @@ def main(args) -> int:
             db = Path(args.db) if args.db else config.default_db
             refuse_inputs({"--db": db, "--csv": args.csv}, study_inputs(config, args.bounds))
             refuse_blowing_box(config, args.bounds)
-            screen_specimens(config)
+            refuse_edited_runs(db)
+            screened = screen_specimens(config)
             if args.csv:
                 check_csv_path(args.csv, db)
             outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler,
@@ -154,6 +169,9 @@ def main(args) -> int:
                     raise UserError(f"{args.csv}: cannot write the CSV: {err.strerror or err} "
                                     f"(the runs are in {db})") from None
             _print_results(config, db, outcome, args.csv)
+            from bwbench.data import plausibility
+
+            plausibility.print_warnings(screened)  # data check's words, once every refusal is behind
     except (KeyboardInterrupt, Interrupted) as stop:
         what = "interrupted" if isinstance(stop, KeyboardInterrupt) else f"terminated ({stop})"
         # Only a database that exists holds runs: a stop while the study is planned names none.
@@ -197,9 +215,10 @@ def study_inputs(config, bounds=None) -> list[Path]:
     return list(dict.fromkeys(files))
 
 
-def screen_specimens(config) -> None:
+def screen_specimens(config) -> list:
     """data check's plausibility checks on every specimen CSV the study fits or predicts, before any run:
-    an unusable one (a dead channel, no force) refused naming the file, the rest warned about."""
+    an unusable one (a dead channel, no force) refused naming the file; the specimens returned, for
+    their warnings."""
     from bwbench.data import plausibility
     from bwbench.data.specimen import read_specimen
 
@@ -211,14 +230,15 @@ def screen_specimens(config) -> None:
                 specimens.append(read_specimen(path))
             except UserError:  # not a specimen CSV: a problem with its own format (its reader checked it)
                 continue
-    plausibility.screen(specimens)
+    plausibility.screen(specimens, warn=False)
     held = []
     for path in dict.fromkeys(Path(entry.path) for entry in config.validation):
         try:
             held.append(read_specimen(path))
         except UserError:
             continue
-    plausibility.screen(held, force_needed=False)
+    plausibility.screen(held, force_needed=False, warn=False)
+    return specimens + held
 
 
 def refuse_blowing_box(config, bounds_file=None) -> None:

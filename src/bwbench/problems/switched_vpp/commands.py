@@ -155,7 +155,7 @@ def problem_from_args(args):
     # the force, no force) refused with the file named, the rest warned about
     from bwbench.data import plausibility
 
-    plausibility.screen(specimens, force_needed=getattr(args, "func", None) not in (simulate, evaluate))
+    plausibility.screen(specimens, force_needed=getattr(args, "func", None) not in (simulate, evaluate), warn=False)
     problem = make_problem(specimens if len(specimens) > 1 else specimens[0], settings)
     if "bounds" in settings:
         bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
@@ -331,4 +331,7 @@ def identifiability(args) -> int:
         sys.stdout.write(strict_json.dumps(result, why={"null_directions": WALK_BLOWS_UP}, indent=2) + "\n")
     else:
         print(format_text(result))
+    from bwbench.data import manifest, plausibility
+
+    plausibility.print_warnings([problem.specimen], manifest.is_synthetic(args.specimen))  # data check's words
     return 0
