@@ -43,6 +43,7 @@ WHOLE_RECORD = 40_000
 WINDOW = 4_000
 CALIBRATION_WINDOWS = 10
 LOG_LAMBDA_RANGE = (-8.0, 12.0)  # log10 λ searched; 10^12: a kernel of ~100 samples; far beyond, Cholesky fails in float64
+REFLECTED = 16  # samples of point reflection beyond each end of the interpolating spline
 PIECE = 1_000_000  # samples per interpolating-spline evaluation: Ctrl-C is seen between pieces
 
 
@@ -85,21 +86,22 @@ def _degree(n: int) -> int:
     return SPLINE_DEGREE if n >= 4 * SPLINE_DEGREE else 3
 
 
-_D3 = np.array([-1.0, 3.0, -3.0, 1.0])  # the 3rd difference
+PENALTY_ORDER = 3  # the difference penalised: the 3rd, as a quintic smoothing spline penalises the 3rd derivative
 
 
 def _smooth(y: np.ndarray, lam: float) -> np.ndarray:
     """z minimising Σ(y − z)² + λ·Σ(Δ³z)²: (I + λ·D₃ᵀD₃) z = y, banded Cholesky (LAPACK pbsv), O(n)."""
     from scipy.linalg import solveh_banded
 
-    n = y.size
+    n, q = y.size, PENALTY_ORDER
     if lam <= 0 or n < 8:
         return y.copy()
-    ab = np.zeros((4, n))  # upper banded form: row 3 the diagonal, row 3 - d the d-th superdiagonal
-    for i in range(4):  # row r of D₃ adds d_i·d_j at (r + i, r + j)
-        for j in range(i, 4):
-            ab[3 - (j - i), j:n - 3 + j] += lam * _D3[i] * _D3[j]
-    ab[3] += 1.0
+    d = np.array([(-1.0) ** (q - i) * comb(q, i) for i in range(q + 1)])  # the q-th difference
+    ab = np.zeros((q + 1, n))  # upper banded form: row q the diagonal, row q - o the o-th superdiagonal
+    for i in range(q + 1):  # row r of D_q adds d_i*d_j at (r + i, r + j)
+        for j in range(i, q + 1):
+            ab[q - (j - i), j:n - q + j] += lam * d[i] * d[j]
+    ab[q] += 1.0
     return solveh_banded(ab, y, check_finite=False)
 
 
@@ -109,8 +111,10 @@ def _padded_smooth(y: np.ndarray, lam: float) -> np.ndarray:
     velocity 50× worse there on a sine). The extension is cropped again."""
     if lam <= 0 or y.size < 8:
         return y.copy()
-    pad = int(np.clip(3.0 * lam ** (1.0 / 6.0), 8, max(8, y.size // 2)))
-    fit = min(2 * pad, y.size)
+    # three kernel widths of extension, fitted on twice that (at least 6 samples): no wider, or the cubic
+    # misses a fast motion (a 5 Hz sine at 200 Hz) and the smoother follows it
+    pad = int(np.clip(3.0 * lam ** (1.0 / 6.0), 2, max(2, y.size // 2)))
+    fit = min(max(2 * pad, 6), y.size)
     s = np.arange(fit, dtype=float) / fit  # local abscissa, scaled for a well-conditioned fit
     ahead = np.arange(1, pad + 1, dtype=float) / fit
     head = np.polynomial.polynomial.polyval(-ahead[::-1], np.polynomial.polynomial.polyfit(s, y[:fit], 3))
@@ -149,6 +153,22 @@ def smoothing_for(y: np.ndarray, sigma: float) -> float:
     return 10.0 ** (0.5 * (low + high))
 
 
+def _reflected_spline(t: np.ndarray, z: np.ndarray, k: int):
+    """The interpolating spline of degree k through z, continued beyond each end by z's point reflection
+    about its end sample (2·z₀ − z(t₀ − s)): the record's ends become interior points of the spline, whose
+    derivative there no longer swings with the end samples' noise (measured: 20× the interior's error on
+    a 5 Hz sine sampled at 200 Hz without it)."""
+    from scipy.interpolate import make_interp_spline
+
+    m = min(REFLECTED, z.size - 1)
+    step = (t[-1] - t[0]) / (t.size - 1)
+    head_t = t[0] - step * np.arange(m, 0, -1)
+    tail_t = t[-1] + step * np.arange(1, m + 1)
+    head = 2.0 * z[0] - z[m:0:-1]
+    tail = 2.0 * z[-1] - z[-2:-m - 2:-1]
+    return make_interp_spline(np.concatenate([head_t, t, tail_t]), np.concatenate([head, z, tail]), k=k)
+
+
 def _evaluate(spline, t: np.ndarray, nu: int) -> np.ndarray:
     """``spline(t, nu)`` in pieces of PIECE samples (each piece is a short C call: Ctrl-C is seen)."""
     return np.concatenate([spline(t[i:i + PIECE], nu) for i in range(0, t.size, PIECE)])
@@ -176,7 +196,7 @@ def estimate(t, y, sigma: float | None = None, *, smoothing: float | None = None
     sigma = robust_noise(y) if sigma is None else float(sigma)
     lam = smoothing_for(y, sigma) if smoothing is None else float(smoothing)
     k = _degree(y.size)
-    spline = make_interp_spline(t, _padded_smooth(y, lam), k=k)
+    spline = _reflected_spline(t, _padded_smooth(y, lam), k)
     ys, vs, acc = (_evaluate(spline, t, nu) for nu in (0, 1, 2))
     m = min(2 * k, y.size // 4)
     tolerance = END_TOLERANCE * _end_gains(k, m) * sigma / step
