@@ -17,8 +17,10 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import psutil
 import pytest
 
 from bwbench import cli
@@ -261,17 +263,20 @@ def test_a_hostile_input_ends_as_stated_with_no_traceback_and_every_input_unchan
 
 
 def test_ctrl_c_ends_a_fit_with_one_line_exit_130_and_nothing_written(lab):
-    """SIGINT once the fit runs (its banner is out): one line, exit 130, no result file, no traceback."""
+    """SIGINT once the fit runs: one line, exit 130, no result file, no traceback."""
     before = snapshot(lab)
     process = subprocess.Popen([sys.executable, "-m", "bwbench.cli", "fit", NAME, "--optimizer", "random", "--budget",
                                 "1000000", "--out", "interrupted.json"], cwd=lab, stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL,
                                env={**os.environ, "BWBENCH_MAX_BUDGET": "1000000"})
-    line = process.stdout.readline()  # fit prints nothing before its result: wait for the process to start
-    del line
-    import time
-
-    time.sleep(3)  # into the evaluations (a million of them take far longer than this)
+    child = psutil.Process(process.pid)
+    # into the evaluations: 4 s of CPU is past the imports and the set-up, and a million evaluations
+    # take far more (HANG bounds the wait: a hang detector, no speed is asserted)
+    waited = 0.0
+    while sum(child.cpu_times()[:2]) < 4.0 and process.poll() is None and waited < HANG:
+        time.sleep(0.1)
+        waited += 0.1
+    assert process.poll() is None, "the fit ended before it could be interrupted"
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=HANG)
     assert process.returncode == 130, err
