@@ -69,7 +69,8 @@ def generate(args) -> int:
         names = mr_dataset.file_names() if args.mr_damper else synthetic.file_names()
         there = [name for name in names if (Path(out) / name).exists()]
         if there:
-            shown = ", ".join(there[:3]) + (f" and {len(there) - 3} more" if len(there) > 3 else "")
+            shown = (", ".join(there[:3]) + f" and {len(there) - 3} more" if len(there) > 3
+                     else " and ".join([", ".join(there[:-1]), there[-1]]) if len(there) > 1 else there[0])
             raise UserError(f"--out {out} holds {shown}, which this command would replace: choose an empty folder, "
                             "or add --force to replace them")
     with writing(out):
