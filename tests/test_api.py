@@ -57,3 +57,80 @@ def test_bad_input_is_a_user_error_naming_it(tmp_path):
     (tmp_path / "p.json").write_text('{"A+": 1}')
     with pytest.raises(UserError, match="not a fit result"):
         bwbench.load_fit(tmp_path / "p.json")
+
+
+# -- the API holds to the command line's promises: every bad input is a UserError with the CLI's words --------
+SPECIMEN = REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
+MR = REPO / "data" / "mr_damper" / "mr_10mm_2Hz_1V.csv"
+BAD_FITS = [
+    ("fix_mass=-1", dict(formulation="identifiable", fix_mass=-1), "--fix-mass must be 'auto', 'fit' or a mass"),
+    ("state split with Spencer", dict(model="spencer", state="split"), "--state does not apply to model 'spencer'"),
+    ("fix_mass with Spencer", dict(model="spencer", fix_mass=0.0), "--fix-mass does not apply to model 'spencer'"),
+    ("model ''", dict(model=""), "--model must be a model name"),
+    ("an unknown model", dict(model="nope"), "nope"),
+    ("state 'sideways'", dict(state="sideways"), "--state must be one of 'shared', 'split'"),
+    ("excitation 'chirp'", dict(excitation="chirp"), "--excitation must be one of"),
+    ("budget 0", dict(budget=0), "--budget must be a positive number of evaluations"),
+    ("budget 'many'", dict(budget="many"), "--budget must be a positive number of evaluations"),
+    ("seed -1", dict(seed=-1), "--seed must be a non-negative integer"),
+    ("an unknown optimizer", dict(optimizer="nope"), "nope"),
+    ("options a list", dict(options=[1]), "options must be a dict"),
+    ("bounds a number", dict(bounds=3), "bounds must be a dict"),
+    ("weighting 'heavy'", dict(weighting="heavy"), "--weighting must be one of 'equal', 'samples'"),
+    ("threads 999", dict(threads=999), "--threads must be 1 to"),
+]
+
+
+@pytest.mark.parametrize("case", BAD_FITS, ids=[c[0] for c in BAD_FITS])
+def test_a_bad_argument_of_fit_is_a_user_error_with_the_cli_words(case):
+    _, kwargs, words = case
+    with pytest.raises(bwbench.errors.UserError, match=re.escape(words)):
+        bwbench.fit(SPECIMEN, **{"optimizer": "random", "budget": 5, **kwargs})
+
+
+def test_the_api_refuses_one_file_twice_by_identity(tmp_path):
+    shutil.copy(SPECIMEN, tmp_path / "a.csv")
+    (tmp_path / "b.csv").symlink_to(tmp_path / "a.csv")
+    for second in (tmp_path / "a.csv", tmp_path / "b.csv", str(tmp_path / "." / "a.csv")):
+        with pytest.raises(bwbench.errors.UserError, match="a specimen is named twice"):
+            bwbench.fit(tmp_path / "a.csv", second, optimizer="random", budget=5)
+
+
+def test_the_api_refuses_a_dead_velocity_channel_naming_file_and_column(tmp_path):
+    lines = SPECIMEN.read_text().splitlines()
+    j = lines[0].split(",").index("velocity_mm_s")
+    rows = [line.split(",") for line in lines[1:]]
+    for row in rows:
+        row[j] = "0"
+    (tmp_path / "dead.csv").write_text("\n".join([lines[0], *(",".join(r) for r in rows)]) + "\n")
+    with pytest.raises(bwbench.errors.UserError, match=r"dead.csv: column velocity_mm_s is 0 in every row"):
+        bwbench.fit(tmp_path / "dead.csv", model="spencer", optimizer="random", budget=5)
+
+
+def test_fit_result_save_refuses_the_fits_own_input_and_leaves_it_byte_identical(tmp_path):
+    shutil.copy(SPECIMEN, tmp_path / "s.csv")
+    before = (tmp_path / "s.csv").read_bytes()
+    result = bwbench.fit(tmp_path / "s.csv", optimizer="random", budget=5)
+    for spelling in (tmp_path / "s.csv", str(tmp_path / "." / "s.csv")):
+        with pytest.raises(bwbench.errors.UserError, match="is an input of this command"):
+            result.save(spelling)
+    assert (tmp_path / "s.csv").read_bytes() == before
+    result.save(tmp_path / "fit.json")
+    assert bwbench.load_fit(tmp_path / "fit.json").model == "switched-bouc-wen"
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda: bwbench.load_fit(3), "load_fit needs the path"),
+    (lambda: bwbench.load_study(None), "load_study: db must be a path"),
+    (lambda: bwbench.FittedModel("spencer", "direct", []), "\"params\" is []"),
+    (lambda: bwbench.FittedModel("spencer", "direct", {}, excitation="chirp"), "\"excitation\" is 'chirp'"),
+], ids=["load_fit a number", "load_study None", "params a list", "excitation chirp"])
+def test_the_other_api_calls_raise_user_errors(call, words):
+    with pytest.raises(bwbench.errors.UserError, match=re.escape(words)):
+        call()
+
+
+def test_predict_refuses_something_that_is_not_a_file(tmp_path):
+    result = bwbench.fit(SPECIMEN, optimizer="random", budget=5)
+    with pytest.raises(bwbench.errors.UserError, match="a test is a specimen CSV's path"):
+        result.predict(42)

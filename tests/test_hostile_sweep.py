@@ -13,10 +13,14 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
+import sqlite3
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import psutil
 import pytest
 
 from bwbench import cli
@@ -76,7 +80,42 @@ def lab(tmp_path_factory):
     text = (edited / NAME).read_text().splitlines()
     text[5] = text[5].rsplit(",", 1)[0] + ",99.5"  # one force value
     (edited / NAME).write_text("\n".join(text) + "\n")
+    third_sweep(lab, lines)
     return lab
+
+
+def third_sweep(lab: Path, lines: list) -> None:
+    """The third sweep's files: signal columns gone wrong (dead, flipped, in ms), absurd force, CR line
+    ends, fit results and a study database edited by hand, a dataset folder holding a user's files."""
+    header = lines[0].split(",")
+    rows = [[float(c) for c in line.split(",")] for line in lines[1:]]
+    j = {name: header.index(name) for name in header}
+
+    def variant(name, change):
+        out = [list(r) for r in rows]
+        for r in out:
+            change(r)
+        (lab / name).write_text(",".join(header) + "\n" + "".join(",".join(f"{v:.9g}" for v in r) + "\n" for r in out))
+
+    variant("dead_v.csv", lambda r: r.__setitem__(j["velocity_mm_s"], 0.0))
+    variant("flipped_v.csv", lambda r: r.__setitem__(j["velocity_mm_s"], -r[j["velocity_mm_s"]]))
+    variant("ms_v.csv", lambda r: r.__setitem__(j["time_s"], 1000 * r[j["time_s"]]))
+    variant("huge_f.csv", lambda r: r.__setitem__(j["force_N"], 1e300 * (1 + r[j["force_N"]])))
+    (lab / "cr.csv").write_text((lab / NAME).read_text().replace("\n", "\r"))
+    (lab / "same.csv").symlink_to(lab / NAME)
+    fit = json.loads((lab / "r0.json").read_text())
+    for name, edit in {"units_list": ("units", ["N"]), "excitation": ("excitation", "chirp"),
+                       "n_negative": ("params", {**fit["params"], "n-": -3}),
+                       "not_finite": ("params", {**fit["params"], "xi+": None})}.items():
+        (lab / f"{name}.json").write_text(json.dumps({**fit, edit[0]: edit[1]}))
+    for name, sql in {"bad_params": "UPDATE runs SET params_json = '{not json'",
+                      "bad_mse": "UPDATE runs SET mse = 'abc'",
+                      "bad_config": "UPDATE study SET value = '{broken' WHERE key = 'config_json'"}.items():
+        shutil.copy(lab / "edited" / "study.sqlite", lab / f"{name}.sqlite")
+        with sqlite3.connect(lab / f"{name}.sqlite") as conn:
+            conn.execute(sql)
+    (lab / "mine").mkdir()
+    (lab / "mine" / "manifest.json").write_text('{"mine": true}\n')
 
 
 COMPARE = ["compare", "--specimens", NAME, "--optimizers", "random", "--seeds", "1", "--budget", "20", "--workers", "1"]
@@ -149,6 +188,54 @@ CASES = [
     ("compare: --validate a training file", [*COMPARE, "--validate", NAME, "--db", "v.sqlite"], 2,
      "is also a training specimen"),
     ("compare: --validate a FIFO", [*COMPARE, "--validate", "fifo.csv", "--db", "v.sqlite"], 2, "named pipe"),
+    # -- the third sweep (dead channels, interrupts, hand-edited files, flags, identity, the environment)
+    ("fit: a dead velocity channel", ["fit", "dead_v.csv", "--optimizer", "random", "--budget", "20", "--out",
+                                      "r.json"], 2, "dead_v.csv: column velocity_mm_s is 0 in every row"),
+    ("fit: a dead velocity channel, Spencer", ["fit", "dead_v.csv", "--model", "spencer", "--optimizer", "random",
+                                               "--budget", "5", "--out", "r.json"], 2, "a dead channel"),
+    ("fit: a dead channel in a joint fit", ["fit", NAME, "dead_v.csv", "--optimizer", "random", "--budget", "5",
+                                            "--out", "r.json"], 2, "dead_v.csv: column velocity_mm_s"),
+    ("identifiability: a dead velocity channel", ["identifiability", "dead_v.csv", "--params", "p.json"], 2,
+     "dead_v.csv: column velocity_mm_s is 0"),
+    ("compare: a dead velocity channel", ["compare", "--specimens", "dead_v.csv", "--optimizers", "random", "--seeds",
+                                          "1", "--budget", "20", "--workers", "1", "--db", "d.sqlite"], 2,
+     "dead_v.csv: column velocity_mm_s is 0"),
+    ("predict: a dead velocity channel", ["predict", "--fit", "r0.json", "dead_v.csv"], 2, "a dead channel"),
+    ("data check: a dead velocity channel", ["data", "check", "dead_v.csv"], 0, "a dead channel"),
+    ("fit: zero force", ["fit", "zero.csv", "--optimizer", "random", "--budget", "5", "--out", "r.json"], 2,
+     "force_N is 0 in every row"),
+    ("fit: a force of 1e300 N", ["fit", "huge_f.csv", "--optimizer", "random", "--budget", "5", "--out", "r.json"], 2,
+     "no test machine records that"),
+    ("fit: a velocity of the opposite sign", [*FIT[:1], "flipped_v.csv", *FIT[2:]], 0, "the opposite sign convention"),
+    ("data check: time in ms with a velocity", ["data", "check", "ms_v.csv"], 0, "time_s in milliseconds"),
+    ("data check: CR-only line ends", ["data", "check", "cr.csv"], 2, "carriage return (CR) only"),
+    ("fit: one file twice through a symlink", ["fit", NAME, "same.csv", "--optimizer", "random", "--budget", "5",
+                                               "--out", "r.json"], 2, "a specimen is named twice"),
+    ("fit: one file twice as ./", ["fit", NAME, f"./{NAME}", "--optimizer", "random", "--budget", "5", "--out",
+                                   "r.json"], 2, "a specimen is named twice"),
+    ("fit: --fix-mass with Spencer", [*FIT, "--model", "spencer", "--fix-mass", "0"], 2,
+     "--fix-mass does not apply to model 'spencer'"),
+    ("fit: --offsets with Spencer", [*FIT, "--model", "spencer", "--offsets", "branch"], 2, "--offsets applies to"),
+    ("fit: --model ''", [*FIT, "--model", ""], 2, "--model must be a model name"),
+    ("compare: --fix-mass with Spencer", [*COMPARE, "--model", "spencer", "--fix-mass", "0", "--db", "m.sqlite"], 2,
+     "--fix-mass applies to the identifiable formulation of a model with a mass term"),
+    ("compare: --offsets with Spencer", [*COMPARE, "--model", "spencer", "--offsets", "continuous", "--db",
+                                         "m.sqlite"], 2, "--offsets applies to the identifiable formulation"),
+    ("predict: units a list", ["predict", "--fit", "units_list.json", NAME], 2, "\"units\" is a JSON list"),
+    ("predict: an unknown excitation", ["predict", "--fit", "excitation.json", NAME], 2,
+     "excitation.json: \"excitation\" is 'chirp'"),
+    ("predict: n- = -3", ["predict", "--fit", "n_negative.json", NAME], 2, "params.n- is -3"),
+    ("predict: a parameter null", ["predict", "--fit", "not_finite.json", NAME], 2, "params.xi+ is nan"),
+    ("compare --csv: params_json edited", [*COMPARE, "--db", "bad_params.sqlite", "--csv", "o.csv"], 2,
+     "column params_json: not JSON"),
+    ("compare --csv: mse edited", [*COMPARE, "--db", "bad_mse.sqlite", "--csv", "o.csv"], 2,
+     "column mse: 'abc' is not a number"),
+    ("report: config_json edited", ["report", "--db", "bad_config.sqlite", "--out", "rep"], 2,
+     "key config_json: not JSON"),
+    ("data generate: --out a folder with a manifest", ["data", "generate", "--out", "mine"], 2,
+     "holds manifest.json, which this command would replace"),
+    ("NUMBA_NUM_THREADS=0", ["models"], 2, "NUMBA_NUM_THREADS='0' in the environment", {"NUMBA_NUM_THREADS": "0"}),
+    ("OMP_NUM_THREADS=lots", [*FIT], 2, "OMP_NUM_THREADS='lots'", {"OMP_NUM_THREADS": "lots"}),
     ("identifiability: a billion grid points", ["identifiability", NAME, "--params", "p.json", "--grid",
                                                 "1000000000"], 2, "--grid must be 2 to 1000"),
 ]
@@ -177,3 +264,27 @@ def test_a_hostile_input_ends_as_stated_with_no_traceback_and_every_input_unchan
     assert {p: v for p, v in after.items() if p in before} == before  # every input byte-identical
     if status == 2:
         assert set(after) == set(before)  # a refusal writes nothing
+
+
+def test_ctrl_c_ends_a_fit_with_one_line_exit_130_and_nothing_written(lab):
+    """SIGINT once the fit runs: one line, exit 130, no result file, no traceback."""
+    before = snapshot(lab)
+    process = subprocess.Popen([sys.executable, "-m", "bwbench.cli", "fit", NAME, "--optimizer", "random", "--budget",
+                                "1000000", "--out", "interrupted.json"], cwd=lab, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL,
+                               env={**os.environ, "BWBENCH_MAX_BUDGET": "1000000"})
+    child = psutil.Process(process.pid)
+    # into the evaluations: 4 s of CPU is past the imports and the set-up, and a million evaluations
+    # take far more (HANG bounds the wait: a hang detector, no speed is asserted)
+    waited = 0.0
+    while sum(child.cpu_times()[:2]) < 4.0 and process.poll() is None and waited < HANG:
+        time.sleep(0.1)
+        waited += 0.1
+    assert process.poll() is None, "the fit ended before it could be interrupted"
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=HANG)
+    assert process.returncode == 130, err
+    assert "Traceback" not in err
+    assert err.strip().splitlines() == ["interrupted: bwbench fit stopped (Ctrl-C); no output is left half-written"]
+    assert not (lab / "interrupted.json").exists()
+    assert snapshot(lab) == before

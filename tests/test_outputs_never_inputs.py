@@ -152,3 +152,24 @@ def test_every_output_flag_of_every_command_is_in_the_sweep():
                for table in (FILES, FOLDERS) for command, (_, outputs) in table.items() for flag in outputs}
     missing = output_flags() - covered - READ_ONLY
     assert not missing, f"output flags with no case in this sweep: {sorted(missing)}"
+
+
+def test_data_generate_out_refuses_a_folder_holding_files_it_would_replace_unless_forced(tmp_path, capsys):
+    """A user's own manifest.json and a test named like one of the dataset's: refused, naming them, both
+    byte-identical; --force replaces them."""
+    from bwbench.data import mr_dataset
+
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "manifest.json").write_text('{"mine": true}\n')
+    own = mr_dataset.file_names()[0]
+    (folder / own).write_text("time_s,displacement_mm,force_N\n")
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    assert cli.main(["data", "generate", "--mr-damper", "--out", str(folder)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"holds {own} and manifest.json, which this command would replace" in err[0], err
+    assert "--force" in err[0]
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    assert cli.main(["data", "generate", "--mr-damper", "--out", str(folder), "--force"]) == 0
+    assert json.loads((folder / "manifest.json").read_text()) != {"mine": True}
+    assert (folder / own).read_bytes() != before[own]

@@ -1,6 +1,7 @@
 """Every command that writes JSON, on inputs that make values not finite (a parameter set that blows the
 model up, a search box where it blows up at the first point, an identifiability walk into a blow-up,
-a force so large its loss overflows, a zero-force file): each JSON document it writes — on stdout, in
+a box where every run of a study blows up, a zero-force file; a force so large its loss would overflow is
+refused before any work): each JSON document it writes — on stdout, in
 a file, in a study's database, in a report folder, in a generated data set — parses with a reader that
 refuses NaN and Infinity tokens, and a value that is not finite is null with the reason beside it.
 
@@ -46,7 +47,8 @@ def bwbench(*args, cwd) -> subprocess.CompletedProcess:
 
 @pytest.fixture(scope="module")
 def lab(tmp_path_factory):
-    """The inputs, and a study of two specimens, one whose every loss overflows (force × 1e300)."""
+    """The inputs, and a study of two specimens in a box where every run on one of them blows up (the
+    other moves 100× less, and its runs end finite)."""
     lab = tmp_path_factory.mktemp("strict")
     shutil.copy(REPO / "data" / "specimens" / NAME, lab / NAME)
     lines = (lab / NAME).read_text().splitlines()
@@ -60,14 +62,21 @@ def lab(tmp_path_factory):
 
     scaled("zero.csv", 0.0)
     scaled("huge.csv", 1e300)
+    header = lines[0].split(",")
+    moves = [header.index(c) for c in ("displacement_mm", "velocity_mm_s") if c in header]
+    rows = [line.split(",") for line in lines[1:]]
+    for row in rows:
+        for j in moves:
+            row[j] = f"{float(row[j]) * 0.01:.8g}"
+    (lab / "small.csv").write_text("\n".join([lines[0], *(",".join(r) for r in rows)]) + "\n")
     manifest = json.loads((REPO / "data" / "specimens" / "manifest.json").read_text())
     truth = next(s["truth"] for s in manifest["specimens"] if s["file"] == NAME)
     (lab / "truth.json").write_text(json.dumps(truth))
     (lab / "blows.json").write_text(json.dumps({**truth, **BLOWS_UP}))
     (lab / "walk.json").write_text(json.dumps(WALKS_INTO_BLOW_UP))
     (lab / "edge.json").write_text(json.dumps(EDGE_BOX))
-    study = bwbench("compare", "--specimens", "huge.csv", NAME, "--optimizers", "random,cmaes", "--budget", "4",
-                    "--seeds", "1", "--workers", "1", "--db", "huge.sqlite", cwd=lab)
+    study = bwbench("compare", "--specimens", NAME, "small.csv", "--optimizers", "random,cmaes", "--budget", "4",
+                    "--seeds", "1", "--workers", "1", "--bounds", "edge.json", "--db", "huge.sqlite", cwd=lab)
     assert study.returncode == 0, study.stderr
     return lab
 
@@ -106,16 +115,19 @@ CASES = [
     ("simulate stdout, blows up", ["simulate", "--params", "blows.json", "--specimen", NAME, "--out", "s.csv"], 1,
      "stdout", lambda d: blown_up(d[0], ["mse", "rmse_N"], "(force not finite)") and d[0]["out"] == "s.csv"),
     ("identifiability --json, walk into a blow-up", ["identifiability", NAME, "--params", "walk.json", "--json"], 0,
-     "stdout", lambda d: d[0]["null_directions"][0]["max_ratio"] is None and d[0]["not_finite"][
-         "/null_directions/0/max_ratio"] == "+inf: the walk along this direction reached parameters where the "
-                                            "model blows up"
+     "stdout", lambda d: any(row["max_ratio"] is None and d[0]["not_finite"][f"/null_directions/{i}/max_ratio"]
+                             == "+inf: the walk along this direction reached parameters where the model blows up"
+                             for i, row in enumerate(d[0]["null_directions"]))
                    and all(math.isfinite(s) for s in d[0]["singular_values"])),
     ("identifiability --json, zero force", ["identifiability", "zero.csv", "--params", "truth.json", "--json"], 2,
      "stdout:none", None),
     ("evaluate, zero force", ["evaluate", "--params", "truth.json", "--specimen", "zero.csv"], 0, "stdout",
      lambda d: d[0]["mse"] > 0 and "not_finite" not in d[0]),
-    ("compare: the store's JSON columns", ["compare", "--specimens", "huge.csv", "--optimizers", "random,cmaes",
-                                           "--budget", "4", "--seeds", "1", "--workers", "1", "--db", "again.sqlite"],
+    ("fit: a force whose loss would overflow", ["fit", "huge.csv", "--optimizer", "random", "--budget", "4",
+                                                "--out", "h.json"], 2, "stdout:none", None),
+    ("compare: the store's JSON columns", ["compare", "--specimens", NAME, "--optimizers", "random,cmaes",
+                                           "--budget", "4", "--seeds", "1", "--workers", "1", "--bounds", "edge.json",
+                                           "--db", "again.sqlite"],
      0, "db:again.sqlite", lambda d: any(isinstance(x, dict) and "n+" in x and x["n+"] is None for x in d)),
     ("report folder", ["report", "--db", "huge.sqlite", "--out", "report", "--profiles", "0"], 0, "folder:report",
      lambda d: True),

@@ -62,35 +62,42 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
     determine, a parameter on its box's edge) are issued as ``bwbench.FitWarning`` warnings and kept
     in ``.notes``. Raises ``bwbench.UserError`` with the command line's message for bad input.
     """
-    from bwbench import fit_notes
+    from bwbench import fit_notes, limits
     from bwbench import threads as threads_mod
     from bwbench.arguments import count
-    from bwbench.data import manifest
+    from bwbench.data import manifest, plausibility
+    from bwbench.data.specimen import Specimen
     from bwbench.data_input import as_specimen
-    from bwbench.errors import UserError
     from bwbench.optimize import registry as backends
     from bwbench.optimize.fit_result import run_fit
+    from bwbench.problems.switched_vpp.commands import refuse_same_file
     from bwbench.problems.switched_vpp.formulations import make_problem
 
+    # Every argument checked as the command line checks it, with its words, before any file is read.
     items = [d for item in data for d in (item if isinstance(item, (list, tuple)) else [item])]
     if not items:
         raise UserError("bwbench.fit needs at least one test (a specimen CSV's path, a Specimen or a DataFrame)")
-    count("budget", budget, "a positive number of evaluations")
-    from bwbench import limits
-
-    limits.check("budget", budget, "BWBENCH_MAX_BUDGET")
-    count("seed", seed, "a non-negative integer", minimum=0)
-    paths = [str(Path(d).resolve()) for d in items if isinstance(d, (str, Path))]
-    if len(set(paths)) < len(paths):
-        raise UserError("a specimen is named twice: a joint fit takes each file once (use weighting= to weight)")
-    options = backends.resolve_options(optimizer, options)  # checked before any file is read or anything runs
+    if any(isinstance(d, (str, Path)) and not str(d).strip() for d in items):
+        raise UserError("a specimen must be a path to a specimen CSV, a Specimen or a DataFrame, got ''")
+    count("--budget", budget, "a positive number of evaluations")
+    limits.check("--budget", budget, "BWBENCH_MAX_BUDGET")
+    count("--seed", seed, "a non-negative integer", minimum=0)
+    for flag, value in (("--threads", threads), ("--workers", workers)):
+        count(flag, value, "an integer", minimum=-(2**63))  # the type here; the range, as the CLI says it, below
+        threads_mod.check(value, flag)
+    if not isinstance(optimizer, str):
+        raise UserError(f"--optimizer must be a backend name (see `bwbench optimizers`), got {optimizer!r}")
+    if options is not None and not isinstance(options, dict):
+        raise UserError(f"options must be a dict of backend options, got {options!r}")
+    if stop not in ("agreed", "budget"):
+        raise UserError(f"--stop must be 'agreed' or 'budget', got {stop!r}")
+    options = backends.resolve_options(optimizer, dict(options or {}))
     settings = settings_of(model=model, formulation=formulation, state=state, excitation=excitation,
                            fix_mass=fix_mass, offsets=offsets, weighting=weighting, bounds=bounds)
+    refuse_same_file([d.path if isinstance(d, Specimen) else d for d in items])
     loaded = [as_specimen(d, name) for d in items]
+    plausibility.screen(loaded)  # data check's checks: a dead channel or no force refused, the rest warned
     synthetic = all(isinstance(d, (str, Path)) and manifest.is_synthetic(d) for d in items)
-    workers = threads_mod.check(workers, "workers")
-    if stop not in ("agreed", "budget"):
-        raise UserError(f"stop must be 'agreed' or 'budget', got {stop!r}")
     with threads_mod.limited(threads_mod.check(threads)):
         problem = make_problem(loaded if len(loaded) > 1 else loaded[0], settings)
         if "bounds" in settings:
@@ -113,45 +120,48 @@ def settings_of(*, model=None, formulation=None, state=None, excitation="measure
                 offsets=None, weighting="equal", bounds=None) -> dict:
     """The problem settings of a fit's keywords, each checked (``UserError`` with the CLI's wording)."""
     from bwbench.data import bounds as bounds_mod
-    from bwbench.errors import UserError
-    from bwbench.models import registry
     from bwbench.problems.joint_problem import WEIGHTINGS
-    from bwbench.problems.switched_vpp.commands import fix_mass_value
-    from bwbench.problems.switched_vpp.formulations import bound_names, resolve_formulation
+    from bwbench.problems.switched_vpp.commands import check_fit_flags, checked_settings
+    from bwbench.problems.switched_vpp.formulations import bound_names
 
-    chosen = registry.get(model or registry.DEFAULT)
-    if state is not None and not chosen.states:
-        raise UserError(f"state does not apply to model {chosen.name!r} (no state convention to choose)")
-    if state is not None and state not in chosen.states:
-        raise UserError(f"state must be one of {', '.join(map(repr, chosen.states))}, got {state!r}")
-    if excitation not in ("measured", "sine"):
-        raise UserError(f"excitation must be 'measured' or 'sine', got {excitation!r}")
+    settings: dict = checked_settings(model, formulation, state, excitation)
     if weighting not in WEIGHTINGS:
-        raise UserError(f"weighting must be one of {', '.join(map(repr, WEIGHTINGS))}, got {weighting!r}")
-    settings: dict = {"model": chosen.name, "formulation": resolve_formulation(chosen, formulation),
-                      "state": state or "shared", "excitation": excitation, "weighting": weighting}
-    mass = fix_mass_value(None if fix_mass is None else str(fix_mass), "fix_mass") if fix_mass != "auto" else "auto"
-    if fix_mass is None:
-        mass = None
+        raise UserError(f"--weighting must be one of {', '.join(map(repr, WEIGHTINGS))}, got {weighting!r}")
+    settings["weighting"] = weighting
+    mass = _fix_mass(fix_mass)
+    check_fit_flags(settings, mass, offsets, weighting)
     if mass != "auto":
-        if settings["formulation"] != "identifiable":
-            raise UserError(f"fix_mass applies to the identifiable formulation (the {settings['formulation']} "
-                            "formulation has no solved mass)")
         settings["fix_mass"] = mass
     if offsets is not None:
-        if offsets not in ("branch", "continuous"):
-            raise UserError(f"offsets must be 'branch' or 'continuous', got {offsets!r}")
         settings["offsets"] = offsets
     if bounds is not None:
-        names = bound_names([settings["formulation"]], settings["state"], [chosen.name])
-        settings["bounds"] = (bounds_mod.read_json(bounds, names) if isinstance(bounds, (str, Path))
-                              else bounds_mod.validate(dict(bounds), names, "bounds"))
+        names = bound_names([settings["formulation"]], settings["state"], [settings["model"]])
+        if isinstance(bounds, (str, Path)):
+            settings["bounds"] = bounds_mod.read_json(bounds, names)
+        elif isinstance(bounds, dict):
+            settings["bounds"] = bounds_mod.validate(dict(bounds), names, "bounds")
+        else:
+            raise UserError(f"bounds must be a dict of name -> (lower, upper) or a JSON file, got {bounds!r}")
     return settings
+
+
+def _fix_mass(value):
+    """The API's fix_mass ("auto", None or a mass ≥ 0) checked with the words of ``--fix-mass``."""
+    from bwbench.problems.switched_vpp.commands import fix_mass_value
+
+    if value == "auto" or value is None:
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        return fix_mass_value(repr(value))  # refused, naming what was given
+    return fix_mass_value(str(value))
 
 
 def load_fit(path) -> FittedModel:
     """The ``FittedModel`` of a result JSON (``bwbench fit --out``, ``FitResult.save``): ``.predict(file)``
     gives a ``Prediction`` (RMSE in N, NRMSE, the forces), ``.simulate(file)`` a DataFrame."""
+
+    if not isinstance(path, (str, Path)):
+        raise UserError(f"load_fit needs the path of a fit result JSON, got {path!r}")
     return FittedModel.read(path)
 
 
@@ -163,6 +173,9 @@ def load_study(db, data_dir=None):
     study's files are now, if they moved."""
     from bwbench.study_api import load
 
+    for name, value in (("db", db), ("data_dir", data_dir)):
+        if not (isinstance(value, (str, Path)) or (name == "data_dir" and value is None)):
+            raise UserError(f"load_study: {name} must be a path, got {value!r}")
     return load(db, data_dir)
 
 

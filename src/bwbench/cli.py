@@ -92,12 +92,26 @@ def main(argv=None) -> int:
     warnings.filterwarnings("ignore", message=r"\s*ArviZ is undergoing a major refactor", category=FutureWarning)
     argv = sys.argv[1:] if argv is None else list(argv)
     command = next((a for a in argv if not a.startswith("-")), None)
-    args = build_parser(command).parse_args(argv)
     try:
+        threads.check_environment()  # before a command imports numba, which fails on NUMBA_NUM_THREADS=0
+        args = build_parser(command).parse_args(argv)
         # one thread per process unless --threads (or fit's --workers) asks for more
         fit_workers = getattr(args, "workers", 1) if command == "fit" else 1  # compare's are processes
         with threads.environment(max(getattr(args, "threads", 1), fit_workers or 1)):
             return args.func(args)
+    except KeyboardInterrupt:
+        # Ctrl-C: one line, exit 130 (128 + SIGINT). Outputs are written at the end of a command and
+        # atomically, so nothing half-written is left behind.
+        print(f"interrupted: bwbench {command or ''} stopped (Ctrl-C); no output is left half-written",
+              file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # The reader of stdout stopped early (``| head -1``): every file was written before the printing.
+        # Send the rest of the output nowhere, so Python's exit does not fail on the closed pipe again.
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

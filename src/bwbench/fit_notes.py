@@ -18,9 +18,9 @@ class FitWarning(UserWarning):
     on the edge of its search box, a loop that generates energy."""
 
 
-# The energy a model dissipates and the state a record starts from are facts for the report, not
-# something to be warned about.
-_QUIET = ("energy dissipated per cycle", "initial state:")
+# The energy a model dissipates, a passed energy check and the state a record starts from are facts for
+# the report, not something to be warned about.
+_QUIET = ("energy dissipated per cycle", "initial state:", "energy check passed")
 
 
 def notes(fit) -> list[str]:

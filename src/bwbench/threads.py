@@ -63,6 +63,25 @@ def limited(threads: int = 1):
 VARIABLES = ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+def check_environment(environ=None) -> None:
+    """``UserError`` naming the variable when a thread variable of ``VARIABLES`` is set to anything but a
+    whole number from 1 to the cores of this machine (the range of ``--threads``): numba refuses 0 with a
+    traceback at import, and the others silently ignore or oversubscribe. An empty value is unset."""
+    environ = os.environ if environ is None else environ
+    cores = os.cpu_count() or 1
+    for name in VARIABLES:
+        text = environ.get(name, "").strip()
+        if not text:
+            continue
+        try:
+            value = int(text)
+        except ValueError:
+            value = 0
+        if not 1 <= value <= cores:
+            raise UserError(f"{name}={environ[name]!r} in the environment: it must be a whole number of threads from "
+                            f"1 to {cores} (the cores of this machine); unset it (bwbench uses 1) or fix it")
+
+
 @contextmanager
 def environment(threads: int = 1):
     """Within the block, the thread variables a user has not set say ``threads``, so the libraries this

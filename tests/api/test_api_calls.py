@@ -69,12 +69,12 @@ def test_the_fit_notes_are_warnings_of_their_own_category():
     ({"seed": -1}, "seed must be a non-negative integer, got -1"),
     ({"optimizer": "nope"}, "unknown optimiser 'nope'"),
     ({"options": {"population": -3}, "optimizer": "paper-ga"}, "population"),
-    ({"excitation": "square"}, "excitation must be 'measured' or 'sine'"),
+    ({"excitation": "square"}, "--excitation must be one of 'measured', 'sine'"),
     ({"weighting": "some"}, "weighting must be one of 'equal', 'samples'"),
     ({"state": "split"}, "state does not apply to model 'bouc-wen'"),
-    ({"fix_mass": -1}, "fix_mass must be 'auto', 'fit' or a mass ≥ 0"),
-    ({"formulation": "paper", "fix_mass": 1.0}, "fix_mass applies to the identifiable formulation"),
-    ({"threads": 0}, "threads must be 1 to"),
+    ({"fix_mass": -1}, "--fix-mass must be 'auto', 'fit' or a mass ≥ 0"),
+    ({"formulation": "paper", "fix_mass": 1.0}, "--fix-mass applies to the identifiable formulation"),
+    ({"threads": 0}, "--threads must be 1 to"),
     ({"bounds": {"nope": (0, 1)}}, "nope"),
 ])
 def test_bad_arguments_are_user_errors_with_the_cli_message(kwargs, message):

@@ -97,7 +97,7 @@ def test_data_check_says_which_signals_are_measured_and_which_estimated(tmp_path
     (lambda v: -v, "-1 × the one the displacement implies (the opposite sign convention?)"),
     (lambda v: 60 * v, "60 × the one the displacement implies (mm/min instead of the header's unit?)"),
     (lambda v: -60 * v, "-60 × the one the displacement implies (the opposite sign convention and mm/min"),
-    (lambda v: 1000 * v, "1e+03 × the one the displacement implies (µm/s"),
+    (lambda v: 1000 * v, "1e+03 × the one the displacement implies (time_s in milliseconds"),
 ])
 def test_a_velocity_column_inconsistent_with_the_displacement_gets_a_warning(tmp_path, capsys, recorded, hint):
     t, x, v, _, f = _motion()

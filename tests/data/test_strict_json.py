@@ -58,3 +58,26 @@ def test_the_strict_reader_refuses_what_json_loads_accepts(token):
     assert json.loads(f'{{"x": {token}}}')  # Python's reader takes it...
     with pytest.raises(ValueError, match=f"not strict JSON: {token} token"):
         strict_json.loads(f'{{"x": {token}}}')
+
+
+def test_an_output_is_replaced_whole_or_not_at_all(tmp_path):
+    """Interrupted while writing (KeyboardInterrupt inside the block): the old file stays, no partial file
+    is left; through a symlink the file it names is written and the link kept."""
+    import os
+
+    import pytest
+
+    from bwbench.data import strict_json
+    from bwbench.data.output_paths import replaced_whole
+
+    target = tmp_path / "r.json"
+    target.write_text("old\n")
+    with pytest.raises(KeyboardInterrupt):
+        with replaced_whole(target) as partial:
+            partial.write_text("half")
+            raise KeyboardInterrupt
+    assert target.read_text() == "old\n" and sorted(os.listdir(tmp_path)) == ["r.json"]
+    (tmp_path / "link.json").symlink_to(target)
+    strict_json.write(tmp_path / "link.json", {"a": 1})
+    assert (tmp_path / "link.json").is_symlink() and strict_json.loads(target.read_text()) == {"a": 1}
+    assert sorted(os.listdir(tmp_path)) == ["link.json", "r.json"]

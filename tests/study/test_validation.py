@@ -63,7 +63,7 @@ def test_the_report_ranks_by_held_out_error_with_the_stored_coefficients(damper,
 
 def test_a_toml_holds_its_held_out_files_and_refuses_a_training_one(damper, tmp_path):
     toml = tmp_path / "s.toml"
-    head = (f'[study]\nname = "v"\nseed = 1\nbudget = 20\nseeds = 1\nmodel = "spencer"\nfix_mass = 0.0\n'
+    head = (f'[study]\nname = "v"\nseed = 1\nbudget = 20\nseeds = 1\nmodel = "spencer"\n'
             f'[specimens]\nfiles = ["{damper / "a.csv"}"]\n[optimizers]\nrandom = {{}}\n')
     toml.write_text(head + f'[validation]\nfiles = ["{damper / "h.csv"}"]\n')
     config = load_study_config(toml)
@@ -75,6 +75,10 @@ def test_a_toml_holds_its_held_out_files_and_refuses_a_training_one(damper, tmp_
     toml.write_text(head + '[validation]\ntests = ["x.csv"]\n')
     with pytest.raises(UserError, match=r"\[validation\] must be a table with one key, files"):
         load_study_config(toml)
-    toml.write_text(head.replace("fix_mass = 0.0", 'fix_mass = "heavy"'))
+    toml.write_text(head.replace('model = "spencer"\n', 'model = "spencer"\nfix_mass = "heavy"\n'))
     with pytest.raises(UserError, match="fix_mass must be"):
+        load_study_config(toml)
+    toml.write_text(head.replace('model = "spencer"\n', 'model = "spencer"\nfix_mass = 0.0\n'))
+    with pytest.raises(UserError, match=r"\[study\] fix_mass applies to the identifiable formulation of a model with a "
+                                        "mass term: no variant of this study \\(spencer\\) has one"):
         load_study_config(toml)

@@ -29,7 +29,7 @@ def check(args) -> int:
             ramps = ramps_text(spec)
             if ramps:
                 print(f"  {ramps}")
-            texts = plausibility.warnings(spec, synthetic=manifest.is_synthetic(path)) + plausibility.signal_warnings(spec)
+            texts = plausibility.all_warnings(spec, synthetic=manifest.is_synthetic(path))
             for text in texts:
                 print(text if text.startswith("note:") else f"warning: {path}: {text}",
                       file=sys.stdout if text.startswith("note:") else sys.stderr)
@@ -77,6 +77,16 @@ def generate(args) -> int:
     out = args.out or (mr_dataset.DATASET_DIR if args.mr_damper else synthetic.SPECIMEN_DIR)
     refuse_inputs_in_folder("--out", out, [synthetic.PAPER_PARAMETERS], (".csv", ".json"))
     check_folder("--out", out)
+    if args.out and not args.force:  # the default folder is the dataset's own: regenerated in place
+        from pathlib import Path
+
+        names = mr_dataset.file_names() if args.mr_damper else synthetic.file_names()
+        there = [name for name in names if (Path(out) / name).exists()]
+        if there:
+            shown = (", ".join(there[:3]) + f" and {len(there) - 3} more" if len(there) > 3
+                     else " and ".join([", ".join(there[:-1]), there[-1]]) if len(there) > 1 else there[0])
+            raise UserError(f"--out {out} holds {shown}, which this command would replace: choose an empty folder, "
+                            "or add --force to replace them")
     with writing(out):
         written = mr_dataset.generate(out) if args.mr_damper else synthetic.generate(out)
     print(f"wrote {len(written) - 1} specimens and {manifest.MANIFEST} to {out}")
@@ -100,4 +110,5 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="the MR-damper dataset (Spencer et al. 1997's model, data/mr_damper) instead of the "
                         "paper's VPP specimens (data/specimens)")
     p.add_argument("--out", help="output folder (default: the dataset's folder in the repository)")
+    p.add_argument("--force", action="store_true", help="replace files of the same names in --out")
     p.set_defaults(func=generate)

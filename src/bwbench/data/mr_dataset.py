@@ -59,6 +59,11 @@ def truth(test: mr_damper.SineTest, voltage: float, settings: Settings) -> dict:
             "A": p["A"], "n": p["n"]}
 
 
+def file_names() -> list[str]:
+    """The names of the files ``generate`` writes (tests, then the manifest), without writing any."""
+    return [f"mr_{amplitude:g}mm_{frequency:g}Hz_{voltage:g}V.csv" for amplitude, frequency, voltage in TESTS] + [MANIFEST]
+
+
 def generate(out_dir=DATASET_DIR, settings: Settings = Settings()) -> list[Path]:
     """Write the tests and their manifest into ``out_dir``; returns the paths written."""
     out_dir = Path(out_dir)

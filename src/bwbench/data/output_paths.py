@@ -124,3 +124,31 @@ def writing(path):
         if err.filename:  # the error knows its file (which may be another one than ``path``)
             raise UserError(f"{err.filename}: {err.strerror or err}") from None
         raise UserError(f"cannot write {path}: {err.strerror or err}") from None
+
+
+@contextmanager
+def replaced_whole(path):
+    """Yield the path to write ``path``'s content to: a hidden file beside it (same suffix, so a figure
+    keeps its format) that replaces ``path`` only once written, so an interrupted or failed write
+    (Ctrl-C, a full disk) leaves the old file or none, never half a file. A path that is not a regular
+    file (a FIFO, /dev/stdout, /dev/full) is written directly: it cannot be replaced."""
+    path = Path(path)
+    if path.is_symlink():
+        if not path.resolve().is_file():  # /dev/stdout, a link to a pipe or device: write through it
+            yield path
+            return
+        path = path.resolve()  # write the file the link names, and keep the link
+    if path.exists() and not path.is_file():
+        yield path
+        return
+    partial = path.with_name(f".{path.stem}.partial-{os.getpid()}{path.suffix}")
+    try:
+        os.close(os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    except OSError:  # a folder that takes no new file (the file itself is writable): write in place
+        yield path
+        return
+    try:
+        yield partial
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)

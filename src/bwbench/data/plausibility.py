@@ -26,6 +26,8 @@ SLOWEST_CYCLE_S = 1000.0
 SPARSEST_STEP_S = 10.0
 # Force varying by less than this fraction of its magnitude is flat: nothing to fit.
 FLAT_FORCE_FRACTION = 1e-6
+# Beyond this force (N) a record is a unit or export error, not a test: bwbench refuses to fit it.
+MAX_PLAUSIBLE_FORCE_N = 1e9
 # |∮F dx| below this fraction of (2·amplitude × force range × cycles) is too small a loop to call its sign.
 LOOP_SIGN_FRACTION = 0.01
 
@@ -65,7 +67,11 @@ def force_warnings(spec) -> list[str]:
 
 def warnings(spec, synthetic: bool = False) -> list[str]:
     """Plain sentences about ``spec`` (a ``Specimen``) that deserve a look; [] when nothing does."""
-    out = [*time_unit_warnings(spec), *force_warnings(spec)]
+    out = [*time_unit_warnings(spec), *force_warnings(spec), *dead_channels(spec)]
+    peak = float(np.abs(spec.f).max())
+    if peak > MAX_PLAUSIBLE_FORCE_N:
+        out.append(f"force_N reaches {peak:.3g} N, above {MAX_PLAUSIBLE_FORCE_N:.0e} N: no test machine records "
+                   "that (a unit or export error?)")
     amplitude = 0.5 * float(spec.x.max() - spec.x.min())
     low, high = AMPLITUDE_RANGE_MM
     if amplitude < low:
@@ -132,8 +138,82 @@ def signal_warnings(spec) -> list[str]:
             hint = "the opposite sign convention" if factor < 0 else ""
             for slip, unit in _UNIT_SLIPS.items():
                 if abs(abs(factor) / slip - 1) < 0.1:
-                    hint = (hint + " and " if hint else "") + f"{unit} instead of the header's unit"
+                    slipped = f"{unit} instead of the header's unit"
+                    if slip == 1000.0:  # the time column first: in ms it makes every rate look 1000× too small
+                        rate = (spec.n_samples - 1) / spec.duration_s
+                        slipped = (f"time_s in milliseconds (the test would then last {spec.duration_s / 1000:.4g} s, "
+                                   f"sampled at {rate * 1000:.4g} Hz), or the {what} in {unit}")
+                    hint = (hint + " and " if hint else "") + slipped
             out.append(f"column {column} does not match the displacement: the {what} recorded is "
                        f"{factor:.3g} × the one the displacement implies" + (f" ({hint}?)" if hint else "")
                        + f"; bwbench drives the model with the recorded {what}")
     return out
+
+
+def dead_channels(spec) -> list[str]:
+    """A sentence per recorded velocity or acceleration column that is constant (0, or one value in every
+    row) while the displacement moves: a channel that recorded nothing."""
+    out = []
+    for column, values, what in (("velocity_mm_s", spec.v, "velocity"), ("acceleration_mm_s2", spec.a, "acceleration")):
+        if values is None or float(values.max() - values.min()) > 0.0:
+            continue
+        out.append(f"column {column} is {float(values[0]):.6g} in every row while the displacement moves: a dead "
+                   f"channel (remove the column and bwbench estimates the {what} from the displacement)")
+    return out
+
+
+def all_warnings(spec, synthetic: bool = False) -> list[str]:
+    """What ``bwbench data check`` says about a valid file: ``warnings`` and ``signal_warnings``. A time
+    column that looks like milliseconds is said first and alone of the signal checks: it also makes
+    every recorded velocity look 1000× too large, and that is not the velocity's fault."""
+    out = warnings(spec, synthetic)
+    if not time_unit_warnings(spec) and not dead_channels(spec):
+        out += signal_warnings(spec)
+    return out
+
+
+def unusable(spec, force_needed: bool = True) -> str | None:
+    """Why ``spec`` cannot be fitted or analysed at all (a dead signal channel; with ``force_needed``
+    also zero or flat force, an absurd force), or None. Its words are those of ``all_warnings``."""
+    dead = dead_channels(spec)
+    if dead:
+        return dead[0]
+    if not force_needed:
+        return None
+    flat = force_warnings(spec)
+    if flat:
+        return flat[0]
+    peak = float(np.abs(spec.f).max())
+    if peak > MAX_PLAUSIBLE_FORCE_N:
+        return (f"force_N reaches {peak:.3g} N, above {MAX_PLAUSIBLE_FORCE_N:.0e} N: no test machine records that "
+                "(a unit or export error?)")
+    return None
+
+
+def screen(specimens, synthetic: bool = False, force_needed: bool = True, stream=None, warn: bool = True) -> None:
+    """The check of ``data check`` before a command's work: ``UserError`` naming the file for the first
+    specimen that is ``unusable`` (``force_needed``: a fit or an analysis of the measured force), then each specimen's other warnings printed as
+    ``warning: FILE: ...`` lines on ``stream`` (stderr), notes on stdout. Refusals come first, so a
+    refused command prints one line only."""
+
+    from bwbench.errors import UserError
+
+    specimens = list(specimens)
+    for spec in specimens:
+        why = unusable(spec, force_needed)
+        if why:
+            raise UserError(f"{spec.path}: {why}")
+    if warn:
+        print_warnings(specimens, synthetic, stream)
+
+
+def print_warnings(specimens, synthetic: bool = False, stream=None) -> None:
+    """Each specimen's ``all_warnings`` as ``warning: FILE: ...`` lines on ``stream`` (stderr); a command
+    prints them once every refusal is behind it, so a refused command prints one line only."""
+    import sys
+
+    for spec in specimens:
+        for text in all_warnings(spec, synthetic):
+            if text.startswith("note:"):
+                continue  # a synthetic specimen's notes belong to data check, not to every command
+            print(f"warning: {spec.path}: {text}", file=stream or sys.stderr)

@@ -84,6 +84,9 @@ def read_specimen(path) -> Specimen:
     if not text or text.isspace():
         raise InputFileError(path, 1, "empty file: expected the header " + ",".join(COLUMNS))
 
+    if "\r" in text.partition("\n")[0].rstrip("\r"):  # a CR inside the first line: lines end in CR only
+        raise InputFileError(path, 1, "lines end in a carriage return (CR) only, as old Mac exports do: save the "
+                                      "file with LF or CRLF line endings")
     header, _, rest = text.partition("\n")
     sep, order, n_columns = _parse_header(path, header)
     if not rest or rest.isspace():

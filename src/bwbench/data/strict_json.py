@@ -79,8 +79,11 @@ def _reason(pointer: str, kind: str, why) -> str:
 def write(path, value, *, why: str | dict | None = None, indent: int | None = 2) -> None:
     """Write ``dumps(value, why=why, indent=indent)`` and a newline to ``path`` (UTF-8); nothing is
     written if the value cannot be (the text is made before the file is opened)."""
+    from bwbench.data.output_paths import replaced_whole
+
     text = dumps(value, why=why, indent=indent) + "\n"
-    Path(path).write_text(text, encoding="utf-8")
+    with replaced_whole(path) as partial:  # Ctrl-C while writing leaves the old file or none, not half
+        Path(partial).write_text(text, encoding="utf-8")
 
 
 def loads(text: str):

@@ -128,6 +128,13 @@ def _render_specimen(t, x, v, f) -> str:
     return out.getvalue()
 
 
+def file_names(paper=PAPER_PARAMETERS) -> list[str]:
+    """The names of the files ``generate`` writes (specimens, then the manifest), without writing any."""
+    rows = read_paper_parameters(paper)
+    return [specimen_filename(row["material"], float(row["underpressure_MPa"]), repeat)
+            for row in rows for repeat in (1, 2, 3)] + [MANIFEST]
+
+
 def generate(out_dir=SPECIMEN_DIR, settings: Settings = Settings(), paper=PAPER_PARAMETERS) -> list[Path]:
     """Write the 45 specimen CSVs and their manifest into ``out_dir``; returns the paths written."""
     s = settings

@@ -64,8 +64,9 @@ def fit(args) -> int:
     limits.check("--budget", args.budget, "BWBENCH_MAX_BUDGET")
     if args.seed < 0:
         raise UserError(f"--seed must be a non-negative integer, got {args.seed}")
-    if len(set(args.specimen)) < len(args.specimen):
-        raise UserError("a specimen is named twice: a joint fit takes each file once (use --weighting to weight)")
+    from bwbench.problems.switched_vpp.commands import refuse_same_file
+
+    refuse_same_file(args.specimen)  # by identity: ./a.csv, a symlink or a hard link of a.csv is a.csv
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
@@ -112,12 +113,38 @@ def fit(args) -> int:
         print(f"  finding: {line}")
     for text in fitting.edge_warnings(problem, result, checks.explained if checks else ()) + (checks.warnings if checks else []):
         print(f"warning: {where}: {text}", file=sys.stderr)
+    for text in worse_than_zero(problem, fitted.files):
+        print(f"warning: {text}", file=sys.stderr)
+    from bwbench.data import plausibility
+
+    # data check's words about the files (a flipped or mis-scaled signal, a time column in ms), once the
+    # result is written: a refusal before the fit stays one line
+    plausibility.print_warnings([part.specimen for part in getattr(problem, "parts", None) or [problem]], synthetic)
     return 0
 
 
 def _nrmse_text(row: dict) -> str:
     """Both NRMSEs of a file's row, the literature's named (``fit_result.NRMSE_DEFINITIONS``)."""
     return (f"NRMSE {row['nrmse_max_F']:.4g} (RMSE/max F, the literature's; {row['nrmse']:.4g} RMSE/max|F|)")
+
+
+def worse_than_zero(problem, files) -> list[str]:
+    """A sentence per file whose fitted force is further from the measured one than a force of 0 is
+    (RMSE above the force's own RMS), with the likely cause: a model or formulation that does not suit
+    the data (the paper's switched model in its paper box on an MR-damper test ends at NRMSE ≈ 49)."""
+    import numpy as np
+
+    out = []
+    for part, row in zip(getattr(problem, "parts", None) or [problem], files):
+        rms = float(np.sqrt(np.mean(np.square(part.specimen.f))))
+        if row["rmse_N"] > rms:
+            hint = ("try --formulation identifiable (its box is scaled from the data), or another --model "
+                    "(`bwbench models`)" if part.formulation != "identifiable" else
+                    "try another --model (`bwbench models`), or check the units and sign of the force")
+            out.append(f"{part.specimen.path}: the fit is worse than a force of zero (RMSE {row['rmse_N']:.4g} N, "
+                       f"the measured force's own RMS {rms:.4g} N): {part.model.name} in the {part.formulation} "
+                       f"formulation probably does not suit these data; {hint}")
+    return out
 
 
 def _plot(problem, fitted, path, synthetic: bool) -> None:

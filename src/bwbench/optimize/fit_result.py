@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -183,8 +184,22 @@ class FitResult:
         return out
 
     def save(self, path) -> None:
-        """The result JSON at ``path`` (``write_json``); ``bwbench.load_fit(path)`` reads its model back."""
-        self.write_json(path)
+        """The result JSON at ``path`` (``write_json``); ``bwbench.load_fit(path)`` reads its model back.
+        ``UserError`` (as ``bwbench fit --out``) when ``path`` is one of the fit's inputs by any spelling,
+        or cannot be written."""
+        from bwbench.data.output_paths import check_outputs, writing
+        from bwbench.errors import UserError
+
+        if not isinstance(path, (str, Path)) or not str(path).strip():
+            raise UserError(f"FitResult.save needs a file path, got {path!r}")
+        check_outputs({"--out": path}, self.inputs())
+        with writing(path):
+            self.write_json(path)
+
+    def inputs(self) -> list:
+        """The files this fit read: each specimen's path and the bounds file, if any."""
+        parts = getattr(self.problem, "parts", None) or [self.problem]
+        return [*(p.specimen.path for p in parts), self.extra.get("bounds_file")]
 
     def write_json(self, path) -> None:
         """``to_json_dict`` written to ``path`` as strict JSON: null, never NaN or Infinity, and

@@ -25,6 +25,7 @@ import numpy as np
 from bwbench.errors import UserError
 
 IDENTIFIABLE = "identifiable"
+EXCITATIONS = ("measured", "sine")
 
 
 @dataclass(frozen=True)
@@ -113,6 +114,15 @@ class FittedModel:
     def __post_init__(self):
         from bwbench.models import registry
 
+        for key, value, kind in (("model", self.model, str), ("formulation", self.formulation, str),
+                                 ("params", self.params, dict), ("units", self.units, dict),
+                                 ("excitation", self.excitation, str)):
+            if not isinstance(value, kind) or (kind is str and not value):
+                raise UserError(f"\"{key}\" is {value!r}: it must be a {'name' if kind is str else 'JSON object'}")
+        if self.excitation not in EXCITATIONS:
+            raise UserError(f"\"excitation\" is {self.excitation!r}: it must be one of {', '.join(EXCITATIONS)}")
+        if self.state is not None and not isinstance(self.state, str):
+            raise UserError(f"\"state\" is {self.state!r}: it must be a name or null")
         model = registry.get(self.model)
         if self.formulation not in model.formulations:
             raise UserError(f"model {self.model!r} has no formulation {self.formulation!r}; it has "
@@ -122,6 +132,24 @@ class FittedModel:
         if missing:
             raise UserError(f"the {self.formulation} formulation of {self.model} needs {', '.join(missing)}: "
                             "not in these parameters")
+        self._check_domain()
+
+    def _check_domain(self) -> None:
+        """``UserError`` naming the key for a parameter outside its model's domain: not finite (only a
+        solved coefficient of a branch the fit's data never had may be null), or an exponent n ≤ 0."""
+        coefficients = set()
+        if self.formulation == IDENTIFIABLE:
+            from bwbench.problems.linear_columns import coefficient_names
+
+            coefficients = set(coefficient_names(self._model.linear_layout(self.state)))
+        for name in self.needed():
+            value = float(self.params[name])
+            if math.isnan(value) and name in coefficients:
+                continue  # null: the fit's data never moved in that branch (``force`` says so if it must)
+            if not math.isfinite(value):
+                raise UserError(f"params.{name} is {self.params[name]!r}: not a finite number")
+            if name.rstrip("+-") == "n" and value <= 0:
+                raise UserError(f"params.{name} is {value:g}: an exponent of the hysteresis must be > 0")
 
     @property
     def _model(self):
@@ -155,8 +183,13 @@ class FittedModel:
         params = {k: math.nan if v is None else v for k, v in data["params"].items()
                   if v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))}
         try:
+            units = data.get("units") or {}
+            if not isinstance(units, dict):
+                raise UserError(f"\"units\" is a JSON {type(units).__name__}, not an object of name -> unit")
+            if not isinstance(name, str):
+                raise UserError(f"\"model\" is {name!r}: it must be a model name (see `bwbench models`)")
             return cls(name, data["formulation"], params, data.get("state"), data.get("excitation", "measured"),
-                       dict(data.get("units") or {}))
+                       dict(units))
         except UserError as err:
             raise UserError(f"{source}: {err}") from None
 
@@ -210,9 +243,7 @@ class FittedModel:
     def predict(self, specimen) -> Prediction:
         """The force on ``specimen`` (a specimen CSV's path, a ``Specimen`` or a DataFrame with the file's
         columns) against its measured one."""
-        from bwbench.data_input import as_specimen
-
-        spec = as_specimen(specimen)
+        spec = _specimen(specimen)
         signal = self.signal(spec)
         return Prediction(spec.name, np.asarray(spec.t, dtype=float), np.asarray(signal.x, dtype=float),
                           self.force(signal), np.asarray(spec.f, dtype=float), np.asarray(signal.v, dtype=float))
@@ -223,9 +254,7 @@ class FittedModel:
         force_model_N, force_measured_N."""
         import pandas as pd
 
-        from bwbench.data_input import as_specimen
-
-        spec = as_specimen(specimen)
+        spec = _specimen(specimen)
         s = self.signal(spec)
         return pd.DataFrame({"time_s": s.t, "displacement_mm": s.x, "velocity_mm_s": s.v, "acceleration_mm_s2": s.a,
                              "force_model_N": self.force(s), "force_measured_N": spec.f})
@@ -244,3 +273,20 @@ class FittedModel:
         """What a result JSON holds of this model: model, formulation, state, excitation, params, units."""
         return {"model": self.model, "formulation": self.formulation, "state": self.state,
                 "excitation": self.excitation, "params": dict(self.params), "units": dict(self.units)}
+
+
+def _specimen(specimen):
+    """A ``Specimen`` from a path or a DataFrame with the file's columns (read and checked as every
+    command does: a dead channel refused, the rest of data check's warnings printed) or as given;
+    ``UserError`` for anything else."""
+    from bwbench.data import plausibility
+    from bwbench.data.specimen import Specimen
+    from bwbench.data_input import as_specimen
+
+    if isinstance(specimen, Specimen):
+        return specimen
+    if isinstance(specimen, (str, Path)) and not str(specimen).strip():
+        raise UserError(f"a specimen must be a path to a specimen CSV, a Specimen or a DataFrame, got {specimen!r}")
+    spec = as_specimen(specimen)
+    plausibility.screen([spec], force_needed=False)
+    return spec

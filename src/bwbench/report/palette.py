@@ -237,7 +237,10 @@ def write_png(fig, png, synthetic_data: bool | str, rect=(0, 0.03, 1, 0.97)) -> 
         _make_room_below(fig, engine, 0.22)
     elif engine is None:
         fig.tight_layout(rect=rect)
-    fig.savefig(png, dpi=DPI)
+    from bwbench.data.output_paths import replaced_whole
+
+    with replaced_whole(png) as partial:  # Ctrl-C while saving leaves the old figure or none, not half
+        fig.savefig(partial, dpi=DPI)
     plt.close(fig)
 
 

@@ -216,12 +216,35 @@ def connect_read_only(path: Path) -> sqlite3.Connection:
 
 
 def read_meta(conn) -> tuple[dict, dict]:
+    """The study table and its configuration; ``ValueError`` naming the key for an edited cell."""
     meta = dict(conn.execute("SELECT key, value FROM study"))
-    try:
-        config = json.loads(meta.pop("config_json", "{}") or "{}")
-    except json.JSONDecodeError:
-        config = {}
+    for key in ("config_json", "backends", "data_paths"):
+        text = meta.get(key)
+        try:
+            value = json.loads(text) if isinstance(text, str) and text else {}
+        except json.JSONDecodeError as err:
+            raise ValueError(f"table study, key {key}: not JSON ({err.msg} at character {err.pos}): edited by "
+                             "hand?") from None
+        if not isinstance(value, dict):
+            raise ValueError(f"table study, key {key}: a JSON {type(value).__name__}, not an object: edited by hand?")
+    config = json.loads(meta.pop("config_json", "{}") or "{}")
     return meta, config
+
+
+def _run_name(row) -> str:
+    return f"run {row['kind']}/{row['specimen']}/{row['optimizer']}/{row['replicate']}"
+
+
+def _numeric_columns(runs: pd.DataFrame, columns) -> None:
+    """Each of ``columns`` as floats in place; ``ValueError`` naming the run and column for a cell that
+    holds text that is no number (NULL stays NaN: a run that failed has none)."""
+    for column in columns:
+        values = pd.to_numeric(runs[column], errors="coerce").astype(float)
+        bad = runs[column].notna() & values.isna() & ~runs[column].astype(str).str.lower().isin(["nan", "none"])
+        if bad.any():
+            row = runs[bad].iloc[0]
+            raise ValueError(f"{_run_name(row)}, column {column}: {row[column]!r} is not a number: edited by hand?")
+        runs[column] = values
 
 
 def read_runs(conn) -> pd.DataFrame:
@@ -234,8 +257,10 @@ def read_runs(conn) -> pd.DataFrame:
     runs = pd.read_sql(query + " ORDER BY kind, specimen, optimizer, replicate", conn)
     # The switched model's 14 parameters were columns before parameters lived only in params_json.
     legacy = [c for c in PARAM_NAMES if c in runs]
-    for column in ("nfev", "mse", "f_err", "rmse_N", "budget", "underpressure_MPa", *legacy):
-        runs[column] = pd.to_numeric(runs[column], errors="coerce").astype(float)
+    _numeric_columns(runs, [c for c in ("nfev", "mse", "f_err", "rmse_N", "budget", "underpressure_MPa", *legacy,
+                                        "replicate") if c in runs])  # replicate last: it names the run
+    if runs["replicate"].isna().any():
+        raise ValueError(f"{_run_name(runs[runs['replicate'].isna()].iloc[0])}, column replicate: empty: edited by hand?")
     runs["replicate"] = runs["replicate"].astype(int)
     if "problem" not in runs:  # written before the generic columns: a switched-model study
         runs["problem"] = problems.DEFAULT
@@ -252,15 +277,36 @@ def _expand_json(runs: pd.DataFrame) -> pd.DataFrame:
     as float columns (NaN where absent or null): e.g. ``m`` … ``nu`` and ``test_multisine_erms_m``."""
     new = {}
     for column in ("params_json", "metrics_json"):
-        parsed = [json.loads(t) if isinstance(t, str) and t else {} for t in runs[column]]
+        parsed = [_json_cell(row, column) for _, row in runs.iterrows()]
         for name in dict.fromkeys(k for d in parsed for k in d):
-            values = np.array([np.nan if d.get(name) is None else float(d[name]) for d in parsed])
+            values = np.array([np.nan if d.get(name) is None else d[name] for d in parsed], dtype=float)
             if name in runs and column == "params_json" and name in PARAM_NAMES:
                 # a legacy column (the 14 of the paper): rows written since fill it from params_json
                 runs[name] = runs[name].where(runs[name].notna(), values)
             elif name not in runs and name not in new:
                 new[name] = values
     return pd.concat([runs, pd.DataFrame(new, index=runs.index)], axis=1) if new else runs
+
+
+def _json_cell(row, column) -> dict:
+    """The JSON object of a run's ``column`` ({} when empty) whose values are numbers or null;
+    ``ValueError`` naming the run and column otherwise (a database edited by hand)."""
+    text = row[column]
+    if not isinstance(text, str) or not text:
+        return {}
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{_run_name(row)}, column {column}: not JSON ({err.msg} at character {err.pos}): edited by "
+                         "hand?") from None
+    if not isinstance(value, dict):
+        raise ValueError(f"{_run_name(row)}, column {column}: a JSON {type(value).__name__}, not an object of "
+                         "name -> number: edited by hand?")
+    for name, number in value.items():
+        if number is not None and (isinstance(number, bool) or not isinstance(number, (int, float))):
+            raise ValueError(f"{_run_name(row)}, column {column}: {name} is {number!r}, not a number: edited by "
+                             "hand?")
+    return value
 
 
 def read_traces(conn) -> pd.DataFrame:
@@ -298,7 +344,7 @@ def load_study(path, data_dir=None) -> Study:
         try:
             meta, config = read_meta(conn)
             runs, traces, chains = read_runs(conn), read_traces(conn), read_chains(conn)
-        except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError) as err:
+        except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError, TypeError) as err:
             raise UserError(f"{path}: unreadable study database: {err}") from None
     paths = {}
     if data_dir is None:  # the files where the runner last found them, while they are still there
@@ -315,7 +361,10 @@ def metric(runs: pd.DataFrame, name: str) -> np.ndarray:
     def value(text):
         if not isinstance(text, str):
             return np.nan
-        x = json.loads(text).get(name)
-        return np.nan if x is None else float(x)
+        try:
+            x = json.loads(text).get(name)
+            return np.nan if x is None else float(x)
+        except (ValueError, TypeError, AttributeError):  # a hand-edited cell (load_study names it)
+            return np.nan
 
     return np.array([value(t) for t in runs["metrics_json"]], dtype=float)

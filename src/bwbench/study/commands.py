@@ -21,27 +21,38 @@ from bwbench.study.stop import Interrupted, StudyStopped, signals_raise
 
 
 def read_runs(db):
-    """The ``runs`` table joined with ``timings`` as a DataFrame, ordered by key."""
+    """The ``runs`` table joined with ``timings`` as a DataFrame, ordered by key, each cell checked
+    (``store.reader.read_runs``): a cell edited by hand is one ``UserError`` naming the run and column."""
     import pandas as pd
 
-    path = Path(db)
-    if not path.is_file():
-        raise UserError(f"{path}: no such study database")
-    with closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as conn:
-        return pd.read_sql(
-            "SELECT runs.*, timings.wall_s, timings.worker, timings.finished_utc FROM runs "
-            "LEFT JOIN timings USING (kind, specimen, optimizer, replicate) "
-            "ORDER BY kind, specimen, optimizer, replicate", conn)
+    from bwbench.store.reader import connect_read_only
+    from bwbench.store.reader import read_runs as read_all
+
+    with closing(connect_read_only(Path(db))) as conn:
+        try:
+            return read_all(conn)
+        except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError, TypeError) as err:
+            raise UserError(f"{db}: unreadable study database: {err}") from None
+
+
+def refuse_edited_runs(db) -> None:
+    """``UserError`` naming the run and column when an existing study database holds a cell edited by hand:
+    before any run, not after them. A file that is no study database yet is left to ``run_study``."""
+    from bwbench.store.reader import connect_read_only
+
+    if not Path(db).is_file():
+        return
+    try:
+        connect_read_only(Path(db)).close()
+    except UserError:
+        return
+    read_runs(db)
 
 
 def export_csv(db, path) -> None:
     """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
     each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
-    from bwbench.store.reader import connect_read_only
-    from bwbench.store.reader import read_runs as read_all
-
-    with closing(connect_read_only(Path(db))) as conn:
-        read_all(conn).to_csv(path, index=False)
+    read_runs(db).to_csv(path, index=False)
 
 
 def summary_table(db, problem_type=None) -> str:
@@ -143,6 +154,8 @@ def main(args) -> int:
             db = Path(args.db) if args.db else config.default_db
             refuse_inputs({"--db": db, "--csv": args.csv}, study_inputs(config, args.bounds))
             refuse_blowing_box(config, args.bounds)
+            refuse_edited_runs(db)
+            screened = screen_specimens(config)
             if args.csv:
                 check_csv_path(args.csv, db)
             outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler,
@@ -154,6 +167,9 @@ def main(args) -> int:
                     raise UserError(f"{args.csv}: cannot write the CSV: {err.strerror or err} "
                                     f"(the runs are in {db})") from None
             _print_results(config, db, outcome, args.csv)
+            from bwbench.data import plausibility
+
+            plausibility.print_warnings(screened)  # data check's words, once every refusal is behind
     except (KeyboardInterrupt, Interrupted) as stop:
         what = "interrupted" if isinstance(stop, KeyboardInterrupt) else f"terminated ({stop})"
         # Only a database that exists holds runs: a stop while the study is planned names none.
@@ -197,6 +213,32 @@ def study_inputs(config, bounds=None) -> list[Path]:
         else:
             files += [path, path.parent / MANIFEST]
     return list(dict.fromkeys(files))
+
+
+def screen_specimens(config) -> list:
+    """data check's plausibility checks on every specimen CSV the study fits or predicts, before any run:
+    an unusable one (a dead channel, no force) refused naming the file; the specimens returned, for
+    their warnings."""
+    from bwbench.data import plausibility
+    from bwbench.data.specimen import read_specimen
+
+    entries = [*config.specimens, *(config.posterior.specimens if config.posterior else ())]
+    specimens = []
+    for path in dict.fromkeys(Path(entry.path) for entry in entries):
+        if path.is_file():
+            try:
+                specimens.append(read_specimen(path))
+            except UserError:  # not a specimen CSV: a problem with its own format (its reader checked it)
+                continue
+    plausibility.screen(specimens, warn=False)
+    held = []
+    for path in dict.fromkeys(Path(entry.path) for entry in config.validation):
+        try:
+            held.append(read_specimen(path))
+        except UserError:
+            continue
+    plausibility.screen(held, force_needed=False, warn=False)
+    return specimens + held
 
 
 def refuse_blowing_box(config, bounds_file=None) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -29,15 +30,72 @@ def add_model_options(p, formulation_advice: str = "") -> None:
 
 def model_settings(args) -> dict:
     """Model, formulation, state and excitation of a command's arguments, checked (``UserError``)."""
+    return checked_settings(args.model, args.formulation, args.state, args.excitation)
+
+
+def checked_settings(model=None, formulation=None, state=None, excitation=None) -> dict:
+    """The settings of a model, each checked with the command line's words (``UserError``): the CLI and
+    the Python API (``bwbench.fit``) refuse the same things with the same message."""
     from bwbench.errors import UserError
     from bwbench.models import registry
-    from bwbench.problems.switched_vpp.formulations import resolve_formulation
+    from bwbench.problems.switched_vpp.formulations import FORMULATIONS, resolve_formulation
 
-    model = registry.get(args.model or registry.DEFAULT)
-    if args.state is not None and not model.states:
-        raise UserError(f"--state does not apply to model {model.name!r} (no state convention to choose)")
-    return {"model": model.name, "formulation": resolve_formulation(model, args.formulation),
-            "state": args.state or "shared", "excitation": args.excitation or "measured"}
+    for flag, value, choices in (("--model", model, None), ("--formulation", formulation, FORMULATIONS),
+                                 ("--state", state, ("shared", "split")),
+                                 ("--excitation", excitation, ("measured", "sine"))):
+        if value is None:
+            continue
+        if not isinstance(value, str) or not value.strip() or (choices and value not in choices):
+            allowed = f"one of {', '.join(map(repr, choices))}" if choices else "a model name (see `bwbench models`)"
+            raise UserError(f"{flag} must be {allowed}, got {value!r}")
+    chosen = registry.get(model or registry.DEFAULT)
+    if state is not None and not chosen.states:
+        raise UserError(f"--state does not apply to model {chosen.name!r} (no state convention to choose)")
+    return {"model": chosen.name, "formulation": resolve_formulation(chosen, formulation),
+            "state": state or "shared", "excitation": excitation or "measured"}
+
+
+def check_fit_flags(settings: dict, fix_mass="auto", offsets=None, weighting=None) -> None:
+    """``UserError`` for a fit option that does nothing for the chosen model and formulation (as
+    ``--state`` is for a model without states): ``--fix-mass`` without a solved mass, ``--offsets``
+    without branches; and for a ``--weighting`` that is no choice."""
+    from bwbench.errors import UserError
+    from bwbench.models import registry
+
+    model = registry.get(settings["model"])
+    identifiable = settings["formulation"] == "identifiable"
+    layout = model.linear_layout(settings["state"] if model.states else None) if model.has_linear_part else None
+    if fix_mass != "auto":
+        if not identifiable:
+            raise UserError(f"--fix-mass applies to the identifiable formulation (the {settings['formulation']} "
+                            "formulation has no solved mass)")
+        if layout is None or not layout.mass:
+            raise UserError(f"--fix-mass does not apply to model {model.name!r} (its identifiable formulation has no "
+                            "mass term)")
+    if offsets is not None:
+        if offsets not in ("branch", "continuous"):
+            raise UserError(f"--offsets must be 'branch' or 'continuous', got {offsets!r}")
+        if not identifiable or layout is None or not layout.branched:
+            raise UserError(f"--offsets applies to the identifiable formulation of a model that switches its "
+                            f"coefficients with the direction (the switched model), not to {model.name!r} in the "
+                            f"{settings['formulation']} formulation")
+    if weighting is not None and weighting not in ("equal", "samples"):
+        raise UserError(f"--weighting must be 'equal' or 'samples', got {weighting!r}")
+
+
+def refuse_same_file(paths) -> None:
+    """``UserError`` when two of ``paths`` are one file by any spelling (``./a.csv``, a symlink, a hard
+    link): a joint fit would weigh it twice."""
+    from bwbench.data.output_paths import same_file
+    from bwbench.errors import UserError
+
+    paths = [p for p in paths if isinstance(p, (str, Path))]
+    for i, a in enumerate(paths):
+        for b in paths[:i]:
+            if same_file(a, b):
+                spelled = "" if str(a) == str(b) else f" (as {b} and {a})"
+                raise UserError(f"{a}: a specimen is named twice{spelled}: a joint fit takes each file once (use "
+                                "--weighting to weight)")
 
 
 def add_fit_options(p) -> None:
@@ -83,19 +141,21 @@ def problem_from_args(args):
         names = bound_names([settings["formulation"]], settings["state"], [settings["model"]])
         settings["bounds"] = bounds_mod.read_json(args.bounds, names)
     mass = fix_mass_value(getattr(args, "fix_mass", None))
+    check_fit_flags(settings, mass, getattr(args, "offsets", None), getattr(args, "weighting", None))
     if mass != "auto":
-        if settings["formulation"] != "identifiable":
-            from bwbench.errors import UserError
-
-            raise UserError(f"--fix-mass applies to the identifiable formulation (the {settings['formulation']} "
-                            "formulation has no solved mass)")
         settings["fix_mass"] = mass
     if getattr(args, "offsets", None):
         settings["offsets"] = args.offsets
     if getattr(args, "weighting", None):
         settings["weighting"] = args.weighting
     paths = args.specimen if isinstance(args.specimen, list) else [args.specimen]
+    refuse_same_file(paths)
     specimens = [read_specimen(p) for p in paths]
+    # data check's plausibility checks, before any work: a dead channel (or, for a fit or an analysis of
+    # the force, no force) refused with the file named, the rest warned about
+    from bwbench.data import plausibility
+
+    plausibility.screen(specimens, force_needed=getattr(args, "func", None) not in (simulate, evaluate), warn=False)
     problem = make_problem(specimens if len(specimens) > 1 else specimens[0], settings)
     if "bounds" in settings:
         import time
@@ -241,21 +301,33 @@ def add_identifiability_arguments(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(func=identifiability)
 
 
+def _settings_from_fit(args) -> None:
+    """When ``--params`` is a fit result, the model, formulation, state and excitation it was fitted with
+    stand in for the flags not given (a flag that contradicts it is refused): a Spencer fit is analysed as
+    Spencer's model without ``--model spencer``."""
+    from bwbench.problems.switched_vpp.predict_command import stored_model
+
+    fitted = stored_model(args, args.params)
+    if fitted is None:
+        return
+    args.model = args.model or fitted.model
+    args.formulation = args.formulation or ("paper" if fitted.formulation in ("paper", "direct") else fitted.formulation)
+    args.state = args.state or fitted.state
+    args.excitation = args.excitation or fitted.excitation
+
+
 def identifiability(args) -> int:
     """``bwbench identifiability S.csv --params P.json [--json]``; raises ``UserError`` for bad input."""
     import sys
 
     from bwbench.data import bounds as bounds_mod
-    from bwbench.data import plausibility
     from bwbench.errors import UserError
     from bwbench.problems.switched_vpp.identifiability import analyse, format_text
 
     if not 2 <= args.grid <= MAX_GRID:
         raise UserError(f"--grid must be 2 to {MAX_GRID} points (each is a local fit), got {args.grid}")
-    problem = problem_from_args(args)
-    flat = plausibility.force_warnings(problem.specimen)
-    if flat:  # every sensitivity is 0 against a force of 0: nothing to identify, only NaN to report
-        raise UserError(f"{args.specimen}: {flat[0]}; nothing to identify")
+    _settings_from_fit(args)
+    problem = problem_from_args(args)  # refuses a force of 0: every sensitivity would be 0, only NaN to report
     params = read_for(args.params, problem)
     box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
     settings = model_settings(args)
@@ -266,4 +338,7 @@ def identifiability(args) -> int:
         sys.stdout.write(strict_json.dumps(result, why={"null_directions": WALK_BLOWS_UP}, indent=2) + "\n")
     else:
         print(format_text(result))
+    from bwbench.data import manifest, plausibility
+
+    plausibility.print_warnings([problem.specimen], manifest.is_synthetic(args.specimen))  # data check's words
     return 0

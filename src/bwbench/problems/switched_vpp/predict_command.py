@@ -106,11 +106,10 @@ def predict(args) -> int:
                         "`bwbench fit --out` wrote")
     fitted = stored_model(args, args.fit)
     specimens = [read_specimen(p) for p in args.data]  # every file checked before any is predicted
+    from bwbench.data import plausibility
+
+    plausibility.screen(specimens, force_needed=False, warn=False)  # a dead channel refused before any work
     predictions = [fitted.predict(s) for s in specimens]
-    for p in predictions:
-        print(f"{p.specimen}: RMSE {p.rmse_N:.4g} N, NRMSE {p.nrmse:.4g} (RMSE / max|F| = {p.rmse_N:.4g} / "
-              f"{float(max(abs(p.measured_N))):.4g} N), {p.n} samples")
-    print(f"predicted by {fitted.describe()} of {args.fit}: every coefficient as stored, nothing refitted")
     if args.out:
         document = {"fit": str(args.fit), **_described(fitted, args.fit),
                     "predictions": [p.metrics() for p in predictions]}
@@ -126,6 +125,12 @@ def predict(args) -> int:
             plot_predictions(predictions, args.plot, f"prediction by {fitted.describe()}\n"
                                                      f"every coefficient as stored in {Path(args.fit).name}",
                              synthetic=all(manifest.is_synthetic(p) for p in args.data))
+    # Printed after every file is written: a reader that stops early (``| head -1``) loses no output.
+    for p in predictions:
+        print(f"{p.specimen}: RMSE {p.rmse_N:.4g} N, NRMSE {p.nrmse:.4g} (RMSE / max|F| = {p.rmse_N:.4g} / "
+              f"{float(max(abs(p.measured_N))):.4g} N), {p.n} samples")
+    print(f"predicted by {fitted.describe()} of {args.fit}: every coefficient as stored, nothing refitted")
+    plausibility.print_warnings(specimens)  # data check's words, once every refusal is behind
     blown = [p.specimen for p in predictions if not math.isfinite(p.mse)]
     for name in blown:
         print(f"error: {name}: the fitted model blows up on this record (force not finite)", file=sys.stderr)

@@ -89,6 +89,7 @@ class SwitchedVPP(ProblemType):
         check_pairs(fail, model_names, formulations)
         fix_mass = mass_setting(fail, "[study] fix_mass", study.get("fix_mass", "auto"))
         offsets = choice(fail, "[study] offsets", study.get("offsets", "branch"), OFFSETS)
+        _refuse_unused(fail, "[study] ", model_names, formulations, fix_mass, offsets)
         table = document.get("specimens", {})
         if not isinstance(table, dict):
             fail("[specimens] must be a table: files = [...] or manifest filters")
@@ -128,6 +129,7 @@ class SwitchedVPP(ProblemType):
         check_pairs(fail, model_names, formulations)
         fix_mass = mass_setting(fail, "--fix-mass", fix_mass)
         offsets = choice(fail, "--offsets", offsets, OFFSETS)
+        _refuse_unused(fail, "--", model_names, formulations, fix_mass, offsets)
         bounds = None
         if bounds_file is not None:
             from bwbench.data import bounds as bounds_mod
@@ -235,6 +237,25 @@ class SwitchedVPP(ProblemType):
         from bwbench.problems.switched_vpp import report as sections
 
         return sections.limits(report)
+
+
+def _refuse_unused(fail, prefix: str, models, formulations, fix_mass, offsets) -> None:
+    """``fail`` when a fixed mass or continuous offsets are asked for but no variant of the study can use
+    them (as ``bwbench fit`` refuses them): no identifiable formulation with a mass term, or with branches."""
+    from bwbench.problems.switched_vpp.formulations import variants as variant_list
+
+    layouts = []
+    for _, name, formulation in variant_list(models, formulations):
+        model = model_registry.get(name)
+        if formulation == "identifiable" and model.has_linear_part:
+            layouts.append(model.linear_layout(model.states[0] if model.states else None))
+    flag = (lambda key: f"--{key.replace('_', '-')}") if prefix == "--" else (lambda key: f"[study] {key}")
+    if fix_mass != "auto" and not any(layout.mass for layout in layouts):
+        fail(f"{flag('fix_mass')} applies to the identifiable formulation of a model with a mass term: no variant "
+             f"of this study ({', '.join(models)}) has one")
+    if offsets != "branch" and not any(layout.branched for layout in layouts):
+        fail(f"{flag('offsets')} applies to the identifiable formulation of the switched model: no variant of this "
+             f"study ({', '.join(models)}) has branches")
 
 
 def specimens_from_files(fail, patterns, base_dir: Path, label: str) -> list[SpecimenEntry]:
