@@ -12,7 +12,8 @@ log-likelihoods ``log_prob`` (n, runs), and each run's ln Z with its error. Conv
   counts, p ≥ ``AGREE_P``; the draws of a run are nearly independent, so the counts are multinomial);
 - **every run complete**: none was cut by the budget before its own stopping rule.
 
-Modes: single-linkage clustering of the pooled draws in coordinates scaled by each parameter's spread,
+Modes: single-linkage clustering of the pooled draws in coordinates scaled by each parameter's width of
+one mode (``scale``),
 cut at ``GAP`` times the median nearest-neighbour distance (modes are separated by a gap many times the
 spacing of draws inside one); groups with less than ``MIN_MASS`` of the draws are joined to the nearest
 mode (tail points, not modes). A point lies in a mode when its nearest draw is within that cut.
@@ -56,10 +57,16 @@ class Mode:
 
 
 def scale(draws: np.ndarray) -> np.ndarray:
-    """Per-parameter spread used as the distance's unit (robust: half the 16–84 % range; 1e-12 floor)."""
+    """Per-parameter unit of the distance: the width of one mode, not of the whole posterior — the median
+    gap between neighbouring distinct values times their number (≈ 2.5 σ for a Gaussian; a gap between
+    two modes is one gap and does not count), so modes apart in one parameter stay apart however many
+    others there are. Floor 1e-12."""
     flat = draws.reshape(-1, draws.shape[-1])
-    lo, hi = np.quantile(flat, [0.16, 0.84], axis=0)
-    return np.maximum((hi - lo) / 2, 1e-12)
+    out = np.empty(flat.shape[1])
+    for j in range(flat.shape[1]):
+        values = np.unique(flat[:, j])
+        out[j] = float(np.median(np.diff(values))) * len(values) if len(values) > 2 else 0.0
+    return np.maximum(out, 1e-12)
 
 
 def find_modes(draws: np.ndarray, log_prob: np.ndarray) -> tuple[list[Mode], float, np.ndarray]:

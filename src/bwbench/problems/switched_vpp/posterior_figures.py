@@ -92,7 +92,8 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
 
     theme()
     state = study.settings.get("state", "shared")
-    burn = chain.steps // 2 if burn is None else burn
+    if burn is None:
+        burn = posterior.burn if posterior is not None else chain.steps // 2
     fixed = []
     if posterior is not None:
         problem = posterior.problem
@@ -207,8 +208,13 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         dropped = f", {int(stuck.sum())} stuck walker(s) left out" if stuck.any() else ""
     held = (("\nheld fixed (reduced model): " + ", ".join(f"{label(n)} = {samples[0, names.index(n)]:.4g}"
                                                            for n in fixed)) if fixed else "")
-    fig.suptitle(f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
-                 f"{burn:,} steps dropped as burn-in{dropped}{held}")
+    if posterior is not None and posterior.nested is not None:  # nested sampling: runs of equal-weight draws
+        masses = ", ".join(f"{m.mass:.2f}" for m in posterior.nested["modes"])
+        fig.suptitle(f"{specimen}: {chain.optimizer} posterior, {chain.walkers} independent runs × {chain.steps:,} "
+                     f"equal-weight draws, every mode (masses {masses}){held}")
+    else:
+        fig.suptitle(f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
+                     f"{burn:,} steps dropped as burn-in{dropped}{held}")
     thin = max(1, -(-len(samples) // max_csv))  # ceil: at most max_csv rows
     frame = pd.DataFrame(samples[::thin], columns=names).assign(source="posterior", optimizer=chain.optimizer)
     extra = []
