@@ -38,8 +38,6 @@ def nested_posterior(db, rng):
             conn.execute(f"UPDATE {table} SET optimizer = 'nested' WHERE kind = 'posterior'")
         conn.execute("UPDATE chains SET steps = ?, walkers = ?, chain = ?, log_prob = ?",
                      (DRAWS, RUNS, draws.tobytes(), lp.tobytes()))
-        conn.execute("CREATE TABLE evidence (kind TEXT, specimen TEXT, optimizer TEXT, replicate INTEGER, "
-                     "evidence_json TEXT, PRIMARY KEY (kind, specimen, optimizer, replicate))")
         conn.execute("INSERT INTO evidence VALUES ('posterior', ?, 'nested', 0, ?)",
                      (SPECIMENS[0], json.dumps(evidence)))
     return draws
