@@ -74,6 +74,7 @@ def test_the_report_shows_runs_modes_masses_evidence_and_writes_the_draws(study,
     assert masses == pytest.approx([0.7, 0.3], abs=0.05)
     assert "| model | ln Z | ± |" in part and "-10.0" in part
     assert "The best ranking fit lies" in part
+    assert "| fit | MSE | log-likelihood | where |" in part and re.search(r"\| cmaes, seed \d \| .* \| (mode 1|below)", part)
     nc = next(out.glob("posterior_*.nc"))
     import arviz as az
 

@@ -118,6 +118,30 @@ def nested_text(pc) -> list[str]:
     return out
 
 
+def good_fits_placed(study, pc) -> pd.DataFrame:
+    """Every good ranking fit (``spread_decomposition.good_fits``) against a nested posterior's draws
+    (``nested.locate``): in which mode, or below the posterior's support by how much, or outside every
+    draw while as probable (a mode the sampler missed)."""
+    from bwbench.analysis import nested
+    from bwbench.problems.switched_vpp.posterior_draws import in_coordinates, log_posterior
+    from bwbench.problems.switched_vpp.spread_decomposition import good_fits
+
+    rows = []
+    for _, run in good_fits(study, pc.chain.specimen).sort_values("mse").iterrows():
+        theta = in_coordinates(run.to_dict(), pc.problem)
+        if theta is None:
+            continue
+        like = float(log_posterior(pc.problem, theta[None, :])[0])
+        u = np.asarray(pc.problem.to_unit(theta[None, :]), dtype=float)[0]
+        place = nested.locate(u, like, pc.chain.samples, pc.chain.log_prob, pc.nested)
+        where = (f"mode {place['mode'] + 1}" if place["where"] == "mode" else
+                 f"below the posterior's support by Δ log p = {place['delta']:.1f}" if place["where"] == "below" else
+                 "outside every draw, as probable: the sampler missed a mode at least as probable as this fit")
+        rows.append({"fit": f"{run['optimizer']}, seed {int(run['replicate']) + 1}", "MSE": number(float(run["mse"])),
+                     "log-likelihood": f"{like:.1f}", "where": where})
+    return pd.DataFrame(rows)
+
+
 def nested_modes_table(pc) -> pd.DataFrame:
     """One row per mode of a nested-sampling posterior: its mass with the run-to-run spread, its best
     log-likelihood and the median [central 95 % interval] of every parameter."""
@@ -297,6 +321,9 @@ def _nested_subsection(report, pc, rng, order):
         doc.p(f"What the sampler did and why it stopped: {pc.run['message']}.")
     doc.table(nested_modes_table(pc), "Modes: posterior mass (± run-to-run spread), best log-likelihood, median "
                                       f"[central {LEVEL:.0%} interval] of each parameter")
+    placed = good_fits_placed(study, pc)
+    if len(placed):
+        doc.table(placed, "The good ranking fits (final MSE within 10 % of the best known) against the posterior's draws")
     true = truth(study, pc.problem, chain.specimen)
     summary_table, outside = summary(pc, rng, true)
     doc.table(summary_table, f"Posterior medians and central {LEVEL:.0%} intervals over every mode"
