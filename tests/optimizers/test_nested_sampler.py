@@ -89,3 +89,25 @@ def test_a_mode_missed_for_want_of_live_points_is_said_and_never_converged():
     assert where["where"] == "mode" and where["mode"] == 0
     # what the missed mode costs: its mass, 0.5, missing from the evidence (true ln Z = 0)
     assert verdict["evidence"]["log_z"] == pytest.approx(np.log(0.5), abs=3 * verdict["evidence"]["err"])
+
+
+class WiderBox(GaussianToy):
+    """The same likelihood searched in a box ``factor`` times wider in every parameter (same centre)."""
+
+    def __init__(self, mean, sd, factor):
+        super().__init__(mean, sd)
+        self.factor = factor
+        self.lower, self.upper = 0.5 - factor / 2 * np.ones(self.dim), 0.5 + factor / 2 * np.ones(self.dim)
+
+    def from_unit(self, U):
+        return self.lower + np.asarray(U, dtype=float) * (self.upper - self.lower)
+
+
+def test_ln_z_falls_by_ln_c_per_parameter_when_the_box_widens_by_c():
+    narrow = run(GaussianToy([0.45, 0.55], [0.04, 0.04])).extras
+    wide = run(WiderBox([0.45, 0.55], [0.04, 0.04], 2.0)).extras
+    a = nested.evidence(narrow["log_z"], narrow["log_z_err"])
+    b = nested.evidence(wide["log_z"], wide["log_z_err"])
+    expected = nested.box_sensitivity([2.0, 2.0])  # −2 ln 2
+    assert expected == pytest.approx(-2 * np.log(2))
+    assert b["log_z"] - a["log_z"] == pytest.approx(expected, abs=3 * np.hypot(a["err"], b["err"]))
