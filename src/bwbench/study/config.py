@@ -58,7 +58,7 @@ POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
 # ensemble, the whole budget spent).
 POSTERIOR_OPTIONS = {"emcee": {"start": "optima", "moves": "de", "ensembles": 3, "n_walkers": None,
                                "start_fraction": 0.05, "stop": "converged"},
-                     "nested": {}}  # its defaults are the posterior's: 4 independent runs of 400 live points
+                     "nested": {}}  # its defaults are the posterior's: 4 independent runs of 100 live points
 DEFAULT_POSTERIOR_OPTIMIZER = "nested"
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 
