@@ -190,7 +190,7 @@ def assess(draws: np.ndarray, log_prob: np.ndarray, log_z, log_z_err, names, com
         place = locate(point, like, draws, log_prob, {"scale": unit, "cut": cut, "modes": modes})
         if place["where"] == "missed":
             failed.append(f"the sampler missed a mode at least as probable as {label} (log-likelihood {like:.1f}, "
-                          f"outside every draw; the draws' best {np.nanmax(log_prob):.1f})")
+                          f"where no draw goes; the draws' best {np.nanmax(log_prob):.1f})")
     converged = not failed
     text = (f"{runs} runs, {n:,} equal-weight draws each; ln Z = {ev['log_z']:.2f} ± {ev['err']:.2f}; "
             f"{len(modes)} mode{'s' if len(modes) > 1 else ''} (masses "
@@ -207,7 +207,10 @@ def locate(point, log_like: float, draws: np.ndarray, log_prob: np.ndarray, asse
     ``where``: "mode" (its nearest draw within the mode cut: ``mode`` is its 0-based index), "below"
     (outside every draw and less likely than the draws' support: ``delta`` = the draws' 0.5 % quantile
     of log-likelihood minus the point's, > 0), or "missed" (outside every draw yet at least as likely as
-    the draws' support: the sampler missed a mode at least as probable as this point)."""
+    the draws' support: the sampler missed a mode at least as probable as this point). Also "missed",
+    wherever it lies, a point more likely than every draw by more than d nats: with a flat prior a
+    posterior's draws come within ~d/2 of its best likelihood (χ²_d/2), so draws that never reach the
+    point's likelihood have not found its region."""
     d = draws.shape[-1]
     flat, lp = draws.reshape(-1, d), log_prob.reshape(-1)
     X = flat / assessment["scale"]
@@ -215,6 +218,9 @@ def locate(point, log_like: float, draws: np.ndarray, log_prob: np.ndarray, asse
     distance = np.sqrt(np.sum((X - x) ** 2, axis=1))
     nearest = int(np.argmin(distance))
     floor = float(np.quantile(lp[np.isfinite(lp)], 0.005)) if np.isfinite(lp).any() else -np.inf
+    top = float(np.max(lp[np.isfinite(lp)])) if np.isfinite(lp).any() else -np.inf
+    if log_like > top + d:
+        return {"where": "missed", "mode": None, "delta": floor - log_like, "distance": float(distance[nearest])}
     if distance[nearest] <= assessment["cut"]:
         mode = next((i for i, m in enumerate(assessment["modes"]) if nearest in set(m.members.tolist())), 0)
         return {"where": "mode", "mode": mode, "delta": floor - log_like, "distance": float(distance[nearest])}

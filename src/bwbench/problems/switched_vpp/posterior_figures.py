@@ -40,9 +40,11 @@ def verdict(diagnostics: pd.DataFrame | None) -> tuple[bool | None, str]:
         return True, f"converged: R̂ ≤ {R_HAT_MAX:g} and bulk ESS ≥ {ESS_MIN} for every parameter"
     n = len(r_hat)
     parts = []
-    if bad_r.any():
+    if np.isnan(r_hat).all():
+        parts.append("no R̂ (too few draws)")
+    elif bad_r.any():
         parts.append(f"R̂ up to {np.nanmax(r_hat):.3g} (> {R_HAT_MAX:g} for {int(bad_r.sum())} of {n} parameters)")
-    if bad_e.any():
+    if bad_e.any() and not np.isnan(ess).all():
         parts.append(f"bulk ESS down to {np.nanmin(ess):.0f} (< {ESS_MIN} for {int(bad_e.sum())} of {n})")
     return False, ("NOT converged: " + "; ".join(parts)
                    + ". The histograms show where the chain has been, not the posterior.")
@@ -111,6 +113,10 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         diagnostics = mcmc.convergence(chain.samples[:, ~stuck], names, burn)
     diagnostics = None if diagnostics is False else pd.DataFrame(diagnostics)
     converged, sentence = verdict(diagnostics)
+    if posterior is not None and posterior.nested is not None and not posterior.nested["converged"]:
+        # nested sampling has criteria beyond R̂ and ESS (ln Z, mode masses, runs cut, a missed mode)
+        converged = False
+        sentence = "NOT converged: " + posterior.nested["failed"][0]
     box = (np.vstack([LOWER, UPPER]) if from_unit is None else
            np.vstack([from_unit(np.zeros((1, len(names))))[0], from_unit(np.ones((1, len(names))))[0]]))
     specimen = chain.specimen

@@ -113,8 +113,9 @@ def nested_text(pc) -> list[str]:
             out.append(f"The best ranking fit lies below the posterior's support by Δ log p = {place['delta']:.1f} "
                        "(the sampler's draws are all more probable).")
         else:
-            out.append("The best ranking fit lies outside every draw and is at least as probable as the draws: "
-                       "the sampler missed a mode at least as probable as it.")
+            out.append("The best ranking fit lies where no draw goes (outside every draw, or more probable than "
+                       "any draw), at least as probable as the draws: the sampler missed a mode at least as "
+                       "probable as it.")
     return out
 
 
@@ -136,7 +137,7 @@ def good_fits_placed(study, pc) -> pd.DataFrame:
         place = nested.locate(u, like, pc.chain.samples, pc.chain.log_prob, pc.nested)
         where = (f"mode {place['mode'] + 1}" if place["where"] == "mode" else
                  f"below the posterior's support by Δ log p = {place['delta']:.1f}" if place["where"] == "below" else
-                 "outside every draw, as probable: the sampler missed a mode at least as probable as this fit")
+                 "where no draw goes, as probable: the sampler missed a mode at least as probable as this fit")
         rows.append({"fit": f"{run['optimizer']}, seed {int(run['replicate']) + 1}", "MSE": number(float(run["mse"])),
                      "log-likelihood": f"{like:.1f}", "where": where})
     return pd.DataFrame(rows)
