@@ -47,6 +47,7 @@ CREATE TABLE timings ({_KEY}, wall_s REAL, worker TEXT, finished_utc TEXT, {_PK}
 CREATE TABLE traces ({_KEY}, nfev INTEGER, mse REAL);
 CREATE TABLE chains ({_KEY}, steps INTEGER, walkers INTEGER, dim INTEGER, chain BLOB, log_prob BLOB,
     acceptance_fraction REAL, autocorr_json TEXT, {_PK});
+CREATE TABLE evidence ({_KEY}, evidence_json TEXT, {_PK});
 """
 RUN_COLUMNS = (
     "kind", "specimen", "optimizer", "replicate", "seed_entropy", "status", "error", "budget",

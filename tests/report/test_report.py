@@ -119,6 +119,7 @@ de = {{}}
 cmaes = {{}}
 [posterior]
 specimens = ["pom-mt24u01_0.01MPa_r1"]
+optimizer = "emcee"
 budget = 300
 """)
     db = tmp_path / "tiny.sqlite"

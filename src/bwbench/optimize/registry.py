@@ -102,7 +102,7 @@ BUILTIN = {
     "random": "random_search", "paper-ga": "paper_ga", "firefly": "firefly", "pso": "pso",
     "anneal": "anneal", "nlopt-bobyqa": "nlopt_local", "nlopt-sbplx": "nlopt_local",
     "nlopt-neldermead": "nlopt_local", "cmaes": "cmaes", "de": "de", "emcee": "emcee_sampler",
-    "lsq-trf": "lsq_trf",
+    "lsq-trf": "lsq_trf", "nested": "nested_sampler",
 }
 _REGISTRY: dict[str, Backend] = {}
 # One lock for loading and registering: a Dask worker runs tasks in threads, and a thread must not

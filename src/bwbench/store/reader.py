@@ -48,6 +48,9 @@ class Chain:
     log_prob: np.ndarray | None  # (steps, walkers)
     acceptance_fraction: float | None
     autocorr: list | None  # the runner's per-dimension estimate (None entries = not finite)
+    # a nested-sampling posterior: {"log_z": [per run], "log_z_err", "run_nfev", "run_complete", "live_points"};
+    # its samples are then (draws, runs, d), each run's equal-weight draws
+    evidence: dict | None = None
 
     @property
     def steps(self) -> int:
@@ -324,11 +327,16 @@ def read_chains(conn) -> tuple:
     rows = conn.execute(
         "SELECT kind, specimen, optimizer, replicate, steps, walkers, dim, chain, log_prob, "
         "acceptance_fraction, autocorr_json FROM chains ORDER BY kind, specimen, optimizer, replicate")
-    for kind, specimen, optimizer, replicate, steps, walkers, dim, blob, lp_blob, acc, autocorr in rows:
+    evidence = {}
+    if "evidence" in tables:
+        evidence = {tuple(r[:4]): json.loads(r[4]) for r in conn.execute(
+            "SELECT kind, specimen, optimizer, replicate, evidence_json FROM evidence")}
+    for kind, specimen, optimizer, replicate, steps, walkers, dim, blob, lp_blob, acc, autocorr in rows.fetchall():
         samples = np.frombuffer(blob, dtype=np.float64).reshape(steps, walkers, dim)
         log_prob = None if lp_blob is None else np.frombuffer(lp_blob, dtype=np.float64).reshape(steps, walkers)
         out.append(Chain(kind, specimen, optimizer, int(replicate), samples, log_prob,
-                         None if acc is None else float(acc), json.loads(autocorr) if autocorr else None))
+                         None if acc is None else float(acc), json.loads(autocorr) if autocorr else None,
+                         evidence.get((kind, specimen, optimizer, int(replicate)))))
     return tuple(out)
 
 

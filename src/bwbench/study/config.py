@@ -18,9 +18,9 @@ Generic format (``studies/quick.toml`` is a worked example)::
     [validation]              # optional (switched-bouc-wen problem): held-out tests, never fitted
     files = ["held_out/*.csv"]  # every ranking run's fit predicts them; the report ranks by that error too
 
-    [posterior]               # optional: long MCMC runs, kept out of the ranking
+    [posterior]               # optional: the posterior, kept out of the ranking
     specimens = ["pom-mt24u01_0.01MPa_r1"]   # names (file stems); may be omitted with one specimen
-    optimizer = "emcee"       # the default
+    optimizer = "nested"      # the default: nested sampling, every mode and ln Z ("emcee" also works)
     budget = 250000
     seeds = 1                 # the default
     options = {}              # on top of POSTERIOR_OPTIONS (what converges without options)
@@ -57,7 +57,9 @@ POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
 # defaults, which are a sampler used as an optimiser in the ranking (walkers uniform in the box, one
 # ensemble, the whole budget spent).
 POSTERIOR_OPTIONS = {"emcee": {"start": "optima", "moves": "de", "ensembles": 3, "n_walkers": None,
-                               "start_fraction": 0.05, "stop": "converged"}}
+                               "start_fraction": 0.05, "stop": "converged"},
+                     "nested": {}}  # its defaults are the posterior's: 4 independent runs of 100 live points
+DEFAULT_POSTERIOR_OPTIMIZER = "nested"
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 
 
@@ -307,7 +309,7 @@ def _posterior(fail, table, setup: ProblemSetup) -> PosteriorConfig:
             fail(f"[posterior] specimens: {stem}: {available[stem].path} does not exist")
     if len(set(names)) != len(names):
         fail("[posterior] specimens lists a specimen twice")
-    optimizer = table.get("optimizer", "emcee")
+    optimizer = table.get("optimizer", DEFAULT_POSTERIOR_OPTIMIZER)
     if not isinstance(optimizer, str):
         fail("[posterior] optimizer must be a backend name")
     _check_backend(fail, "[posterior] optimizer", optimizer)

@@ -55,6 +55,9 @@ RUN_COLUMNS = (
 )
 _KEY_SQL = "kind TEXT, specimen TEXT, optimizer TEXT, replicate INTEGER"
 _PK_SQL = "PRIMARY KEY (kind, specimen, optimizer, replicate)"
+# A nested-sampling posterior's per-run ln Z, errors and evaluations (JSON); a table of its own so a
+# database made before it gains it on resume (``_add_generic_columns``).
+EVIDENCE_SQL = f"CREATE TABLE IF NOT EXISTS evidence ({_KEY_SQL}, evidence_json TEXT, {_PK_SQL})"
 SCHEMA = f"""
 CREATE TABLE IF NOT EXISTS study (key TEXT PRIMARY KEY, value TEXT);
 CREATE TABLE IF NOT EXISTS runs (
@@ -69,6 +72,7 @@ CREATE INDEX IF NOT EXISTS traces_key ON traces (kind, specimen, optimizer, repl
 CREATE TABLE IF NOT EXISTS chains (
     {_KEY_SQL}, steps INTEGER, walkers INTEGER, dim INTEGER, chain BLOB, log_prob BLOB,
     acceptance_fraction REAL, autocorr_json TEXT, {_PK_SQL});
+{EVIDENCE_SQL}
 """
 
 
@@ -208,6 +212,7 @@ def _add_generic_columns(conn) -> None:
     for column in GENERIC_COLUMNS:
         if column not in present:
             conn.execute(f"ALTER TABLE runs ADD COLUMN {column} TEXT")
+    conn.execute(EVIDENCE_SQL)
 
 
 def _check_same_study(conn, path, config: StudyConfig) -> None:
@@ -308,7 +313,7 @@ def record_run(conn, outcome: dict) -> bool:
             if not _retryable(*old):
                 conn.execute("ROLLBACK")
                 return False
-            for table in ("runs", "timings", "traces", "chains"):
+            for table in ("runs", "timings", "traces", "chains", "evidence"):
                 conn.execute(f"DELETE FROM {table} WHERE {where}", key)
         conn.execute(f"INSERT INTO runs ({columns}) VALUES ({placeholders})",
                      [outcome["row"][c] for c in RUN_COLUMNS])
@@ -322,6 +327,8 @@ def record_run(conn, outcome: dict) -> bool:
             conn.execute("INSERT OR REPLACE INTO chains VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                          (*key, c["steps"], c["walkers"], c["dim"], c["chain"], c["log_prob"],
                           c["acceptance_fraction"], c["autocorr_json"]))
+            if c.get("evidence_json"):
+                conn.execute("INSERT OR REPLACE INTO evidence VALUES (?, ?, ?, ?, ?)", (*key, c["evidence_json"]))
         conn.execute("COMMIT")
     except BaseException:
         if conn.in_transaction:

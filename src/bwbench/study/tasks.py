@@ -209,7 +209,12 @@ def _chain_columns(extras: dict) -> dict | None:
     if autocorr is not None:
         autocorr = [float(a) if math.isfinite(a) else None for a in np.atleast_1d(np.asarray(autocorr, float))]
     steps, walkers, dim = chain.shape
+    # a nested-sampling posterior: each run's ln Z with its error, evaluations and whether it ended by its
+    # own rule (the chain holds each run's equal-weight draws side by side)
+    evidence = {k: extras[k] for k in ("log_z", "log_z_err", "run_nfev", "run_complete", "live_points")
+                if k in extras}
     return {
+        "evidence_json": canonical_json(evidence) if "log_z" in evidence else None,
         "steps": steps, "walkers": walkers, "dim": dim, "chain": chain.tobytes(),
         "log_prob": None if log_prob is None else np.ascontiguousarray(log_prob, dtype=np.float64).tobytes(),
         "acceptance_fraction": None if acceptance is None else float(np.mean(acceptance)),

@@ -32,10 +32,13 @@ class PosteriorChain:
     assessment: dict
     names: list
     fixed: list = field(default_factory=list)
+    # a nested-sampling posterior: ``bwbench.analysis.nested.assess`` of its runs (the chain's walkers are
+    # the runs, its steps their equal-weight draws); ``assessment`` then has one "mode" holding every run
+    nested: dict | None = None
 
     @property
     def burn(self) -> int:
-        return self.chain.steps // 2
+        return 0 if self.nested is not None else self.chain.steps // 2
 
     @property
     def main(self):
@@ -140,6 +143,9 @@ def posterior_chains(study, chains=None) -> list[PosteriorChain]:
             options = json.loads(run.get("options_json") or "{}")
         except (TypeError, json.JSONDecodeError):
             options = {}
+        if getattr(chain, "evidence", None) is not None:
+            out.append(nested_chain(study, chain, problem, run, names))
+            continue
         ensembles = int(options.get("ensembles", 1) or 1)
         if chain.walkers % ensembles:
             ensembles = 1
@@ -148,6 +154,43 @@ def posterior_chains(study, chains=None) -> list[PosteriorChain]:
         out.append(PosteriorChain(chain, problem, run, ensembles, assessment, names,
                                   [n for n, m in zip(names, moving) if not m]))
     return out
+
+
+def best_ranking_fit(study, problem, specimen: str):
+    """(unit point, log-likelihood, label) of the ranking's best fit on ``specimen`` in ``problem``'s
+    coordinates (the sampler's log-likelihood), or None when no finished run maps to them."""
+    ranking = study.ranking
+    runs = ranking[(ranking["specimen"] == specimen) & (ranking["status"] == "ok")]
+    runs = runs[np.isfinite(runs["mse"].astype(float))].sort_values("mse")
+    for _, row in runs.iterrows():
+        theta = in_coordinates(row.to_dict(), problem)
+        if theta is None:
+            continue
+        u = np.asarray(problem.to_unit(theta[None, :]), dtype=float)[0]
+        if np.any(u < 0) or np.any(u > 1):
+            continue  # outside the posterior's box: no prior mass there
+        like = float(log_posterior(problem, theta[None, :])[0])
+        label = f"the best ranking fit ({row['optimizer']}, seed {int(row['replicate']) + 1}, MSE {row['mse']:.4g} N²)"
+        return u, like, label
+    return None
+
+
+def nested_chain(study, chain, problem, run: dict, names) -> PosteriorChain:
+    """A nested-sampling posterior read for the report: the runs' verdict (``nested.assess``, with the
+    best ranking fit located against the draws) and a single "mode" holding every run, so that the
+    summaries, figures and the decomposition read the whole posterior, every mode with its mass."""
+    from bwbench.analysis import nested
+
+    ev = chain.evidence
+    best = best_ranking_fit(study, problem, chain.specimen)
+    verdict = nested.assess(chain.samples, chain.log_prob, ev["log_z"], ev["log_z_err"], names,
+                            complete=ev.get("run_complete"), best_fit=best)
+    lp = chain.log_prob
+    whole = mcmc.Mode(tuple(range(chain.walkers)), np.arange(chain.walkers),
+                      float(np.median(lp)) if lp is not None else float("nan"))
+    assessment = {"converged": verdict["converged"], "modes": [whole], "diagnostics": [verdict["diagnostics"]],
+                  "why": verdict["failed"], "modes_text": "", "steps": chain.steps}
+    return PosteriorChain(chain, problem, run, chain.walkers, assessment, list(names), [], verdict)
 
 
 def in_coordinates(values: dict, problem):

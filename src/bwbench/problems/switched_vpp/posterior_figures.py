@@ -40,9 +40,11 @@ def verdict(diagnostics: pd.DataFrame | None) -> tuple[bool | None, str]:
         return True, f"converged: R̂ ≤ {R_HAT_MAX:g} and bulk ESS ≥ {ESS_MIN} for every parameter"
     n = len(r_hat)
     parts = []
-    if bad_r.any():
+    if np.isnan(r_hat).all():
+        parts.append("no R̂ (too few draws)")
+    elif bad_r.any():
         parts.append(f"R̂ up to {np.nanmax(r_hat):.3g} (> {R_HAT_MAX:g} for {int(bad_r.sum())} of {n} parameters)")
-    if bad_e.any():
+    if bad_e.any() and not np.isnan(ess).all():
         parts.append(f"bulk ESS down to {np.nanmin(ess):.0f} (< {ESS_MIN} for {int(bad_e.sum())} of {n})")
     return False, ("NOT converged: " + "; ".join(parts)
                    + ". The histograms show where the chain has been, not the posterior.")
@@ -92,7 +94,8 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
 
     theme()
     state = study.settings.get("state", "shared")
-    burn = chain.steps // 2 if burn is None else burn
+    if burn is None:
+        burn = posterior.burn if posterior is not None else chain.steps // 2
     fixed = []
     if posterior is not None:
         problem = posterior.problem
@@ -110,6 +113,10 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         diagnostics = mcmc.convergence(chain.samples[:, ~stuck], names, burn)
     diagnostics = None if diagnostics is False else pd.DataFrame(diagnostics)
     converged, sentence = verdict(diagnostics)
+    if posterior is not None and posterior.nested is not None and not posterior.nested["converged"]:
+        # nested sampling has criteria beyond R̂ and ESS (ln Z, mode masses, runs cut, a missed mode)
+        converged = False
+        sentence = "NOT converged: " + posterior.nested["failed"][0]
     box = (np.vstack([LOWER, UPPER]) if from_unit is None else
            np.vstack([from_unit(np.zeros((1, len(names))))[0], from_unit(np.ones((1, len(names))))[0]]))
     specimen = chain.specimen
@@ -207,8 +214,13 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         dropped = f", {int(stuck.sum())} stuck walker(s) left out" if stuck.any() else ""
     held = (("\nheld fixed (reduced model): " + ", ".join(f"{label(n)} = {samples[0, names.index(n)]:.4g}"
                                                            for n in fixed)) if fixed else "")
-    fig.suptitle(f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
-                 f"{burn:,} steps dropped as burn-in{dropped}{held}")
+    if posterior is not None and posterior.nested is not None:  # nested sampling: runs of equal-weight draws
+        masses = ", ".join(f"{m.mass:.2f}" for m in posterior.nested["modes"])
+        fig.suptitle(f"{specimen}: {chain.optimizer} posterior, {chain.walkers} independent runs × {chain.steps:,} "
+                     f"equal-weight draws, every mode (masses {masses}){held}")
+    else:
+        fig.suptitle(f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
+                     f"{burn:,} steps dropped as burn-in{dropped}{held}")
     thin = max(1, -(-len(samples) // max_csv))  # ceil: at most max_csv rows
     frame = pd.DataFrame(samples[::thin], columns=names).assign(source="posterior", optimizer=chain.optimizer)
     extra = []
