@@ -232,6 +232,8 @@ class LinearDesign:
         the one ``solve`` gives (model − data), weighted as there."""
         z = np.asarray(z, dtype=float)
         dZ = np.asarray(dZ, dtype=float)
+        if not np.all(np.isfinite(dZ)):
+            return None  # sensitivities that overflowed: no derivative to carry through the solve
         solution = self.solve(z[None, :], residual=True)
         if not (np.isfinite(solution.mse[0]) and solution.full_rank[0]):
             return None
@@ -255,16 +257,17 @@ class LinearDesign:
         # Otherwise the active set read off the solution is not the one the solve used.
         if held.any() and np.linalg.norm(Q.T @ r) > 1e-8 * max(np.linalg.norm(r), 1e-300) * np.sqrt(XF.shape[1]):
             return None
-        dXb = np.einsum("k,kld->ld", beta[q:], dW)  # (∂X/∂θ)·β̂ through every w-column, held or free
-        J = dXb - Q @ (Q.T @ dXb)
-        position = np.cumsum(~held) - 1  # index of each free column among the columns of X_F
-        for k in range(nw):
-            if held[q + k]:
-                continue  # a held coefficient is no function of θ: no term through its normal equation
-            # X_F·(X_FᵀX_F)⁻¹·e_k = Q·R⁻ᵀ·e_k, times (∂W_k/∂θ)ᵀ·r
-            e = np.zeros(XF.shape[1])
-            e[position[q + k]] = 1.0
-            J -= np.outer(Q @ np.linalg.solve(R.T, e), dW[k].T @ r)
+        with np.errstate(over="ignore", invalid="ignore"):  # huge finite sensitivities: checked below
+            dXb = np.einsum("k,kld->ld", beta[q:], dW)  # (∂X/∂θ)·β̂ through every w-column, held or free
+            J = dXb - Q @ (Q.T @ dXb)
+            position = np.cumsum(~held) - 1  # index of each free column among the columns of X_F
+            for k in range(nw):
+                if held[q + k]:
+                    continue  # a held coefficient is no function of θ: no term through its normal equation
+                # X_F·(X_FᵀX_F)⁻¹·e_k = Q·R⁻ᵀ·e_k, times (∂W_k/∂θ)ᵀ·r
+                e = np.zeros(XF.shape[1])
+                e[position[q + k]] = 1.0
+                J -= np.outer(Q @ np.linalg.solve(R.T, e), dW[k].T @ r)
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
             return None
         return r, J
