@@ -94,17 +94,24 @@ def test_published_damper_lies_inside_the_data_scaled_box():
 
 
 def test_whole_box_gives_finite_force_or_inf_never_nan():
+    """Anywhere in the box, corners included, a row is finite or a whole +inf row, never NaN. The box
+    now reaches n = 10, η = −50 and x_y = 1e-4·a with v_y up to 10·v: corners stiff enough that the
+    simulation stops at its step budget, by design, as +inf (counted as such, not a blow-up). Measured
+    on this record: 86% of the box's volume finishes (221 of these 256 points; 85.8% of 2,000 others).
+    90% was a promise about the old box (n ≤ 5, η ≥ −2)."""
     t = np.arange(0.0, 1.0, 1.0 / 200.0)
     w = 2 * np.pi * 2.0
     signal = _signal(t, 10.0 * np.sin(w * t), 10.0 * w * np.cos(w * t))
     box = MODEL.hysteretic_box(signal, np.array([-1000.0, 1000.0]))
-    U = np.random.default_rng(7).random((64, box.lower.size))
+    U = np.random.default_rng(7).random((256, box.lower.size))
     U[:8] = np.round(U[:8])  # corners
+    before = MODEL.step_budget_stops
     W = MODEL.trajectories(box.from_unit(U), signal)
     rows_ok = np.all(np.isfinite(W), axis=1)
     assert not np.isnan(W).any()
     assert np.all(np.isinf(W[~rows_ok]))
-    assert rows_ok.mean() > 0.9
+    assert MODEL.step_budget_stops - before == np.count_nonzero(~rows_ok)  # every stop a step-budget stop
+    assert rows_ok.mean() >= 0.8
 
 
 def test_a_blow_up_is_an_inf_row():

@@ -63,6 +63,32 @@ def test_the_identifiable_jacobian_matches_differences_and_costs_its_measured_pr
         assert np.linalg.norm(J[:, j] - fd) <= 2e-3 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
 
 
+@pytest.mark.parametrize("bounds, held", [
+    ({}, {"k1": 0.0}),  # the physical default: k₁ ≥ 0 holds a column of x at 0 (unbounded k₁ = −6.65 N/mm)
+    ({"k1": [-np.inf, np.inf], "c1": [0, 50]}, {"c1": 50.0}),  # a held coefficient of the w-column (ẏ)
+    ({"k1": [0, 1], "c1": [0, 50]}, {"k1": 1.0, "c1": 50.0}),  # both held (k₁ = 1.91 N/mm with c₁ = 50): the offset solved
+], ids=["k1", "c1", "both"])
+def test_the_jacobian_with_coefficients_held_on_their_bounds_matches_differences(bounds, held):
+    """Variable projection over the free columns, the held w-column's contribution differentiated
+    and projected: against central differences at a point where the bounds are active."""
+    problem = make_problem(read_specimen(DATA / "mr_25mm_1Hz_0V.csv"),
+                           {"model": "spencer", "formulation": "identifiable", "bounds": bounds})
+    coef = dict(zip(problem.linear_names, problem.linear(OPTIMUM)))
+    assert {name: coef[name] for name in held} == held  # the bounds are active at this point
+    objective = Objective(problem, 100)
+    u = problem.to_unit(OPTIMUM)
+    found = objective.residual_jacobian(u)
+    assert found is not None
+    r, J = found
+    r0 = objective.residuals(u)
+    assert np.max(np.abs(r - r0)) <= 1e-6 * np.max(np.abs(r0))
+    for j in range(problem.dim):
+        e = np.zeros(problem.dim)
+        e[j] = min(1e-4, 0.1 * u[j], 0.1 * (1.0 - u[j]))
+        fd = (objective.residuals(u + e) - objective.residuals(u - e)) / (2 * e[j])
+        assert np.linalg.norm(J[:, j] - fd) <= 2e-3 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
+
+
 def test_an_exact_jacobian_past_the_budget_spends_what_is_left_and_stops():
     problem, _ = arrays(DATA / "mr_10mm_2Hz_1V.csv")
     objective = Objective(problem, 3)
@@ -92,7 +118,9 @@ def test_the_direct_jacobian_matches_differences():
 
     problem = make_problem(read_specimen(DATA / "mr_25mm_1Hz_0V.csv"), {"model": "spencer", "formulation": "direct"})
     objective = Objective(problem, 100)
-    P = direct_from_theta(OPTIMUM, [96.8, -6.65, -167.8])
+    # c₁, f₀ of the bounded solve at OPTIMUM (k₁ on its bound 0); k₁ = 10 N/mm puts the point inside
+    # the direct box, whose floor is now k₁ = 0 (the loops dissipate), not on that floor.
+    P = direct_from_theta(OPTIMUM, [91.2, 10.0, -168.0])
     P[8] = 200.0  # A away from the gauge the box centres
     u = problem.to_unit(P)
     assert np.all((u > 0.01) & (u < 0.99))

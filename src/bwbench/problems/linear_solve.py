@@ -218,39 +218,66 @@ class LinearDesign:
 
     def residual_jacobian(self, z, dZ):
         """(residual (L,), its Jacobian (L, d)) of one trajectory z (L,) whose derivatives by the d
-        searched parameters are dZ (L, d); None where the derivative of the solve is not the
-        unbounded one below (a bound active, a dependent column, a trajectory that did not finish).
+        searched parameters are dZ (L, d); None where the solve has no derivative to give (a dependent
+        column, a trajectory that did not finish, a non-finite result).
 
         Variable projection (Golub & Pereyra 1973): with X = [G | W(θ)] (W: the masked w-columns),
         β̂ = X⁺y and r = Xβ̂ − y (weighted by √weights, like the solve),
         ∂r/∂θ_j = P⊥·(∂X/∂θ_j)·β̂ − X·(XᵀX)⁻¹·(∂X/∂θ_j)ᵀ·r, where ∂X/∂θ_j has only the w-columns.
-        The residual is the one ``solve`` gives (model − data), weighted as there."""
-        solution = self.solve(np.asarray(z, dtype=float)[None, :], residual=True)
-        if not (np.isfinite(solution.mse[0]) and solution.full_rank[0]) or solution.bound_active[0]:
+        With bounds active (``linear_bounds``), the coefficients held on their bounds are constants of
+        the active set, which is locally fixed: the solve is the unbounded one over the free columns
+        X_F of y − X_H·β_H, so the same formula holds with X_F in place of X in the projector and in
+        the second term, while (∂X/∂θ_j)·β̂ keeps every w-column, held ones with their bound value
+        (their contribution X_H·β_H moves with θ and is projected like the rest). The residual is
+        the one ``solve`` gives (model − data), weighted as there."""
+        z = np.asarray(z, dtype=float)
+        dZ = np.asarray(dZ, dtype=float)
+        if not np.all(np.isfinite(dZ)):
+            return None  # sensitivities that overflowed: no derivative to carry through the solve
+        solution = self.solve(z[None, :], residual=True)
+        if not (np.isfinite(solution.mse[0]) and solution.full_rank[0]):
             return None
         sw = np.ones(self.L) if self.sw is None else self.sw
         r = solution.residual[0] * sw
-        nw = len(self.w_names)
+        nw, q = len(self.w_names), len(self.g_names)
         W = np.zeros((self.L, nw))
         dW = np.zeros((nw, self.L, dZ.shape[1]))
         for k in range(nw):
             mask = self._col == k
             W[mask, k] = z[mask] * sw[mask]
             dW[k][mask] = dZ[mask] * sw[mask, None]
-        X = np.column_stack([self.G, W]) if self.G.size else W
-        Q, R = np.linalg.qr(X)
-        q = X.shape[1] - nw
-        beta_w = solution.coef_ls[0, q:]
-        J = np.zeros((self.L, dZ.shape[1]))
-        for k in range(nw):
-            dXb = beta_w[k] * dW[k]  # (∂X/∂θ)·β̂ through column k
-            J += dXb - Q @ (Q.T @ dXb)
-            # X·(XᵀX)⁻¹·e_k = Q·R⁻ᵀ·e_k, times (∂W_k/∂θ)ᵀ·r
-            e = np.zeros(X.shape[1])
-            e[q + k] = 1.0
-            J -= np.outer(Q @ np.linalg.solve(R.T, e), dW[k].T @ r)
+        X = np.column_stack([self.G, W]) if q else W
+        beta = solution.coef[0, self.free_index]  # the bounded solution where a bound is active
+        held = np.zeros(len(beta), dtype=bool)
+        if solution.bound_active[0]:
+            held = _on_bound(beta, self.lower) | _on_bound(beta, self.upper)
+        XF = X[:, ~held]
+        Q, R = np.linalg.qr(XF)
+        # The free coefficients must be the least-squares ones given the held: r ⟂ the free columns.
+        # Otherwise the active set read off the solution is not the one the solve used.
+        if held.any() and np.linalg.norm(Q.T @ r) > 1e-8 * max(np.linalg.norm(r), 1e-300) * np.sqrt(XF.shape[1]):
+            return None
+        with np.errstate(over="ignore", invalid="ignore"):  # huge finite sensitivities: checked below
+            dXb = np.einsum("k,kld->ld", beta[q:], dW)  # (∂X/∂θ)·β̂ through every w-column, held or free
+            J = dXb - Q @ (Q.T @ dXb)
+            position = np.cumsum(~held) - 1  # index of each free column among the columns of X_F
+            for k in range(nw):
+                if held[q + k]:
+                    continue  # a held coefficient is no function of θ: no term through its normal equation
+                # X_F·(X_FᵀX_F)⁻¹·e_k = Q·R⁻ᵀ·e_k, times (∂W_k/∂θ)ᵀ·r
+                e = np.zeros(XF.shape[1])
+                e[position[q + k]] = 1.0
+                J -= np.outer(Q @ np.linalg.solve(R.T, e), dW[k].T @ r)
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+            return None
         return r, J
 
     def _tie(self, coef):
         for tied, source in self.tied.items():
             coef[:, self.names.index(tied)] = coef[:, self.names.index(source)]
+
+
+def _on_bound(beta, bound) -> np.ndarray:
+    """Which coefficients sit on their (finite) bound, to the rounding of the bounded solve."""
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(bound) & (np.abs(beta - bound) <= 1e-12 * np.maximum(np.abs(bound), np.max(np.abs(beta))))
