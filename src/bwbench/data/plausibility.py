@@ -190,7 +190,7 @@ def unusable(spec, force_needed: bool = True) -> str | None:
     return None
 
 
-def screen(specimens, synthetic: bool = False, force_needed: bool = True, stream=None, warn: bool = True) -> None:
+def screen(specimens, synthetic: bool | None = None, force_needed: bool = True, stream=None, warn: bool = True) -> None:
     """The check of ``data check`` before a command's work: ``UserError`` naming the file for the first
     specimen that is ``unusable`` (``force_needed``: a fit or an analysis of the measured force), then each specimen's other warnings printed as
     ``warning: FILE: ...`` lines on ``stream`` (stderr), notes on stdout. Refusals come first, so a
@@ -207,13 +207,18 @@ def screen(specimens, synthetic: bool = False, force_needed: bool = True, stream
         print_warnings(specimens, synthetic, stream)
 
 
-def print_warnings(specimens, synthetic: bool = False, stream=None) -> None:
+def print_warnings(specimens, synthetic: bool | None = None, stream=None) -> None:
     """Each specimen's ``all_warnings`` as ``warning: FILE: ...`` lines on ``stream`` (stderr); a command
-    prints them once every refusal is behind it, so a refused command prints one line only."""
+    prints them once every refusal is behind it, so a refused command prints one line only.
+    ``synthetic``: None asks each file's manifest (a shipped synthetic specimen's clockwise loop is the
+    paper's, not a flipped sign)."""
     import sys
 
+    from bwbench.data import manifest
+
     for spec in specimens:
-        for text in all_warnings(spec, synthetic):
+        made = synthetic if synthetic is not None else bool(spec.path) and manifest.is_synthetic(spec.path)
+        for text in all_warnings(spec, made):
             if text.startswith("note:"):
                 continue  # a synthetic specimen's notes belong to data check, not to every command
             print(f"warning: {spec.path}: {text}", file=stream or sys.stderr)
