@@ -263,14 +263,7 @@ def section(report) -> list:
                   "crossed. They are summarised apart, not pooled; the summary below is mode 1's region with the most "
                   "ensembles. Separate ensembles cannot weigh one mode against another.")
             doc.table(modes_table(pc), "Modes: median log-probability and the median of each sampled parameter")
-        true = truth(study, pc.problem, chain.specimen)
-        table, outside = summary(pc, rng, true)
-        doc.table(table, f"Posterior medians and central {LEVEL:.0%} intervals"
-                  + (" (linear coefficients drawn from their conditional Gaussian)"
-                     if pc.problem.formulation == "identifiable" else ""))
-        if true is not None:
-            doc.p("The truth lies inside every central 95 % interval." if not outside else
-                  f"The truth lies outside the central 95 % interval of {', '.join(outside)}.")
+        _summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals")
         kept = pc.problem.from_unit(pc.unit_draws())
         moving = [j for j, n in enumerate(pc.names) if n not in pc.fixed]
         labels = parameters(pc.problem)
@@ -304,6 +297,17 @@ def section(report) -> list:
     return verdicts
 
 
+def _summary_against_truth(doc, study, pc, rng, caption: str) -> None:
+    """The table of posterior medians and intervals, and where the truth (a synthetic specimen's) lies."""
+    true = truth(study, pc.problem, pc.chain.specimen)
+    table, outside = summary(pc, rng, true)
+    doc.table(table, caption + (" (linear coefficients drawn from their conditional Gaussian)"
+                                if pc.problem.formulation == "identifiable" else ""))
+    if true is not None:
+        doc.p("The truth lies inside every central 95 % interval." if not outside else
+              f"The truth lies outside the central 95 % interval of {', '.join(outside)}.")
+
+
 def _nested_subsection(report, pc, rng, order):
     from bwbench.problems.switched_vpp import figures
 
@@ -325,14 +329,7 @@ def _nested_subsection(report, pc, rng, order):
     placed = good_fits_placed(study, pc)
     if len(placed):
         doc.table(placed, "The good ranking fits (final MSE within 10 % of the best known) against the posterior's draws")
-    true = truth(study, pc.problem, chain.specimen)
-    summary_table, outside = summary(pc, rng, true)
-    doc.table(summary_table, f"Posterior medians and central {LEVEL:.0%} intervals over every mode"
-              + (" (linear coefficients drawn from their conditional Gaussian)"
-                 if pc.problem.formulation == "identifiable" else ""))
-    if true is not None:
-        doc.p("The truth lies inside every central 95 % interval." if not outside else
-              f"The truth lies outside the central 95 % interval of {', '.join(outside)}.")
+    _summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals over every mode")
     written = write_inference_data(pc, doc.out_dir)
     if written:
         doc.p(f"The draws in physical units, one chain per run, are in `{written}` (ArviZ InferenceData, netCDF).")
