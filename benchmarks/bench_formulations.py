@@ -52,8 +52,8 @@ def _init_worker():
 @functools.lru_cache(maxsize=None)
 def _problem(path: str, formulation: str):
     from bwbench.data.specimen import read_specimen
-    from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
-    from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+    from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
+    from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
 
     specimen = read_specimen(path)
     make = IdentifiableProblem if formulation == "identifiable" else SwitchedBoucWenProblem
@@ -62,7 +62,7 @@ def _problem(path: str, formulation: str):
 
 def noise_floor(path: str) -> float:
     """MSE (N²) of the specimen's generating parameters under the paper problem."""
-    from bwbench.data.manifest import truth_params
+    from bwbench.models.switched_parameters import truth_params
 
     truth = truth_params(path)
     if truth is None:

@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/bench_linear_bounds.py [--rows 32] [--repeat 7]
 
-On an MR-damper sine test of ``bwbench.data.mr_damper`` (25 mm, 1 Hz, 1 V, 1,501 samples, recorded
+On an MR-damper sine test of ``bwbench.datasets.mr_damper`` (25 mm, 1 Hz, 1 V, 1,501 samples, recorded
 velocity) and on three such tests stacked (a joint fit, 3,502 samples), the switched model's
 trajectories of ``--rows`` θ drawn in its identifiable box are solved by ``LinearDesign.solve``:
 
@@ -28,12 +28,12 @@ import time
 import numpy as np
 
 from bwbench import threads
-from bwbench.data import mr_damper
+from bwbench.datasets import mr_damper
 from bwbench.models import excitation
 from bwbench.models.switched import LAYOUT, MODEL
-from bwbench.problems import linear_solve as ls
-from bwbench.problems.joint_problem import stack_signals
-from bwbench.problems.linear_bounds import physical_bounds
+from bwbench.problems.hysteresis.joint_problem import stack_signals
+from bwbench.problems.hysteresis.linear import solve as ls
+from bwbench.problems.hysteresis.linear.bounds import physical_bounds
 
 
 def record(amplitude, frequency, seed):
@@ -101,7 +101,7 @@ def whole_fits(part, budget: int, fits: int) -> None:
     """lsq-trf with the default (physical) bounds and with none, alternated; medians and their ratio."""
     from bwbench.data.specimen import Specimen
     from bwbench.optimize import fitting
-    from bwbench.problems.model_problem import IdentifiableProblem
+    from bwbench.problems.hysteresis.model_problem import IdentifiableProblem
 
     e, f = part
     spec = Specimen("mr_25mm_1Hz.csv", "mr_25mm_1Hz", e.t, e.x_recorded, f, v=e.v)

@@ -21,11 +21,11 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
-from bwbench.data.parameters import LOWER, UPPER
 from bwbench.data.specimen import read_specimen
 from bwbench.models import switched_bouc_wen as model
+from bwbench.models.switched_parameters import LOWER, UPPER
 from bwbench.optimize.objective import Objective
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
 
 REPO = Path(__file__).resolve().parents[1]
 SPECIMEN = REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"

@@ -6,7 +6,7 @@
 The files, written in a temporary folder as a user's would be and read back through ``bwbench.fit``:
 
 - six sine tests of one damper (Spencer et al. 1997's prototype at 1 V, its own force scale, so
-  every file is the same damper) from the project's generator (``bwbench.data.mr_damper``), with a
+  every file is the same damper) from the project's generator (``bwbench.datasets.mr_damper``), with a
   velocity column (0.5 mm/s noise), 0.5 % force noise, 1 µm displacement noise, an 8 N offset, at
   500 Hz and 1 kHz (two slow tests at 1 kHz: records oversampled for their motion);
 - one made another way: a band-limited random displacement (0.2–3 Hz, ±20 mm, 1 kHz, from rest) whose
@@ -32,8 +32,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 import bwbench
-from bwbench.data import mr_damper
 from bwbench.data.specimen import read_specimen
+from bwbench.datasets import mr_damper
 
 SINES = (  # name, amplitude mm, frequency Hz, sampling Hz, cycles
     ("mr_25mm_1Hz", 25.0, 1.0, 500.0, 3),

@@ -18,7 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bwbench.data.synthetic import SPECIMEN_DIR
+from bwbench.datasets.synthetic import SPECIMEN_DIR
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import execute_tasks
 from bwbench.study.tasks import plan_tasks

@@ -25,8 +25,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import exact_motions as em  # noqa: E402
 from bwbench.data.specimen import read_specimen  # noqa: E402
-from bwbench.data.synthetic import read_paper_parameters  # noqa: E402
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem  # noqa: E402
+from bwbench.datasets.synthetic import read_paper_parameters  # noqa: E402
+from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem  # noqa: E402
 from reference import reference_force_of_motion  # noqa: E402
 
 RATE_HZ = 2.0

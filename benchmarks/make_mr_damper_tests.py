@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench.data import mr_damper
+from bwbench.datasets import mr_damper
 
 SEED = 1997
 FREQUENCIES_HZ = (0.1, 1.0, 5.0)

@@ -141,7 +141,7 @@ def published_rmse(path: Path, volts: float) -> float:
     own offset): the analogue of the authors' own per-test fit, the floor the recorded signals allow."""
     from bwbench.data.specimen import read_specimen
     from bwbench.models import registry
-    from bwbench.problems.model_problem import IdentifiableProblem
+    from bwbench.problems.hysteresis.model_problem import IdentifiableProblem
 
     model = registry.get("spencer")
     theta, _ = model.from_direct(published_theta(volts))
@@ -170,7 +170,7 @@ def fit_all(made: dict, out: Path, optimizer: str) -> None:
 
 def summary(name, path, data, f_meas, published, wall) -> dict:
     """One row of the table: NRMSEs, the start-up error, edges, physical limits of one fit's JSON."""
-    from bwbench.problems.fitted_model import FittedModel
+    from bwbench.problems.hysteresis.fitted_model import FittedModel
 
     p = data["params"]
     pred = FittedModel.from_result(data).predict(str(path))

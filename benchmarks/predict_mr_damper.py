@@ -4,7 +4,7 @@
 
 One damper (Spencer et al. 1997's prototype at 1 V, its own force scale: no per-test rescaling, so
 every file is the same damper), recorded at 500 Hz with a velocity channel (0.5 mm/s noise), 0.5 %
-force noise, 1 µm displacement noise and an 8 N load-cell offset (``bwbench.data.mr_damper``):
+force noise, 1 µm displacement noise and an 8 N load-cell offset (``bwbench.datasets.mr_damper``):
 
 - training: sine tests at 25 mm 1 Hz, 10 mm 2.5 Hz and 15 mm 0.5 Hz;
 - predicted: a sine at 20 mm 1.5 Hz, and a random-displacement record (8 s, band-limited noise of
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench.data import mr_damper
+from bwbench.datasets import mr_damper
 
 TRAIN = (("mr_25mm_1Hz", 25.0, 1.0), ("mr_10mm_2.5Hz", 10.0, 2.5), ("mr_15mm_0.5Hz", 15.0, 0.5))
 SINE = ("mr_20mm_1.5Hz", 20.0, 1.5)

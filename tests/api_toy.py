@@ -12,8 +12,8 @@ NOISE_N = 2.0
 def toy_frame(seed: int, n: int = 400, noise: float = NOISE_N, dt: float = 0.005) -> pd.DataFrame:
     """time_s, displacement_mm (8 mm at 1 Hz + 3 mm at 2.3 Hz), velocity_mm_s (exact), force_N (the
     classic Bouc-Wen force of ``TRUTH`` + N(0, noise²) N)."""
-    from bwbench.data_input import from_frame
-    from bwbench.problems.fitted_model import FittedModel
+    from bwbench.data.specimen_input import from_frame
+    from bwbench.problems.hysteresis.fitted_model import FittedModel
 
     t = np.arange(n) * dt
     x = 8.0 * np.sin(2 * np.pi * t) + 3.0 * np.sin(2 * np.pi * 2.3 * t)

@@ -1,6 +1,6 @@
 """Exact test-machine motions x(t), ẋ(t), ẍ(t) for the velocity tests and the differentiator benchmark.
 
-Written independently of ``bwbench.data.synthetic`` (the generator the held-out checks must not
+Written independently of ``bwbench.datasets.synthetic`` (the generator the held-out checks must not
 share a code path with): the ramp motion is a superposition of smooth velocity steps, each a
 half-cosine blend integrated in closed form, where the generator walks piecewise through the
 segments. Units: s, mm, mm/s, mm/s².

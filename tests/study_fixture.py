@@ -20,12 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from bwbench.data import manifest as manifest_mod
-from bwbench.data import synthetic
-from bwbench.data.parameters import LOWER, UPPER
 from bwbench.data.specimen import read_specimen
+from bwbench.datasets import synthetic
+from bwbench.models import switched_parameters
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.models.switched_parameters import LOWER, UPPER
 from bwbench.optimize import registry
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
 
 DATA_DIR = synthetic.SPECIMEN_DIR
 SPECIMENS = ("pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1")
@@ -143,7 +144,7 @@ def make_study_db(
 
     for specimen in specimens:
         problem = SwitchedBoucWenProblem(read_specimen(DATA_DIR / f"{specimen}.csv"))
-        u_truth = problem.to_unit(manifest_mod.truth_params(DATA_DIR / f"{specimen}.csv"))
+        u_truth = problem.to_unit(switched_parameters.truth_params(DATA_DIR / f"{specimen}.csv"))
         for replicate in range(replicates):
             for optimizer, spread in optimizers.items():
                 key = (specimen, optimizer, replicate)

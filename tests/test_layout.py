@@ -24,13 +24,13 @@ def _ancestors(name: str) -> set:
     return {".".join(name.split(".")[:k]) for k in range(1, name.count(".") + 1)}
 
 
-def _imports(name: str, path: Path, known: set) -> set:
+def _imports(name: str, path: Path, known: set, only=None) -> set:
     """Every bwbench module ``name`` imports, at module level or inside functions. Importing ``a.b.c``
     also runs the packages ``a.b`` and ``a``: those count too, except the packages ``name`` itself
     lives in (they run before it whatever it imports); naming one of those explicitly does count."""
     is_package = path.name == "__init__.py"
     found = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in [only] if only is not None else ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         targets = []
         if isinstance(node, ast.Import):
             targets = [alias.name for alias in node.names]
@@ -107,3 +107,72 @@ def test_a_layer_does_not_import_the_layers_above_it(layer):
     wrong = sorted(f"{name} -> {target}" for name, path in modules.items() if name.startswith(layer)
                    for target in _imports(name, path, set(modules)) if target.startswith(above))
     assert not wrong, wrong
+
+
+# The order of the sub-packages, top layer first, written once: a module may import its own
+# sub-package and those of the layers below it, never one above it or beside it (docs/contributing.md).
+LAYERS = (
+    ("bwbench", "bwbench.cli"),
+    ("bwbench.commands",),
+    ("bwbench.api", "bwbench.testing"),
+    ("bwbench.study",),
+    ("bwbench.report",),
+    ("bwbench.store",),
+    ("bwbench.problems",),
+    ("bwbench.optimizers",),
+    ("bwbench.optimize",),
+    ("bwbench.datasets",),
+    ("bwbench.models",),
+    ("bwbench.render",),
+    ("bwbench.data", "bwbench.analysis"),
+    ("bwbench.plugins", "bwbench.limits", "bwbench.threads", "bwbench.version"),
+    ("bwbench.errors",),
+)
+ROOMS = {room: depth for depth, layer in enumerate(LAYERS) for room in layer}
+
+
+def room_of(module: str) -> str:
+    """The sub-package (or top-level module) of LAYERS that ``module`` belongs to."""
+    parts = module.split(".")
+    for k in range(len(parts), 0, -1):
+        if ".".join(parts[:k]) in ROOMS:
+            return ".".join(parts[:k])
+    raise AssertionError(f"{module} is in no layer of LAYERS: add its sub-package there")
+
+
+def layer_violations(modules: dict) -> list[str]:
+    """``path:line: module -> target`` for every import (module level or in a function) of a room that
+    is not below the importer's, nor its own."""
+    known, found = set(modules), []
+    for name, path in sorted(modules.items()):
+        source = room_of(name)
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, (ast.Import, ast.ImportFrom)):
+                continue
+            for target in sorted(_imports(name, path, known, only=node)):
+                aim = room_of(target)
+                if aim != source and ROOMS[aim] <= ROOMS[source]:
+                    where = "beside" if ROOMS[aim] == ROOMS[source] else "above"
+                    shown = path.relative_to(ROOT) if ROOT in path.parents else path
+                    found.append(f"{shown}:{node.lineno}: {name} imports {target} "
+                                 f"({aim} is {where} {source} in LAYERS)")
+    return found
+
+
+def test_every_module_is_in_a_layer():
+    for name in _modules():
+        room_of(name)
+
+
+def test_the_layers_run_one_way():
+    wrong = layer_violations(_modules())
+    assert not wrong, "imports against the order of LAYERS:\n" + "\n".join(wrong)
+
+
+def test_a_wrong_import_is_named_with_its_line(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("import math\n\nfrom bwbench.study import config\n", encoding="utf-8")
+    modules = {**_modules(), "bwbench.models.bad": bad}
+    wrong = [line for line in layer_violations(modules) if "bwbench.models.bad" in line]
+    assert any(line.endswith("bad.py:3: bwbench.models.bad imports bwbench.study.config "
+                             "(bwbench.study is above bwbench.models in LAYERS)") for line in wrong), wrong

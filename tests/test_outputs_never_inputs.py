@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from bwbench import cli
-from bwbench.data.synthetic import PAPER_PARAMETERS
+from bwbench.datasets.synthetic import PAPER_PARAMETERS
 
 REPO = Path(__file__).resolve().parents[1]
 NAME = "pom-mt24u01_0.01MPa_r1.csv"
@@ -157,7 +157,7 @@ def test_every_output_flag_of_every_command_is_in_the_sweep():
 def test_data_generate_out_refuses_a_folder_holding_files_it_would_replace_unless_forced(tmp_path, capsys):
     """A user's own manifest.json and a test named like one of the dataset's: refused, naming them, both
     byte-identical; --force replaces them."""
-    from bwbench.data import mr_dataset
+    from bwbench.datasets import mr_dataset
 
     folder = tmp_path / "mine"
     folder.mkdir()

@@ -25,13 +25,14 @@ def expected(kind: str, name: str, group: str) -> str:
 
 def installed(monkeypatch, module, *eps):
     """Make ``module``'s registry see ``eps`` as the installed entry points, loaded afresh."""
-    monkeypatch.setattr(module, "entry_points", lambda group: [ep for ep in eps if ep.group == group])
+    monkeypatch.setattr(plugins, "entry_points", lambda group: [ep for ep in eps if ep.group == group])
+    monkeypatch.setattr(module.REGISTRY, "plugins_loaded", False)
+    monkeypatch.setattr(module.REGISTRY, "broken", {})
+    monkeypatch.setattr(module.REGISTRY, "from_entry_points", set())
 
 
 def test_a_broken_optimiser_plugin_breaks_only_itself(monkeypatch):
     installed(monkeypatch, optimizers, broken_entry_point("bad-search", "bwbench.optimizers"))
-    monkeypatch.setattr(optimizers, "_loaded", False)
-    monkeypatch.setattr(optimizers, "_BROKEN", {})
     assert "cmaes" in optimizers.available() and "random" in optimizers.available()  # the others still work
     line = expected("optimiser", "bad-search", "bwbench.optimizers")
     assert optimizers.broken() == {"bad-search": line}
@@ -45,9 +46,6 @@ def test_a_broken_optimiser_plugin_breaks_only_itself(monkeypatch):
 
 def test_a_broken_model_plugin_breaks_only_itself(monkeypatch):
     installed(monkeypatch, models, broken_entry_point("bad-model", "bwbench.models"))
-    monkeypatch.setattr(models, "_plugins_loaded", False)
-    monkeypatch.setattr(models, "_BROKEN", {})
-    monkeypatch.setattr(models, "_FROM_ENTRY_POINTS", set())
     assert {"switched-bouc-wen", "spencer", "bouc-wen"} <= set(models.names())
     with pytest.raises(plugins.PluginError) as named:
         models.get("bad-model")
@@ -66,4 +64,4 @@ def test_a_plugin_of_the_wrong_type_is_named():
     ep = EntryPoint(name="wrong", value="bwbench.errors:UserError", group="bwbench.problems")
     with pytest.raises(plugins.PluginError, match=r"^problem plug-in 'wrong' \(entry point 'bwbench.errors:UserError' "
                                                   r"of group 'bwbench.problems'\) gives .*not a bwbench.problems"):
-        problems._load(ep)
+        problems._read(ep, plugins.load(ep, "problem"))

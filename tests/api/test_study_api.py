@@ -129,7 +129,7 @@ def test_posterior_draws_in_physical_units(posterior_study):
     assert draws.attrs["units"]["xy"] == "mm" and draws.attrs["units"]["h"] == "N"
     # the sampled θ mapped out of the unit box: row 0 is walker 0's first kept step
     problem_xy = draws["xy"].iloc[0]
-    from bwbench.posterior_api import chain_of
+    from bwbench.api.posterior import chain_of
 
     p = chain_of(posterior_study._stored, "toy1")
     assert problem_xy == pytest.approx(p.problem.from_unit(chain.samples[steps // 2, 0])[0])

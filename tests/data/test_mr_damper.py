@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench.data import mr_damper
 from bwbench.data.specimen import read_specimen
+from bwbench.datasets import mr_damper
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 

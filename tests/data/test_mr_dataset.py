@@ -7,10 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench.data import manifest, mr_dataset
+from bwbench.data import manifest
 from bwbench.data.specimen import read_specimen
+from bwbench.datasets import mr_dataset
+from bwbench.models import switched_parameters
 from bwbench.models.spencer import MODEL
-from bwbench.problems.switched_vpp.formulations import make_problem
+from bwbench.problems.hysteresis.formulations import make_problem
 
 SHIPPED = Path(__file__).resolve().parents[2] / "data" / "mr_damper"
 
@@ -28,7 +30,7 @@ def test_the_manifest_says_synthetic_and_from_what():
                                                    for e in document["specimens"])
     path = SHIPPED / document["specimens"][0]["file"]
     assert manifest.is_synthetic(path) and not manifest.is_paper_data(path)
-    assert manifest.truth_params(path) is None  # not a paper 14-vector
+    assert switched_parameters.truth_params(path) is None  # not a paper 14-vector
     assert manifest.truth(path)[0] == "spencer"
 
 

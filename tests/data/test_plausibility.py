@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from bwbench.cli import main
-from bwbench.data import mr_damper, plausibility
+from bwbench.data import plausibility
 from bwbench.data.specimen import read_specimen
+from bwbench.datasets import mr_damper
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 

@@ -6,8 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench.data import mr_damper, plausibility
+from bwbench.data import plausibility
 from bwbench.data.specimen import Specimen, read_specimen
+from bwbench.datasets import mr_damper
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 

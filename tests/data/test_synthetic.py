@@ -9,9 +9,10 @@ import pytest
 
 from bwbench.cli import main
 from bwbench.data import manifest as manifest_mod
-from bwbench.data import synthetic
 from bwbench.data.specimen import read_specimen
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.datasets import synthetic
+from bwbench.models import switched_parameters
+from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 
@@ -52,7 +53,7 @@ def test_repeats_differ_by_at_most_7_percent_in_peak_force():
 
 def _truth_mse(file, **problem_options):
     spec = read_specimen(DATA / file)
-    truth = manifest_mod.truth_params(DATA / file)
+    truth = switched_parameters.truth_params(DATA / file)
     return SwitchedBoucWenProblem(spec, **problem_options).loss_batch(truth[None])[0]
 
 

@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bwbench.data.parameters import LOWER, UPPER
 from bwbench.data.specimen import read_specimen
 from bwbench.models import excitation, lockstep
 from bwbench.models import switched_bouc_wen as model
+from bwbench.models.switched_parameters import LOWER, UPPER
 
 SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 TABLE6 = [0.005, 5.019, 1.009, 1.171, 3.600, 261.893, 3.589, 0.341, 2.825, 0.068, 0.014, 2.814, -151.740, 17.333]

@@ -127,7 +127,7 @@ def test_a_blow_up_is_an_inf_row():
 def test_a_test_recorded_in_motion_starts_in_its_steady_state():
     """The MR-damper generator records after a warm-up cycle (x = 0 moving up, the damper yielded):
     the model, run on the record alone, reproduces it from the first sample, not after a transient."""
-    from bwbench.data import mr_damper
+    from bwbench.datasets import mr_damper
 
     published = dict(mr_damper.SPENCER_1997, k0=0.0)  # k0 = 0: y itself does not enter the force
     t, x, force, _ = mr_damper.damper_force(amplitude_mm=10.0, frequency_hz=1.0, voltage=1.0, rate_hz=500.0,

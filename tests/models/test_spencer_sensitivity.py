@@ -13,7 +13,7 @@ from bwbench.models.spencer import MODEL
 from bwbench.models.spencer_kernel import ydot_batch
 from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
 from bwbench.optimize.objective import Objective
-from bwbench.problems.switched_vpp.formulations import make_problem
+from bwbench.problems.hysteresis.formulations import make_problem
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "mr_damper"
 # A fit's optimum on mr_25mm_1Hz_0V (x_y mm, n, η, v_y mm/s, r₀, κ₀ 1/s) and a point of the box far from it.

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from bwbench.data.parameters import LOWER, UPPER
 from bwbench.models import switched_bouc_wen as model
+from bwbench.models.switched_parameters import LOWER, UPPER
 from reference import reference_force, sine_excitation
 
 # Spanning Table 5: the paper's own fits, n below 1 and above 10, the box corners, the

@@ -147,7 +147,7 @@ def test_a_plugin_on_the_untyped_contract_still_works(monkeypatch, capsys):
         objective.batch(rng.random((objective.remaining, objective.dim)))
 
     # a copy of the registry (built-ins loaded), so the test entry is gone afterwards
-    monkeypatch.setattr(registry, "_REGISTRY", dict(registry.available()))
+    monkeypatch.setattr(registry.REGISTRY, "items", dict(registry.available()))
     registry.register("test-untyped", family="plugin", description="old contract", defaults={"step": 0.25},
                       batched=False)(minimize)
     assert registry.get("test-untyped").options == {}

@@ -12,7 +12,7 @@ import pytest
 from bwbench import testing
 from bwbench.data.specimen import read_specimen
 from bwbench.optimize import fitting, registry
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
 
 ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
@@ -103,9 +103,9 @@ def test_the_table_of_builtin_backends_is_what_the_modules_register():
 
     found = {}
     for module in pkgutil.iter_modules(builtin.__path__):
-        before = set(registry._REGISTRY)
+        before = set(registry.REGISTRY.items)
         loaded = importlib.import_module(f"{builtin.__name__}.{module.name}")
-        found.update({name: module.name for name, backend in registry._REGISTRY.items()
+        found.update({name: module.name for name, backend in registry.REGISTRY.items.items()
                       if backend.minimize.__module__ == loaded.__name__})
-        assert set(registry._REGISTRY) >= before
+        assert set(registry.REGISTRY.items) >= before
     assert found == registry.BUILTIN

@@ -7,7 +7,7 @@ import numpy as np
 
 from bwbench.data.specimen import read_specimen
 from bwbench.optimize import fitting
-from bwbench.problems.switched_vpp.formulations import make_problem
+from bwbench.problems.hysteresis.formulations import make_problem
 from bwbench.study.config import POSTERIOR_OPTIONS
 from bwbench.threads import limited
 

@@ -9,7 +9,7 @@ import pytest
 
 import bwbench
 from bwbench.data.specimen import read_specimen
-from bwbench.problems.switched_vpp.formulations import make_problem
+from bwbench.problems.hysteresis.formulations import make_problem
 
 SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "mr_damper" / "mr_10mm_5Hz_0V.csv"
 

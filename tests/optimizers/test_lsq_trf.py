@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 
 from bwbench import testing
-from bwbench.data.manifest import truth_params
 from bwbench.data.specimen import read_specimen
 from bwbench.errors import BudgetExhausted
+from bwbench.models.switched_parameters import truth_params
 from bwbench.optimize import fitting, registry
 from bwbench.optimize.objective import Objective
 from bwbench.optimizers import lsq_trf
-from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
+from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
 
 ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"

@@ -8,8 +8,8 @@ import pytest
 from bwbench.data.specimen import read_specimen
 from bwbench.errors import BudgetExhausted
 from bwbench.optimize.objective import Objective
-from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
+from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
 from bwbench.testing import LossOnlySphereProblem, SphereProblem
 
 ROOT = Path(__file__).resolve().parents[2]

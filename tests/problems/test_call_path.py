@@ -9,7 +9,7 @@ import pytest
 
 from bwbench.data.specimen import read_specimen
 from bwbench.optimize.objective import Objective
-from bwbench.problems.switched_vpp.formulations import make_problem
+from bwbench.problems.hysteresis.formulations import make_problem
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 CASES = [("switched-bouc-wen", DATA / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),

@@ -7,15 +7,14 @@ import numpy as np
 import pytest
 from scipy.special import logsumexp
 
-from bwbench.data import manifest
 from bwbench.data.specimen import read_specimen
-from bwbench.models import excitation
+from bwbench.models import excitation, switched_parameters
 from bwbench.models import switched_bouc_wen as model
 from bwbench.models import switched_identifiable as fm
 from bwbench.models.switched import LAYOUT
-from bwbench.problems import linear_solve as ls
-from bwbench.problems import marginal as mg
-from bwbench.problems.switched_vpp.identifiable import IdentifiableModel
+from bwbench.problems.hysteresis import marginal as mg
+from bwbench.problems.hysteresis.linear import solve as ls
+from bwbench.problems.hysteresis.paper.identifiable import IdentifiableModel
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 SPECIMENS = ["pom-mt24u01_0.01MPa_r1", "pom-c9021_0.03MPa_r2", "pc-abs-c12hf_0.07MPa_r3"]
@@ -24,7 +23,7 @@ SPECIMENS = ["pom-mt24u01_0.01MPa_r1", "pom-c9021_0.03MPa_r2", "pc-abs-c12hf_0.0
 def load(name):
     """Measured excitation, measured force and truth parameters of a synthetic specimen."""
     sp = read_specimen(DATA / f"{name}.csv")
-    return excitation.measured(sp.t, sp.x), sp.f, manifest.truth_params(DATA / f"{name}.csv")
+    return excitation.measured(sp.t, sp.x), sp.f, switched_parameters.truth_params(DATA / f"{name}.csv")
 
 
 def paper_force(p, e, state):
@@ -121,7 +120,7 @@ def test_the_gauge_rule_picks_the_table5_centre_among_equivalent_vectors():
     _, _, p = load("pom-mt24u01_0.01MPa_r1")
     theta, linear = fm.from_paper(p)
     chosen = fm.to_paper(theta, linear).params
-    from bwbench.data.parameters import LOWER, UPPER
+    from bwbench.models.switched_parameters import LOWER, UPPER
 
     def dist(q):
         return np.sum(((q - LOWER) / (UPPER - LOWER) - 0.5) ** 2)
@@ -325,7 +324,7 @@ def test_residual_vector_is_model_minus_measured_and_finite_on_blow_up():
 def test_a_finite_but_huge_trajectory_is_a_blow_up_not_a_crash():
     # Found by lsq-trf on this specimen: w reaches 1.5e277 (finite), and the linear solve overflowed
     # into "array must not contain infs or NaNs" from scipy instead of a loss of +inf.
-    from bwbench.problems.switched_vpp.identifiable_problem import IdentifiableProblem
+    from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
 
     problem = IdentifiableProblem(read_specimen(DATA / "pc-abs-c12hf_0.01MPa_r1.csv"))
     theta = np.array([0.50669315, 1.14039746, 0.88825619, 0.00194327, 0.99384954, 0.80172319, 0.23632528])

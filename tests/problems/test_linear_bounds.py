@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
-from bwbench.data import mr_damper
+from bwbench.datasets import mr_damper
 from bwbench.models import excitation
 from bwbench.models.switched import LAYOUT
-from bwbench.problems import linear_solve as ls
-from bwbench.problems.joint_problem import stack_signals
-from bwbench.problems.linear_bounds import M_MAX, physical_bounds
+from bwbench.problems.hysteresis.joint_problem import stack_signals
+from bwbench.problems.hysteresis.linear import solve as ls
+from bwbench.problems.hysteresis.linear.bounds import M_MAX, physical_bounds
 
 
 def damper_test(amplitude, frequency, seed=0):

@@ -14,9 +14,9 @@ from bwbench.data.specimen import read_specimen
 from bwbench.data.steady_part import steady_part
 from bwbench.models import excitation, registry
 from bwbench.models.spencer import starts_from_rest
-from bwbench.problems import fit_checks
-from bwbench.problems.inertia_rule import SINE_TOLERANCE, inertia_check, sine_test
-from bwbench.problems.model_problem import IdentifiableProblem
+from bwbench.problems.hysteresis import fit_checks
+from bwbench.problems.hysteresis.inertia_rule import SINE_TOLERANCE, inertia_check, sine_test
+from bwbench.problems.hysteresis.model_problem import IdentifiableProblem
 
 SPENCER = registry.get("spencer")
 # Spencer et al. (1997) at 1 V in N, mm, s: c0 c1 (N·s/mm), k0 k1 (N/mm), x0 (mm), α (N/mm), β γ (mm⁻²), A, n.

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from bwbench.cli import main
-from bwbench.data import mr_damper
 from bwbench.data.specimen import read_specimen
-from bwbench.problems.switched_vpp.formulations import make_problem
+from bwbench.datasets import mr_damper
+from bwbench.problems.hysteresis.formulations import make_problem
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 PAPER_SPECIMEN = DATA / "pom-mt24u01_0.01MPa_r1.csv"

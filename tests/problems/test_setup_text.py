@@ -1,7 +1,7 @@
 """The report's first paragraph says which formulation and search box the study used."""
 from types import SimpleNamespace
 
-from bwbench.problems.switched_vpp.report import setup_text
+from bwbench.problems.hysteresis.report.sections import setup_text
 
 
 def _text(paper_data=True, **settings):

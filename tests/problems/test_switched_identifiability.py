@@ -9,13 +9,14 @@ import pytest
 
 from bwbench.data import manifest
 from bwbench.errors import UserError
-from bwbench.problems.switched_vpp import identifiability
+from bwbench.models import switched_parameters
+from bwbench.problems.hysteresis import identifiability
 
 SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 
 
 def test_analyse_bouc_wen_at_the_truth_is_json_ready():
-    result = identifiability.analyse(SPECIMEN, manifest.truth_params(SPECIMEN))
+    result = identifiability.analyse(SPECIMEN, switched_parameters.truth_params(SPECIMEN))
     json.dumps(result, allow_nan=False)
     s = np.array(result["singular_values"])
     assert np.all(np.diff(s) <= 0) and len(s) == 14
@@ -28,7 +29,7 @@ def test_analyse_bouc_wen_at_the_truth_is_json_ready():
 
 
 def _cli(args):
-    from bwbench.problems.switched_vpp import commands
+    from bwbench.commands import simulate as commands
 
     parser = argparse.ArgumentParser()
     commands.add_identifiability_arguments(parser)
@@ -56,7 +57,7 @@ def test_cli_refuses_parameters_outside_table5(tmp_path):
 @pytest.mark.parametrize("state, names", [("shared", ["z → s·z in both branches"]),
                                           ("split", ["z₊ → s·z₊", "z₋ → s·z₋"])])
 def test_the_exact_symmetry_is_named_and_verified_along_its_orbit(state, names):
-    result = identifiability.analyse(SPECIMEN, manifest.truth_params(SPECIMEN), state)
+    result = identifiability.analyse(SPECIMEN, switched_parameters.truth_params(SPECIMEN), state)
     assert [s["name"] for s in result["symmetries"]] == names
     for s in result["symmetries"]:
         assert s["max_force_change_N"] < 1e-9 and s["in_null_space"] > 0.99
@@ -69,7 +70,7 @@ def test_the_exact_symmetry_is_named_and_verified_along_its_orbit(state, names):
 def test_the_identifiable_coordinates_have_no_symmetry(tmp_path):
     from bwbench.models.switched_identifiable import from_paper
 
-    theta, _ = from_paper(manifest.truth_params(SPECIMEN), "shared")
+    theta, _ = from_paper(switched_parameters.truth_params(SPECIMEN), "shared")
     result = identifiability.analyse(SPECIMEN, theta, "shared", formulation="identifiable")
     assert result["symmetries"] == [] and result["names"][-1] == "rho"
     assert result["numerically_zero"] <= 1 and not any(d["exact"] for d in result["null_directions"])

@@ -1,7 +1,7 @@
 """The share of the paper-coordinate scatter that is the exact symmetry."""
 import numpy as np
 
-from bwbench.problems.switched_vpp.non_uniqueness import symmetry_share
+from bwbench.problems.hysteresis.paper.non_uniqueness import symmetry_share
 
 
 def test_share_is_the_variance_that_fixing_the_gauge_removes():

@@ -3,7 +3,7 @@ long tables collapsed with their CSV beside the report, the answer in a box, *em
 
 import pandas as pd
 
-from bwbench.report.document import COLLAPSE_ROWS, Document
+from bwbench.render.document import COLLAPSE_ROWS, Document
 
 
 def test_long_tables_collapse_with_their_csv_and_the_page_has_a_viewport(tmp_path):

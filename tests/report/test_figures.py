@@ -8,8 +8,8 @@ import pytest
 
 from bwbench.analysis import statistics
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.switched_vpp import figures as switched_figures
-from bwbench.report import ecdf_figures, figures
+from bwbench.problems.hysteresis.report import figures as switched_figures
+from bwbench.render import ecdf_figures, figures
 from bwbench.store import reader as results_db
 from study_fixture import make_study_db
 
@@ -238,7 +238,7 @@ def test_profiles_figure(out):
 
 
 def test_profiles_classify_the_95_percent_region():
-    from bwbench.problems.switched_vpp.posterior_figures import bounded
+    from bwbench.problems.hysteresis.report.posterior_figures import bounded
 
     values = [0.0, 1.0, 2.0, 3.0]
     assert bounded(values, [5.0, 1.0, 1.0, 5.0], 2.0) == "both sides"
@@ -249,7 +249,7 @@ def test_profiles_classify_the_95_percent_region():
 
 
 def test_reversals_are_the_turning_points_not_the_noise():
-    from bwbench.problems.switched_vpp.figure_common import reversals
+    from bwbench.problems.hysteresis.report.figure_common import reversals
 
     t = np.linspace(0, 4, 401)
     x = 10 * (2 * np.abs(t - np.floor(t + 0.5)) * 2 - 1)  # triangle wave: turns at t = 0.5, 1, 1.5, ...
@@ -261,7 +261,7 @@ def test_reversals_are_the_turning_points_not_the_noise():
 def test_panel_titles_name_the_material_when_a_study_has_several(study):
     import dataclasses
 
-    from bwbench.report.figures import specimen_title
+    from bwbench.render.figures import specimen_title
 
     specimen = study.runs["specimen"].iloc[0]
     one = specimen_title(study, specimen)

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from bwbench.data.specimen import read_specimen
-from bwbench.problems.switched_vpp.posterior_draws import log_posterior, posterior_chains
-from bwbench.problems.switched_vpp.problem import SwitchedBoucWenProblem
+from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+from bwbench.problems.hysteresis.report.posterior_draws import log_posterior, posterior_chains
 from bwbench.store import reader as results_db
 from study_fixture import DATA_DIR, SPECIMENS, make_study_db
 

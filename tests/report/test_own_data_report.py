@@ -5,11 +5,11 @@ aggregates, and a noise floor only where the truth's MSE is one."""
 import numpy as np
 import pytest
 
-from bwbench.data import mr_damper
-from bwbench.problems.switched_vpp import adequacy
-from bwbench.problems.switched_vpp.parameter_tables import aggregate_label, aggregate_text
+from bwbench.datasets import mr_damper
+from bwbench.problems.hysteresis import adequacy
+from bwbench.problems.hysteresis.paper.parameter_tables import aggregate_label, aggregate_text
+from bwbench.render.floors import FACTOR, is_noise_floor
 from bwbench.report import build as report
-from bwbench.report.floors import FACTOR, is_noise_floor
 
 PAPER_WORDS = ("Table 5", "Tables 6–8", "Figs 20", "Figs 18", "% of Table 5", "the paper's Tables", "SYNTHETIC")
 

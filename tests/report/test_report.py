@@ -175,7 +175,7 @@ def test_report_says_how_long_the_study_took(built):
 
 def test_a_truth_is_called_a_noise_floor_only_where_it_is_one(built):
     db, out, _ = built
-    from bwbench.report.floors import floors, stated_noise_variance
+    from bwbench.render.floors import floors, stated_noise_variance
 
     study = results_db.load_study(db)
     found = floors(study, study.specimens)

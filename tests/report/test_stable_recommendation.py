@@ -91,7 +91,7 @@ def test_a_wide_spread_of_wall_times_keeps_even_a_twofold_difference_within_the_
 
 
 def test_compare_prints_what_it_counts_and_ends_with_the_reports_recommendation(study_db):
-    from bwbench.study.commands import recommendation_line, summary_table
+    from bwbench.commands.compare_run import recommendation_line, summary_table
 
     text = summary_table(study_db)
     header, *rows, note = text.splitlines()

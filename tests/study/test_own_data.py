@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from bwbench.data import mr_damper
+from bwbench.datasets import mr_damper
 from bwbench.errors import UserError
 from bwbench.study.config import load_study_config
 

@@ -232,7 +232,7 @@ def test_a_model_registered_in_this_process_only_is_refused_for_other_processes(
     spec = importlib.util.spec_from_file_location("bwbench_linear_damper_example", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    monkeypatch.setattr(registry, "_REGISTERED", dict(registry._REGISTERED))  # gone again after this test
+    monkeypatch.setattr(registry.REGISTRY, "items", dict(registry.REGISTRY.items))  # gone again after this test
     registry.register(module.MODEL)
 
     def task(model):

@@ -78,7 +78,7 @@ def flaky_backends(monkeypatch):
 
     registry.available()  # load the built-ins first, so these entries are removed cleanly afterwards
     for name, minimize in (("test-raises", raises), ("test-flaky", flaky)):
-        monkeypatch.setitem(registry._REGISTRY, name, registry.Backend(name, "test", name, minimize, {}))
+        monkeypatch.setitem(registry.REGISTRY.items, name, registry.Backend(name, "test", name, minimize, {}))
     return state
 
 

@@ -20,10 +20,10 @@ import pytest
 
 import robustness_helpers
 from bwbench.commands.compare import run_cli
+from bwbench.commands.compare_run import export_csv
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.optimize import registry
-from bwbench.study.commands import export_csv
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.tasks import plan_tasks, task_seed
@@ -187,7 +187,7 @@ def raising_backend(monkeypatch):
         raise ValueError("boom\nsecond line")
 
     registry.available()  # load the built-ins first, so this entry is removed cleanly afterwards
-    monkeypatch.setitem(registry._REGISTRY, "test-raises",
+    monkeypatch.setitem(registry.REGISTRY.items, "test-raises",
                         registry.Backend("test-raises", "test", "raises", minimize, {}))
     return "test-raises"
 
@@ -275,7 +275,7 @@ def test_a_worker_runs_each_task_on_one_thread(monkeypatch, tmp_path):
         objective.batch(rng.random((3, objective.dim)))
 
     registry.available()
-    monkeypatch.setitem(registry._REGISTRY, "test-threads",
+    monkeypatch.setitem(registry.REGISTRY.items, "test-threads",
                         registry.Backend("test-threads", "test", "records its threads", minimize, {}))
     config = load_study_config(write_config(tmp_path / "t.toml", budget=3, seeds=1, optimizers="test-threads = {}",
                                             underpressures="[0.01]"))

@@ -10,7 +10,7 @@ import pytest
 
 import bwbench
 from bwbench.cli import main
-from bwbench.data import mr_damper
+from bwbench.datasets import mr_damper
 from bwbench.errors import UserError
 from bwbench.study.config import load_study_config
 

@@ -2,7 +2,7 @@
 
 The generic part works on any residual function r(u) → vector (``sensitivity``, ``profile``), so
 it can be checked on toy models with known invariances; the problems apply it to their own
-residuals (e.g. ``bwbench.problems.switched_vpp.identifiability``: model force − measured force, N,
+residuals (e.g. ``bwbench.problems.hysteresis.identifiability``: model force − measured force, N,
 with u the unit-scaled parameters, u = 0 and 1 the Table 5 bounds).
 
 Reading the results:

@@ -1,5 +1,5 @@
 """``bwbench compare`` and ``python studies/run_compare.py``: their arguments and the scripts' entry point;
-the study runner (``bwbench.study.commands``) is imported only to run."""
+the study runner (``bwbench.commands.compare_run``) is imported only to run."""
 
 from __future__ import annotations
 
@@ -55,8 +55,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args) -> int:
-    """Run the study (``bwbench.study.commands.main``: its exit statuses)."""
-    from bwbench.study import commands
+    """Run the study (``bwbench.commands.compare_run.main``: its exit statuses)."""
+    from bwbench.commands import compare_run as commands
 
     return commands.main(args)
 

@@ -8,10 +8,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
-
-from bwbench.models import switched_bouc_wen as model
-
 MANIFEST = "manifest.json"  # JSON, so that `bwbench data check data/specimens/*.csv` sees only specimens
 
 
@@ -76,11 +72,3 @@ def truth(specimen_path) -> tuple[str, dict] | None:
     if entry is None or "truth" not in entry:
         return None
     return entry.get("model", "switched-bouc-wen"), dict(entry["truth"])
-
-
-def truth_params(specimen_path) -> np.ndarray | None:
-    """The truth of one of the paper's specimens as a 14-vector (the switched model's), or None."""
-    found = truth(specimen_path)
-    if found is None or found[0] != "switched-bouc-wen":
-        return None
-    return np.array([found[1][name] for name in model.PARAM_NAMES])

@@ -117,7 +117,7 @@ class Model:
     direct_name = "direct"
     default_formulation = "direct"
     # Whether a viscous coefficient (N·s/mm) solved in the identifiable formulation is bounded ≥ 0 when
-    # the measured loops dissipate (``bwbench.problems.linear_bounds``): right for one dashpot, wrong for a
+    # the measured loops dissipate (``bwbench.problems.hysteresis.linear.bounds``): right for one dashpot, wrong for a
     # model whose identified branches may have either sign (the switched model: see there).
     viscous_sign_bound = True
     # Simulations this model's kernel stopped at its step budget (a stiff corner of a search box: the
@@ -234,7 +234,7 @@ class Model:
         """{branch: {identifiable parameter name: value}}: for each branch (the keys of
         ``linear_branches``), the values of its shape parameters that make it linear until it yields,
         whatever its other parameters — what a posterior holds fixed when the data cannot tell the
-        branch's shape from that (a reduced model, ``bwbench.optimize.mcmc_reduce``); {} when the
+        branch's shape from that (a reduced model, ``bwbench.optimizers.mcmc_reduce``); {} when the
         model has no such notion."""
         return {}
 

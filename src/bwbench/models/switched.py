@@ -39,12 +39,12 @@ class SwitchedBoucWen(Model):
     viscous_sign_bound = False
 
     def direct_parameters(self, state=None) -> tuple:
-        from bwbench.data.parameters import LABELS, UNITS
+        from bwbench.models.switched_parameters import LABELS, UNITS
 
         return tuple(Parameter(n, UNITS[n], LABELS[n]) for n in kernel.PARAM_NAMES)
 
     def direct_box(self, signal, f, state=None) -> Box:
-        from bwbench.data.parameters import LOWER, UPPER
+        from bwbench.models.switched_parameters import LOWER, UPPER
 
         return Box(kernel.PARAM_NAMES, LOWER, UPPER, np.zeros(kernel.N_PARAMS, dtype=bool))
 

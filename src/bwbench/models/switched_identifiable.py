@@ -9,7 +9,7 @@ kept). Shared state: one s for both branches; split: one s per branch. The invar
     z_s = (A/(β+γ))^(1/n) (→ s·z_s),  x_y = z_s/A (mm),  n,  η = (β−γ)/(β+γ),
 
 and with the shared state also ρ = z_s₋/z_s₊. So 7 hysteretic numbers (shared) or 6 (split) plus
-the 9 linear ones (``bwbench.problems.linear_solve``): 16/15, of which the paper's 14 fix m = 1 and f± = 0 —
+the 9 linear ones (``bwbench.problems.hysteresis.linear.solve``): 16/15, of which the paper's 14 fix m = 1 and f± = 0 —
 13 identifiable combinations (shared), 12 (split), as 14 minus the gauge(s).
 
 w-dynamics. With w = z/z_s₊ (shared; split: w_b = z_b/z_s_b, i.e. ρ = 1 below) and, since
@@ -55,7 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from bwbench.data.parameters import LOWER, UPPER
+from bwbench.models.switched_parameters import LOWER, UPPER
 
 # The 9 coefficients the switched model's force is linear in (``bwbench.models.switched.LAYOUT``).
 LINEAR_NAMES = ("m", "c+", "k+", "h+", "f+", "c-", "k-", "h-", "f-")

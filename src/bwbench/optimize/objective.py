@@ -158,7 +158,7 @@ class Objective:
             self.nfev += cost
             return None
         r, J = found
-        from bwbench.problems.box import box_derivative
+        from bwbench.optimize.box import box_derivative
 
         J = J * box_derivative(P, self.problem.lower, self.problem.upper, self.problem.log_scaled)[None, :]
         with np.errstate(over="ignore"):

@@ -70,9 +70,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
-import threading
 from dataclasses import dataclass, field
-from importlib.metadata import entry_points
 from typing import Callable
 
 from bwbench import plugins
@@ -104,12 +102,9 @@ BUILTIN = {
     "nlopt-neldermead": "nlopt_local", "cmaes": "cmaes", "de": "de", "emcee": "emcee_sampler",
     "lsq-trf": "lsq_trf", "nested": "nested_sampler",
 }
-_REGISTRY: dict[str, Backend] = {}
-# One lock for loading and registering: a Dask worker runs tasks in threads, and a thread must not
-# see the registry half-loaded (it would record "unknown optimiser 'pso'" as the run's result).
-_LOCK = threading.RLock()
-_loaded = False
-_BROKEN: dict[str, str] = {}  # entry point name -> the line naming it and its error
+REGISTRY: plugins.Registry[Backend] = plugins.Registry(
+    "optimiser", ENTRY_POINT_GROUP, {name: f"bwbench.optimizers.{module}" for name, module in BUILTIN.items()},
+    known="available")
 
 
 def register(name: str, *, family: str, description: str, options: dict | None = None,
@@ -130,64 +125,37 @@ def register(name: str, *, family: str, description: str, options: dict | None =
         defaults = {key: declaration.default for key, declaration in options.items()}
 
     def decorate(minimize: Callable) -> Callable:
-        with _LOCK:
-            if name in _REGISTRY and _REGISTRY[name].minimize is not minimize:
-                raise ValueError(f"an optimiser named {name!r} is already registered")
-            _REGISTRY[name] = Backend(name, family, description, minimize, dict(defaults or {}), bool(batched),
-                                      options)
+        backend = Backend(name, family, description, minimize, dict(defaults or {}), bool(batched), options)
+        REGISTRY.add(name, backend, same=lambda a, b: a.minimize is b.minimize)
         return minimize
 
     return decorate
 
 
 def _load() -> None:
-    global _loaded
-    with _LOCK:
-        if _loaded:
-            return
-        import bwbench.optimizers as builtin
-
-        for module in pkgutil.iter_modules(builtin.__path__):
-            importlib.import_module(f"{builtin.__name__}.{module.name}")
-        for ep in entry_points(group=ENTRY_POINT_GROUP):
-            # A broken plug-in must not take every backend down with it (the policy of bwbench.plugins).
-            try:
-                plugins.load(ep, "optimiser")
-            except plugins.PluginError as err:
-                _BROKEN[ep.name] = str(err)
-        _loaded = True
+    """Every built-in backend's module (by name: the backends sit above this engine), then the plug-ins."""
+    builtin = importlib.import_module("bwbench.optimizers")
+    for module in pkgutil.iter_modules(builtin.__path__):
+        importlib.import_module(f"{builtin.__name__}.{module.name}")
+    REGISTRY.load_plugins()
 
 
 def broken() -> dict[str, str]:
     """The installed optimiser plug-ins that failed to load: entry point name -> the line naming it."""
     _load()
-    with _LOCK:
-        return dict(_BROKEN)
+    return dict(REGISTRY.broken)
 
 
 def available() -> dict[str, Backend]:
     """Every registered backend, built-in and plugged in, by name (sorted)."""
     _load()
-    with _LOCK:
-        return dict(sorted(_REGISTRY.items()))
+    with REGISTRY.lock:
+        return dict(sorted(REGISTRY.items.items()))
 
 
 def get(name: str) -> Backend:
     """The backend ``name``: a built-in one by importing its module only, else after loading them all."""
-    with _LOCK:
-        if name in _REGISTRY:
-            return _REGISTRY[name]
-        if name in BUILTIN:
-            importlib.import_module(f"bwbench.optimizers.{BUILTIN[name]}")
-            if name in _REGISTRY:
-                return _REGISTRY[name]
-    backends = available()
-    if name not in backends and name in broken():
-        raise plugins.PluginError(broken()[name])
-    if name not in backends:
-        failed = "".join(f"; {line}" for line in broken().values())
-        raise UserError(f"unknown optimiser {name!r}; available: {', '.join(backends)}{failed}")
-    return backends[name]
+    return REGISTRY.lookup(name, lambda: list(available()))
 
 
 def resolve_options(backend_name: str, given: dict | None = None, *, label: str | None = None) -> dict:

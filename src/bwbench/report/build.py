@@ -17,9 +17,9 @@ from pathlib import Path
 from bwbench.analysis import comparisons, statistics
 from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder
 from bwbench.errors import UserError
+from bwbench.render.document import Document
+from bwbench.render.labels import variant_noun
 from bwbench.report import sections, time_noise
-from bwbench.report.document import Document
-from bwbench.report.labels import variant_noun
 from bwbench.report.recommend import one_line, recommend
 from bwbench.report.verdict import TARGET
 from bwbench.store import reader as results_db

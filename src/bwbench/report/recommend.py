@@ -10,9 +10,9 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import comparisons, statistics
+from bwbench.render.format import evals_text, join, number, p_text, seconds_text
+from bwbench.render.labels import split_label
 from bwbench.report import time_noise
-from bwbench.report.format import evals_text, join, number, p_text, seconds_text
-from bwbench.report.labels import split_label
 from bwbench.report.verdict import (
     ALPHA,
     FALLBACK_TARGET,

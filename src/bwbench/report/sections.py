@@ -8,10 +8,10 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import statistics
-from bwbench.report import ecdf_figures, figures
-from bwbench.report.floors import noise_floors
-from bwbench.report.format import evals_text, number, p_text
-from bwbench.report.palette import split_label
+from bwbench.render import ecdf_figures, figures
+from bwbench.render.floors import noise_floors
+from bwbench.render.format import evals_text, number, p_text
+from bwbench.render.palette import split_label
 from bwbench.report.recommend import ALPHA, box, ratio_text, rule
 from bwbench.report.verdict import TARGET
 from bwbench.store.timing import compute_time

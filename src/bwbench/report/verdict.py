@@ -44,7 +44,7 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import comparisons, statistics
-from bwbench.report.labels import is_baseline, split_label
+from bwbench.render.labels import is_baseline, split_label
 from bwbench.report.time_noise import clearly_faster
 
 ALPHA = statistics.ALPHA

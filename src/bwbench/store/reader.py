@@ -23,9 +23,9 @@ import pandas as pd
 from bwbench import problems
 from bwbench.data.input_files import not_regular
 from bwbench.data.manifest import load_manifest
-from bwbench.data.parameters import LOWER, UPPER
 from bwbench.errors import UserError
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
+from bwbench.models.switched_parameters import LOWER, UPPER
 
 REQUIRED_TABLES = ("study", "runs", "traces")
 # Faults of the environment, not of a run (``bwbench.study.failures``): a stored error of these types
@@ -362,17 +362,3 @@ def load_study(path, data_dir=None) -> Study:
                   paths=paths)
     folder = study.problem_type.data_dir(study, data_dir)
     return dataclasses.replace(study, data_dir=Path(folder) if folder is not None else Path("."))
-
-
-def metric(runs: pd.DataFrame, name: str) -> np.ndarray:
-    """One metric of ``metrics_json`` per run (NaN where absent or not finite)."""
-    def value(text):
-        if not isinstance(text, str):
-            return np.nan
-        try:
-            x = json.loads(text).get(name)
-            return np.nan if x is None else float(x)
-        except (ValueError, TypeError, AttributeError):  # a hand-edited cell (load_study names it)
-            return np.nan
-
-    return np.array([value(t) for t in runs["metrics_json"]], dtype=float)

@@ -26,7 +26,7 @@ Generic format (``studies/quick.toml`` is a worked example)::
     options = {}              # on top of POSTERIOR_OPTIONS (what converges without options)
 
 The problem's keys and tables are read by its ``ProblemType.configure``
-(``bwbench.problems.switched_vpp.study``, ``bwbench.problems.noel_schoukens.study``). Every mistake
+(``bwbench.problems.hysteresis.study``, ``bwbench.problems.noel_schoukens.study``). Every mistake
 raises ``UserError`` naming the file and the key, e.g.
 ``studies/x.toml: [study] budget must be a positive integer``.
 """

@@ -25,7 +25,7 @@ _TIME_TOLERANCE_S = 2e-6
 
 def default_data_dir() -> Path:
     """The ``shared/benchmarks/bouc-wen`` folder beside the repository's folder."""
-    from bwbench.data.synthetic import REPO
+    from bwbench.datasets.synthetic import REPO
 
     return REPO.parent / "shared" / "benchmarks" / "bouc-wen"
 

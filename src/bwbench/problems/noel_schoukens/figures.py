@@ -1,11 +1,11 @@
 """Figures of a Bouc-Wen benchmark study (``problem = "bouc-wen-benchmark"``).
 
-The convergence, ECDF and waterfall figures are ``bwbench.report.figures``' own; these two are the
+The convergence, ECDF and waterfall figures are ``bwbench.render.figures``' own; these two are the
 benchmark's: the best fit against the ``test_multisine`` output, and the identified parameters
 scaled to the search box with the truth marked. Each returns the PNG's path and writes the CSV
 behind it beside it (same name). The data are the public benchmark: every figure says so (``DATA_MARK``).
 ``order``: the report's ranking (best first), for the backends' styles and legend order, the same
-as in the study's other figures (see ``bwbench.report.palette``).
+as in the study's other figures (see ``bwbench.render.palette``).
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ import pandas as pd
 from matplotlib.lines import Line2D
 
 from bwbench.analysis import statistics
-from bwbench.problems.box import box_to_unit
+from bwbench.optimize.box import box_to_unit
 from bwbench.problems.noel_schoukens import problem as bm
-from bwbench.report.figures import finished
-from bwbench.report.palette import (
+from bwbench.render.figures import finished
+from bwbench.render.palette import (
     MAX_WIDTH_IN,
     TRUTH,
     backend_handles,

@@ -54,7 +54,7 @@ from bwbench.models.force_driven_bouc_wen import (
     upsample_from_rest,
     upsample_periodic,
 )
-from bwbench.problems.box import box_from_unit, box_to_unit
+from bwbench.optimize.box import box_from_unit, box_to_unit
 from bwbench.problems.noel_schoukens.data import (
     PERIOD_SAMPLES,
     TRAIN_PERIODS,

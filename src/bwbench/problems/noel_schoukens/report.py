@@ -29,7 +29,7 @@ from bwbench.problems.noel_schoukens.analysis import (
     truth_figures,
 )
 from bwbench.problems.noel_schoukens.problem import TARGET_ERMS_M
-from bwbench.report.format import evals_text, join, number
+from bwbench.render.format import evals_text, join, number
 
 SOURCE = ("J.P. Noël and M. Schoukens, “Hysteretic benchmark with a dynamic nonlinearity”, Workshop on Nonlinear "
           "System Identification Benchmarks, Brussels, 2016; data and description at www.nonlinearbenchmark.org")

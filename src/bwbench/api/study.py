@@ -1,0 +1,282 @@
+"""A study from Python: ``bwbench.compare(...)`` runs one (as ``bwbench compare`` does) and
+``bwbench.load_study(db)`` reads one; both give a ``Study``:
+
+- ``runs``: one row per run with typed columns: ``backend``, ``formulation``, ``model`` and the
+  ``optimizer`` label ("cmaes [identifiable]"), ``nfev`` and ``budget`` integers, ``finished`` (the
+  run ended with a finite loss; an error or a model that blew up everywhere is not), mse N²,
+  rmse_N N, every parameter by name; ``traces``: best-so-far MSE (N²) against evaluations;
+- ``ranking()``: the report's ranking table in the decision rule's order, with a ``verdict`` column
+  (recommended / as good / less reliable / behind / avoid / baseline);
+- ``recommendation``: what the report recommends (``label``, ``backend``, ``formulation``,
+  ``model``, ``budget``, ``sentence``, ``text``), from ``bwbench.report.recommend``;
+- ``report(out_dir)``: the report of ``bwbench report`` (report.html, report.md, figures, CSVs);
+- ``posterior(specimen)`` / ``to_inference_data(specimen)``: a posterior run's draws in physical
+  units (``bwbench.api.posterior``).
+
+Anything else of the stored study (``settings``, ``chains``, ``specimen_path``, ...) is read through.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import re
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+from bwbench.errors import UserError
+from bwbench.render.matplotlib_state import untouched
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    """The report's recommendation: the run ``label`` to use ("cmaes [identifiable]"), its ``backend``,
+    ``formulation`` and ``model``, the ``budget`` (evaluations) it was judged at, ``sentence`` (the
+    "Use ..." sentence, plain text) and ``text`` (the whole paragraph, markdown). ``label`` is None
+    when nothing can be recommended (only the baseline ran)."""
+
+    label: str | None
+    backend: str | None
+    formulation: str | None
+    model: str | None
+    budget: int | None
+    sentence: str
+    text: str
+
+    def __str__(self) -> str:
+        return self.sentence
+
+
+class Study:
+    """A study database read for Python (see the module docstring)."""
+
+    def __init__(self, stored):
+        self._stored = stored  # bwbench.store.reader.Study
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self._stored, name)
+
+    # -- tables -------------------------------------------------------------------------------------
+    @cached_property
+    def runs(self):
+        """One row per run, typed (see the module docstring)."""
+        from bwbench.render.labels import split_label
+
+        runs = self._stored.runs.copy()
+        runs.insert(runs.columns.get_loc("optimizer") + 1, "backend",
+                    [split_label(label)[0] for label in runs["optimizer"]])
+        for column in ("nfev", "budget"):
+            runs[column] = runs[column].round().astype("Int64")
+        runs["finished"] = (runs["status"] == "ok") & runs["mse"].map(lambda m: math.isfinite(float(m)))
+        return runs.drop(columns=["success"], errors="ignore")
+
+    @property
+    def traces(self):
+        return self._stored.traces
+
+    @cached_property
+    def _decision(self) -> tuple:
+        """(ranking table in the rule's order, recommend() dict, provisional note), as the report makes them."""
+        from bwbench.analysis import comparisons, statistics
+        from bwbench.render.labels import variant_noun
+        from bwbench.report.recommend import recommend
+        from bwbench.report.verdict import TARGET
+
+        s = self._stored
+        if s.ranking.empty:
+            raise UserError(f"{s.path}: the study has no ranking runs yet: nothing to rank")
+        table, _ = statistics.ranking_table(s.runs, s.traces, s.optimizers)
+        tests = statistics.compare_backends(s.runs)
+        success = statistics.success_by_specimen(s.runs, s.traces, TARGET)
+        rec = recommend(table, success, comparisons.log_losses(s.ranking), tests, s.settings.get("budget", "?"),
+                        s.problem_type.residual_unit, variant_noun(s.settings))
+        table = table.set_index("optimizer").loc[rec["order"]].reset_index()
+        return table, rec
+
+    def ranking(self):
+        """The report's ranking table in the decision rule's order: one row per run label (``optimizer``),
+        with ``backend``, ``variant`` and ``verdict`` columns (recommended, as good, less reliable,
+        behind, avoid, baseline) and the statistics (median/best RMSE, success rates, ERT, times)."""
+        from bwbench.render.labels import split_label
+
+        table, rec = self._decision
+        verdict = rec["verdict"]
+        out = table.copy()
+        out.insert(1, "backend", [split_label(label)[0] for label in out["optimizer"]])
+        out.insert(2, "variant", [split_label(label)[1] for label in out["optimizer"]])
+        out.insert(3, "verdict", [verdict.role(label) for label in out["optimizer"]])
+        return out
+
+    @cached_property
+    def recommendation(self) -> Recommendation:
+        """The report's recommendation (``Recommendation``)."""
+        from bwbench.render.labels import split_label
+
+        _, rec = self._decision
+        label = rec["choice"]
+        text = rec["text"]
+        provisional = self._stored.provisional
+        if provisional:
+            text = f"{provisional[0].upper()}{provisional[1:]}: the study is unfinished; " + text
+        budget = self._stored.settings.get("budget")
+        if label is None:
+            return Recommendation(None, None, None, None, budget, _plain(text), text)
+        runs = self.runs[(self.runs["kind"] == "ranking") & (self.runs["optimizer"] == label)]
+        formulation = _one(runs, "formulation")
+        model = _one(runs, "model")
+        found = re.search(r"\*\*Use.*?\.(?=\s+[A-Z*]|\s*$)", text, re.S)
+        use = found.group(0) if found else text
+        return Recommendation(label, split_label(label)[0], formulation, model,
+                              int(budget) if isinstance(budget, (int, float)) else None, _plain(use), text)
+
+    # -- outputs ----------------------------------------------------------------------------------
+    def report(self, out_dir, *, data_dir=None, profiles: int = 2, log=None) -> Path:
+        """Write the report of ``bwbench report`` into ``out_dir`` (report.html, report.md, figures and
+        CSVs; ``profiles``: profile likelihoods on the first specimen, 0 = none); returns report.html's
+        path. ``log``: where progress goes (default: nowhere)."""
+        from bwbench.api.arguments import count as check_count
+
+        check_count("profiles", profiles, "0 or more", minimum=0)
+        with untouched():
+            from bwbench.report.build import build_report
+
+            return build_report(self._stored.path, out_dir, data_dir=data_dir, profile_params=profiles,
+                                log=io.StringIO() if log is None else log)
+
+    def posterior(self, specimen: str, thin: int | None = None):
+        """The posterior draws of ``specimen`` as a DataFrame in physical units (``walker``, ``step``, one
+        column per parameter; units in ``.attrs["units"]``); ``thin``: keep every thin-th step (default:
+        about 4,000 draws)."""
+        from bwbench.api import posterior as posterior_api
+
+        with untouched():
+            return posterior_api.frame(self._stored, specimen, thin)
+
+    def to_inference_data(self, specimen: str, thin: int | None = None):
+        """The same draws as ArviZ ``InferenceData`` (chains = walkers), for ``arviz.summary``, plots, R-hat."""
+        from bwbench.api import posterior as posterior_api
+
+        with untouched():
+            return posterior_api.inference_data(self._stored, specimen, thin)
+
+    # -- display ----------------------------------------------------------------------------------
+    def _counts(self) -> str:
+        runs = self.runs
+        ranking = runs[runs["kind"] == "ranking"]
+        labels = ranking["optimizer"].nunique()
+        specimens = ranking["specimen"].nunique()
+        return (f"{len(runs)} runs ({int(runs['finished'].sum())} finished): {labels} labels on {specimens} "
+                f"specimen{'s' if specimens != 1 else ''}")
+
+    def __repr__(self) -> str:
+        return f"<Study {self._stored.name} at {self._stored.path}: {self._counts()}; .ranking(), .recommendation>"
+
+    def _repr_html_(self) -> str:
+        import html
+
+        from bwbench.render.reprs import table_html
+
+        runs = self.runs[self.runs["kind"] == "ranking"]
+        rows = []
+        for label, g in runs.groupby("optimizer", sort=True):
+            done = g[g["finished"]]
+            rows.append((label, len(g), len(done), f"{done['rmse_N'].median():.4g}" if len(done) else "–"))
+        return (f"<div><b>Study</b> {html.escape(self._stored.name)} ({html.escape(str(self._stored.path))}): "
+                f"{html.escape(self._counts())}"
+                + table_html(rows, ["label", "runs", "finished", "median RMSE (N)"])
+                + "<small>.ranking() and .recommendation apply the report's rule</small></div>")
+
+
+def _one(runs, column):
+    values = [v for v in runs[column].dropna().unique()] if column in runs else []
+    return str(values[0]) if len(values) == 1 else None
+
+
+def _plain(markdown: str) -> str:
+    return markdown.replace("**", "").replace("*", "")
+
+
+def load(db, data_dir=None) -> Study:
+    from bwbench.store.reader import load_study
+
+    return Study(load_study(db, data_dir))
+
+
+def compare(config=None, *, specimens=None, optimizers=None, seeds: int = 5, budget: int = 4100, seed: int = 0,
+            model=None, formulation=None, state=None, excitation: str = "measured", bounds=None,
+            fix_mass="auto", offsets: str = "branch", validate=None, name: str = "study", db=None,
+            workers: int | None = 1, threads: int = 1, data=None, log=None) -> Study:
+    """Run (or resume) a study as ``bwbench compare`` does and return its ``Study``.
+
+    Either ``config``: a study TOML, or ``specimens``: specimen CSV paths (or globs) with
+    ``optimizers`` (a list of backend names, or one comma-separated string), ``seeds`` replicates,
+    ``budget`` evaluations per run, ``seed`` (the study's), ``model`` and ``formulation`` (a name or a
+    list of names compared side by side), ``state``, ``excitation``, ``bounds`` (a JSON file),
+    ``fix_mass``, ``offsets``, ``validate`` (held-out files every fit predicts), ``name``. ``db``: the
+    database (default: ``<name>.sqlite`` next to the TOML or in the current folder); ``workers``:
+    local processes (default 1: in this process); ``threads``: numba/BLAS threads per worker;
+    ``data``: the TOML's data folder replaced; ``log``: where progress goes (default: nowhere).
+    A study that is already complete in ``db`` is read, not run again. Raises ``UserError`` with the
+    command line's message for bad input; runs that failed are in ``runs`` (``finished`` False).
+    """
+    with untouched():  # the study code imports the report's figure modules (Agg, a theme)
+        return _compare(config, specimens=specimens, optimizers=optimizers, seeds=seeds, budget=budget, seed=seed,
+                        model=model, formulation=formulation, state=state, excitation=excitation, bounds=bounds,
+                        fix_mass=fix_mass, offsets=offsets, validate=validate, name=name, db=db, workers=workers,
+                        threads=threads, data=data, log=log)
+
+
+def _compare(config, *, specimens, optimizers, seeds, budget, seed, model, formulation, state, excitation, bounds,
+             fix_mass, offsets, validate, name, db, workers, threads, data, log) -> Study:
+    from bwbench import threads as threads_mod
+    from bwbench.api.arguments import count as check_count
+    from bwbench.data.output_paths import refuse_inputs
+    from bwbench.study.config import config_from_arguments, load_study_config
+    from bwbench.study.execute import run_study
+    from bwbench.study.inputs import refuse_blowing_box, study_inputs
+    from bwbench.study.stop import StudyStopped
+
+    if (config is None) == (specimens is None):
+        raise UserError("bwbench.compare needs either config= (a study TOML) or specimens= (CSV files), not both")
+    threads_mod.check(check_count("threads", threads, "a positive integer"))
+    if workers is not None:
+        check_count("workers", workers, "a positive integer")
+    if config is not None:
+        given = [k for k, v in (("optimizers", optimizers), ("model", model), ("formulation", formulation),
+                                ("state", state), ("bounds", bounds), ("validate", validate)) if v is not None]
+        if given:
+            raise UserError(f"{given[0]}= goes with specimens=; with config= the TOML says it")
+        study_config = load_study_config(config, data=data)
+    else:
+        if data is not None:
+            raise UserError("data= goes with config=; with specimens= the files are given")
+        if optimizers is None:
+            raise UserError("specimens= needs optimizers= (backend names, e.g. ['cmaes', 'random'])")
+        files = [specimens] if isinstance(specimens, (str, Path)) else list(specimens)
+        if not all(isinstance(f, (str, Path)) for f in files):
+            raise UserError("specimens= takes CSV paths (a study reads its files again in every worker and report): "
+                            "write a DataFrame with frame.to_csv(path, index=False) first")
+        study_config = config_from_arguments(
+            [str(f) for f in files], _names(optimizers), seeds, budget, name=name, seed=seed, state=state,
+            excitation=excitation, bounds_file=None if bounds is None else str(bounds),
+            formulation=_names(formulation), model=_names(model), fix_mass=fix_mass, offsets=offsets,
+            validate=None if validate is None else [str(v) for v in ([validate] if isinstance(validate, (str, Path))
+                                                                    else validate)])
+    path = Path(db) if db is not None else study_config.default_db
+    refuse_inputs({"db": path}, study_inputs(study_config, bounds))
+    refuse_blowing_box(study_config, bounds)
+    try:
+        run_study(study_config, path, workers=workers, threads=threads, log=io.StringIO() if log is None else log)
+    except StudyStopped as stop:
+        raise UserError(str(stop)) from None
+    return load(path)
+
+
+def _names(value):
+    """None, or a comma-separated string of names (from a list or a string)."""
+    if value is None or isinstance(value, str):
+        return value
+    return ",".join(str(v) for v in value)

@@ -1,0 +1,206 @@
+"""``bwbench optimizers`` (the registered backends) and ``bwbench fit`` (one specimen, one backend)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from bwbench import limits, threads
+from bwbench.data.output_paths import check_outputs, writing
+from bwbench.errors import UserError
+
+
+def list_backends(args) -> int:
+    """One line per backend (name, family, how it asks, description), then one line per option."""
+    import sys
+
+    from bwbench.optimize import registry
+    from bwbench.optimize.options import show
+
+    backends = registry.available()
+    for line in registry.broken().values():  # the others are listed; this one is named with its error
+        print(f"warning: {line}", file=sys.stderr)
+    width = max(len(name) for name in backends)
+    for backend in backends.values():
+        asks = "populations per call" if backend.batched else "one point per call"
+        print(f"{backend.name:<{width}}  {backend.family:<18}  {asks:<20}  {backend.description}")
+        if backend.options:
+            lines = {key: declaration.describe() for key, declaration in backend.options.items()}
+        else:  # a plugin on the untyped contract (defaults=): no type or range to show
+            lines = {key: f"untyped, default {show(value)}" for key, value in backend.defaults.items()}
+        key_width = max(map(len, lines), default=0)
+        for key, text in lines.items():
+            print(f"    {key:<{key_width}}  {text}")
+        if not lines:
+            print("    (no options)")
+    return 0
+
+
+def parse_option(text: str):
+    """``key=value`` from the command line; the value is read as JSON when it parses (3, 0.5, true)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise UserError(f"--option takes KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value
+
+
+def fit(args) -> int:
+    """Exit 0 with the result JSON (and plot); 1 when no evaluation gave a finite loss (the JSON is
+    still written, with null for what is not finite); 2 for a mistake in the input. Several
+    specimens: one joint fit (``bwbench.problems.hysteresis.joint_problem``)."""
+    import math
+    import sys
+
+    from bwbench.commands.simulate import problem_from_args
+    from bwbench.data import manifest
+    from bwbench.optimize import fitting, registry
+    from bwbench.problems.hysteresis.fit_result import provenance, run_fit
+
+    if args.budget < 1:
+        raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
+    limits.check("--budget", args.budget, "BWBENCH_MAX_BUDGET")
+    if args.seed < 0:
+        raise UserError(f"--seed must be a non-negative integer, got {args.seed}")
+    from bwbench.problems.hysteresis.settings import refuse_same_file
+
+    refuse_same_file(args.specimen)  # by identity: ./a.csv, a symlink or a hard link of a.csv is a.csv
+    # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
+    options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
+    check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
+    synthetic = all(manifest.is_synthetic(p) for p in args.specimen)
+    workers = threads.check(args.workers, "--workers")
+    with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
+        problem = problem_from_args(args)
+        extra = {"bounds_file": args.bounds, **provenance(args.specimen, args.bounds)}
+        if hasattr(problem, "box_probe_s"):
+            extra["box_probe_s"] = problem.box_probe_s  # not in wall_s, the backend's own time
+    with threads.for_workers(problem, max(workers, args.threads)):
+        fitted = run_fit(problem, args.optimizer, args.budget, args.seed, options, synthetic, extra=extra,
+                         stop=args.stop)
+    result, checks = fitted.result, fitted.checks
+    with writing(args.out):
+        fitted.write_json(args.out)
+    where = " + ".join(args.specimen)
+    if not math.isfinite(result.mse):
+        print(f"error: {where}: none of the {result.nfev} evaluations gave a finite force: the model blows "
+              "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
+              f"{args.out} written with null values", file=sys.stderr)
+        return 1
+    if args.plot:
+        with writing(args.plot):
+            _plot(problem, fitted, args.plot, synthetic)
+    joint = len(fitted.files) > 1
+    probe = f" (+ {problem.box_probe_s:.1f} s probing the --bounds box)" if hasattr(problem, "box_probe_s") else ""
+    accuracy = "" if joint else f", {_nrmse_text(fitted.files[0])}"
+    print(f"{args.optimizer}: {'loss' if joint else 'MSE'} {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE "
+          f"{result.rmse_N:.3g} N{accuracy}) in {result.nfev} evaluations{' of every file' if joint else ''}, "
+          f"{result.wall_s:.2f} s{probe} -> {args.out}")
+    if result.nfev < args.budget:
+        print(f"  {result.message} ({result.nfev} of {args.budget} evaluations)")
+    if result.extras.get("step_budget_stops"):
+        print(f"  {result.extras['step_budget_stops']} evaluations stopped at the simulation's step budget (stiff "
+              "corners of the search box): loss +inf")
+    for row in fitted.files if joint else ():
+        print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, {_nrmse_text(row)} (weight {row['weight']:.3g})")
+    for note in getattr(problem, "notes", []):
+        print(f"  linear solve: {note}")
+    for line in checks.notes if checks else []:
+        print(f"  {line}")
+    for line in checks.findings if checks else []:
+        print(f"  finding: {line}")
+    for text in fitting.edge_warnings(problem, result, checks.explained if checks else ()) + (checks.warnings if checks else []):
+        print(f"warning: {where}: {text}", file=sys.stderr)
+    for text in worse_than_zero(problem, fitted.files):
+        print(f"warning: {text}", file=sys.stderr)
+    from bwbench.data import plausibility
+
+    # data check's words about the files (a flipped or mis-scaled signal, a time column in ms), once the
+    # result is written: a refusal before the fit stays one line
+    plausibility.print_warnings([part.specimen for part in getattr(problem, "parts", None) or [problem]], synthetic)
+    return 0
+
+
+def _nrmse_text(row: dict) -> str:
+    """Both NRMSEs of a file's row, the literature's named (``fit_result.NRMSE_DEFINITIONS``)."""
+    return (f"NRMSE {row['nrmse_max_F']:.4g} (RMSE/max F, the literature's; {row['nrmse']:.4g} RMSE/max|F|)")
+
+
+def worse_than_zero(problem, files) -> list[str]:
+    """A sentence per file whose fitted force is further from the measured one than a force of 0 is
+    (RMSE above the force's own RMS), with the likely cause: a model or formulation that does not suit
+    the data (the paper's switched model in its paper box on an MR-damper test ends at NRMSE ≈ 49)."""
+    import numpy as np
+
+    out = []
+    for part, row in zip(getattr(problem, "parts", None) or [problem], files):
+        rms = float(np.sqrt(np.mean(np.square(part.specimen.f))))
+        if row["rmse_N"] > rms:
+            hint = ("try --formulation identifiable (its box is scaled from the data), or another --model "
+                    "(`bwbench models`)" if part.formulation != "identifiable" else
+                    "try another --model (`bwbench models`), or check the units and sign of the force")
+            out.append(f"{part.specimen.path}: the fit is worse than a force of zero (RMSE {row['rmse_N']:.4g} N, "
+                       f"the measured force's own RMS {rms:.4g} N): {part.model.name} in the {part.formulation} "
+                       f"formulation probably does not suit these data; {hint}")
+    return out
+
+
+def _plot(problem, fitted, path, synthetic: bool) -> None:
+    """One fit: the loops, force and residual of ``plot_fit``; a joint fit: one row per file."""
+    if len(fitted.files) == 1:
+        from bwbench.problems.hysteresis.report.figures import plot_fit
+
+        plot_fit(problem, fitted.result, path, synthetic=synthetic)
+        return
+    from bwbench.problems.hysteresis.report.prediction_figures import plot_predictions
+
+    model = fitted.model
+    predictions = [model.predict(spec) for spec in problem.specimens]
+    nrmse = ", ".join(f"{row['nrmse_max_F']:.3g}" for row in fitted.files)
+    plot_predictions(predictions, path, f"joint fit of {len(predictions)} tests: {model.describe()}\n"
+                                        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file; "
+                                        f"NRMSE (RMSE/max F) {nrmse}",
+                     what="fitted", synthetic=synthetic)
+
+
+def add_list_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.set_defaults(func=list_backends)
+
+
+def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
+    from bwbench.commands.simulate import add_fit_options, add_model_options
+
+    parser.add_argument("specimen", nargs="+", help="specimen CSV; several: one joint fit of them all (one parameter "
+                                                    "set; one evaluation simulates every file)")
+    parser.add_argument("--optimizer", default="lsq-trf",
+                        help="backend name (default lsq-trf, as bwbench.fit; see `bwbench optimizers`)")
+    parser.add_argument("--budget", type=int, default=4100,
+                        help="evaluations (default 4100, the paper's GA); one evaluation simulates every file once")
+    parser.add_argument("--seed", type=int, default=0, help="random seed, a non-negative integer (default 0)")
+    parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                        help="backend option, repeatable; VALUE is read as JSON (3, 0.5, true, null, [0.5, 1]), "
+                        "else as a string (see `bwbench optimizers` for each backend's options and ranges)")
+    add_model_options(parser, formulation_advice="; for data that are not the paper's, use identifiable: the "
+                      "paper's box fits no other amplitudes or force levels")
+    add_fit_options(parser)
+    parser.add_argument("--weighting", choices=["equal", "samples"], default="equal",
+                        help="joint fit: equal (default) gives each file's MSE the same weight whatever its length; "
+                             "samples gives every sample the same weight")
+    parser.add_argument("--bounds", metavar="FILE.json", help="a JSON object of name -> [lower, upper]: searched "
+                        "parameters set the search box (names left out keep the default range), solved coefficients "
+                        "(m, c+, f-, c1, ...) bound the linear solve")
+    parser.add_argument("--stop", choices=["agreed", "budget"], default="agreed",
+                        help="agreed (default): a backend that restarts local searches (lsq-trf) stops before the "
+                             "budget once 3 of them ended within 1%% of the best MSE, and says so; budget: spend "
+                             "the whole budget, as a study does")
+    parser.add_argument("--out", required=True, help="result JSON")
+    parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="numba/BLAS threads (default 1: many more are slower on a busy machine)")
+    parser.add_argument("--workers", type=int, default=1,
+                        help="threads for the independent parts of one evaluation: the files of a joint fit, "
+                             "else the points of a batch (a Jacobian by differences); the result is the same "
+                             "as with 1 (default 1: on a busy machine more are slower)")
+    parser.set_defaults(func=fit)

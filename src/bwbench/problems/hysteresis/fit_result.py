@@ -1,0 +1,276 @@
+"""A fit of one or several specimens, as ``bwbench fit`` writes it and ``bwbench.fit`` returns it.
+
+``run_fit(problem, ...)`` runs one backend on a problem (one specimen, or a ``JointProblem`` of
+several) and returns a ``FitResult``: the backend's ``Result``, each file's errors at the best
+parameters, the checks of the fit, and the ``FittedModel`` that predicts other tests with every
+coefficient as stored. ``FitResult.write_json`` is the result JSON: everything needed to simulate
+the model again (model, formulation, state, excitation, every parameter) and a unit for every
+number (``units``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bwbench.optimize.result import Result, finite_or_null
+
+# Two normalisations of the RMSE: by the largest force magnitude (bwbench's ``nrmse``, symmetric in the
+# sign of F) and by the largest force (``nrmse_max_F``), the one the MR-damper literature reports (e.g.
+# per-test fits of Spencer's model); they differ where the compression peak exceeds the tension peak.
+NRMSE_DEFINITIONS = {"nrmse": "RMSE / max|F measured| (bwbench's)",
+                     "nrmse_max_F": "RMSE / max F measured (the MR-damper literature's)"}
+# Units of the result JSON's own numbers (the parameters' units come from the problem).
+METRIC_UNITS = {
+    "mse": "N²", "f_err": "N² (−MSE, the paper's eq 6)", "rmse_N": "N", "nrmse": "– (RMSE / max|F measured|)",
+    "nrmse_max_F": "– (RMSE / max F measured, the literature's)", "box_probe_s": "s",
+    "inputs.size_bytes": "bytes",
+    "nfev": "evaluations (one evaluation = one simulation of every file)", "budget": "evaluations",
+    "wall_s": "s", "trace.nfev": "evaluations", "trace.mse": "N²", "energy_per_cycle_Nmm": "N·mm",
+    "files.n": "samples", "files.weight": "– (share of the loss)", "files.mse": "N²", "files.rmse_N": "N",
+    "files.nrmse": "–", "files.nrmse_max_F": "–", "bounds": "the unit of each parameter",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class FitResult:
+    """One fit: ``result`` (the backend's ``Result``: params by name in physical units, mse in N²,
+    nfev, trace, ...), ``files`` (per file: specimen, n, weight, mse N², rmse_N N, nrmse –),
+    ``checks`` (``fit_checks.FitChecks`` or None), ``problem`` (what was fitted)."""
+
+    result: Result
+    problem: Any  # the fitted problem (a model_problem or joint_problem object)
+    files: tuple = ()
+    checks: Any = None  # bwbench.problems.hysteresis.fit_checks.FitChecks
+    extra: dict = field(default_factory=dict)  # more entries for the JSON (the search box, its file)
+
+    # -- the numbers a notebook asks for first --------------------------------------------------
+    @property
+    def params(self) -> dict:
+        return self.result.params
+
+    @property
+    def mse(self) -> float:
+        return self.result.mse
+
+    @property
+    def rmse_N(self) -> float:
+        return self.result.rmse_N
+
+    @property
+    def nfev(self) -> int:
+        return self.result.nfev
+
+    @property
+    def units(self) -> dict:
+        return self.result.units
+
+    @property
+    def success(self) -> bool:
+        return math.isfinite(self.result.mse)
+
+    @property
+    def model(self):
+        """The ``FittedModel`` of this fit: ``.predict(file)``, ``.simulate(file)``, ``.force(signal)``."""
+        from bwbench.problems.hysteresis.fitted_model import FittedModel
+
+        p = self.problem
+        return FittedModel(p.model.name, p.formulation, dict(self.result.params), p.state, p.excitation,
+                           dict(self.result.units))
+
+    def predict(self, specimen):
+        """``model.predict(specimen)``: the force on another test, nothing refitted (a ``Prediction``)."""
+        return self.model.predict(specimen)
+
+    def table(self):
+        """The per-file errors as a pandas DataFrame (specimen, n, weight, mse, rmse_N, nrmse)."""
+        import pandas as pd
+
+        return pd.DataFrame(list(self.files))
+
+    # -- what a notebook reads next: uncertainty, notes, the figure (bwbench.problems.hysteresis.fit_summary, fit_plots) --
+    @property
+    def specimens(self) -> list:
+        """The fitted ``Specimen`` objects (one, or a joint fit's several)."""
+        p = self.problem
+        return list(p.specimens) if hasattr(p, "specimens") else [p.specimen]
+
+    @property
+    def notes(self) -> list:
+        """What ``bwbench fit`` prints beside the loss: the linear solve's and the checks' notes, and the
+        warnings (a parameter on its box's edge, ...); ``bwbench.fit`` issues them as ``FitWarning``."""
+        from bwbench.problems.hysteresis import fit_notes
+
+        return fit_notes.notes(self)
+
+    @cached_property
+    def uncertainty(self):
+        """The linearised covariance of the free parameters (``bwbench.problems.hysteresis.fit_summary.Uncertainty``)."""
+        from bwbench.problems.hysteresis import fit_summary
+
+        return fit_summary.uncertainty(self)
+
+    def summary(self):
+        """A DataFrame indexed by parameter: value, stderr (standard error, the same unit), unit, role
+        (searched / solved / held / derived), at_edge (on an edge of its box or bound), lower, upper.
+        Standard errors from the Jacobian at the optimum, the solved linear coefficients included
+        through the variable-projection covariance; inf where the data do not determine a parameter."""
+        from bwbench.problems.hysteresis import fit_summary
+
+        return fit_summary.summary(self, self.uncertainty)
+
+    def correlation(self):
+        """The correlation matrix of the free (searched and solved) parameters, a DataFrame."""
+        from bwbench.problems.hysteresis import fit_summary
+
+        return fit_summary.correlation(self.uncertainty)
+
+    def report(self, min_correlation: float = 0.1) -> str:
+        """A text report like lmfit's ``fit_report``: data points, variables, χ², RMSE, NRMSE, AIC/BIC,
+        every parameter with its standard error, the correlations above ``min_correlation``, the notes."""
+        from bwbench.problems.hysteresis import fit_summary
+
+        return fit_summary.report(self, self.uncertainty, self.notes, min_correlation)
+
+    def plot(self, ax=None):
+        """A matplotlib ``Figure``: per file the loops F–x and F–v, force and residual against time,
+        measured and fitted. ``ax``: draw into it instead (one Axes: the F–x loops; four: every panel).
+        The global backend and rcParams are left as they were."""
+        from bwbench.render import fit_plots
+
+        model = self.model
+        title = (f"{model.describe()}: {self.result.optimizer}, {self.result.nfev} evaluations"
+                 + (" of every file" if len(self.files) > 1 else ""))
+        return fit_plots.figure([model.predict(s) for s in self.specimens], title, ax)
+
+    def __repr__(self) -> str:
+        from bwbench.render import reprs
+
+        return reprs.fit_repr(self)
+
+    def _repr_html_(self) -> str:
+        from bwbench.render import reprs
+
+        return reprs.fit_html(self)
+
+    # -- the result JSON ------------------------------------------------------------------------
+    def to_json_dict(self) -> dict:
+        """The result JSON (strict: a value that is not finite is null)."""
+        return finite_or_null(self._json_values())
+
+    def _json_values(self) -> dict:
+        """The result JSON's values, a loss that is not finite still as it is (``write_json`` says why)."""
+        out = self.result.to_json_dict()
+        if self.problem.state is None:
+            out["state"] = None  # say it: this model has no state convention
+        out.update(self.extra)
+        checks = dict(self.checks.json) if self.checks is not None else {}
+        by_file = checks.pop("files", {})  # a joint fit's checks, per file
+        out.update(checks)
+        out["files"] = [{**row, **by_file.get(row["specimen"], {})} for row in self.files]
+        if len(self.files) == 1:
+            out["nrmse"] = self.files[0]["nrmse"]
+            out["nrmse_max_F"] = self.files[0]["nrmse_max_F"]
+        out["nrmse_definitions"] = dict(NRMSE_DEFINITIONS)
+        out["units"] = {**self.result.units, **METRIC_UNITS}
+        from bwbench.version import __version__
+
+        out["bwbench_version"] = __version__
+        return out
+
+    def save(self, path) -> None:
+        """The result JSON at ``path`` (``write_json``); ``bwbench.load_fit(path)`` reads its model back.
+        ``UserError`` (as ``bwbench fit --out``) when ``path`` is one of the fit's inputs by any spelling,
+        or cannot be written."""
+        from bwbench.data.output_paths import check_outputs, writing
+        from bwbench.errors import UserError
+
+        if not isinstance(path, (str, Path)) or not str(path).strip():
+            raise UserError(f"FitResult.save needs a file path, got {path!r}")
+        check_outputs({"--out": path}, self.inputs())
+        with writing(path):
+            self.write_json(path)
+
+    def inputs(self) -> list:
+        """The files this fit read: each specimen's path and the bounds file, if any."""
+        parts = getattr(self.problem, "parts", None) or [self.problem]
+        return [*(p.specimen.path for p in parts), self.extra.get("bounds_file")]
+
+    def write_json(self, path) -> None:
+        """``to_json_dict`` written to ``path`` as strict JSON: null, never NaN or Infinity, and
+        ``"not_finite"`` saying why (a fit that never found a finite loss)."""
+        from bwbench.data import strict_json
+
+        strict_json.write(path, self._json_values(), why=self.result.not_finite_reasons())
+
+
+def per_file(problem, result: Result) -> tuple:
+    """Each file's errors at the best parameters of ``result`` (see ``FitResult.files``), with both
+    NRMSEs (``NRMSE_DEFINITIONS``)."""
+    if hasattr(problem, "per_file"):
+        params = np.array([result.params.get(n, np.nan) for n in problem.param_names])
+        specimens = [p.specimen for p in problem.parts]
+        if np.all(np.isfinite(params)):
+            rows = list(problem.per_file(params))
+        else:
+            rows = [{"specimen": p.specimen.name, "n": p.n_data, "weight": float(w), "mse": math.inf,
+                     "rmse_N": math.inf, "nrmse": math.inf} for p, w in zip(problem.parts, problem.file_weight)]
+        return tuple({**row, "nrmse_max_F": _over_max_force(row["rmse_N"], spec.f)} for row, spec in zip(rows, specimens))
+    peak = float(np.max(np.abs(problem.specimen.f)))
+    return ({"specimen": problem.specimen.name, "n": problem.n_data, "weight": 1.0, "mse": result.mse,
+             "rmse_N": result.rmse_N, "nrmse": result.rmse_N / peak if peak > 0 else math.inf,
+             "nrmse_max_F": _over_max_force(result.rmse_N, problem.specimen.f)},)
+
+
+def _over_max_force(rmse: float, f) -> float:
+    peak = float(np.max(np.asarray(f, dtype=float)))
+    return rmse / peak if peak > 0 else math.inf
+
+
+def provenance(specimens, bounds=None, argv=None) -> dict:
+    """What the result JSON records of its inputs: each file's role ("specimen" or "bounds"), path
+    (absolute), size (bytes) and SHA-256 (of its bytes: ``sha256sum`` gives the same), and the command
+    line that made it (``argv``, default ``sys.argv``)."""
+    import hashlib
+    import shlex
+    import sys
+    from pathlib import Path
+
+    inputs = []
+    for role, path in [("specimen", p) for p in specimens] + ([("bounds", bounds)] if bounds else []):
+        p = Path(path)
+        data = p.read_bytes()
+        inputs.append({"role": role, "path": str(p.resolve()), "size_bytes": len(data),
+                       "sha256": hashlib.sha256(data).hexdigest()})
+    argv = sys.argv if argv is None else argv
+    return {"inputs": inputs, "command_line": " ".join(shlex.quote(str(a)) for a in argv)}
+
+
+# Local searches that must end at the same optimum before ``bwbench fit`` stops early (``stop="agreed"``).
+AGREEING_SEARCHES = 3
+
+
+def run_fit(problem, optimizer: str, budget: int, seed, options: dict | None = None,
+            synthetic: bool = False, extra: dict | None = None, stop: str = "budget") -> FitResult:
+    """Fit ``problem`` with backend ``optimizer`` on at most ``budget`` evaluations (``fitting.run``),
+    then its per-file errors and checks. ``stop``: "budget" spends the whole budget (a study's
+    rule); "agreed" lets a backend with a ``stop_agree`` option (lsq-trf) stop once
+    ``AGREEING_SEARCHES`` of its independent local searches ended at the same optimum, unless
+    ``options`` set it. ``synthetic``: the data are the manifest's synthetic specimens (changes the
+    wording of a check). Raises ``UserError`` for a bad option or seed."""
+    from bwbench.optimize import fitting, registry
+
+    if stop not in ("budget", "agreed"):
+        raise ValueError(f"stop must be 'budget' or 'agreed', got {stop!r}")
+    options = dict(options or {})
+    if stop == "agreed" and "stop_agree" in registry.get(optimizer).options and not options.get("stop_agree"):
+        options["stop_agree"] = AGREEING_SEARCHES
+    result = fitting.run(problem, optimizer, budget, seed, options)
+    checks = problem.fit_checks(result, synthetic) if hasattr(problem, "fit_checks") else None
+    box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}
+    return FitResult(result, problem, per_file(problem, result), checks, {**(extra or {}), "bounds": box})

@@ -1,0 +1,292 @@
+"""A fitted model: every coefficient as stored, ready to simulate or predict the force of any test.
+
+A fit result (``bwbench fit``'s JSON, a study run, ``bwbench.fit``) names the model, formulation,
+state and excitation and holds every parameter by name. ``FittedModel`` rebuilds the force from
+those numbers alone, nothing refitted:
+
+- direct formulation: the model's own parameters through ``Model.force_batch``;
+- identifiable: the θ-dependent column w(θ) simulated on the new excitation (from the model's own
+  initial state for that record), then F = Σ β_j·g_j with the **stored** linear coefficients β
+  (``linear_columns``; a branched model's '+' set where ẋ ≥ 0, its '−' set where ẋ < 0).
+
+``predict`` adds the errors: RMSE (N), and NRMSE = RMSE / max|F_measured| (–), the measure the MR-damper
+literature reports. It is what ``bwbench predict``, ``evaluate``/``simulate`` given a fit result, the
+report's held-out check and ``bwbench.FittedModel`` all use.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bwbench.errors import UserError
+
+IDENTIFIABLE = "identifiable"
+EXCITATIONS = ("measured", "sine")
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """The force a fitted model predicts on one record, against the measured one.
+
+    ``force_N`` and ``measured_N`` (L,) in N, ``time_s`` (L,), ``displacement_mm`` (L,) the
+    displacement that drove the model; ``rmse_N`` (N), ``nrmse`` = RMSE/max|measured| (–),
+    ``mse`` (N²); +inf when the model blows up on this record."""
+
+    specimen: str
+    time_s: np.ndarray
+    displacement_mm: np.ndarray
+    force_N: np.ndarray
+    measured_N: np.ndarray
+    velocity_mm_s: np.ndarray | None = field(default=None, repr=False)  # what drove the model (for the F–v loop)
+
+    @property
+    def n(self) -> int:
+        return len(self.measured_N)
+
+    @property
+    def mse(self) -> float:
+        with np.errstate(over="ignore", invalid="ignore"):
+            value = float(np.mean((self.force_N - self.measured_N) ** 2))
+        return value if math.isfinite(value) else math.inf
+
+    @property
+    def rmse_N(self) -> float:
+        return math.sqrt(self.mse)
+
+    @property
+    def nrmse(self) -> float:
+        peak = float(np.max(np.abs(self.measured_N)))
+        return self.rmse_N / peak if peak > 0 else math.inf
+
+    def metrics(self) -> dict:
+        """The numbers of this prediction by name, and their units under ``units``."""
+        return {"specimen": self.specimen, "n": self.n, "mse": self.mse, "rmse_N": self.rmse_N,
+                "nrmse": self.nrmse, "max_abs_force_N": float(np.max(np.abs(self.measured_N))),
+                "units": {"mse": "N²", "rmse_N": "N", "nrmse": "– (RMSE / max|F measured|)",
+                          "max_abs_force_N": "N", "n": "samples"}}
+
+    def frame(self):
+        """A pandas DataFrame: time_s, displacement_mm, force_measured_N, force_model_N, residual_N."""
+        import pandas as pd
+
+        return pd.DataFrame({"time_s": self.time_s, "displacement_mm": self.displacement_mm,
+                             "force_measured_N": self.measured_N, "force_model_N": self.force_N,
+                             "residual_N": self.force_N - self.measured_N})
+
+    def plot(self, ax=None):
+        """A matplotlib ``Figure``: loops F–x and F–v, force and residual against time, measured and
+        predicted (``ax``: draw into it instead). The global backend and rcParams are left as they were."""
+        from bwbench.render import fit_plots
+
+        return fit_plots.figure([self], f"prediction of {self.specimen}", ax)
+
+    def __repr__(self) -> str:
+        from bwbench.render import reprs
+
+        return reprs.prediction_repr(self)
+
+    def _repr_html_(self) -> str:
+        from bwbench.render import reprs
+
+        return reprs.prediction_html(self)
+
+
+@dataclass(frozen=True)
+class FittedModel:
+    """One model with every coefficient fixed (physical units, by name; see the module docstring).
+
+    ``model``: a registered model name (``bwbench models``); ``formulation``: its direct one or
+    "identifiable"; ``state``: the state convention (None for a model without one); ``excitation``:
+    "measured" or "sine"; ``params``: every parameter the formulation needs, by name; ``units``:
+    their units (for the record)."""
+
+    model: str
+    formulation: str
+    params: dict
+    state: str | None = None
+    excitation: str = "measured"
+    units: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        from bwbench.models import registry
+
+        for key, value, kind in (("model", self.model, str), ("formulation", self.formulation, str),
+                                 ("params", self.params, dict), ("units", self.units, dict),
+                                 ("excitation", self.excitation, str)):
+            if not isinstance(value, kind) or (kind is str and not value):
+                raise UserError(f"\"{key}\" is {value!r}: it must be a {'name' if kind is str else 'JSON object'}")
+        if self.excitation not in EXCITATIONS:
+            raise UserError(f"\"excitation\" is {self.excitation!r}: it must be one of {', '.join(EXCITATIONS)}")
+        if self.state is not None and not isinstance(self.state, str):
+            raise UserError(f"\"state\" is {self.state!r}: it must be a name or null")
+        model = registry.get(self.model)
+        if self.formulation not in model.formulations:
+            raise UserError(f"model {self.model!r} has no formulation {self.formulation!r}; it has "
+                            f"{', '.join(model.formulations)}")
+        object.__setattr__(self, "state", model.check_state(self.state) if model.states else None)
+        missing = [n for n in self.needed() if not isinstance(self.params.get(n), (int, float))]
+        if missing:
+            raise UserError(f"the {self.formulation} formulation of {self.model} needs {', '.join(missing)}: "
+                            "not in these parameters")
+        self._check_domain()
+
+    def _check_domain(self) -> None:
+        """``UserError`` naming the key for a parameter outside its model's domain: not finite (only a
+        solved coefficient of a branch the fit's data never had may be null), or an exponent n ≤ 0."""
+        coefficients = set()
+        if self.formulation == IDENTIFIABLE:
+            from bwbench.problems.hysteresis.linear.columns import coefficient_names
+
+            coefficients = set(coefficient_names(self._model.linear_layout(self.state)))
+        for name in self.needed():
+            value = float(self.params[name])
+            if math.isnan(value) and name in coefficients:
+                continue  # null: the fit's data never moved in that branch (``force`` says so if it must)
+            if not math.isfinite(value):
+                raise UserError(f"params.{name} is {self.params[name]!r}: not a finite number")
+            if name.rstrip("+-") == "n" and value <= 0:
+                raise UserError(f"params.{name} is {value:g}: an exponent of the hysteresis must be > 0")
+
+    @property
+    def _model(self):
+        from bwbench.models import registry
+
+        return registry.get(self.model)
+
+    def needed(self) -> tuple:
+        """The parameter names the force needs in this formulation."""
+        model = self._model
+        if self.formulation != IDENTIFIABLE:
+            return tuple(p.name for p in model.direct_parameters(self.state))
+        from bwbench.problems.hysteresis.linear.columns import coefficient_names
+
+        return (tuple(p.name for p in model.hysteretic_parameters(self.state))
+                + coefficient_names(model.linear_layout(self.state)))
+
+    @classmethod
+    def from_result(cls, data: dict, source: str = "the fit result") -> "FittedModel":
+        """The fitted model of a result dict (``bwbench fit``'s JSON): its model (default: the switched
+        model, for results written before the key), formulation, state, excitation and params."""
+        from bwbench.models import registry
+
+        if not isinstance(data, dict) or not isinstance(data.get("params"), dict):
+            raise UserError(f"{source}: not a fit result (no \"params\" object)")
+        if "formulation" not in data:
+            raise UserError(f"{source}: not a fit result (no \"formulation\"): give --formulation and --model "
+                            "to read it as a parameter file")
+        name = data.get("model") or registry.DEFAULT
+        # null is how strict JSON writes a coefficient the fit could not have (a branch without samples)
+        params = {k: math.nan if v is None else v for k, v in data["params"].items()
+                  if v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))}
+        try:
+            units = data.get("units") or {}
+            if not isinstance(units, dict):
+                raise UserError(f"\"units\" is a JSON {type(units).__name__}, not an object of name -> unit")
+            if not isinstance(name, str):
+                raise UserError(f"\"model\" is {name!r}: it must be a model name (see `bwbench models`)")
+            return cls(name, data["formulation"], params, data.get("state"), data.get("excitation", "measured"),
+                       dict(units))
+        except UserError as err:
+            raise UserError(f"{source}: {err}") from None
+
+    @classmethod
+    def read(cls, path) -> "FittedModel":
+        """The fitted model of a result JSON file; ``UserError`` naming the file for anything wrong."""
+        from bwbench.data.json_input import read_json_file
+
+        return cls.from_result(read_json_file(Path(path)), str(path))
+
+    def describe(self) -> str:
+        state = f", {self.state} state" if self.state else ""
+        return f"{self.model} ({self.formulation} formulation{state}, {self.excitation} excitation)"
+
+    def signal(self, specimen):
+        """The excitation this model is driven by on ``specimen`` (a ``Specimen``)."""
+        from bwbench.models import excitation
+
+        return excitation.of_specimen(self.excitation, specimen)
+
+    def force(self, signal) -> np.ndarray:
+        """Model force (N) on an excitation (t, x, v, a); +inf everywhere where the model blows up.
+        ``UserError`` when the record moves in a direction whose coefficients the fit never saw."""
+        model = self._model
+        if self.formulation != IDENTIFIABLE:
+            P = np.array([self.params[n] for n in self.needed()], dtype=float)
+            return model.force_batch(P[None, :], signal, self.state)[0]
+        from bwbench.problems.hysteresis.linear.columns import branch_masks, signal_column
+
+        theta = np.array([self.params[p.name] for p in model.hysteretic_parameters(self.state)], dtype=float)
+        w = model.trajectories(theta[None, :], signal, self.state)[0]
+        layout = model.linear_layout(self.state)
+        F = np.zeros(len(signal.x))
+        if layout.mass:
+            F += self.params[layout.mass] * np.asarray(signal.a, dtype=float)
+        for b, mask in branch_masks(layout, signal.v).items():
+            if not mask.any():
+                continue
+            coefficients = {name: self.params[f"{name}{b}"] for name, _ in layout.fixed}
+            coefficients[layout.varying] = self.params[f"{layout.varying}{b}"]
+            unknown = [f"{n}{b}" for n, v in coefficients.items() if not math.isfinite(v)]
+            if unknown:
+                raise UserError(f"the record moves in branch {b} (ẋ {'≥' if b == '+' else '<'} 0), whose "
+                                f"coefficients ({', '.join(unknown)}) the fit's data never had")
+            for name, source in layout.fixed:
+                F += coefficients[name] * signal_column(signal, source, mask)
+            with np.errstate(invalid="ignore", over="ignore"):
+                F += coefficients[layout.varying] * np.where(mask, w, 0.0)
+        return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
+
+    def predict(self, specimen) -> Prediction:
+        """The force on ``specimen`` (a specimen CSV's path, a ``Specimen`` or a DataFrame with the file's
+        columns) against its measured one."""
+        spec = _specimen(specimen)
+        signal = self.signal(spec)
+        return Prediction(spec.name, np.asarray(spec.t, dtype=float), np.asarray(signal.x, dtype=float),
+                          self.force(signal), np.asarray(spec.f, dtype=float), np.asarray(signal.v, dtype=float))
+
+    def simulate(self, specimen):
+        """``predict(specimen).frame()`` with the velocity and acceleration that drove the model: a
+        pandas DataFrame with time_s, displacement_mm, velocity_mm_s, acceleration_mm_s2,
+        force_model_N, force_measured_N."""
+        import pandas as pd
+
+        spec = _specimen(specimen)
+        s = self.signal(spec)
+        return pd.DataFrame({"time_s": s.t, "displacement_mm": s.x, "velocity_mm_s": s.v, "acceleration_mm_s2": s.a,
+                             "force_model_N": self.force(s), "force_measured_N": spec.f})
+
+    def __repr__(self) -> str:
+        from bwbench.render import reprs
+
+        return reprs.model_repr(self)
+
+    def _repr_html_(self) -> str:
+        from bwbench.render import reprs
+
+        return reprs.model_html(self)
+
+    def to_dict(self) -> dict:
+        """What a result JSON holds of this model: model, formulation, state, excitation, params, units."""
+        return {"model": self.model, "formulation": self.formulation, "state": self.state,
+                "excitation": self.excitation, "params": dict(self.params), "units": dict(self.units)}
+
+
+def _specimen(specimen):
+    """A ``Specimen`` from a path or a DataFrame with the file's columns (read and checked as every
+    command does: a dead channel refused, the rest of data check's warnings printed) or as given;
+    ``UserError`` for anything else."""
+    from bwbench.data import plausibility
+    from bwbench.data.specimen import Specimen
+    from bwbench.data.specimen_input import as_specimen
+
+    if isinstance(specimen, Specimen):
+        return specimen
+    if isinstance(specimen, (str, Path)) and not str(specimen).strip():
+        raise UserError(f"a specimen must be a path to a specimen CSV, a Specimen or a DataFrame, got {specimen!r}")
+    spec = as_specimen(specimen)
+    plausibility.screen([spec], force_needed=False)
+    return spec

@@ -1,0 +1,164 @@
+"""Models and formulations: which problem object a study, a fit or an analysis builds.
+
+A study (or a command) names one or more models (``bwbench models``; default: the paper's switched
+Bouc-Wen) and one or more formulations: the model's direct one (its own parameters in its box:
+"paper" for the switched model, "direct" for the others; either word is accepted for any model)
+and, for models with coefficients that enter the force linearly, "identifiable" (symmetry-free
+parameters searched, linear coefficients solved). Every (model, formulation) pair is a variant,
+compared side by side; its label is what differs between the variants.
+"""
+
+from __future__ import annotations
+
+from bwbench.data import bounds as bounds_mod
+from bwbench.models import registry
+from bwbench.problems.base import choice
+
+FORMULATIONS = ("paper", "direct", "identifiable")
+
+
+def resolve_formulation(model, formulation: str | None) -> str:
+    """The model's own name of ``formulation`` ("paper" and "direct" both mean its direct one; None its
+    default); ``UserError`` naming what it has when it has no such formulation."""
+    from bwbench.errors import UserError
+
+    if formulation is None:
+        return model.default_formulation
+    if formulation in ("paper", "direct"):
+        return model.direct_name
+    if formulation not in model.formulations:
+        raise UserError(f"model {model.name!r} has no formulation {formulation!r}; it has "
+                         f"{', '.join(model.formulations)}")
+    return formulation
+
+
+def variants(models, formulations=None) -> list[tuple[str, str, str]]:
+    """(label, model, formulation) of every variant: each model in each formulation (None: each
+    model's default one). The label names what differs: the formulation when one model is compared
+    in several, the model when several are fitted in one formulation each, else both."""
+    pairs = []
+    for name in models:
+        model = registry.get(name)
+        for formulation in formulations or (None,):
+            pair = (name, resolve_formulation(model, formulation))
+            if pair not in pairs:
+                pairs.append(pair)
+    several_models = len({m for m, _ in pairs}) > 1
+    several_formulations = any(sum(m == n for n, _ in pairs) > 1 for m, _ in pairs)
+    def label(m, f):
+        if several_models and several_formulations:
+            return f"{m} {f}"
+        return m if several_models else f
+    return [(label(m, f), m, f) for m, f in pairs]
+
+
+def make_problem(specimen, settings: dict):
+    """The problem of one specimen, or the joint problem of a list of them (``joint_problem``), for
+    settings with model (default: the switched model), state, excitation and optionally formulation
+    (default: the model's own), fix_mass, offsets, weighting (joint fits) and bounds: names of the
+    searched parameters set the search box, names of solved coefficients bound the linear solve
+    (names the formulation does not have are left to the other one)."""
+    from bwbench.problems.hysteresis.model_problem import DirectProblem, IdentifiableProblem
+
+    if isinstance(specimen, (list, tuple)):
+        if len(specimen) > 1:
+            return _joint_problem(specimen, settings)
+        specimen = specimen[0]
+    model = registry.get(settings.get("model", registry.DEFAULT))
+    formulation = resolve_formulation(model, settings.get("formulation"))
+    state = settings.get("state") if model.states else None
+    excitation = settings.get("excitation", "measured")
+    bounds = settings.get("bounds", {})
+    problem: DirectProblem | IdentifiableProblem
+    if formulation == "identifiable":
+        solved = _solved_bounds(model, state, bounds)
+        problem = IdentifiableProblem(model, specimen, state, excitation, fix_mass=settings.get("fix_mass", "auto"),
+                                      offsets=settings.get("offsets", True), coefficient_bounds=solved)
+    else:
+        problem = DirectProblem(model, specimen, state, excitation)
+    box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
+    problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
+    return problem
+
+
+def _solved_bounds(model, state, bounds: dict) -> dict:
+    """The entries of ``bounds`` that name a solved coefficient of the model's identifiable formulation."""
+    from bwbench.problems.hysteresis.linear.columns import coefficient_names
+
+    names = coefficient_names(model.linear_layout(state)) if model.has_linear_part else ()
+    return {k: tuple(v) for k, v in bounds.items() if k in names}
+
+
+def _joint_problem(specimens, settings: dict):
+    from bwbench.problems.hysteresis.joint_problem import JointProblem
+
+    one = {k: v for k, v in settings.items() if k != "bounds"}  # the box is set once, on the envelope
+    parts = [make_problem(s, one) for s in specimens]
+    model, state = parts[0].model, parts[0].state
+    bounds = settings.get("bounds", {})
+    problem = JointProblem(parts, settings.get("weighting", "equal"), fix_mass=settings.get("fix_mass", "auto"),
+                           offsets=settings.get("offsets", True), coefficient_bounds=_solved_bounds(model, state, bounds))
+    box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
+    problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
+    return problem
+
+
+def bound_names(formulations, state, models=(registry.DEFAULT,)) -> tuple:
+    """The parameter names a bounds file may set for these models and formulations (None: defaults):
+    the searched parameters (the search box) and, in the identifiable formulation, the solved
+    coefficients (bounds of the linear solve)."""
+    from bwbench.problems.hysteresis.linear.columns import coefficient_names
+
+    names = []
+    for _, name, formulation in variants(models, formulations):
+        model = registry.get(name)
+        own_state = state if model.states else None
+        if formulation == "identifiable":
+            parameters = [p.name for p in model.hysteretic_parameters(own_state)]
+            parameters += list(coefficient_names(model.linear_layout(own_state)))
+        else:
+            parameters = [p.name for p in model.direct_parameters(own_state)]
+        names += [p for p in parameters if p not in names]
+    return tuple(names)
+
+
+def parse(fail, value) -> tuple:
+    """A formulation or a list of them, each checked against ``FORMULATIONS``."""
+    return _names(fail, "formulation", value, FORMULATIONS)
+
+
+def parse_models(fail, value) -> tuple:
+    """A model or a list of them, each a registered model (``bwbench models``)."""
+    from bwbench.errors import UserError
+
+    names = _names(fail, "model", value, None)
+    for name in names:
+        try:
+            registry.get(name)
+        except UserError as err:
+            fail(str(err))
+    return names
+
+
+def check_pairs(fail, models, formulations) -> list:
+    """``variants`` with a model that lacks a formulation refused through ``fail``."""
+    from bwbench.errors import UserError
+
+    try:
+        return variants(models, formulations)
+    except UserError as err:
+        fail(str(err))
+        raise  # not reached: ``fail`` raises
+
+
+def _names(fail, key, value, choices) -> tuple:
+    values = [value] if isinstance(value, str) else value
+    if not isinstance(values, list) or not values or not all(isinstance(v, str) for v in values):
+        allowed = f"one of {', '.join(map(repr, choices))}" if choices else "a name"
+        fail(f"{key} must be {allowed} or a list of them, got {value!r}")
+    if choices:
+        for v in values:
+            choice(fail, key, v, choices)
+    if len(set(values)) != len(values):
+        fail(f"{key} lists a {key} twice")
+    return tuple(values)

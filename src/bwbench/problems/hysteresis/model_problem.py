@@ -1,0 +1,229 @@
+"""A model fitted to one specimen, in either formulation: the problems every model plug-in gets.
+
+``DirectProblem``: the model's own parameters searched in its box (the paper formulation of the
+switched model). ``IdentifiableProblem``: the model's symmetry-free nonlinear parameters θ searched
+in a box scaled from the data, the coefficients that enter the force linearly solved by least
+squares for every simulated trajectory (``linear_solve``). One evaluation is one simulation either
+way. Both know nothing of optimisers (``bwbench.optimize.objective.Objective`` wraps them).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bwbench.data import bounds as bounds_mod
+from bwbench.models import excitation as excitation_mod
+from bwbench.optimize.box import box_from_unit, box_to_unit
+
+
+class ModelFit:
+    """What every fit of a model to one specimen answers the same way: needs ``model``, ``specimen``,
+    ``state``, ``excitation``, ``param_names``, ``lower``, ``upper``, ``log_scaled``."""
+
+    formulation = ""
+
+    def _setup(self, model, specimen, state, excitation):
+        self.model, self.specimen, self.excitation = model, specimen, excitation
+        self.state = model.check_state(state)
+        self.signal = excitation_mod.of_specimen(excitation, specimen)
+
+    @property
+    def name(self) -> str:
+        return self.specimen.name
+
+    @property
+    def dim(self) -> int:
+        return len(self.param_names)
+
+    @property
+    def n_data(self) -> int:
+        """Number of force samples the loss averages over (the L of eq 6)."""
+        return self.specimen.n_samples
+
+    @property
+    def info(self) -> dict:
+        out = {"specimen": self.specimen.name, "model": self.model.name, "excitation": self.excitation,
+               "formulation": self.formulation}
+        if self.state is not None:
+            out["state"] = self.state
+        return out
+
+    def units(self, names) -> dict:
+        """The unit of each parameter name a result of this fit reports (searched, solved, direct)."""
+        from bwbench.problems.hysteresis.fit_checks import units
+
+        return units(self, names)
+
+    def fit_checks(self, result, synthetic: bool = False):
+        """``fit_checks.check`` at the best parameters of ``result`` (a ``Result`` of this problem)."""
+        from bwbench.problems.hysteresis import fit_checks
+
+        params = [result.params.get(name, np.nan) for name in self.param_names]
+        return fit_checks.check(self, params, synthetic, result.at_bound)
+
+    def from_unit(self, U) -> np.ndarray:
+        return box_from_unit(U, self.lower, self.upper, self.log_scaled)
+
+    def to_unit(self, P) -> np.ndarray:
+        return box_to_unit(P, self.lower, self.upper, self.log_scaled)
+
+    def _box(self, box, bounds):
+        self.param_names = tuple(box.names)
+        self.log_scaled = np.array(box.log, dtype=bool)
+        self.lower, self.upper = bounds_mod.apply(box.lower, box.upper, self.param_names, bounds or {})
+
+
+class DirectProblem(ModelFit):
+    """The model's own parameters fitted to one specimen (loss: MSE in N²)."""
+
+    def __init__(self, model, specimen, state=None, excitation: str = "measured", *, bounds: dict | None = None):
+        self._setup(model, specimen, state, excitation)
+        self.formulation = model.direct_name
+        self.parameter_list = model.direct_parameters(self.state)
+        self._box(model.direct_box(self.signal, specimen.f, self.state), bounds)
+
+    def loss_batch(self, P) -> np.ndarray:
+        """MSE (N²) of each row of P (physical units, (m, d)); +inf where the model blows up."""
+        return self.model.mse_batch(np.atleast_2d(np.asarray(P, dtype=float)), self.signal, self.specimen.f, self.state)
+
+    def residual_batch(self, P) -> np.ndarray:
+        """Model − measured force (N), (m, L); rows of +inf where the model blows up."""
+        F = self.model.force_batch(np.atleast_2d(np.asarray(P, dtype=float)), self.signal, self.state)
+        with np.errstate(invalid="ignore"):
+            R = F - self.specimen.f
+        return np.where(np.all(np.isfinite(R), axis=1)[:, None], R, np.inf)
+
+    @property
+    def jacobian_cost(self) -> int:
+        """Plain evaluations one ``residual_jacobian`` is charged (0: the model has no sensitivities)."""
+        return int(self.model.sensitivity_cost) if hasattr(self.model, "force_sensitivities") else 0
+
+    def residual_jacobian(self, params):
+        """(model − measured force (L,) N, its Jacobian (L, d) in physical units) of one direct vector,
+        exact (``force_sensitivities`` of the model); None where it cannot be had."""
+        found = self.model.force_sensitivities(np.asarray(params, dtype=float), self.signal, self.state)
+        if found is None:
+            return None
+        F, dF = found
+        return F - self.specimen.f, dF
+
+    def simulate(self, params) -> np.ndarray:
+        """Model force (N) at the specimen's samples; +inf everywhere on blow-up."""
+        return self.model.force_batch(np.asarray(params, dtype=float)[None, :], self.signal, self.state)[0]
+
+    def parameters(self, params) -> dict:
+        return dict(zip(self.param_names, map(float, params)))
+
+
+class IdentifiableProblem(ModelFit):
+    """θ searched, linear coefficients solved (loss: MSE in N²). ``fix_mass``: "auto" (the inertia
+    rule), None (fitted) or a value (N·s²/mm), for models with an inertia term; ``offsets``: the
+    constant-force coefficients per branch (True/"branch"), "continuous" or none (False);
+    ``bounds``: {name: (lower, upper)} replacing parts of the search box; ``coefficient_bounds``:
+    {coefficient: (lower, upper)} replacing the physical defaults of the solved coefficients
+    (``linear_bounds.physical_bounds``)."""
+
+    formulation = "identifiable"
+
+    def __init__(self, model, specimen, state=None, excitation: str = "measured", *, fix_mass="auto",
+                 offsets=True, bounds: dict | None = None, coefficient_bounds: dict | None = None):
+        from bwbench.problems.hysteresis.linear.solve import LinearDesign, coefficient_units
+
+        self._setup(model, specimen, state, excitation)
+        layout = model.linear_layout(self.state)
+        solved, notes = coefficient_bounds_of(model, layout, self.signal, specimen.f, coefficient_bounds)
+        self.design = LinearDesign(self.signal, specimen.f, layout, fix_mass=fix_mass, offsets=offsets,
+                                   bounds=solved, notes=notes)
+        self.linear_names = self.design.names
+        self.linear_units = coefficient_units(layout)
+        self.parameter_list = model.hysteretic_parameters(self.state)
+        self._box(model.hysteretic_box(self.signal, specimen.f, self.state), bounds)
+
+    @property
+    def notes(self) -> list[str]:
+        """What the linear solve fixed or dropped, and why (e.g. inertia not excited)."""
+        return list(self.design.notes)
+
+    @property
+    def info(self) -> dict:
+        return {**super().info, "linear_solve": "; ".join(self.notes)}
+
+    def solve(self, P, residual: bool = False):
+        """The linear solve (``LinearSolution``) of each θ row of P (m, d)."""
+        theta = np.atleast_2d(np.asarray(P, dtype=float))
+        return self.design.solve(self.model.trajectories(theta, self.signal, self.state), residual)
+
+    def loss_batch(self, P) -> np.ndarray:
+        """MSE (N²) of each row of P with its linear coefficients solved; +inf on blow-up."""
+        return self.solve(P).mse
+
+    def log_likelihood_batch(self, P) -> tuple[np.ndarray, np.ndarray]:
+        """(MSE in N², log marginal likelihood) of each row of P from one simulation each: the linear
+        coefficients integrated out (flat prior on those of the fixed signals, the scale-free g-prior on
+        those of the θ-dependent columns: ``marginal``) and σ under Jeffreys' 1/σ; −inf on blow-up."""
+        from bwbench.problems.hysteresis.marginal import log_marginal
+
+        solution = self.solve(P)
+        return solution.mse, log_marginal(solution, prior="scale-free", varying=len(self.design.w_names))
+
+    def residual_batch(self, P) -> np.ndarray:
+        """F_model − F_measured (N), (m, L); rows of +inf where the model blows up."""
+        solution = self.solve(P, residual=True)
+        R = solution.residual
+        ok = np.isfinite(solution.mse) & np.all(np.isfinite(R), axis=1)
+        return np.where(ok[:, None], R, np.inf)
+
+    @property
+    def jacobian_cost(self) -> int:
+        """Plain evaluations one ``residual_jacobian`` is charged (0: the model has no sensitivities)."""
+        return int(self.model.sensitivity_cost)
+
+    def residual_jacobian(self, params):
+        """(residual (L,) N, ∂residual/∂θ (L, d) in physical units) of one θ vector, exact (the model's
+        sensitivities through the linear solve: ``LinearDesign.residual_jacobian``); None where they
+        cannot be had (then take differences)."""
+        found = self.model.trajectory_sensitivities(np.asarray(params, dtype=float), self.signal, self.state)
+        return None if found is None else self.design.residual_jacobian(*found)
+
+    def linear(self, params) -> np.ndarray:
+        """The solved coefficients (``linear_names``) of one θ vector."""
+        return self.solve(np.asarray(params, dtype=float)[None, :]).coef[0]
+
+    def simulate(self, params) -> np.ndarray:
+        """Model force (N) at the specimen's samples, linear coefficients solved; +inf on blow-up."""
+        return self.residual_batch(np.asarray(params, dtype=float)[None, :])[0] + self.specimen.f
+
+    def parameters(self, params) -> dict:
+        """θ, the solved coefficients and the model's direct parameters of the same force, where they exist."""
+        return identifiable_parameters(self, params)
+
+
+def identifiable_parameters(problem, params) -> dict:
+    """{name: value} of the searched θ of an identifiable ``problem`` (one file or joint), its solved
+    coefficients and the model's direct parameters of the same force where they exist; θ alone when
+    it is not finite."""
+    params = np.asarray(params, dtype=float)
+    out = dict(zip(problem.param_names, map(float, params)))
+    if not np.all(np.isfinite(params)):
+        return out
+    coef = dict(zip(problem.linear_names, map(float, problem.linear(params))))
+    out.update(coef)
+    direct = problem.model.to_direct(params, coef, problem.state)
+    if direct is not None:
+        out.update(zip((p.name for p in problem.model.direct_parameters(problem.state)), map(float, direct)))
+    return out
+
+
+def coefficient_bounds_of(model, layout, signal, f, given: dict | None = None) -> tuple[dict, list[str]]:
+    """({coefficient: (lower, upper)}, notes): the physical defaults of ``linear_bounds`` for this
+    record (or stacked records) with the ``given`` ones (a user's) put in by name."""
+    from bwbench.problems.hysteresis.linear.bounds import physical_bounds
+    from bwbench.problems.hysteresis.linear.columns import coefficient_units
+
+    bounds, notes = physical_bounds(layout, signal, f, coefficient_units(layout),
+                                    viscous_sign=getattr(model, "viscous_sign_bound", True),
+                                    model_bounds=model.coefficient_limits() if hasattr(model, "coefficient_limits") else None)
+    for name, (lo, hi) in (given or {}).items():
+        bounds[name] = (float(lo), float(hi))
+        notes.append(f"{name} bounded to [{lo:g}, {hi:g}] by the caller")
+    return bounds, notes

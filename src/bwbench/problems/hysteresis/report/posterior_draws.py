@@ -1,0 +1,230 @@
+"""A study's posterior chain as the report reads it, for any model: its problem, its run, its modes,
+its kept draws in physical units (linear coefficients drawn from their conditional Gaussian in the
+identifiable formulation), parameter labels and units, and the truth in the chain's coordinates.
+
+Everything is asked of the problem (``parameter_list``, ``linear_names``/``linear_units``) and its
+model (``from_direct``), so a Spencer or classic Bouc-Wen chain reads like a switched one.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from bwbench.analysis import mcmc
+from bwbench.models import switched_parameters
+
+DRAWS = 1000  # kept draws summarised and pushed through the model (thinned evenly)
+
+
+@dataclass(eq=False)
+class PosteriorChain:
+    """One posterior run: ``chain`` (``bwbench.study.results.Chain``), its ``problem``, ``run`` (row of
+    ``study.runs``), ``ensembles``, ``assessment`` (``mcmc.assess``), ``names`` (the chain's
+    coordinates), ``fixed`` (names held fixed by a reduced model) and ``burn``."""
+
+    chain: Any  # bwbench.store.reader.Chain
+    problem: Any  # the problem the chain sampled
+    run: dict
+    ensembles: int
+    assessment: dict
+    names: list
+    fixed: list = field(default_factory=list)
+    # a nested-sampling posterior: ``bwbench.analysis.nested.assess`` of its runs (the chain's walkers are
+    # the runs, its steps their equal-weight draws); ``assessment`` then has one "mode" holding every run
+    nested: dict | None = None
+
+    @property
+    def burn(self) -> int:
+        return 0 if self.nested is not None else self.chain.steps // 2
+
+    @property
+    def main(self):
+        """The mode whose summaries the report shows: the most ensembles, then the best log-probability."""
+        modes = self.assessment["modes"]
+        return max(modes, key=lambda m: (len(m.ensembles), m.log_prob if np.isfinite(m.log_prob) else -np.inf))
+
+    def unit_draws(self, mode=None, size: int = DRAWS) -> np.ndarray:
+        """Kept samples of ``mode`` (default: the main one) in unit coordinates, thinned evenly to ≤ ``size``."""
+        mode = self.main if mode is None else mode
+        kept = self.chain.samples[self.burn:, mode.walkers].reshape(-1, self.chain.samples.shape[2])
+        return kept[:: max(1, -(-len(kept) // size))]
+
+    def draws(self, rng, mode=None, size: int = DRAWS) -> dict:
+        """{name: values} of kept samples (physical units) of every sampled and solved parameter."""
+        P = self.problem.from_unit(self.unit_draws(mode, size))
+        out = {n: P[:, j] for j, n in enumerate(self.names)}
+        if getattr(self.problem, "formulation", "") == "identifiable":
+            out.update(linear_draws(self.problem, P, rng))
+        return out
+
+
+def linear_draws(problem, P, rng) -> dict:
+    """{coefficient: values}: one draw per θ row of P from the conditional Gaussian (NaN where the
+    design is not of full rank)."""
+    from bwbench.problems.hysteresis.marginal import draw_linear
+
+    solution = problem.solve(P)
+    names = problem.linear_names
+    coef = np.full((len(P), len(names)), np.nan)
+    varying = len(problem.design.w_names)
+    for i in range(len(P)):
+        try:
+            coef[i] = draw_linear(solution.row(i), rng, 1, varying=varying)["coef"][0]
+        except ValueError:  # a sample whose design is not of full rank: no draw
+            pass
+    return {n: coef[:, j] for j, n in enumerate(names)}
+
+
+def parameters(problem) -> dict:
+    """{name: (label, unit)} of every parameter a result of ``problem`` reports: searched, solved, direct."""
+    out = {p.name: (p.label or p.name, p.unit) for p in problem.model.direct_parameters(problem.state)}
+    out.update({p.name: (p.label or p.name, p.unit) for p in problem.parameter_list})
+    if getattr(problem, "formulation", "") == "identifiable":
+        labels = problem.model.linear_layout(problem.state).labels
+        for n in problem.linear_names:
+            base = n.rstrip("+-") if n not in labels else n
+            label = labels.get(n, labels.get(base, base) + n[len(base):].replace("+", "₊").replace("-", "₋"))
+            out[n] = (label, problem.linear_units[n])
+    return out
+
+
+def pretty(unit: str) -> str:
+    if unit in ("-", ""):
+        return "–"
+    return unit.replace("^-n+", "^(−n₊)").replace("^-n-", "^(−n₋)")
+
+
+def axis(problem, name: str, table: dict | None = None) -> str:
+    """"x_y₊ (mm)": the label and unit of ``name`` for an axis or a table row."""
+    label, unit = (table or parameters(problem)).get(name, (name, "-"))
+    return f"{label} ({pretty(unit)})"
+
+
+def truth(study, problem, specimen) -> dict | None:
+    """{name: value} of the specimen's truth (manifest) in ``problem``'s coordinates (and its linear
+    coefficients in the identifiable formulation); None without a truth or a map to these coordinates."""
+
+    P = switched_parameters.truth_params(study.specimen_path(specimen))
+    if P is None:
+        return None
+    model = problem.model
+    direct = [p.name for p in model.direct_parameters(problem.state)]
+    if len(P) != len(direct):
+        return None
+    if getattr(problem, "formulation", "") != "identifiable":
+        return dict(zip(direct, map(float, P)))
+    try:
+        theta, coef = model.from_direct(np.asarray(P, dtype=float), problem.state)
+    except (NotImplementedError, ValueError):
+        return None
+    return {**dict(zip(problem.param_names, map(float, theta))), **{k: float(v) for k, v in coef.items()}}
+
+
+def posterior_chains(study, chains=None) -> list[PosteriorChain]:
+    """Every posterior chain of ``study`` with its problem, run and assessment."""
+    from bwbench.problems.hysteresis.report.figure_common import formulation_of, problem_for
+
+    cache: dict = {}
+    out: list = []
+    for chain in chains if chains is not None else [c for c in study.chains if c.kind == "posterior"]:
+        problem = problem_for(study, chain.specimen, formulation_of(study, chain.optimizer), cache)
+        names = list(problem.param_names)
+        if chain.samples.shape[2] != len(names):
+            continue  # not this problem's coordinates: nothing to read it with
+        runs = study.runs
+        row = runs[(runs["kind"] == chain.kind) & (runs["specimen"] == chain.specimen)
+                   & (runs["optimizer"] == chain.optimizer) & (runs["replicate"] == chain.replicate)]
+        run = row.iloc[0].to_dict() if len(row) else {}
+        try:
+            options = json.loads(run.get("options_json") or "{}")
+        except (TypeError, json.JSONDecodeError):
+            options = {}
+        if getattr(chain, "evidence", None) is not None:
+            out.append(nested_chain(study, chain, problem, run, names))
+            continue
+        ensembles = int(options.get("ensembles", 1) or 1)
+        if chain.walkers % ensembles:
+            ensembles = 1
+        assessment = mcmc.assess(chain.samples, chain.log_prob, ensembles, names)
+        moving = mcmc.sampled(chain.samples)
+        out.append(PosteriorChain(chain, problem, run, ensembles, assessment, names,
+                                  [n for n, m in zip(names, moving) if not m]))
+    return out
+
+
+def best_ranking_fit(study, problem, specimen: str):
+    """(unit point, log-likelihood, label) of the ranking's best fit on ``specimen`` in ``problem``'s
+    coordinates (the sampler's log-likelihood), or None when no finished run maps to them."""
+    ranking = study.ranking
+    runs = ranking[(ranking["specimen"] == specimen) & (ranking["status"] == "ok")]
+    runs = runs[np.isfinite(runs["mse"].astype(float))].sort_values("mse")
+    for _, row in runs.iterrows():
+        theta = in_coordinates(row.to_dict(), problem)
+        if theta is None:
+            continue
+        u = np.asarray(problem.to_unit(theta[None, :]), dtype=float)[0]
+        if np.any(u < 0) or np.any(u > 1):
+            continue  # outside the posterior's box: no prior mass there
+        like = float(log_posterior(problem, theta[None, :])[0])
+        label = f"the best ranking fit ({row['optimizer']}, seed {int(row['replicate']) + 1}, MSE {row['mse']:.4g} N²)"
+        return u, like, label
+    return None
+
+
+def nested_chain(study, chain, problem, run: dict, names) -> PosteriorChain:
+    """A nested-sampling posterior read for the report: the runs' verdict (``nested.assess``, with the
+    best ranking fit located against the draws) and a single "mode" holding every run, so that the
+    summaries, figures and the decomposition read the whole posterior, every mode with its mass."""
+    from bwbench.analysis import nested
+
+    ev = chain.evidence
+    best = best_ranking_fit(study, problem, chain.specimen)
+    verdict = nested.assess(chain.samples, chain.log_prob, ev["log_z"], ev["log_z_err"], names,
+                            complete=ev.get("run_complete"), best_fit=best)
+    lp = chain.log_prob
+    whole = mcmc.Mode(tuple(range(chain.walkers)), np.arange(chain.walkers),
+                      float(np.median(lp)) if lp is not None else float("nan"))
+    assessment = {"converged": verdict["converged"], "modes": [whole], "diagnostics": [verdict["diagnostics"]],
+                  "why": verdict["failed"], "modes_text": "", "steps": chain.steps}
+    return PosteriorChain(chain, problem, run, chain.walkers, assessment, list(names), [], verdict)
+
+
+def in_coordinates(values: dict, problem):
+    """A run's parameters (``values``: name → value) as a vector of ``problem``'s searched coordinates:
+    taken as they are when present, mapped from the model's direct parameters (``Model.from_direct``)
+    otherwise; None when neither works."""
+    names = list(problem.param_names)
+    if all(np.isfinite(values.get(n, np.nan)) for n in names):
+        return np.array([float(values[n]) for n in names])
+    direct = [p.name for p in problem.model.direct_parameters(problem.state)]
+    if getattr(problem, "formulation", "") != "identifiable" or not all(np.isfinite(values.get(n, np.nan))
+                                                                         for n in direct):
+        return None
+    try:
+        theta, _ = problem.model.from_direct(np.array([values[n] for n in direct], dtype=float), problem.state)
+    except (NotImplementedError, ValueError):
+        return None
+    return np.asarray(theta, dtype=float)
+
+
+def log_posterior(problem, P) -> np.ndarray:
+    """The sampler's log-posterior (up to its constant) of parameter rows P (physical units): the
+    problem's marginal likelihood when it has one, else −(L/2)·log MSE; the box is not applied."""
+    P = np.atleast_2d(np.asarray(P, dtype=float))
+    if hasattr(problem, "log_likelihood_batch"):
+        return problem.log_likelihood_batch(P)[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mse = problem.loss_batch(P)
+        return np.where(np.isfinite(mse), -0.5 * problem.n_data * np.log(np.maximum(mse, np.finfo(float).tiny)),
+                        -np.inf)
+
+
+def cached(report) -> list:
+    """``posterior_chains`` of the report's study, read once per report."""
+    if "posterior_chains" not in report.options:
+        report.options["posterior_chains"] = posterior_chains(report.study)
+    return report.options["posterior_chains"]

@@ -1,0 +1,378 @@
+"""A hysteresis model fitted to force-displacement specimens, as a study problem
+(``problem = "switched-bouc-wen"``, the default: the name is the paper's model, but any model of
+``bwbench models`` can be fitted and several compared).
+
+Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` / ``[validation]`` tables::
+
+    [study]
+    model = "switched-bouc-wen"   # or "spencer", "bouc-wen", a plug-in, or a list compared side by side
+    formulation = "paper"     # "paper"/"direct", "identifiable", or a list; default: each model's own
+    state = "shared"          # or "split" (the switched model's state convention)
+    excitation = "measured"   # or "sine"
+    fix_mass = "auto"         # identifiable: "auto" (the inertia rule), "fit", or a mass in N·s²/mm
+    offsets = "branch"        # identifiable, switched model: or "continuous" (one constant force)
+    data = "../data/specimens"   # only with manifest filters: a folder with manifest.json
+
+    [specimens]               # either files (no manifest needed) ...
+    files = ["tests/run1.csv", "more/*.csv"]
+                              # ... or manifest filters, each a value or a list; omitted key = all
+    material = ["POM MT24u01"]
+    underpressure_MPa = [0.01, 0.09]
+    repeat = [1]
+
+    [bounds]                  # optional: the search box, name = [lower, upper]; default Table 5
+    "xi-" = [-800.0, -10.0]   # (a solved coefficient's name, e.g. "m" or "c+", bounds the linear solve)
+
+    [validation]              # optional: held-out tests, never fitted; the report ranks by their error
+    files = ["held_out/*.csv"]
+
+Relative paths resolve against the TOML's own folder (``--data PATH`` on the command line, relative
+to the current folder, replaces ``[study] data``). A ``manifest.json`` next to the files is
+optional: when present, its facts (material, underpressure, repeat, truth of synthetic specimens)
+are used by the report. The study's identity holds every specimen's name and the SHA-256 of its
+bytes, not its path: the same files reached by another path are the same study; a file edited at
+the same path is refused.
+"""
+
+from __future__ import annotations
+
+import glob
+import math
+from pathlib import Path
+
+import numpy as np
+
+from bwbench.data import manifest as manifest_mod
+from bwbench.models import registry as model_registry
+from bwbench.models.excitation import EXCITATIONS
+from bwbench.models.switched_bouc_wen import STATES
+from bwbench.problems.base import Fail, ProblemSetup, ProblemType, SpecimenEntry, choice
+from bwbench.problems.hysteresis.formulations import bound_names, check_pairs, make_problem, parse_models
+from bwbench.problems.hysteresis.formulations import parse as _formulations
+
+FILTER_KEYS = ("material", "table", "underpressure_MPa", "repeat")
+OFFSETS = ("branch", "continuous")
+
+
+def mass_setting(fail, label: str, value):
+    """"auto", None ("fit": always fitted) or a mass ≥ 0 (N·s²/mm) of a study's fix_mass; ``fail`` otherwise."""
+    if value == "fit" or value is None:
+        return None
+    if isinstance(value, str) and value != "auto":  # from the command line
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        value = number if math.isfinite(number) else value
+    if value == "auto" or (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0):
+        return value
+    fail(f"{label} must be \"auto\", \"fit\" or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}")
+
+
+class HysteresisProblem(ProblemType):
+    name = "switched-bouc-wen"
+    description = ("a hysteresis model (default: the paper's switched Bouc-Wen) fitted to force-displacement "
+                   "specimens (loss: MSE in N²)")
+    loss_unit = "N²"
+    residual_unit = "N"
+    study_keys = ("model", "state", "excitation", "data", "formulation", "fix_mass", "offsets")
+    tables = ("specimens", "bounds", "validation")
+
+    # ------------------------------------------------------------------------ configuration
+    def configure(self, fail, study, document, base_dir, data_override=None) -> ProblemSetup:
+        model_names = parse_models(fail, study.get("model", model_registry.DEFAULT))
+        state = choice(fail, "[study] state", study.get("state", "shared"), STATES)
+        if "state" in study and not any(model_registry.get(m).states for m in model_names):
+            fail(f"[study] state does not apply to {', '.join(model_names)} (no state convention to choose)")
+        excitation = choice(fail, "[study] excitation", study.get("excitation", "measured"), EXCITATIONS)
+        formulations = _formulations(fail, study["formulation"]) if "formulation" in study else None
+        check_pairs(fail, model_names, formulations)
+        fix_mass = mass_setting(fail, "[study] fix_mass", study.get("fix_mass", "auto"))
+        offsets = choice(fail, "[study] offsets", study.get("offsets", "branch"), OFFSETS)
+        _refuse_unused(fail, "[study] ", model_names, formulations, fix_mass, offsets)
+        table = document.get("specimens", {})
+        if not isinstance(table, dict):
+            fail("[specimens] must be a table: files = [...] or manifest filters")
+        if "files" in table:
+            if "data" in study or any(k in table for k in FILTER_KEYS):
+                fail("[specimens] files lists the specimens itself: remove [study] data and the manifest filters")
+            if data_override is not None:
+                fail("--data does not apply to a study that lists its files ([specimens] files)")
+            entries = specimens_from_files(fail, table["files"], base_dir, "[specimens] files")
+            available = {e.name: e for e in entries}
+        else:
+            entries, available = _from_manifest(fail, study, table, base_dir, data_override)
+        bounds = {}
+        if "bounds" in document:
+            from bwbench.data.bounds import validate
+            from bwbench.errors import InputFileError
+
+            try:
+                bounds = validate(document["bounds"], bound_names(formulations, state, model_names), "[bounds]")
+            except InputFileError as err:
+                fail(err.problem if err.problem.startswith("[") else f"[bounds] {err.problem}")
+        return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass, model_names, offsets)
+
+    def held_out_entries(self, fail, files, base_dir, label: str) -> list:
+        """The held-out specimens (``[validation] files`` or ``--validate``): like ``[specimens] files``."""
+        return specimens_from_files(fail, files, base_dir, label)
+
+    def setup_from_files(self, fail, files, base_dir, state=None, excitation="measured", bounds_file=None,
+                         formulation=None, model=None, fix_mass="auto", offsets="branch"):
+        model_names = parse_models(fail, model.split(",") if isinstance(model, str) else model or model_registry.DEFAULT)
+        if state is not None and not any(model_registry.get(m).states for m in model_names):
+            fail(f"--state does not apply to {', '.join(model_names)} (no state convention to choose)")
+        state = choice(fail, "--state", state or "shared", STATES)
+        choice(fail, "--excitation", excitation, EXCITATIONS)
+        formulations = (_formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
+                        if formulation else None)
+        check_pairs(fail, model_names, formulations)
+        fix_mass = mass_setting(fail, "--fix-mass", fix_mass)
+        offsets = choice(fail, "--offsets", offsets, OFFSETS)
+        _refuse_unused(fail, "--", model_names, formulations, fix_mass, offsets)
+        bounds = None
+        if bounds_file is not None:
+            from bwbench.data import bounds as bounds_mod
+
+            bounds = bounds_mod.read_json(bounds_file, bound_names(formulations, state, model_names))
+        return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"),
+                          bounds=bounds, formulations=formulations, fix_mass=fix_mass, models=model_names,
+                          offsets=offsets)
+
+    def setup(self, state, excitation, entries, available=None, bounds=None, formulations=None,
+              fix_mass="auto", models=(model_registry.DEFAULT,), offsets="branch") -> ProblemSetup:
+        """The ``ProblemSetup`` of these specimens (``SpecimenEntry`` with ``meta["sha256"]``); several
+        models or formulations are variants compared side by side."""
+        from bwbench.problems.hysteresis.formulations import variants as variant_list
+
+        bounds = {k: list(v) for k, v in (bounds or {}).items()}
+        settings = {"state": state, "excitation": excitation, **({"bounds": bounds} if bounds else {})}
+        identity = dict(settings)
+        pairs = variant_list(models, formulations)
+        if list(models) != [model_registry.DEFAULT]:  # absent for the paper's model: stored studies stay the same
+            identity["model"] = models[0] if len(models) == 1 else list(models)
+        resolved = list(dict.fromkeys(f for _, _, f in pairs))
+        linear = {"fix_mass": fix_mass, **({"offsets": offsets} if offsets != "branch" else {})}
+        if resolved != ["paper"]:  # absent for the paper's formulation: studies stored before stay the same
+            identity["formulation"] = resolved[0] if len(resolved) == 1 else resolved
+            identity.update(linear)
+        variants = [(label, {**settings, "model": m, "formulation": f, **linear, "variant": label})
+                    for label, m, f in pairs]
+        return ProblemSetup(
+            settings=variants[0][1], study_json=identity,
+            specimens_json={e.name: e.meta["sha256"] for e in entries},
+            specimens=tuple(entries), available=available or {e.name: e for e in entries},
+            data_location={e.name: str(Path(e.path).resolve()) for e in entries},
+            variants=tuple(variants) if len(variants) > 1 else (),
+        )
+
+    def make_problem(self, settings, entry):
+        from bwbench.data.specimen import read_specimen
+
+        return make_problem(read_specimen(entry.path), settings)
+
+    def record_columns(self, settings, entry, result=None) -> dict:
+        model_name = settings.get("model", model_registry.DEFAULT)
+        columns = {"state": settings.get("state") if model_registry.get(model_name).states else None,
+                   "excitation": settings.get("excitation"), "model": model_name,
+                   "formulation": settings.get("formulation", "paper"), "variant": settings.get("variant"),
+                   **entry.meta}
+        if result is not None:
+            columns.update(rmse_N=result.rmse_N, **result.params)
+        return columns
+
+    # ------------------------------------------------------------------------------- report
+    def data_dir(self, study, override=None) -> Path:
+        if override is not None:
+            return Path(override)
+        recorded = study.meta.get("data_dir")
+        if recorded and Path(recorded).is_dir():
+            return Path(recorded)
+        if study.paths:
+            return Path(next(iter(study.paths.values()))).parent
+        from bwbench.datasets.synthetic import REPO
+
+        data = Path(study.settings.get("data", "data/specimens"))
+        return data if data.is_absolute() else REPO / data
+
+    def is_synthetic(self, study) -> str:
+        """"SYNTHETIC DATA (generated from <source>)" when a manifest marks the study's specimens
+        synthetic ('' otherwise: a false value), for banners and the mark on every figure."""
+        found = [manifest_mod.synthetic_source(study.specimen_path(s)) for s in study.specimens]
+        sources = [s for s in dict.fromkeys(found) if s]
+        return f"SYNTHETIC DATA (generated from {' and '.join(sources)})" if sources else ""
+
+    def noise_floor(self, study, specimen):
+        found = manifest_mod.truth(study.specimen_path(specimen))
+        if found is None:
+            return None
+        # The truth in its own model's direct parameters, whatever the study compared.
+        from bwbench.models import registry
+
+        model_name, values = found
+        model = registry.get(model_name)
+        truth = np.array([values[p.name] for p in model.direct_parameters(model.check_state(None))])
+        s = study.settings
+        settings = {"state": s.get("state", "shared"), "excitation": s.get("excitation", "measured"),
+                    "model": model_name, "formulation": model.direct_name}
+        problem = self.make_problem(settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
+        return float(problem.loss_batch(truth[None, :])[0])
+
+    def setup_text(self, report) -> str:
+        from bwbench.problems.hysteresis.report import sections
+
+        return sections.setup_text(report)
+
+    def report_intro(self, report) -> None:
+        from bwbench.problems.hysteresis.report import sections
+
+        sections.data_section(report)
+
+    def report_sections(self, report) -> None:
+        from bwbench.problems.hysteresis.report import sections
+
+        sections.add_sections(report)
+
+    def limits(self, report) -> list[str]:
+        from bwbench.problems.hysteresis.report import sections
+
+        return sections.limits(report)
+
+
+def _refuse_unused(fail, prefix: str, models, formulations, fix_mass, offsets) -> None:
+    """``fail`` when a fixed mass or continuous offsets are asked for but no variant of the study can use
+    them (as ``bwbench fit`` refuses them): no identifiable formulation with a mass term, or with branches."""
+    from bwbench.problems.hysteresis.formulations import variants as variant_list
+
+    layouts = []
+    for _, name, formulation in variant_list(models, formulations):
+        model = model_registry.get(name)
+        if formulation == "identifiable" and model.has_linear_part:
+            layouts.append(model.linear_layout(model.states[0] if model.states else None))
+    flag = (lambda key: f"--{key.replace('_', '-')}") if prefix == "--" else (lambda key: f"[study] {key}")
+    if fix_mass != "auto" and not any(layout.mass for layout in layouts):
+        fail(f"{flag('fix_mass')} applies to the identifiable formulation of a model with a mass term: no variant "
+             f"of this study ({', '.join(models)}) has one")
+    if offsets != "branch" and not any(layout.branched for layout in layouts):
+        fail(f"{flag('offsets')} applies to the identifiable formulation of the switched model: no variant of this "
+             f"study ({', '.join(models)}) has branches")
+
+
+def specimens_from_files(fail, patterns, base_dir: Path, label: str) -> list[SpecimenEntry]:
+    """Specimen files named by paths or globs (relative to ``base_dir``), read and checked now, so a
+    bad file stops the study before any run; names (file stems) must be unique."""
+    if isinstance(patterns, str):
+        patterns = [patterns]
+    if not isinstance(patterns, list) or not patterns or not all(isinstance(p, str) and p for p in patterns):
+        fail(f"{label} must be a non-empty list of file paths or globs")
+    paths: list[Path] = []
+    for pattern in patterns:
+        full = Path(pattern).expanduser()
+        full = full if full.is_absolute() else base_dir / full
+        if glob.has_magic(str(full)) and not full.exists():  # an existing run[1].csv is a file, not a glob
+            found = sorted(Path(p) for p in glob.glob(str(full)) if Path(p).is_file())
+            if not found:
+                fail(f"{label}: {pattern!r} matches no file (relative to {base_dir})")
+        elif not full.exists():
+            fail(f"{label}: {pattern}: no such file (relative to {base_dir})")
+        else:
+            found = [full]
+        paths += [p for p in found if p.resolve() not in {q.resolve() for q in paths}]
+    return [_entry(fail, path, manifest_mod.manifest_entry(path) or {}) for path in _unique_stems(fail, paths, label)]
+
+
+def _unique_stems(fail, paths, label) -> list[Path]:
+    seen: dict = {}
+    for path in paths:
+        if path.stem in seen:
+            fail(f"{label}: two specimens are named {path.stem!r} ({seen[path.stem]} and {path}): "
+                 "names (file stems) must be unique in a study")
+        seen[path.stem] = path
+    return paths
+
+
+def _entry(fail, path: Path, row: dict) -> SpecimenEntry:
+    from bwbench.data.identity import files_sha256
+    from bwbench.data.specimen import read_specimen
+    from bwbench.errors import UserError
+
+    try:
+        read_specimen(path)
+    except UserError as err:
+        fail(f"specimen {err}")
+    meta = {key: row[key] for key in ("material", "underpressure_MPa", "repeat") if key in row}
+    return SpecimenEntry(name=path.stem, path=str(path), meta={**meta, "sha256": files_sha256([path], [""])})
+
+
+def _from_manifest(fail, study, filters_table, base_dir, data_override):
+    if data_override is None:
+        if "data" not in study:
+            fail("no specimens: list them with [specimens] files = [...], or give [study] data = \"FOLDER\" "
+                 "(with a manifest.json) and manifest filters")
+        data = study["data"]
+        if not isinstance(data, str) or not data:
+            fail("[study] data must be a folder path (a string)")
+        data_dir = Path(data).expanduser()
+        data_dir = data_dir if data_dir.is_absolute() else base_dir / data_dir
+    else:
+        data_dir = Path(data_override).resolve()
+    manifest = _read_manifest(fail, data_dir)
+    unknown = [k for k in filters_table if k not in FILTER_KEYS]
+    if unknown:
+        fail(f"[specimens] unknown key {unknown[0]!r} (known: files, {', '.join(FILTER_KEYS)})")
+    filters = {key: _filter_values(fail, key, value) for key, value in filters_table.items()}
+    selected = {row["file"] for row in _select(fail, manifest, filters)}
+    available = {}  # a [posterior] may name any specimen of the manifest
+    for row in manifest:
+        if not (data_dir / row["file"]).is_file():
+            if row["file"] in selected:
+                fail(f"[study] data: {row['file']} is in {data_dir / manifest_mod.MANIFEST} but not in the folder")
+            continue
+        available[Path(row["file"]).stem] = _entry(fail, data_dir / row["file"], row)
+    entries = [available[Path(row["file"]).stem] for row in manifest if row["file"] in selected]
+    return entries, available
+
+
+def _read_manifest(fail: Fail, data_dir: Path) -> list[dict]:
+    try:
+        document = manifest_mod.load_manifest(data_dir)
+        if document is None:
+            fail(f"[study] data: no {manifest_mod.MANIFEST} in {data_dir}")
+        return list(document["specimens"])
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        fail(f"[study] data: cannot read {data_dir / manifest_mod.MANIFEST}: {err}")
+
+
+def _filter_values(fail, key, value) -> tuple:
+    values = value if isinstance(value, list) else [value]
+    if not values:
+        fail(f"[specimens] {key} is an empty list: it would select nothing (omit the key for all)")
+    numeric = key in ("table", "underpressure_MPa", "repeat")
+    for v in values:
+        ok = (isinstance(v, (int, float)) and not isinstance(v, bool)) if numeric else isinstance(v, str)
+        if not ok:
+            fail(f"[specimens] {key} must be {'numbers' if numeric else 'strings'}, got {v!r}")
+    return tuple(values)
+
+
+def _matches(key, manifest_value, wanted) -> bool:
+    if key == "underpressure_MPa":
+        return math.isclose(float(manifest_value), float(wanted), rel_tol=0.0, abs_tol=1e-9)
+    return manifest_value == wanted
+
+
+def _select(fail, manifest, filters) -> list[dict]:
+    for key, values in filters.items():
+        present = sorted({row[key] for row in manifest}, key=str)
+        for wanted in values:
+            if not any(_matches(key, row[key], wanted) for row in manifest):
+                fail(f"[specimens] {key}: no specimen has {wanted!r} (the manifest has "
+                     f"{', '.join(str(p) for p in present)})")
+    selected = [row for row in manifest
+                if all(any(_matches(k, row[k], w) for w in values) for k, values in filters.items())]
+    if not selected:
+        fail("[specimens] the filters together select no specimen")
+    return selected
+
+
+PROBLEM_TYPE = HysteresisProblem()

@@ -1,1 +1,0 @@
-"""problems/switched_vpp"""
