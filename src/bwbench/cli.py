@@ -14,7 +14,7 @@ import sys
 import warnings
 from typing import NamedTuple
 
-from bwbench import threads
+import bwbench.threads as threads
 from bwbench.errors import UserError
 from bwbench.version import __version__
 

@@ -62,8 +62,8 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
     determine, a parameter on its box's edge) are issued as ``bwbench.FitWarning`` warnings and kept
     in ``.notes``. Raises ``bwbench.UserError`` with the command line's message for bad input.
     """
-    from bwbench import limits
-    from bwbench import threads as threads_mod
+    import bwbench.limits as limits
+    import bwbench.threads as threads_mod
     from bwbench.api.arguments import count
     from bwbench.data import manifest, plausibility
     from bwbench.data.specimen import Specimen

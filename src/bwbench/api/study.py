@@ -231,7 +231,7 @@ def compare(config=None, *, specimens=None, optimizers=None, seeds: int = 5, bud
 
 def _compare(config, *, specimens, optimizers, seeds, budget, seed, model, formulation, state, excitation, bounds,
              fix_mass, offsets, validate, name, db, workers, threads, data, log) -> Study:
-    from bwbench import threads as threads_mod
+    import bwbench.threads as threads_mod
     from bwbench.api.arguments import count as check_count
     from bwbench.data.output_paths import refuse_inputs
     from bwbench.study.config import config_from_arguments, load_study_config

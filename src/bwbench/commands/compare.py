@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from bwbench import threads
+import bwbench.threads as threads
 from bwbench.errors import UserError
 
 DESCRIPTION = "Run (or resume) a study: specimens × backends × seeds, print the ranking."

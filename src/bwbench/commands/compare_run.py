@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench import problems, threads
+import bwbench.problems as problems
+import bwbench.threads as threads
 from bwbench.data.output_paths import refuse_inputs, same_file, try_writing
 from bwbench.errors import UserError
 from bwbench.study import failures

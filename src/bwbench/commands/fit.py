@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from bwbench import limits, threads
+import bwbench.limits as limits
+import bwbench.threads as threads
 from bwbench.data.output_paths import check_outputs, writing
 from bwbench.errors import UserError
 

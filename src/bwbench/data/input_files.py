@@ -11,7 +11,7 @@ import os
 import stat
 from pathlib import Path
 
-from bwbench import limits
+import bwbench.limits as limits
 from bwbench.errors import InputFileError
 
 _KINDS = ((stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a character device"),

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from bwbench import plugins
+import bwbench.plugins as plugins
 from bwbench.models.base import Model
 
 ENTRY_POINT_GROUP = "bwbench.models"

@@ -73,7 +73,7 @@ import pkgutil
 from dataclasses import dataclass, field
 from typing import Callable
 
-from bwbench import plugins
+import bwbench.plugins as plugins
 from bwbench.errors import UserError
 from bwbench.optimize.options import Option, show
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from bwbench import plugins
+import bwbench.plugins as plugins
 from bwbench.problems.base import Problem, ProblemSetup, ProblemType, SpecimenEntry
 
 __all__ = ["Problem", "ProblemSetup", "ProblemType", "SpecimenEntry", "DEFAULT", "ENTRY_POINT_GROUP", "get",

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bwbench import problems
+import bwbench.problems as problems
 from bwbench.data.input_files import not_regular
 from bwbench.data.manifest import load_manifest
 from bwbench.errors import UserError

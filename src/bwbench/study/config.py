@@ -39,7 +39,8 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from bwbench import limits, problems
+import bwbench.limits as limits
+import bwbench.problems as problems
 from bwbench.data.input_files import read_text
 from bwbench.errors import UserError
 from bwbench.optimize import registry

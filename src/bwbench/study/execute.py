@@ -19,7 +19,7 @@ import time
 from contextlib import closing
 from dataclasses import dataclass
 
-from bwbench import limits
+import bwbench.limits as limits
 from bwbench.errors import UserError
 from bwbench.study.cluster import SchedulerLost, on_cluster
 from bwbench.study.config import StudyConfig

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bwbench import problems
+import bwbench.problems as problems
 from bwbench.errors import UserError
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bwbench import problems
+import bwbench.problems as problems
 from bwbench.errors import UserError
 from bwbench.problems.base import SpecimenEntry
 from bwbench.study import failures
