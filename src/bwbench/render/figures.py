@@ -105,6 +105,49 @@ def _evaluation_grid(max_nfev: float, points: int = 400) -> np.ndarray:
     return np.unique(np.round(np.linspace(1, max(max_nfev, 2), points)).astype(int))
 
 
+def _convergence_panel(ax, curves: dict, look: dict, names: list, grid, budget: float, bands: int) -> dict:
+    """One panel of ``convergence``: each label's median best-so-far curve (``curves``: label -> list of
+    curves relative to the panel's reference), the interquartile band of the ``bands`` best coloured
+    labels, the grey ones named in a box; the log y axis fitted to the coloured medians after the first
+    tenth of the budget. Returns what the figure's legend and CSV need."""
+    from bwbench.render.ecdf_figures import GREY, highlighted
+
+    coloured, baselines, grey = highlighted(names)
+    shown, counts, drawn, banded, rows = [], set(), [], set(), []
+    for rank, optimizer in enumerate(coloured + baselines + grey):
+        if not curves.get(optimizer):
+            continue
+        q25, median, q75 = quartiles(curves[optimizer])
+        counts.add(len(curves[optimizer]))
+        style = look[optimizer]
+        if optimizer in grey:
+            ax.plot(grid, median, color=GREY, lw=1.0, zorder=2)
+        else:
+            ax.plot(grid, median, **style.line(markers=True, ms=5, markevery=(8 + 11 * rank % 37, 60)),
+                    zorder=3 + len(names) - rank)
+            shown.append(median[grid >= budget / 10])
+            drawn.append(optimizer)
+        if optimizer in coloured[:bands]:
+            ax.fill_between(grid, q25, q75, color=style.colour, alpha=0.13, lw=0, zorder=1)
+            shown.append(q25[grid >= budget / 10])
+            banded.add(optimizer)
+        rows.append(pd.DataFrame({"optimizer": optimizer, "nfev": grid, "median": median, "q25": q25, "q75": q75,
+                                  "runs": len(curves[optimizer]), "highlighted": optimizer not in grey,
+                                  "band": optimizer in coloured[:bands]}))
+    values = np.concatenate(shown + [np.array([1.0])])
+    values = values[np.isfinite(values) & (values > 0)]
+    ax.set_yscale("log")
+    low, high = min(values.min(), 1.0) / 1.25, values.max() * 1.6
+    ax.set_ylim(low, high)  # earlier, worse points run off the top
+    plain_log_axis(ax.yaxis, high / low)
+    ax.set_xlim(0, budget * 1.01)
+    if grey:
+        ax.text(0.99, 0.97, "grey: " + ", ".join(split_label(n)[0] for n in grey), transform=ax.transAxes,
+                va="top", ha="right", fontsize=9, color="0.25",
+                bbox={"fc": "white", "ec": "0.8", "boxstyle": "round"}, zorder=20)
+    return {"rows": rows, "drawn": drawn, "banded": banded, "grey": grey, "counts": counts}
+
+
 def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=None, order=None,
                 bands: int = BANDS) -> Path:
     """Best-so-far loss against evaluations (every label): the median across seeds as a line, the
@@ -117,7 +160,7 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
     MSE named "noise floor" where it is one: that specimen's loss is shown relative to it (the line
     at 1); without one, relative to the best known. Linear evaluation axis: the last stretch of the
     budget, where the ranking is decided, gets most of the width."""
-    from bwbench.render.ecdf_figures import GREY, by_variant, highlighted
+    from bwbench.render.ecdf_figures import GREY, by_variant
 
     theme()
     floors = floors or {}
@@ -145,62 +188,36 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
     rows, drawn, banded, greyed = [], [], set(), False
     for ax, ((title, specimen), variant) in zip(axes.flat, cells):
         names = groups[variant] if columns > 1 else [o for g in groups.values() for o in g]
-        coloured, baselines, grey = highlighted([o for o in look if o in set(names)])
-        greyed |= bool(grey)
         on_floor = pooled_floor if specimen is None else specimen in floors
-        shown, counts = [], set()  # the y range: the coloured medians after the first tenth of the budget
-        for rank, optimizer in enumerate(coloured + baselines + grey):
-            curves = [best_so_far(g["nfev"].to_numpy(), g["mse"].to_numpy(), grid) / reference[s, specimen is None]
-                      for (s, o, _), g in traces.items() if o == optimizer and specimen in (None, s)]
-            if not curves:
-                continue
-            q25, median, q75 = quartiles(curves)
-            counts.add(len(curves))
-            style = look[optimizer]
-            if optimizer in grey:
-                ax.plot(grid, median, color=GREY, lw=1.0, zorder=2)
-            else:
-                ax.plot(grid, median, **style.line(markers=True, ms=5, markevery=(8 + 11 * rank % 37, 60)),
-                        zorder=3 + len(names) - rank)
-                shown.append(median[grid >= budget / 10])
-                drawn.append(optimizer)
-            if optimizer in coloured[:bands]:
-                ax.fill_between(grid, q25, q75, color=style.colour, alpha=0.13, lw=0, zorder=1)
-                shown.append(q25[grid >= budget / 10])
-                banded.add(optimizer)
-            rows.append(pd.DataFrame({"panel": title, "variant": variant, "optimizer": optimizer, "nfev": grid,
-                                      "median": median, "q25": q25, "q75": q75, "runs": len(curves),
-                                      "highlighted": optimizer not in grey, "band": optimizer in coloured[:bands],
-                                      "y": "mse_over_floor" if on_floor else "mse_over_best_known"}))
-        ax.axhline(1.0, color="black", lw=1.1, ls=(0, (5, 3)) if on_floor else ":", zorder=2)
-        values = np.concatenate(shown + [np.array([1.0])])
-        values = values[np.isfinite(values) & (values > 0)]
-        ax.set_yscale("log")
-        low, high = min(values.min(), 1.0) / 1.25, values.max() * 1.6
-        ax.set_ylim(low, high)  # earlier, worse points run off the top
-        plain_log_axis(ax.yaxis, high / low)
-        ax.set_xlim(0, budget * 1.01)
+        curves = {optimizer: [best_so_far(g["nfev"].to_numpy(), g["mse"].to_numpy(), grid) / reference[s, specimen is None]
+                              for (s, o, _), g in traces.items() if o == optimizer and specimen in (None, s)]
+                  for optimizer in names}
+        panel = _convergence_panel(ax, curves, look, [o for o in look if o in set(names)], grid, budget, bands)
+        greyed |= bool(panel["grey"])
+        drawn += panel["drawn"]
+        banded |= panel["banded"]
+        rows += [frame.assign(panel=title, variant=variant, y="mse_over_floor" if on_floor else "mse_over_best_known")
+                 for frame in panel["rows"]]
         floor_name = floors[specimen][1] if specimen is not None and on_floor else (
             next(iter(floors.values()))[1] if on_floor else "best known")
+        ax.axhline(1.0, color="black", lw=1.1, ls=(0, (5, 3)) if on_floor else ":", zorder=2)
         ax.set_ylabel(f"MSE / {floor_name} (–)")
         floor_text = (f"; {floor_name} {floors[specimen][0]:.3g} {study.loss_unit}"
                       if specimen is not None and on_floor else "")
+        counts = panel["counts"]
         count_text = f" ({counts.pop()} runs per label)" if len(counts) == 1 else ""
         where = f"{variant}: " if variant is not None else ""
         # wrapped to the panel's width: side-by-side panels' titles would otherwise run into each other
         ax.set_title(textwrap.fill(where + title + floor_text + count_text, width=int((MAX_WIDTH_IN / ncols - 0.8) * 12.5)),
                      loc="left", fontsize=10)
-        if grey:
-            ax.text(0.99, 0.97, "grey: " + ", ".join(split_label(n)[0] for n in grey), transform=ax.transAxes,
-                    va="top", ha="right", fontsize=9, color="0.25",
-                    bbox={"fc": "white", "ec": "0.8", "boxstyle": "round"}, zorder=20)
     for k, ax in enumerate(axes.flat[:len(cells)]):
         if k + ncols >= len(cells):  # the lowest panel of its column carries the axis
             ax.xaxis.set_tick_params(labelbottom=True)
             ax.set_xlabel("evaluations")
     for ax in axes.flat[len(cells):]:
         ax.set_visible(False)
-    frame = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+    columns_csv = ["panel", "variant", "optimizer", "nfev", "median", "q25", "q75", "runs", "highlighted", "band", "y"]
+    frame = pd.concat(rows, ignore_index=True)[columns_csv] if rows else pd.DataFrame()
     handles = backend_handles(look, drawn)
     if banded:
         per_panel = max(len([o for o in g if o in banded]) for g in groups.values())
