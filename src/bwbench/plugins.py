@@ -46,14 +46,14 @@ class Registry(Generic[T]):
     modules imported on first use (``builtin``: name -> module), installed plug-ins (the entry points
     of ``group``, loaded once, all together) and ``register`` from code (a test, a notebook).
 
-    ``read(ep, loaded)`` turns a loaded entry point into the thing to register (checking it; a
+    ``read(ep, loaded)`` registers what a loaded entry point gives and returns its name (checking it; a
     ``PluginError`` from ``failed`` refuses it), and ``attribute`` names what a built-in module holds
     (``MODEL``, ``PROBLEM_TYPE``); without them a module registers its own things when imported (the
     optimiser backends' decorator). The failure policy above is this class's: a broken plug-in is kept
     in ``broken`` and named when asked for; the others keep working."""
 
     def __init__(self, kind: str, group: str, builtin: dict[str, str], *, attribute: str | None = None,
-                 read: Callable[[Any, Any], T] | None = None, known: str = "known"):
+                 read: Callable[[Any, Any], str] | None = None, known: str = "known"):
         self.kind, self.group, self.builtin, self.attribute, self.read, self.known = kind, group, builtin, attribute, read, known
         self.items: dict[str, T] = {}
         self.broken: dict[str, str] = {}  # entry point name -> the line naming it and its error

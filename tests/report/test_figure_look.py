@@ -16,7 +16,7 @@ from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.problems.hysteresis.paper import non_uniqueness
 from bwbench.problems.hysteresis.report import figures as switched_figures
 from bwbench.problems.hysteresis.report.figure_common import problem_for
-from bwbench.render import ecdf_figures, figures, palette
+from bwbench.render import ecdf_figures, figures, palette, waterfall
 from bwbench.store import reader as results_db
 from study_fixture import make_study_db
 
@@ -131,7 +131,7 @@ def test_one_legend_per_figure_and_sized_for_the_page(study, drawn, tmp_path):
     material = study.ranking["material"].iloc[0]
     figures.convergence(study, tmp_path, order=ORDER)
     ecdf_figures.runtime_distributions(study, tmp_path, order=ORDER)
-    figures.waterfall(study, tmp_path, order=ORDER)
+    waterfall.waterfall(study, tmp_path, order=ORDER)
     switched_figures.hysteresis_loops(study, tmp_path, study.specimens[0], order=ORDER)
     switched_figures.parameter_spread(study, tmp_path, order=ORDER)
     switched_figures.parameters_vs_underpressure(study, tmp_path, "cmaes", material, order=ORDER)
@@ -192,7 +192,7 @@ def test_profiles_say_when_the_profile_found_a_better_fit(drawn, tmp_path):
 
 
 def test_a_better_fit_callout_shows_the_difference_or_is_left_out():
-    from bwbench.problems.hysteresis.report.posterior_figures import better_fit_text
+    from bwbench.problems.hysteresis.report.profile_figures import better_fit_text
 
     # the quick report printed "9.7483 vs 9.7483 N²": now enough digits to see the gap, or nothing
     assert better_fit_text(9.74831, 9.74834) is None  # 3e-6 relative: not a better fit worth a callout
@@ -203,7 +203,7 @@ def test_a_better_fit_callout_shows_the_difference_or_is_left_out():
 
 
 def test_profiles_claim_a_bound_only_from_converged_points(drawn, tmp_path):
-    from bwbench.problems.hysteresis.report.posterior_figures import bounded
+    from bwbench.problems.hysteresis.report.profile_figures import bounded
 
     values, mse = [0.0, 1.0, 2.0, 3.0], [9.0, 1.0, 1.01, 9.0]
     assert bounded(values, mse, 2.0) == "both sides"

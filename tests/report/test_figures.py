@@ -9,7 +9,7 @@ import pytest
 from bwbench.analysis import statistics
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.problems.hysteresis.report import figures as switched_figures
-from bwbench.render import ecdf_figures, figures
+from bwbench.render import ecdf_figures, figures, waterfall
 from bwbench.store import reader as results_db
 from study_fixture import make_study_db
 
@@ -34,7 +34,7 @@ def _read(png):
 
 
 def test_waterfall_has_one_row_per_ranking_run_sorted_per_specimen_and_backend(study, out):
-    frame = _read(figures.waterfall(study, out))
+    frame = _read(waterfall.waterfall(study, out))
     assert len(frame) == len(study.ranking) == 24
     keys = set(zip(frame["specimen"], frame["optimizer"], frame["replicate"]))
     assert keys == set(zip(study.ranking["specimen"], study.ranking["optimizer"], study.ranking["replicate"]))
@@ -238,7 +238,7 @@ def test_profiles_figure(out):
 
 
 def test_profiles_classify_the_95_percent_region():
-    from bwbench.problems.hysteresis.report.posterior_figures import bounded
+    from bwbench.problems.hysteresis.report.profile_figures import bounded
 
     values = [0.0, 1.0, 2.0, 3.0]
     assert bounded(values, [5.0, 1.0, 1.0, 5.0], 2.0) == "both sides"

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import statistics
-from bwbench.render import ecdf_figures, figures
+from bwbench.render import ecdf_figures, figures, waterfall
 from bwbench.render.floors import noise_floors
 from bwbench.render.format import evals_text, number, p_text
 from bwbench.render.palette import split_label
@@ -243,7 +243,7 @@ def run_figures(report) -> None:
                f"{ecdf_figures.MAX_COLOURED}, random search dark grey, the others light grey")
     # One panel per specimen reads well up to a handful; beyond, the featured ones (all in the CSV).
     many = len(study.specimens) > len(report.featured) + 1
-    doc.figure(figures.waterfall(study, out, order=order, specimens=report.featured if many else None),
+    doc.figure(waterfall.waterfall(study, out, order=order, specimens=report.featured if many else None),
                "Waterfall: the final loss of every ranking run, per specimen, sorted per backend"
                + (f" — on the {len(report.featured)} featured specimens of {len(study.specimens)} (every run of "
                   "every specimen in the CSV)" if many else ""))

@@ -20,7 +20,8 @@ from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.models.switched_parameters import LABELS, LOWER, UPPER
 from bwbench.problems.hysteresis.report.figure_common import EDGE, axis_label, edge_bands, synthetic, truth  # noqa: F401
 from bwbench.problems.hysteresis.report.fit_figures import hysteresis_loops, plot_fit  # noqa: F401
-from bwbench.problems.hysteresis.report.posterior_figures import posterior, profiles  # noqa: F401
+from bwbench.problems.hysteresis.report.posterior_figures import posterior  # noqa: F401
+from bwbench.problems.hysteresis.report.profile_figures import profiles  # noqa: F401
 from bwbench.render.figures import finished, specimen_order, specimen_title
 from bwbench.render.palette import (
     MAX_WIDTH_IN,

@@ -182,7 +182,7 @@ def profile_sentence(result: dict) -> str:
     over the whole range shows the data do not identify the parameter there, whatever the search
     did; a bound is claimed only from converged points above the threshold, and then only for the
     minimum the search found."""
-    from bwbench.problems.hysteresis.report.posterior_figures import BOUNDED_TEXT, bounded, threshold_of
+    from bwbench.problems.hysteresis.report.profile_figures import BOUNDED_TEXT, bounded, threshold_of
 
     floor, threshold = threshold_of(result)
     parts = []
