@@ -60,19 +60,21 @@ def _rates(y, w, x, xd, p):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _jacobian(y, w, x, xd, p):
-    """The matrix W of a Rosenbrock-W step: ∂(ẏ, ẇ)/∂(y, w) at state (y, w) and excitation (x, ẋ) on
-    the current branch (loading or not), as (∂ẏ/∂y, ∂ẏ/∂w, ∂ẇ/∂y, ∂ẇ/∂w). (W on the stiffer of the two
-    branches where the relative velocity hovers about 0 was tried: 3× the steps there.)"""
+def _rates_jacobian(y, w, x, xd, p):
+    """``_rates`` (the same numbers) and the matrix W of a Rosenbrock-W step, ∂(ẏ, ẇ)/∂(y, w) at state
+    (y, w) and excitation (x, ẋ) on the current branch (loading or not), sharing one |w|^n: (ẏ, ẇ,
+    ∂ẏ/∂y, ∂ẏ/∂w, ∂ẇ/∂y, ∂ẇ/∂w). (W on the stiffer of the two branches where the relative velocity
+    hovers about 0 was tried: 3× the steps there.)"""
     s = 1.0 + p[_R0]
     j11 = -p[_K0] / s
     j12 = p[_VY] / s
-    u = xd - (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) / s
+    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) / s
+    u = xd - yd
     c = 1.0 if w * u > 0.0 else p[_ETA]
     pw = math.pow(abs(w), p[_N])
     sat = 1.0 - c * pw
     dsat = -c * p[_N] * pw / w if w != 0.0 else 0.0  # ∂(1 − c·|w|^n)/∂w; 0 at w = 0 (n ≥ 1)
-    return j11, j12, -j11 / p[_XY] * sat, -j12 / p[_XY] * sat + u / p[_XY] * dsat
+    return yd, u / p[_XY] * sat, j11, j12, -j11 / p[_XY] * sat, -j12 / p[_XY] * sat + u / p[_XY] * dsat
 
 
 # Rosenbrock-W method ROS34PW2 (Rang & Angermann, BIT 45:761–787, 2005): 4 stages, order 3 with an
@@ -109,13 +111,12 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
         steps += 1
         h = min(h, span - s)
         x, xd = _excitation(s / span, span, x0, v0, v1, a0, a1)
-        j11, j12, j21, j22 = _jacobian(y, w, x, xd, p)
+        fy, fw, j11, j12, j21, j22 = _rates_jacobian(y, w, x, xd, p)
         # (I − h·γ·W)⁻¹ once per step: every stage solves with it.
         hg = h * _GAMMA
         m11, m12, m21, m22 = 1.0 - hg * j11, -hg * j12, -hg * j21, 1.0 - hg * j22
         det = m11 * m22 - m12 * m21
         i11, i12, i21, i22 = m22 / det, -m12 / det, -m21 / det, m11 / det
-        fy, fw = _rates(y, w, x, xd, p)
         r1, r2 = h * fy, h * fw
         k1y, k1w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
         x, xd = _excitation((s + _C2 * h) / span, span, x0, v0, v1, a0, a1)

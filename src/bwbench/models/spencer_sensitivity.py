@@ -53,7 +53,7 @@ from bwbench.models.spencer_kernel import (
     STATUS_STEP_BUDGET,
     STEPS_PER_SAMPLE,
     _excitation,
-    _jacobian,
+    _rates_jacobian,
     preroll_end,
 )
 
@@ -134,7 +134,7 @@ def _interval_sens(y, w, Sy, Sw, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allo
         steps += 1
         h = min(h, span - s)
         x, xd = _excitation(s / span, span, x0, v0, v1, a0, a1)
-        j11, j12, j21, j22 = _jacobian(y, w, x, xd, p)
+        _, _, j11, j12, j21, j22 = _rates_jacobian(y, w, x, xd, p)
         hg = h * _GAMMA
         m11, m12, m21, m22 = 1.0 - hg * j11, -hg * j12, -hg * j21, 1.0 - hg * j22
         det = m11 * m22 - m12 * m21
