@@ -34,7 +34,11 @@ and ``agree_rtol`` (1e-2): stop once ``stop_agree`` local searches, each from it
 ended at the best optimum found (``_agreed``: MSE within ``agree_rtol``, every parameter within 2 %
 of its range) after at least 9 searches (a basin attracting 30 % of starts is then missed with
 probability < 5 %) — more starts would spend the budget finding it again (``bwbench fit`` sets 3 unless told otherwise; the result says
-how many evaluations it used and why it stopped).
+how many evaluations it used and why it stopped). ``stop_on_arrival`` (true; only with ``stop_agree``): a
+local search stops as soon as trf stands at the best optimum earlier searches ended at (half the
+agreement's tolerances: MSE within ``agree_rtol``/2, every unit coordinate within ``AGREE_UTOL``/2):
+it would end there, after the 5+ iterations its stall test needs (on MR-damper tests the searches
+that found the optimum spent about half their evaluations confirming it). It counts as ending there.
 
 Why the stall test: on the switched model most random starts fall within 10–20 iterations into
 one of a few local minima (on the 0.05 MPa specimen, identifiable formulation: 11.1× and 28× the
@@ -68,7 +72,7 @@ from threadpoolctl import threadpool_limits
 
 from bwbench.errors import BudgetExhausted
 from bwbench.optimize.finite_penalty import WorstFinitePenalty
-from bwbench.optimize.options import Choice, Float, Int
+from bwbench.optimize.options import Bool, Choice, Float, Int
 from bwbench.optimize.registry import register
 
 OPTIONS = {
@@ -82,11 +86,16 @@ OPTIONS = {
     "jacobian": Choice("auto", ("auto", "differences")),
     "stop_agree": Int(0, minimum=0, maximum=1000),
     "agree_rtol": Float(1e-2, minimum=0.0, maximum=1.0),
+    "stop_on_arrival": Bool(True),
 }
 
 
 class _Stalled(Exception):
     """A local search that no longer makes progress worth its evaluations: restart elsewhere."""
+
+
+class _Arrived(_Stalled):
+    """A local search that reached an optimum an earlier search ended at (``_Residuals.known``)."""
 
 
 class _Residuals:
@@ -108,6 +117,11 @@ class _Residuals:
         self._last_r = None
         self.search_best = np.inf  # the lowest mean square the current local search has seen
         self.search_best_u = None  # and where (unit coordinates)
+        # Ends of the finished local searches (MSE, u): a search stops once it reaches the best of them
+        # (``_check_arrival``); ``arrival_rtol`` None when searches run to their own end (a study).
+        self.known: list[tuple] = []
+        self.arrival_rtol: float | None = None
+        self.arrival_floor = 0.0
 
     def _sqrt_loss(self, U):
         with np.errstate(invalid="ignore"):
@@ -156,6 +170,7 @@ class _Residuals:
         u = np.asarray(u, dtype=float)
         r0 = self.fun(u)  # normally remembered: scipy takes the Jacobian at the point fun just ran
         self._check_progress(float(np.mean(r0**2)))
+        self._check_arrival(u, float(np.mean(r0**2)))
         if self.exact:
             found = self.objective.residual_jacobian(u)
             # Sensitivities grow without bound near a blow-up; trf squares the columns: keep those it can.
@@ -186,6 +201,17 @@ class _Residuals:
         if w > 0 and len(self.costs) > w and cost > (1.0 - self.stall_rtol) * self.costs[-1 - w]:
             raise _Stalled
 
+    def _check_arrival(self, u, cost: float):
+        # The point trf stands at is the best optimum the earlier searches ended at: this search would
+        # end there too, after the iterations its stall test needs. Half ``_agreed``'s tolerances, so
+        # that the search still agrees with the best end when a later search moves it a little.
+        if self.arrival_rtol is None or not self.known:
+            return
+        mse, where = min(self.known, key=lambda end: end[0])
+        if (cost <= mse * (1.0 + 0.5 * self.arrival_rtol) + self.arrival_floor
+                and np.max(np.abs(np.clip(u, 0.0, 1.0) - where)) <= 0.5 * AGREE_UTOL):
+            raise _Arrived
+
     def _stop_if_spent(self):
         # A batch cut at the budget leaves +inf rows that are not blow-ups; nothing more can run.
         if self.objective.exhausted:
@@ -200,7 +226,7 @@ class _Residuals:
     batched=True,
 )
 def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="jac", max_nfev_per_start=None,
-             stall_iters=5, stall_rtol=1e-3, jacobian="auto", stop_agree=0, agree_rtol=1e-2):
+             stall_iters=5, stall_rtol=1e-3, jacobian="auto", stop_agree=0, agree_rtol=1e-2, stop_on_arrival=True):
     from scipy.optimize import least_squares  # here: scipy.optimize costs ~0.5 s to import
 
     x_scale = 1.0 if x_scale == "unit" else x_scale
@@ -208,6 +234,9 @@ def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="j
     residuals = _Residuals(objective, diff_step, stall_iters, stall_rtol, exact=jacobian == "auto")
     max_nfev = None if max_nfev_per_start is None else int(max_nfev_per_start)
     ends: list[tuple] = []  # (lowest MSE, where) of each finished local search
+    arrivals = 0
+    if stop_agree and stop_on_arrival:
+        residuals.known, residuals.arrival_rtol = ends, float(agree_rtol)
     # One BLAS thread: trf takes an SVD of the (L + d) × d Jacobian every iteration, 5 ms on one
     # core and 95 ms with OpenBLAS's 2 threads on a busy 2-core machine (L ≈ 2,000, d = 14); and
     # the run then does not depend on the machine's thread count.
@@ -219,15 +248,21 @@ def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="j
             try:
                 least_squares(residuals.fun, u0, jac=residuals.jac, bounds=(0.0, 1.0), method="trf",
                               x_scale=x_scale, xtol=float(xtol), ftol=float(ftol), max_nfev=max_nfev)
+            except _Arrived:
+                arrivals += 1
             except _Stalled:
                 pass
             ends.append((residuals.search_best, residuals.search_best_u))
-            agreed = _agreed(ends, int(stop_agree), float(agree_rtol), 1e-12 * residuals.penalty.worst_finite)
+            floor = 1e-12 * residuals.penalty.worst_finite
+            residuals.arrival_floor = floor
+            agreed = _agreed(ends, int(stop_agree), float(agree_rtol), floor)
             if agreed:
+                arrived = f"; {arrivals} of them stopped on reaching an optimum an earlier one ended at" if arrivals else ""
                 message = (f"stopped early: {agreed} of {len(ends)} independent local searches ended at the best "
                            f"optimum (MSE within {agree_rtol:.3g} relative, every searched parameter within "
-                           f"{AGREE_UTOL:.3g} of its box), none better")
-                return {"message": message, "stop_reason": "restarts agree", "local_searches": len(ends)}
+                           f"{AGREE_UTOL:.3g} of its box), none better{arrived}")
+                return {"message": message, "stop_reason": "restarts agree", "local_searches": len(ends),
+                        "arrivals": arrivals}
 
 
 # How close (unit coordinates: a fraction of each parameter's search range, in log where the box is) the

@@ -27,9 +27,10 @@ def hermite_excitation(t, x, v, a):
     return position, speed
 
 
-def spencer_force(p: dict, t, x_of, v_of, rtol=1e-11):
+def spencer_force(p: dict, t, x_of, v_of, rtol=1e-11, method="DOP853"):
     """F (N) at times t of Spencer et al. (1997)'s model from rest (y = x, z = 0), DOP853 (explicit, adaptive:
-    the stiffness here, ≤ 1e5 /s, costs it small steps, not instability)."""
+    the stiffness here, ≤ 1e5 /s, costs it small steps, not instability); ``method="Radau"`` for a
+    stiffer corner."""
     c0, c1, k0, k1, x0 = p["c0"], p["c1"], p["k0"], p["k1"], p["x0"]
     alpha, beta, gamma, A, n = p["alpha"], p["beta"], p["gamma"], p["A"], p["n"]
 
@@ -45,10 +46,10 @@ def spencer_force(p: dict, t, x_of, v_of, rtol=1e-11):
     start = [float(x_of(t[0])), 0.0]
     k = preroll_sample(x_of(t), v_of(t))
     if k:  # started in motion: from the state one cycle of the record's motion leads to
-        pre = solve_ivp(rhs, (t[0], t[k]), start, method="DOP853", rtol=rtol, atol=1e-13, max_step=float(t[1] - t[0]))
+        pre = solve_ivp(rhs, (t[0], t[k]), start, method=method, rtol=rtol, atol=1e-13, max_step=float(t[1] - t[0]))
         assert pre.success, pre.message
         start = [pre.y[0, -1] + float(x_of(t[0]) - x_of(t[k])), pre.y[1, -1]]
-    sol = solve_ivp(rhs, (t[0], t[-1]), start, method="DOP853", rtol=rtol, atol=1e-13,
+    sol = solve_ivp(rhs, (t[0], t[-1]), start, method=method, rtol=rtol, atol=1e-13,
                     t_eval=t, max_step=float(t[1] - t[0]))
     assert sol.success, sol.message
     y, z = sol.y

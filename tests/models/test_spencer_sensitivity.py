@@ -26,22 +26,42 @@ def arrays(path):
     return problem, [np.ascontiguousarray(np.asarray(getattr(problem.signal, k), dtype=float)) for k in "txva"]
 
 
+def _central_differences(theta, signal, j, rel, tol):
+    h = rel * (theta[j] if j in (0, 3, 4) else max(abs(theta[j]), 1.0))  # relative for the log-scaled x_y, v_y, r₀
+    up, down = theta.copy(), theta.copy()
+    up[j] += h
+    down[j] -= h
+    return (ydot_batch(up[None], *signal, tol=tol)[0][0] - ydot_batch(down[None], *signal, tol=tol)[0][0]) / (2 * h)
+
+
 @pytest.mark.parametrize("theta", [OPTIMUM, ELSEWHERE], ids=["optimum", "elsewhere"])
-def test_sensitivities_match_central_differences_of_the_plain_kernel(theta):
+def test_sensitivities_match_central_differences_at_a_tight_tolerance(theta):
+    """The sensitivity equations themselves: at tolerance 1e-9 per step (the step control's jitter
+    small against steps of 1e-3) they agree with central differences of the plain kernel to 1e-4."""
+    _, signal = arrays(DATA / "mr_25mm_1Hz_0V.csv")
+    Z, S, status = ydot_sensitivity_batch(theta[None], *signal, tol=1e-9)
+    plain, _ = ydot_batch(theta[None], *signal, tol=1e-9)
+    assert status[0] == 0
+    assert np.max(np.abs(Z[0] - plain[0])) <= 1e-8 * np.ptp(plain[0])  # the same steps, the same ẏ
+    for j in range(6):
+        fd = _central_differences(theta, signal, j, 1e-3, 1e-9)
+        assert np.linalg.norm(S[0, :, j] - fd) <= 1e-4 * np.linalg.norm(fd), f"column {j}"
+
+
+@pytest.mark.parametrize("theta", [OPTIMUM, ELSEWHERE], ids=["optimum", "elsewhere"])
+def test_sensitivities_at_the_fits_tolerance_match_differences_to_a_few_thousandths(theta):
+    """At the tolerance a fit runs at (1e-5 per step) the sensitivities are the ODE's on the plain
+    kernel's steps, not the derivative of those discrete steps: against central differences (steps of
+    1 %, above the step control's jitter) they agree to ~1e-3 (≤ 1.2e-2 for η at the optimum, where ẏ
+    hardly depends on it) — far closer than Gauss-Newton needs."""
     _, signal = arrays(DATA / "mr_25mm_1Hz_0V.csv")
     Z, S, status = ydot_sensitivity_batch(theta[None], *signal)
     plain, _ = ydot_batch(theta[None], *signal)
     assert status[0] == 0
-    assert np.max(np.abs(Z[0] - plain[0])) <= 1e-8 * np.ptp(plain[0])  # the same steps, the same ẏ
+    assert np.max(np.abs(Z[0] - plain[0])) <= 1e-8 * np.ptp(plain[0])
     for j in range(6):
-        # Steps large enough that the step control's jitter (~1e-9 per step) is small against them:
-        # relative for the log-scaled x_y, v_y, r₀; at least 3e-3 for n, η, κ₀ (ranges of order 1).
-        h = 3e-3 * (theta[j] if j in (0, 3, 4) else max(abs(theta[j]), 1.0))
-        up, down = theta.copy(), theta.copy()
-        up[j] += h
-        down[j] -= h
-        fd = (ydot_batch(up[None], *signal)[0][0] - ydot_batch(down[None], *signal)[0][0]) / (2 * h)
-        assert np.linalg.norm(S[0, :, j] - fd) <= 1e-3 * np.linalg.norm(fd), f"column {j}"
+        fd = _central_differences(theta, signal, j, 1e-2, 1e-5)
+        assert np.linalg.norm(S[0, :, j] - fd) <= 2e-2 * np.linalg.norm(fd), f"column {j}"
 
 
 @pytest.mark.parametrize("files", [["mr_25mm_1Hz_0V.csv"], ["mr_25mm_1Hz_0V.csv", "mr_10mm_2Hz_1V.csv"]],
@@ -58,9 +78,11 @@ def test_the_identifiable_jacobian_matches_differences_and_costs_its_measured_pr
     assert np.max(np.abs(r - r0)) <= 1e-6 * np.max(np.abs(r0))  # ẏ to rounding (|w|^n by exp and log)
     for j in range(problem.dim):
         e = np.zeros(problem.dim)
-        e[j] = min(1e-4, 0.1 * u[j], 0.1 * (1.0 - u[j]))  # well inside the box (κ₀ sits near its lower edge)
+        # Steps of 1e-3 (unit coordinates), above the step control's jitter at the fit's tolerance; well
+        # inside the box (η sits near its upper edge). The sensitivities agree to ~1e-3 there (see above).
+        e[j] = min(1e-3, 0.1 * u[j], 0.1 * (1.0 - u[j]))
         fd = (objective.residuals(u + e) - objective.residuals(u - e)) / (2 * e[j])
-        assert np.linalg.norm(J[:, j] - fd) <= 2e-3 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
+        assert np.linalg.norm(J[:, j] - fd) <= 5e-3 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
 
 
 @pytest.mark.parametrize("bounds, held", [
@@ -84,9 +106,9 @@ def test_the_jacobian_with_coefficients_held_on_their_bounds_matches_differences
     assert np.max(np.abs(r - r0)) <= 1e-6 * np.max(np.abs(r0))
     for j in range(problem.dim):
         e = np.zeros(problem.dim)
-        e[j] = min(1e-4, 0.1 * u[j], 0.1 * (1.0 - u[j]))
+        e[j] = min(1e-3, 0.1 * u[j], 0.1 * (1.0 - u[j]))  # as above
         fd = (objective.residuals(u + e) - objective.residuals(u - e)) / (2 * e[j])
-        assert np.linalg.norm(J[:, j] - fd) <= 2e-3 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
+        assert np.linalg.norm(J[:, j] - fd) <= 1e-2 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
 
 
 def test_an_exact_jacobian_past_the_budget_spends_what_is_left_and_stops():
@@ -130,6 +152,6 @@ def test_the_direct_jacobian_matches_differences():
     assert np.max(np.abs(r - r0)) <= 1e-6 * np.max(np.abs(r0))
     for j in range(problem.dim):
         e = np.zeros(problem.dim)
-        e[j] = 3e-4  # below ~1e-5 the step control's jitter dominates the differences
-        fd = (objective.residuals(u + e) - objective.residuals(u - e)) / 6e-4
-        assert np.linalg.norm(J[:, j] - fd) <= 1e-3 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
+        e[j] = 1e-3  # below ~1e-4 the step control's jitter (tolerance 1e-5 per step) dominates the differences
+        fd = (objective.residuals(u + e) - objective.residuals(u - e)) / 2e-3
+        assert np.linalg.norm(J[:, j] - fd) <= 1e-2 * np.linalg.norm(fd), f"column {problem.param_names[j]}"

@@ -218,8 +218,9 @@ class Spencer(Model):
             raise ValueError(f"theta must have shape (m, {len(HYSTERETIC)}), got {theta.shape}")
         return _ydot(theta, signal)
 
-    # An evaluation with its six sensitivities took 1.85 plain simulations at a fit's optimum (1,501
-    # samples, benchmarks/bench_call_cost.py): charged as 2 evaluations.
+    # An evaluation with its six sensitivities (the Rosenbrock-W kernel) took 1.4–1.8 plain simulations
+    # at the optima of seven MR-damper generator fits (600–6,000 samples) and 1.65 at random points of
+    # the box (benchmarks/bench_call_cost.py): charged as 2 evaluations.
     sensitivity_cost = 2
 
     def trajectory_sensitivities(self, theta, signal, state=None):

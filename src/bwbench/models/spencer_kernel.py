@@ -12,14 +12,17 @@ velocity, recorded or estimated, drives the model: a derivative of the noisy dis
 samples would not (with 1 µm of encoder noise at 500 Hz it wiggles by ~1 mm/s inside each interval,
 and an MR damper's pre-yield damping of ~20 N·s/mm turns that into ~20 N of force).
 
-Integration: Dormand–Prince 5(4) with step-size control (tolerance 1e-9 per step on w and on y
-relative to the record's amplitude), the step carried from one sample interval to the next. The
-stiffness reaches (v_y/(1 + r₀))·(1 + |η|)/x_y + n·|ẋ − ẏ|/x_y: for an MR damper (x_y ≈ 0.02 mm,
-v_y ≈ 20–40 mm/s) 10³–10⁴ s⁻¹, where the explicit method's stability bounds the step at ~3/λ —
-about ten times the step classical RK4 needed for the same accuracy (it was 3–6× slower, and less
-accurate where the relative velocity reverses: a kink of the rates that the error control finds by
-itself). An interval that needs more than ``_MAX_STEPS`` steps (a corner of the search box) is
-finished by the L-stable backward Euler, so such parameter sets cost bounded time and stay stable.
+Integration: the L-stable Rosenbrock-W method ROS34PW2 (order 3, embedded order 2) with step-size
+control (tolerance ``_TOL`` = 1e-5 per step on w and on y relative to the record's amplitude), the
+step carried from one sample interval to the next. Each step solves 2×2 linear systems with the
+analytic Jacobian of the rates at its start. The stiffness reaches (v_y/(1 + r₀))·(1 + |η|)/x_y +
+n·|ẋ − ẏ|/x_y: for an MR damper (x_y ≈ 0.02 mm, v_y ≈ 20–40 mm/s) 10³–10⁴ s⁻¹. The explicit
+Dormand–Prince 5(4) used before was bound there by stability to steps of ~3/λ (2.6–8 steps per sample
+interval at 500 Hz–1 kHz); the L-stable step is bound only by accuracy (1.5–3.7 per interval, each
+about half the cost of a Dormand–Prince step), and a stiff corner of the search box (x_y = 1e-6 mm:
+10⁸ s⁻¹) needs no fallback. The force agrees with solve_ivp to ~1e-5 of its range (tests: 5e-5),
+100× below a measured test's force noise; tighter tolerances (``tol`` of ``ydot_batch``) serve tests.
+The error control shortens the step where the relative velocity reverses (a kink of the rates).
 A state that is not finite makes the whole row +inf.
 """
 
@@ -30,7 +33,6 @@ import math
 import numba
 import numpy as np
 
-_IMPLICIT_SUBSTEPS = 64  # backward-Euler steps for the rest of an interval too stiff for Dormand–Prince
 _XY, _N, _ETA, _VY, _R0, _K0 = range(6)
 
 
@@ -57,105 +59,86 @@ def _rates(y, w, x, xd, p):
     return yd, wd
 
 
-@numba.njit(cache=True, error_model="numpy")
-def _backward_euler(y, w, x, xd, h, p):
-    """One backward-Euler step of length h (s) to the excitation (x, ẋ) at its end; damped Newton.
-
-    Returns (y, w) or NaNs when Newton does not converge.
-    """
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _rates_jacobian(y, w, x, xd, p):
+    """``_rates`` (the same numbers) and the matrix W of a Rosenbrock-W step, ∂(ẏ, ẇ)/∂(y, w) at state
+    (y, w) and excitation (x, ẋ) on the current branch (loading or not), sharing one |w|^n: (ẏ, ẇ,
+    ∂ẏ/∂y, ∂ẏ/∂w, ∂ẇ/∂y, ∂ẇ/∂w). (W on the stiffer of the two branches where the relative velocity
+    hovers about 0 was tried: 3× the steps there.)"""
     s = 1.0 + p[_R0]
-    y1, w1 = y, w
-    for _ in range(50):
-        yd, wd = _rates(y1, w1, x, xd, p)
-        g1 = y1 - y - h * yd
-        g2 = w1 - w - h * wd
-        u = xd - yd
-        c = 1.0 if w1 * u > 0.0 else p[_ETA]
-        pw = math.pow(abs(w1), p[_N])
-        dyd_dy = -p[_K0] / s
-        dyd_dw = p[_VY] / s
-        sat = 1.0 - c * pw
-        dwd_dy = -dyd_dy / p[_XY] * sat
-        dsat = -c * p[_N] * pw / abs(w1) * (1.0 if w1 > 0 else -1.0) if w1 != 0.0 else 0.0
-        dwd_dw = -dyd_dw / p[_XY] * sat + u / p[_XY] * dsat
-        a11, a12 = 1.0 - h * dyd_dy, -h * dyd_dw
-        a21, a22 = -h * dwd_dy, 1.0 - h * dwd_dw
-        det = a11 * a22 - a12 * a21
-        if det == 0.0 or not np.isfinite(det):
-            return np.nan, np.nan
-        dy = (a22 * g1 - a12 * g2) / det
-        dw = (a11 * g2 - a21 * g1) / det
-        y1 -= dy
-        w1 -= dw
-        if abs(dy) <= 1e-13 * (abs(y1) + 1e-9) and abs(dw) <= 1e-13 * (abs(w1) + 1e-12):
-            return y1, w1
-    return np.nan, np.nan
+    j11 = -p[_K0] / s
+    j12 = p[_VY] / s
+    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) / s
+    u = xd - yd
+    c = 1.0 if w * u > 0.0 else p[_ETA]
+    pw = math.pow(abs(w), p[_N])
+    sat = 1.0 - c * pw
+    dsat = -c * p[_N] * pw / w if w != 0.0 else 0.0  # ∂(1 − c·|w|^n)/∂w; 0 at w = 0 (n ≥ 1)
+    return yd, u / p[_XY] * sat, j11, j12, -j11 / p[_XY] * sat, -j12 / p[_XY] * sat + u / p[_XY] * dsat
 
 
-# Dormand–Prince 5(4) tableau (the nodes c, the stage weights A, the 5th-order weights B and the
-# difference E between the 5th- and 4th-order weights, for the error estimate).
-_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
-_A = np.array([
-    [0, 0, 0, 0, 0, 0],
-    [1 / 5, 0, 0, 0, 0, 0],
-    [3 / 40, 9 / 40, 0, 0, 0, 0],
-    [44 / 45, -56 / 15, 32 / 9, 0, 0, 0],
-    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0],
-    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0],
-    [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
-])
-_E = np.array([71 / 57600, 0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
-_TOL = 1e-9  # per step, on w (no unit, |w| ≲ 1) and on y relative to the record's amplitude
-_MAX_STEPS = 4096  # per sample interval; beyond it the interval is finished by backward Euler
+# Rosenbrock-W method ROS34PW2 (Rang & Angermann, BIT 45:761–787, 2005): 4 stages, order 3 with an
+# embedded order-2 solution for the error estimate, L-stable and stiffly accurate, and a W-method: its
+# order holds for any matrix W in place of the Jacobian, so the excitation's time dependence needs no
+# ∂f/∂t term (time is a state whose row of W is left out) and the sensitivities can step with the same W
+# (``spencer_sensitivity``). Per stage i (k_i the increments, W the 2×2 Jacobian at the step's start):
+#     (I − h·γ·W)·k_i = h·f(t + c_i·h, u + Σ_j a_ij·k_j) + h·W·Σ_j γ_ij·k_j,   u_new = u + Σ_i b_i·k_i.
+_GAMMA = 0.43586652150845900
+_A21 = 0.87173304301691801
+_A31, _A32 = 0.84457060015369423, -0.11299064236484185  # a_4 = (0, 0, 1): the 4th stage is at u + k_3
+_G21 = -0.87173304301691801
+_G31, _G32 = -0.90338057013044082, 0.054180672388095326
+_G41, _G42, _G43 = 0.24212380706095346, -1.2232505839045147, 0.54526025533510214
+_B1, _B2, _B3, _B4 = 0.24212380706095346, -1.2232505839045147, 1.5452602553351020, 0.43586652150845900
+# b − b̂ (b̂ the embedded order-2 weights 0.37810903145819369, −0.096042292212423178, 0.5, 0.21793326075422950)
+_E1, _E2, _E3, _E4 = _B1 - 0.37810903145819369, _B2 + 0.096042292212423178, _B3 - 0.5, _B4 - 0.21793326075422950
+_C2, _C3 = _A21, _A31 + _A32  # stage times (fractions of the step); the 4th is at the step's end
+_TOL = 1e-5  # per step, on w (no unit, |w| ≲ 1) and on y relative to the record's amplitude
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance):
-    """Advance (y, w) over [t0, t1] with Dormand–Prince 5(4) and step-size control; ``h`` is the
-    step (s) to try first (the last accepted one of the previous interval). Returns (y, w, h, steps
-    tried); (NaN, NaN, h, steps) once more than ``allowance`` steps were tried (the simulation's step
-    budget, ``_run``).
-
-    The explicit method's stability bounds the step at ~3/λ where the system is stiff (an MR damper
-    in saturation), ~10× the RK4 step that accuracy needed there; the error control shortens the step
-    where the relative velocity reverses (a kink of the rates) without being told where."""
+def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
+    """Advance (y, w) over [t0, t1] with ROS34PW2 and step-size control; ``h`` is the step (s) to try
+    first (the last accepted one of the previous interval), ``tol`` the tolerance per step (``_TOL``).
+    Returns (y, w, h, steps tried); (NaN, NaN, h, steps) once more than ``allowance`` steps were tried
+    (the simulation's step budget, ``_run``)."""
     span = t1 - t0
     s = 0.0
-    ky = np.empty(7)
-    kw = np.empty(7)
-    x, xd = _excitation(0.0, span, x0, v0, v1, a0, a1)
-    ky[0], kw[0] = _rates(y, w, x, xd, p)
     steps = 0
     while s < span:
-        if steps >= _MAX_STEPS:
-            # Too stiff even for this: the rest of the interval by the L-stable implicit step.
-            rest = span - s
-            for i in range(_IMPLICIT_SUBSTEPS):
-                x, xd = _excitation((s + rest * (i + 1.0) / _IMPLICIT_SUBSTEPS) / span, span, x0, v0, v1, a0, a1)
-                y, w = _backward_euler(y, w, x, xd, rest / _IMPLICIT_SUBSTEPS, p)
-                if not np.isfinite(w):
-                    break
-            return y, w, h, steps
         if steps >= allowance:
             return np.nan, np.nan, h, steps
         steps += 1
         h = min(h, span - s)
-        for j in range(1, 7):
-            dy = 0.0
-            dw = 0.0
-            for m in range(j):
-                dy += _A[j, m] * ky[m]
-                dw += _A[j, m] * kw[m]
-            x, xd = _excitation((s + _C[j] * h) / span, span, x0, v0, v1, a0, a1)
-            ky[j], kw[j] = _rates(y + h * dy, w + h * dw, x, xd, p)
-        y_new = y + h * (_A[6, 0] * ky[0] + _A[6, 2] * ky[2] + _A[6, 3] * ky[3] + _A[6, 4] * ky[4] + _A[6, 5] * ky[5])
-        w_new = w + h * (_A[6, 0] * kw[0] + _A[6, 2] * kw[2] + _A[6, 3] * kw[3] + _A[6, 4] * kw[4] + _A[6, 5] * kw[5])
-        ey = 0.0
-        ew = 0.0
-        for m in range(7):
-            ey += _E[m] * ky[m]
-            ew += _E[m] * kw[m]
-        err = max(abs(h * ey) / (_TOL * y_scale), abs(h * ew) / (_TOL * max(1.0, abs(w_new))))
+        x, xd = _excitation(s / span, span, x0, v0, v1, a0, a1)
+        fy, fw, j11, j12, j21, j22 = _rates_jacobian(y, w, x, xd, p)
+        # (I − h·γ·W)⁻¹ once per step: every stage solves with it.
+        hg = h * _GAMMA
+        m11, m12, m21, m22 = 1.0 - hg * j11, -hg * j12, -hg * j21, 1.0 - hg * j22
+        det = m11 * m22 - m12 * m21
+        i11, i12, i21, i22 = m22 / det, -m12 / det, -m21 / det, m11 / det
+        r1, r2 = h * fy, h * fw
+        k1y, k1w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
+        x, xd = _excitation((s + _C2 * h) / span, span, x0, v0, v1, a0, a1)
+        fy, fw = _rates(y + _A21 * k1y, w + _A21 * k1w, x, xd, p)
+        gy, gw = _G21 * k1y, _G21 * k1w
+        r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
+        k2y, k2w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
+        x, xd = _excitation((s + _C3 * h) / span, span, x0, v0, v1, a0, a1)
+        fy, fw = _rates(y + _A31 * k1y + _A32 * k2y, w + _A31 * k1w + _A32 * k2w, x, xd, p)
+        gy, gw = _G31 * k1y + _G32 * k2y, _G31 * k1w + _G32 * k2w
+        r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
+        k3y, k3w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
+        x, xd = _excitation((s + h) / span, span, x0, v0, v1, a0, a1)
+        fy, fw = _rates(y + k3y, w + k3w, x, xd, p)
+        gy, gw = _G41 * k1y + _G42 * k2y + _G43 * k3y, _G41 * k1w + _G42 * k2w + _G43 * k3w
+        r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
+        k4y, k4w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
+        y_new = y + _B1 * k1y + _B2 * k2y + _B3 * k3y + _B4 * k4y
+        w_new = w + _B1 * k1w + _B2 * k2w + _B3 * k3w + _B4 * k4w
+        ey = _E1 * k1y + _E2 * k2y + _E3 * k3y + _E4 * k4y
+        ew = _E1 * k1w + _E2 * k2w + _E3 * k3w + _E4 * k4w
+        err = max(abs(ey) / (tol * y_scale), abs(ew) / (tol * max(1.0, abs(w_new))))
         if not np.isfinite(err) or not np.isfinite(w_new):
             if h <= 1e-14 * span:
                 return np.nan, np.nan, h, steps
@@ -164,8 +147,7 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance):
         if err <= 1.0:
             s += h
             y, w = y_new, w_new
-            ky[0], kw[0] = ky[6], kw[6]  # first same as last
-        factor = 0.9 * err ** -0.2 if err > 0.0 else 5.0
+        factor = 0.9 * err ** (-1.0 / 3.0) if err > 0.0 else 5.0  # the error estimate is O(h³)
         h *= min(5.0, max(0.2, factor))
     return y, w, h, steps
 
@@ -188,16 +170,16 @@ def preroll_end(x, v) -> int:
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run(p, t, x, v, a, y, w, stop, out, budget):
+def _run(p, t, x, v, a, y, w, stop, out, budget, tol):
     """Integrate from (y, w) at sample 0 to sample ``stop``, writing ẏ into ``out`` when it is not
-    empty, on at most ``budget`` Dormand–Prince steps. Returns (y, w, steps left): (NaN, NaN, ≥ 0)
+    empty, on at most ``budget`` steps. Returns (y, w, steps left): (NaN, NaN, ≥ 0)
     on blow-up, (NaN, NaN, −1) when the step budget ran out."""
     if out.shape[0]:
         out[0], _ = _rates(y, w, x[0], v[0], p)
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
-        y, w, h, steps = _interval(y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale, budget)
+        y, w, h, steps = _interval(y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale, budget, tol)
         budget -= steps
         if not (np.isfinite(y) and np.isfinite(w)):
             return np.nan, np.nan, (budget if budget > 0 else -1)
@@ -206,17 +188,18 @@ def _run(p, t, x, v, a, y, w, stop, out, budget):
     return y, w, budget
 
 
-# The work a simulation may do: this many Dormand–Prince steps per sample interval on average, over
-# the whole record (pre-roll included). A fit of a measured MR-damper test takes 1–10 per interval
-# (stability bounds the step at ~3/λ, λ ≈ 10³–10⁴ s⁻¹); a corner of the search box with a yield
-# displacement of a micrometre would take thousands per interval (seconds per simulation). Such a
-# simulation stops and its loss is +inf, the reason counted (``STATUS_STEP_BUDGET``).
-STEPS_PER_SAMPLE = 64
+# The work a simulation may do: this many steps per sample interval on average, over the whole record
+# (pre-roll included). At a fit's optimum the L-stable step takes 1.5–3.7 per interval (500 Hz–1 kHz
+# records with a noisy velocity); a corner of the search box where the relative velocity hovers about
+# 0 with η ≪ −1 takes hundreds per interval there (the branch flips with the velocity's noise), 25×
+# the optimum's cost per simulation at 64 (the budget the explicit integrator had). Such a simulation
+# stops and its loss is +inf, the reason counted (``STATUS_STEP_BUDGET``).
+STEPS_PER_SAMPLE = 16
 STATUS_OK, STATUS_BLOW_UP, STATUS_STEP_BUDGET = 0, 1, 2
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_into(p, t, x, v, a, preroll, out):
+def _ydot_into(p, t, x, v, a, preroll, out, tol):
     """ẏ (mm/s) at every sample into ``out``; the status (``STATUS_*``).
 
     Initial state: a record that starts at rest starts from rest (y = x, w = 0). A record that starts
@@ -229,19 +212,20 @@ def _ydot_into(p, t, x, v, a, preroll, out):
     budget = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
     y, w = x[0], 0.0
     if preroll > 0:
-        y, w, budget = _run(p, t, x, v, a, y, w, preroll, out[:0], budget)
+        y, w, budget = _run(p, t, x, v, a, y, w, preroll, out[:0], budget, tol)
         y += x[0] - x[preroll]
     if not np.isfinite(w):
         return STATUS_STEP_BUDGET if budget < 0 else STATUS_BLOW_UP
-    y, w, budget = _run(p, t, x, v, a, y, w, x.shape[0] - 1, out, budget)
+    y, w, budget = _run(p, t, x, v, a, y, w, x.shape[0] - 1, out, budget, tol)
     if not np.isfinite(w):
         return STATUS_STEP_BUDGET if budget < 0 else STATUS_BLOW_UP
     return STATUS_OK
 
 
-def ydot_batch(TH, t, x, v, a):
+def ydot_batch(TH, t, x, v, a, tol=_TOL):
     """(ẏ (mm/s) of each parameter row of TH (m, 6) at the samples: (m, L), +inf rows where the
-    simulation did not finish; the status of each row (m,), ``STATUS_*``).
+    simulation did not finish; the status of each row (m,), ``STATUS_*``). ``tol``: the integration's
+    tolerance per step (tests compare at a tighter one).
 
     On numba's threads only when there are enough rows for each thread (on a busy machine a parallel
     loop waits for a thread that has no core: tens of ms per call); the rows are independent, so the
@@ -251,23 +235,23 @@ def ydot_batch(TH, t, x, v, a):
     preroll = preroll_end(x, v)
     threads = numba.get_num_threads()
     if threads > 1 and TH.shape[0] >= 2 * threads:
-        _ydot_parallel(TH, t, x, v, a, preroll, out, status)
+        _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol)
     else:
-        _ydot_serial(TH, t, x, v, a, preroll, out, status)
+        _ydot_serial(TH, t, x, v, a, preroll, out, status, tol)
     return out, status
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _ydot_parallel(TH, t, x, v, a, preroll, out, status):
+def _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol):
     for i in numba.prange(TH.shape[0]):
-        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i])
+        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
-def _ydot_serial(TH, t, x, v, a, preroll, out, status):
+def _ydot_serial(TH, t, x, v, a, preroll, out, status, tol):
     for i in range(TH.shape[0]):
-        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i])
+        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf

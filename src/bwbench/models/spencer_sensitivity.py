@@ -2,16 +2,21 @@
 
 The state (y, w) of ``spencer_kernel`` and its derivatives S_y = ∂y/∂θ, S_w = ∂w/∂θ for the six
 identifiable parameters θ = (x_y, n, η, v_y, r₀, κ₀) are integrated together, by the same
-Dormand–Prince 5(4) steps under the same step control (the error is measured on (y, w) only, so the
-steps are those of the plain simulation and ẏ is the same numbers):
+ROS34PW2 steps under the same step control (the error is measured on (y, w) only, so the steps are
+those of the plain simulation and ẏ is the same numbers):
 
     Ṡ_y = ∂ẏ/∂y·S_y + ∂ẏ/∂w·S_w + ∂ẏ/∂θ,   Ṡ_w = ∂ẇ/∂y·S_y + ∂ẇ/∂w·S_w + ∂ẇ/∂θ,
 
 from S = 0 at the first state (rest, or the pre-roll's start: the state after the pre-roll carries
 its S). ∂ẏ/∂θ at a sample is then ∂ẏ/∂y·S_y + ∂ẏ/∂w·S_w + ∂ẏ/∂θ. The switch between loading and
 unloading (c = 1 or η) is a kink of the rates, differentiated on either side (it is crossed at
-isolated instants). An interval that would need the backward-Euler fallback of ``spencer_kernel``
-(a stiff corner) gives no sensitivities (``STATUS_NO_SENSITIVITY``): the caller takes differences.
+isolated instants). The sensitivities take the Rosenbrock-W stages with the same matrix W as the
+state (the 2×2 Jacobian of the rates, for each θ_j: W applied to (S_y, S_w)): the augmented system's
+own Jacobian has the coupling ∂(∂f/∂u·S)/∂u below that block diagonal, which a W-method may leave out
+at no loss of order. So S is the sensitivity of the ODE integrated to third order on the plain
+simulation's steps (not the derivative of the discrete steps): it agrees with central differences of
+the plain kernel to the integration tolerance. ``STATUS_NO_SENSITIVITY`` is kept for callers (the
+explicit integrator it was for needed a fallback at stiff corners; this one does not).
 """
 
 from __future__ import annotations
@@ -22,16 +27,33 @@ import numba
 import numpy as np
 
 from bwbench.models.spencer_kernel import (
-    _A,
-    _C,
-    _E,
-    _MAX_STEPS,
+    _A21,
+    _A31,
+    _A32,
+    _B1,
+    _B2,
+    _B3,
+    _B4,
+    _C2,
+    _C3,
+    _E1,
+    _E2,
+    _E3,
+    _E4,
+    _G21,
+    _G31,
+    _G32,
+    _G41,
+    _G42,
+    _G43,
+    _GAMMA,
     _TOL,
     STATUS_BLOW_UP,
     STATUS_OK,
     STATUS_STEP_BUDGET,
     STEPS_PER_SAMPLE,
     _excitation,
+    _rates_jacobian,
     preroll_end,
 )
 
@@ -40,7 +62,7 @@ _XY, _N, _ETA, _VY, _R0, _K0 = range(6)
 _D = 6
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def _rates_sens(y, w, Sy, Sw, x, xd, p, dSy, dSw):
     """(ẏ, ẇ) at (y, w), and into dSy, dSw the rates of the sensitivities S_y, S_w (each (6,))."""
     s = 1.0 + p[_R0]
@@ -81,57 +103,91 @@ def _rates_sens(y, w, Sy, Sw, x, xd, p, dSy, dSw):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_sens_at(y, w, Sy, Sw, x, xd, p, out_S):
-    """ẏ at a sample, and its total derivative ∂ẏ/∂θ into out_S (6,)."""
-    dSw = np.empty(_D)
-    yd, _ = _rates_sens(y, w, Sy, Sw, x, xd, p, out_S, dSw)
+def _ydot_sens_at(y, w, Sy, Sw, x, xd, p, out_S, scratch):
+    """ẏ at a sample, and its total derivative ∂ẏ/∂θ into out_S (6,); ``scratch`` (6,) takes Ṡ_w."""
+    yd, _ = _rates_sens(y, w, Sy, Sw, x, xd, p, out_S, scratch)
     return yd
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _stage_sens(kSy, kSw, i, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21, i22, h):
+    """kS_i = (I − h·γ·W)⁻¹·(h·Ṡ(stage) + h·W·Σ_j γ_ij·kS_j) for each θ column; ``gy``, ``gw`` hold Σ_j γ_ij·kS_j."""
+    for q in range(_D):
+        r1 = h * (fSy[q] + j11 * gy[q] + j12 * gw[q])
+        r2 = h * (fSw[q] + j21 * gy[q] + j22 * gw[q])
+        kSy[i, q] = i11 * r1 + i12 * r2
+        kSw[i, q] = i21 * r1 + i22 * r2
+
+
 @numba.njit(cache=True, error_model="numpy")
-def _interval_sens(y, w, Sy, Sw, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, ky, kw, kSy, kSw, Sy_stage,
-                   Sw_stage):
+def _interval_sens(y, w, Sy, Sw, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol, kSy, kSw, fSy, fSw,
+                   tmp_y, tmp_w, gy, gw):
     """``spencer_kernel._interval`` with the sensitivities (Sy, Sw updated in place). Returns
-    (y, w, h, steps, status); status STATUS_NO_SENSITIVITY where the plain kernel would switch to
-    backward Euler, STATUS_STEP_BUDGET past ``allowance`` steps, STATUS_BLOW_UP on a state that is
-    not finite."""
+    (y, w, h, steps, status); STATUS_STEP_BUDGET past ``allowance`` steps, STATUS_BLOW_UP on a state
+    that is not finite. The state's arithmetic is the plain kernel's, stage for stage."""
     span = t1 - t0
     s = 0.0
-    x, xd = _excitation(0.0, span, x0, v0, v1, a0, a1)
-    ky[0], kw[0] = _rates_sens(y, w, Sy, Sw, x, xd, p, kSy[0], kSw[0])
     steps = 0
     while s < span:
-        if steps >= _MAX_STEPS:
-            return np.nan, np.nan, h, steps, STATUS_NO_SENSITIVITY
         if steps >= allowance:
             return np.nan, np.nan, h, steps, STATUS_STEP_BUDGET
         steps += 1
         h = min(h, span - s)
-        for j in range(1, 7):
-            dy = 0.0
-            dw = 0.0
-            for q in range(_D):
-                Sy_stage[q] = 0.0
-                Sw_stage[q] = 0.0
-            for m in range(j):
-                dy += _A[j, m] * ky[m]
-                dw += _A[j, m] * kw[m]
-                for q in range(_D):
-                    Sy_stage[q] += _A[j, m] * kSy[m, q]
-                    Sw_stage[q] += _A[j, m] * kSw[m, q]
-            for q in range(_D):
-                Sy_stage[q] = Sy[q] + h * Sy_stage[q]
-                Sw_stage[q] = Sw[q] + h * Sw_stage[q]
-            x, xd = _excitation((s + _C[j] * h) / span, span, x0, v0, v1, a0, a1)
-            ky[j], kw[j] = _rates_sens(y + h * dy, w + h * dw, Sy_stage, Sw_stage, x, xd, p, kSy[j], kSw[j])
-        y_new = y + h * (_A[6, 0] * ky[0] + _A[6, 2] * ky[2] + _A[6, 3] * ky[3] + _A[6, 4] * ky[4] + _A[6, 5] * ky[5])
-        w_new = w + h * (_A[6, 0] * kw[0] + _A[6, 2] * kw[2] + _A[6, 3] * kw[3] + _A[6, 4] * kw[4] + _A[6, 5] * kw[5])
-        ey = 0.0
-        ew = 0.0
-        for m in range(7):
-            ey += _E[m] * ky[m]
-            ew += _E[m] * kw[m]
-        err = max(abs(h * ey) / (_TOL * y_scale), abs(h * ew) / (_TOL * max(1.0, abs(w_new))))
+        x, xd = _excitation(s / span, span, x0, v0, v1, a0, a1)
+        _, _, j11, j12, j21, j22 = _rates_jacobian(y, w, x, xd, p)
+        hg = h * _GAMMA
+        m11, m12, m21, m22 = 1.0 - hg * j11, -hg * j12, -hg * j21, 1.0 - hg * j22
+        det = m11 * m22 - m12 * m21
+        i11, i12, i21, i22 = m22 / det, -m12 / det, -m21 / det, m11 / det
+        # stage 1
+        fy, fw = _rates_sens(y, w, Sy, Sw, x, xd, p, fSy, fSw)
+        r1, r2 = h * fy, h * fw
+        k1y, k1w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
+        for q in range(_D):
+            gy[q] = 0.0
+            gw[q] = 0.0
+        _stage_sens(kSy, kSw, 0, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21, i22, h)
+        # stage 2
+        x, xd = _excitation((s + _C2 * h) / span, span, x0, v0, v1, a0, a1)
+        for q in range(_D):
+            tmp_y[q] = Sy[q] + _A21 * kSy[0, q]
+            tmp_w[q] = Sw[q] + _A21 * kSw[0, q]
+            gy[q] = _G21 * kSy[0, q]
+            gw[q] = _G21 * kSw[0, q]
+        fy, fw = _rates_sens(y + _A21 * k1y, w + _A21 * k1w, tmp_y, tmp_w, x, xd, p, fSy, fSw)
+        g1, g2 = _G21 * k1y, _G21 * k1w
+        r1, r2 = h * (fy + j11 * g1 + j12 * g2), h * (fw + j21 * g1 + j22 * g2)
+        k2y, k2w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
+        _stage_sens(kSy, kSw, 1, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21, i22, h)
+        # stage 3
+        x, xd = _excitation((s + _C3 * h) / span, span, x0, v0, v1, a0, a1)
+        for q in range(_D):
+            tmp_y[q] = Sy[q] + _A31 * kSy[0, q] + _A32 * kSy[1, q]
+            tmp_w[q] = Sw[q] + _A31 * kSw[0, q] + _A32 * kSw[1, q]
+            gy[q] = _G31 * kSy[0, q] + _G32 * kSy[1, q]
+            gw[q] = _G31 * kSw[0, q] + _G32 * kSw[1, q]
+        fy, fw = _rates_sens(y + _A31 * k1y + _A32 * k2y, w + _A31 * k1w + _A32 * k2w, tmp_y, tmp_w, x, xd, p, fSy, fSw)
+        g1, g2 = _G31 * k1y + _G32 * k2y, _G31 * k1w + _G32 * k2w
+        r1, r2 = h * (fy + j11 * g1 + j12 * g2), h * (fw + j21 * g1 + j22 * g2)
+        k3y, k3w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
+        _stage_sens(kSy, kSw, 2, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21, i22, h)
+        # stage 4 (at u + k_3, the step's end)
+        x, xd = _excitation((s + h) / span, span, x0, v0, v1, a0, a1)
+        for q in range(_D):
+            tmp_y[q] = Sy[q] + kSy[2, q]
+            tmp_w[q] = Sw[q] + kSw[2, q]
+            gy[q] = _G41 * kSy[0, q] + _G42 * kSy[1, q] + _G43 * kSy[2, q]
+            gw[q] = _G41 * kSw[0, q] + _G42 * kSw[1, q] + _G43 * kSw[2, q]
+        fy, fw = _rates_sens(y + k3y, w + k3w, tmp_y, tmp_w, x, xd, p, fSy, fSw)
+        g1, g2 = _G41 * k1y + _G42 * k2y + _G43 * k3y, _G41 * k1w + _G42 * k2w + _G43 * k3w
+        r1, r2 = h * (fy + j11 * g1 + j12 * g2), h * (fw + j21 * g1 + j22 * g2)
+        k4y, k4w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
+        _stage_sens(kSy, kSw, 3, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21, i22, h)
+        y_new = y + _B1 * k1y + _B2 * k2y + _B3 * k3y + _B4 * k4y
+        w_new = w + _B1 * k1w + _B2 * k2w + _B3 * k3w + _B4 * k4w
+        ey = _E1 * k1y + _E2 * k2y + _E3 * k3y + _E4 * k4y
+        ew = _E1 * k1w + _E2 * k2w + _E3 * k3w + _E4 * k4w
+        err = max(abs(ey) / (tol * y_scale), abs(ew) / (tol * max(1.0, abs(w_new))))
         if not np.isfinite(err) or not np.isfinite(w_new):
             if h <= 1e-14 * span:
                 return np.nan, np.nan, h, steps, STATUS_BLOW_UP
@@ -141,73 +197,67 @@ def _interval_sens(y, w, Sy, Sw, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allo
             s += h
             y, w = y_new, w_new
             for q in range(_D):
-                Sy[q] += h * (_A[6, 0] * kSy[0, q] + _A[6, 2] * kSy[2, q] + _A[6, 3] * kSy[3, q]
-                              + _A[6, 4] * kSy[4, q] + _A[6, 5] * kSy[5, q])
-                Sw[q] += h * (_A[6, 0] * kSw[0, q] + _A[6, 2] * kSw[2, q] + _A[6, 3] * kSw[3, q]
-                              + _A[6, 4] * kSw[4, q] + _A[6, 5] * kSw[5, q])
-                kSy[0, q] = kSy[6, q]
-                kSw[0, q] = kSw[6, q]
-            ky[0], kw[0] = ky[6], kw[6]  # first same as last
-        factor = 0.9 * err ** -0.2 if err > 0.0 else 5.0
+                Sy[q] += _B1 * kSy[0, q] + _B2 * kSy[1, q] + _B3 * kSy[2, q] + _B4 * kSy[3, q]
+                Sw[q] += _B1 * kSw[0, q] + _B2 * kSw[1, q] + _B3 * kSw[2, q] + _B4 * kSw[3, q]
+        factor = 0.9 * err ** (-1.0 / 3.0) if err > 0.0 else 5.0
         h *= min(5.0, max(0.2, factor))
     return y, w, h, steps, STATUS_OK
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget):
+def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget, tol):
     """``spencer_kernel._run`` with the sensitivities; writes ẏ and ∂ẏ/∂θ when ``out`` is not empty.
     Returns (y, w, steps left, status)."""
+    kSy, kSw = np.empty((4, _D)), np.empty((4, _D))  # the stages' work space, once per run
+    fSy, fSw, tmp_y, tmp_w, gy, gw = np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D)
     if out.shape[0]:
-        out[0] = _ydot_sens_at(y, w, Sy, Sw, x[0], v[0], p, out_S[0])
+        out[0] = _ydot_sens_at(y, w, Sy, Sw, x[0], v[0], p, out_S[0], fSw)
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
-    ky, kw = np.empty(7), np.empty(7)  # the stages' work space, once per run
-    kSy, kSw = np.empty((7, _D)), np.empty((7, _D))
-    Sy_stage, Sw_stage = np.empty(_D), np.empty(_D)
     for k in range(stop):
         y, w, h, steps, status = _interval_sens(y, w, Sy, Sw, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1],
-                                                p, h, y_scale, budget, ky, kw, kSy, kSw, Sy_stage, Sw_stage)
+                                                p, h, y_scale, budget, tol, kSy, kSw, fSy, fSw, tmp_y, tmp_w, gy, gw)
         budget -= steps
         if status != STATUS_OK:
             return np.nan, np.nan, budget, status
         if not (np.isfinite(y) and np.isfinite(w)):
             return np.nan, np.nan, budget, STATUS_BLOW_UP
         if out.shape[0]:
-            out[k + 1] = _ydot_sens_at(y, w, Sy, Sw, x[k + 1], v[k + 1], p, out_S[k + 1])
+            out[k + 1] = _ydot_sens_at(y, w, Sy, Sw, x[k + 1], v[k + 1], p, out_S[k + 1], fSw)
     return y, w, budget, STATUS_OK
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S):
+def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S, tol):
     """ẏ (mm/s) and ∂ẏ/∂θ at every sample (as ``spencer_kernel._ydot_into``); the status."""
     budget = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
     y, w = x[0], 0.0
     Sy = np.zeros(_D)
     Sw = np.zeros(_D)
     if preroll > 0:
-        y, w, budget, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], budget)
+        y, w, budget, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], budget, tol)
         if status != STATUS_OK:
             return status
         y += x[0] - x[preroll]
-    y, w, budget, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, budget)
+    y, w, budget, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, budget, tol)
     return status
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
-def _ydot_sens_serial(TH, t, x, v, a, preroll, out, out_S, status):
+def _ydot_sens_serial(TH, t, x, v, a, preroll, out, out_S, status, tol):
     for i in range(TH.shape[0]):
-        status[i] = _ydot_sens_into(TH[i], t, x, v, a, preroll, out[i], out_S[i])
+        status[i] = _ydot_sens_into(TH[i], t, x, v, a, preroll, out[i], out_S[i], tol)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf
             out_S[i] = np.nan
 
 
-def ydot_sensitivity_batch(TH, t, x, v, a):
+def ydot_sensitivity_batch(TH, t, x, v, a, tol=_TOL):
     """(ẏ (m, L) mm/s, ∂ẏ/∂θ (m, L, 6), status (m,)) of each θ row of TH (m, 6); rows that did not
     finish are +inf (ẏ) and NaN (∂ẏ/∂θ), their status saying why (``STATUS_*``)."""
     TH = np.ascontiguousarray(TH, dtype=float)
     out = np.empty((TH.shape[0], x.shape[0]))
     out_S = np.empty((TH.shape[0], x.shape[0], _D))
     status = np.zeros(TH.shape[0], dtype=np.int8)
-    _ydot_sens_serial(TH, t, x, v, a, preroll_end(x, v), out, out_S, status)
+    _ydot_sens_serial(TH, t, x, v, a, preroll_end(x, v), out, out_S, status, tol)
     return out, out_S, status
