@@ -118,25 +118,36 @@ def sensitivities(problem, p):
     return None
 
 
+REPEAT = 5
+
+
 def sensitivity_price(problem, P, where):
     """Time of the simulations with sensitivities ÷ time of the plain ones at the same points, one at
-    a time; and ÷ the time per point of plain batches of d points."""
+    a time; and ÷ the time per point of plain batches of d points. Each the best of ``REPEAT``."""
     sensitivities(problem, P[0])  # compile outside the timing
     simulate(problem, P[:1])
-    plain = with_sens = 0.0
+    d = problem.dim
+    plain = with_sens = batched = 0.0
     failed = 0
     for p in P:
-        start = time.perf_counter()
-        simulate(problem, p[None, :])
-        plain += time.perf_counter() - start
-        start = time.perf_counter()
-        failed += sensitivities(problem, p) is None
-        with_sens += time.perf_counter() - start
-    d = problem.dim
-    start = time.perf_counter()
-    for p in P:
-        simulate(problem, np.repeat(p[None, :], d, axis=0))
-    batched = (time.perf_counter() - start) / d
+        # Each the best of REPEAT runs, alternating: a shared machine's load would otherwise decide.
+        times = np.full(3, np.inf)
+        for _ in range(REPEAT):
+            for i in range(3):
+                start = time.perf_counter()
+                if i == 0:
+                    found = simulate(problem, p[None, :])
+                elif i == 1:
+                    found = sensitivities(problem, p)
+                else:
+                    found = simulate(problem, np.repeat(p[None, :], d, axis=0))
+                times[i] = min(times[i], time.perf_counter() - start)
+                if i == 1:
+                    none = found is None
+        failed += none
+        plain += times[0]
+        with_sens += times[1]
+        batched += times[2] / d
     print(f"{'':<18} {'':<12} sensitivities at {len(P)} {where}: {with_sens / plain:.2f} one-point plain simulations "
           f"({with_sens / batched:.2f} per point of {d}-point batches; {failed} without); charged "
           f"{problem.model.sensitivity_cost}")

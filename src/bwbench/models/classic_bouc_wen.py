@@ -94,9 +94,11 @@ class ClassicBoucWen(Model):
         s = signal
         return switched.hysteretic_state_batch(np.concatenate([half, half], axis=1), s.t, s.x, s.v)
 
-    # An evaluation with its sensitivities, charged in plain evaluations (``Model.sensitivity_cost``):
-    # SENSITIVITY_COST_NOTE
-    sensitivity_cost = 0
+    # An evaluation with its sensitivities (4: ∂z/∂(A, n, β, γ)) took 1.5 plain one-point simulations in
+    # the identifiable formulation and 2.3–2.4 in the direct one (1,921 samples, random points of the box
+    # and a fit's optimum, benchmarks/bench_call_cost.py): charged as 3 evaluations, against d = 3
+    # (identifiable) or 7 (direct) for differences.
+    sensitivity_cost = 3
 
     def trajectory_sensitivities(self, theta, signal, state=None):
         """(w (L,), ∂w/∂θ (L, 3)) of one θ = (x_y, n, η), by forward sensitivities integrated with w

@@ -36,7 +36,6 @@ from bwbench.models.switched_kernel import (
     _attractor,
     _backward_euler,
     _branch,
-    _rate,
     _reversal_pieces,
     _substeps,
 )
