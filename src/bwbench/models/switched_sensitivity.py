@@ -288,17 +288,17 @@ def branch_force(plus, minus, H, M, columns, signal, state, width):
         return None
     z, dZ = found
     x, v, a = (np.asarray(getattr(s, k), dtype=float) for k in "xva")
-    F = np.empty(len(x))
-    dF = np.zeros((len(x), width))
     is_plus = v >= 0.0
-    for branch, mask, offset in ((plus, is_plus, 0), (minus, ~is_plus, 7 if width == 14 else 0)):
-        _, _, alpha, _, _, xi, wn = branch
-        with np.errstate(invalid="ignore", over="ignore"):
-            F[mask] = a[mask] + 2.0 * xi * wn * v[mask] + alpha * wn * wn * x[mask] + (1.0 - alpha) * wn * wn * z[mask]
-            dF[np.ix_(mask, columns)] += (1.0 - alpha) * wn * wn * dZ[mask]
-            dF[mask, offset + 2] = wn * wn * (x[mask] - z[mask])
-            dF[mask, offset + 5] = 2.0 * wn * v[mask]
-            dF[mask, offset + 6] = 2.0 * xi * v[mask] + 2.0 * alpha * wn * x[mask] + 2.0 * (1.0 - alpha) * wn * z[mask]
+    # Per sample the active branch's α, ξ, ωn: the force by force_batch's operations, element by element.
+    alpha, xi, wn = (np.where(is_plus, plus[i], minus[i]) for i in (2, 5, 6))
+    dF = np.zeros((len(x), width))
+    with np.errstate(invalid="ignore", over="ignore"):
+        F = a + 2.0 * xi * wn * v + alpha * wn * wn * x + (1.0 - alpha) * wn * wn * z
+        dF[:, columns] = ((1.0 - alpha) * wn * wn)[:, None] * dZ
+        explicit = (wn * wn * (x - z), 2.0 * wn * v, 2.0 * xi * v + 2.0 * alpha * wn * x + 2.0 * (1.0 - alpha) * wn * z)
+    for mask, offset in ((is_plus, 0), (~is_plus, 7 if width == 14 else 0)):
+        for column, values in zip((2, 5, 6), explicit):
+            dF[mask, offset + column] = values[mask]
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(dF))):
         return None
     return F, dF
