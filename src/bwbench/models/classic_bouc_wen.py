@@ -94,9 +94,9 @@ class ClassicBoucWen(Model):
         s = signal
         return switched.hysteretic_state_batch(np.concatenate([half, half], axis=1), s.t, s.x, s.v)
 
-    # An evaluation with its sensitivities (4: ∂z/∂(A, n, β, γ)) took 1.5 plain one-point simulations in
-    # the identifiable formulation and 2.3–2.4 in the direct one (1,921 samples, random points of the box
-    # and a fit's optimum, benchmarks/bench_call_cost.py): charged as 3 evaluations, against d = 3
+    # An evaluation with its sensitivities (4: ∂z/∂(A, n, β, γ)) took 1.3–1.5 plain one-point simulations
+    # in the identifiable formulation and 1.5–2.1 in the direct one (1,921 samples, random points of the
+    # box and a fit's optimum, benchmarks/bench_call_cost.py): charged as 3 evaluations, against d = 3
     # (identifiable) or 7 (direct) for differences.
     sensitivity_cost = 3
 

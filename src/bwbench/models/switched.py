@@ -91,8 +91,8 @@ class SwitchedBoucWen(Model):
         H = fm.kernel_hysteretic(np.atleast_2d(np.asarray(theta, dtype=float)), state)
         return kernel.hysteretic_state_batch(H, s.t, s.x, s.v, state)
 
-    # An evaluation with its sensitivities (8: ∂z/∂H of both branches' A, n, β, γ) took 1.6 plain
-    # one-point simulations at random points of the identifiable box and at a fit's optimum, 2.1 in the
+    # An evaluation with its sensitivities (8: ∂z/∂H of both branches' A, n, β, γ) took 1.6–1.7 plain
+    # one-point simulations at random points of the identifiable box and at a fit's optimum, 1.8 in the
     # paper formulation (its force's sensitivities on top; 1,921 samples, benchmarks/bench_call_cost.py):
     # charged as 3 evaluations, against d = 7 (identifiable) or 14 (paper) for differences.
     sensitivity_cost = 3
