@@ -2,13 +2,11 @@
 
 The scalar kernel (``switched_kernel``) integrates dz/dx = g(z; H) with H = (A+, n+, β+, γ+, A−, n−,
 β−, γ−) per displacement piece, by RK4 in a number of substeps set by the local stiffness, or by
-backward Euler past ``_RK4_MAX_SUBSTEPS``. Here the same steps carry S = ∂z/∂θ for the d searched
-parameters θ, with H = H(θ) and its Jacobian M = ∂H/∂θ (8, d) given by the caller (the identity for
-the paper's parameters, the map of ``switched_identifiable.kernel_hysteretic`` for the identifiable
-ones, both branches from one set for the classic model):
+backward Euler past ``_RK4_MAX_SUBSTEPS``. Here the same steps carry S = ∂z/∂H (8 columns; 4 when
+both branches share one set, as the classic model's):
 
-    RK4:            S' = g_z·S + g_H·M along each stage (the augmented system, the same stages),
-    backward Euler: S₁ = (S₀ + h·g_H(z₁)·M) / (1 − h·g_z(z₁)),
+    RK4:            S' = g_z·S + ∂g/∂H along each stage (the augmented system, the same stages),
+    backward Euler: S₁ = (S₀ + h·∂g/∂H(z₁)) / (1 − h·g_z(z₁)),
 
 which is the exact derivative of the discrete map the plain kernel applies (its substep counts are
 integers, constant between the isolated parameter values where they change). z itself is computed by
@@ -18,8 +16,12 @@ bit-identical to the plain kernel's (and the lockstep kernel's). With p = |z|ⁿ
 
     g = A − c·p,  g_z = −c·n·p/z,  ∂g/∂A = 1,  ∂g/∂n = −c·p·ln|z|,  ∂g/∂β = −p,  ∂g/∂γ = ∓p,
 
-all taken as 0 at z = 0 but ∂g/∂A (where S = 0: the record's start). A trajectory that is not
-finite gives no sensitivities (the caller takes differences).
+all taken as 0 at z = 0 but ∂g/∂A (where S = 0: the record's start); ∂g/∂H is non-zero only in the
+active branch's 4 columns. The searched parameters θ get ∂z/∂θ = ∂z/∂H·M once at the end, M = ∂H/∂θ
+(8, d) given by the caller: the identity for the paper's parameters, the Jacobian of
+``switched_identifiable.kernel_hysteretic`` for the identifiable ones (``identifiable_jacobian``),
+both halves the same for the classic model. A trajectory that is not finite gives no sensitivities
+(the caller takes differences).
 """
 
 from __future__ import annotations
@@ -161,7 +163,7 @@ def _hysteretic_sens_into(H, cols, t, x, v, split, z, dZ):
     """``switched_kernel._hysteretic_into`` with the sensitivities: z of the active branch into ``z``
     (L,) and ∂z/∂H into ``dZ`` (L, d), branch b's (A, n, β, γ) at columns ``cols[b]``..``cols[b] + 3``
     (d = 8, cols (0, 4); or d = 4, cols (0, 0) for one set shared by both branches). False as soon as
-    z or ∂z/∂H is not finite."""
+    z is not finite (``hysteretic_sensitivity`` checks ∂z/∂θ)."""
     n_samples = x.shape[0]
     d = dZ.shape[1]
     z_s = np.empty(2)
