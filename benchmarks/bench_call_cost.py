@@ -10,8 +10,11 @@ across machines and runs:
   (1.0 = no fixed cost per call);
 - ``batched ÷ simulation``: the same for the batched call (what the loss adds per point);
 - the slowest point's time and the median, in ms: what a stiff corner of the box costs;
-- for a model with sensitivities (Spencer's), what one simulation with them costs in plain simulations
-  of the same points: the price ``sensitivity_cost`` charges an exact Jacobian against the budget.
+- for a model with sensitivities (every built-in one), what one simulation with them costs in plain
+  simulations of the same points, one point at a time (the model's trajectory, or its force in the
+  direct formulation): the price ``sensitivity_cost`` charges an exact Jacobian against the budget.
+  Also per point of a d-row batch (what a Jacobian by differences simulates) and, with ``--optimum``,
+  the same at the best point of a short lsq-trf fit (where the simulations of a fit's end are).
 
 ``--threads`` sets numba's threads (default: numba's own default, one per core, where a fixed cost
 of a parallel loop shows on a busy machine).
@@ -27,6 +30,7 @@ import numba
 import numpy as np
 
 from bwbench.data.specimen import read_specimen
+from bwbench.models.base import Model
 from bwbench.optimize.objective import Objective
 from bwbench.problems.hysteresis.formulations import make_problem
 
@@ -37,6 +41,8 @@ CASES = (
     ("spencer", "identifiable", REPO / "data" / "mr_damper" / "mr_25mm_1Hz_0V.csv"),
     ("spencer", "direct", REPO / "data" / "mr_damper" / "mr_25mm_1Hz_0V.csv"),
     ("bouc-wen", "identifiable", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
+    ("bouc-wen", "direct", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
+    ("switched-bouc-wen", "identifiable", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv", "split"),
 )
 
 
@@ -51,14 +57,20 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=40, help="random points of the box per case")
     parser.add_argument("--threads", type=int, default=0, help="numba threads (0: numba's default)")
+    parser.add_argument("--optimum", type=int, default=0, metavar="BUDGET",
+                        help="also price the sensitivities at the end of an lsq-trf fit of this budget")
+    parser.add_argument("--only", default="", help="run only the cases of this model")
     args = parser.parse_args()
     if args.threads:
         numba.set_num_threads(args.threads)
     print(f"numba threads: {numba.get_num_threads()}; {args.points} random points of the default box per case")
     print(f"{'model':<18} {'formulation':<12} {'samples':>7} {'sim ms/pt':>9} {'median ms':>9} {'max ms':>8} "
           f"{'per call/sim':>12} {'batched/sim':>11}")
-    for name, formulation, path in CASES:
-        problem = make_problem(read_specimen(path), {"model": name, "formulation": formulation})
+    for name, formulation, path, *state in CASES:
+        if args.only and name != args.only:
+            continue
+        settings = {"model": name, "formulation": formulation, **({"state": state[0]} if state else {})}
+        problem = make_problem(read_specimen(path), settings)
         U = np.random.default_rng(0).random((args.points, problem.dim))
         P = problem.from_unit(U)
         for rows in (1, 2):  # compile (or load the cache) of the one-row and the batched paths outside the timing
@@ -78,26 +90,67 @@ def main():
         start = time.perf_counter()
         objective.batch(U)
         batched = time.perf_counter() - start
-        print(f"{name:<18} {formulation:<12} {problem.n_data:>7} {1e3 * sim / len(P):>9.2f} "
+        label = f"{formulation} {state[0]}" if state else formulation
+        print(f"{name:<18} {label:<12} {problem.n_data:>7} {1e3 * sim / len(P):>9.2f} "
               f"{1e3 * np.median(each):>9.2f} {1e3 * max(each):>8.1f} {per_call / sim:>12.2f} {batched / sim:>11.2f}")
-        if formulation == "identifiable" and problem.model.sensitivity_cost:
-            sensitivity_price(problem, P)
+        if has_sensitivities(problem):
+            sensitivity_price(problem, P, "random points")
+            if args.optimum:
+                from bwbench.optimize import fitting
+
+                best = fitting.run(problem, "lsq-trf", args.optimum, 0)
+                p = np.array([best.params[n] for n in problem.param_names])
+                sensitivity_price(problem, np.repeat(p[None, :], 10, axis=0), "optimum")
 
 
-def sensitivity_price(problem, P):
-    """Time of the simulations with sensitivities ÷ time of the plain ones, at the same points."""
-    model, signal = problem.model, problem.signal
-    model.trajectory_sensitivities(P[0], signal)  # compile outside the timing
-    plain = with_sens = 0.0
+def has_sensitivities(problem) -> bool:
+    if hasattr(problem, "design"):
+        return type(problem.model).trajectory_sensitivities is not Model.trajectory_sensitivities
+    return hasattr(problem.model, "force_sensitivities")
+
+
+def sensitivities(problem, p):
+    """The model's simulation of one point with its sensitivities (None: none here)."""
+    if hasattr(problem, "design"):
+        return problem.model.trajectory_sensitivities(p, problem.signal, problem.state)
+    if hasattr(problem.model, "force_sensitivities"):
+        return problem.model.force_sensitivities(p, problem.signal, problem.state)
+    return None
+
+
+REPEAT = 5
+
+
+def sensitivity_price(problem, P, where):
+    """Time of the simulations with sensitivities ÷ time of the plain ones at the same points, one at
+    a time; and ÷ the time per point of plain batches of d points. Each the best of ``REPEAT``."""
+    sensitivities(problem, P[0])  # compile outside the timing
+    simulate(problem, P[:1])
+    d = problem.dim
+    plain = with_sens = batched = 0.0
+    failed = 0
     for p in P:
-        start = time.perf_counter()
-        model.trajectories(p[None, :], signal)
-        plain += time.perf_counter() - start
-        start = time.perf_counter()
-        model.trajectory_sensitivities(p, signal)
-        with_sens += time.perf_counter() - start
-    print(f"{'':<18} {'':<12} sensitivities: {with_sens / plain:.2f} plain simulations of the same points "
-          f"(charged {model.sensitivity_cost})")
+        # Each the best of REPEAT runs, alternating: a shared machine's load would otherwise decide.
+        times = np.full(3, np.inf)
+        for _ in range(REPEAT):
+            for i in range(3):
+                start = time.perf_counter()
+                if i == 0:
+                    found = simulate(problem, p[None, :])
+                elif i == 1:
+                    found = sensitivities(problem, p)
+                else:
+                    found = simulate(problem, np.repeat(p[None, :], d, axis=0))
+                times[i] = min(times[i], time.perf_counter() - start)
+                if i == 1:
+                    none = found is None
+        failed += none
+        plain += times[0]
+        with_sens += times[1]
+        batched += times[2] / d
+    print(f"{'':<18} {'':<12} sensitivities at {len(P)} {where}: {with_sens / plain:.2f} one-point plain simulations "
+          f"({with_sens / batched:.2f} per point of {d}-point batches; {failed} without); charged "
+          f"{problem.model.sensitivity_cost}")
 
 
 if __name__ == "__main__":

@@ -94,6 +94,35 @@ class ClassicBoucWen(Model):
         s = signal
         return switched.hysteretic_state_batch(np.concatenate([half, half], axis=1), s.t, s.x, s.v)
 
+    # An evaluation with its sensitivities (4: ∂z/∂(A, n, β, γ)) took 1.3–1.5 plain one-point simulations
+    # in the identifiable formulation and 1.5–2.1 in the direct one (1,921 samples, random points of the
+    # box and a fit's optimum, benchmarks/bench_call_cost.py): charged as 3 evaluations, against d = 3
+    # (identifiable) or 7 (direct) for differences.
+    sensitivity_cost = 3
+
+    def trajectory_sensitivities(self, theta, signal, state=None):
+        """(w (L,), ∂w/∂θ (L, 3)) of one θ = (x_y, n, η), by forward sensitivities integrated with w
+        by the switched kernel's own steps (``switched_sensitivity``); None on a blow-up."""
+        from bwbench.models.switched_sensitivity import hysteretic_sensitivity
+
+        xy, n, eta = np.asarray(theta, dtype=float)
+        half = np.array([1.0 / xy, n, (1 + eta) / (2 * xy), (1 - eta) / (2 * xy)])
+        dhalf = np.array([[-1.0 / xy**2, 0.0, 0.0], [0.0, 1.0, 0.0],
+                          [-(1 + eta) / (2 * xy**2), 0.0, 1.0 / (2 * xy)],
+                          [-(1 - eta) / (2 * xy**2), 0.0, -1.0 / (2 * xy)]])
+        s = signal
+        return hysteretic_sensitivity(np.concatenate([half, half]), np.vstack([dhalf, dhalf]), s.t, s.x, s.v)
+
+    def force_sensitivities(self, P, signal, state=None):
+        """(force (L,) N, ∂F/∂P (L, 7)) of one direct vector (A, n, α, β, γ, ξ, ωn), exact: the
+        switched kernel's sensitivities with both branches' (A, n, β, γ) the same; None on a blow-up."""
+        from bwbench.models.switched_sensitivity import branch_force
+
+        P = np.asarray(P, dtype=float)
+        H = P[[0, 1, 3, 4]]
+        M = np.vstack([np.eye(4), np.eye(4)])
+        return branch_force(P, P, np.concatenate([H, H]), M, [0, 1, 3, 4], signal, "shared", 7)
+
     def to_direct(self, theta, coef: dict, state=None):
         """(A, n, α, β, γ, ξ, ωn) of the same loops, in the gauge z_s = x_y (A = 1) or, where that makes
         ωn² = k + h/z_s ≤ 0, one that does not; None when no gauge gives ωn² > 0. Eq 1 has unit mass

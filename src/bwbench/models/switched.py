@@ -91,6 +91,31 @@ class SwitchedBoucWen(Model):
         H = fm.kernel_hysteretic(np.atleast_2d(np.asarray(theta, dtype=float)), state)
         return kernel.hysteretic_state_batch(H, s.t, s.x, s.v, state)
 
+    # An evaluation with its sensitivities (8: ∂z/∂H of both branches' A, n, β, γ) took 1.6–1.7 plain
+    # one-point simulations at random points of the identifiable box and at a fit's optimum, 1.8 in the
+    # paper formulation (its force's sensitivities on top; 1,921 samples, benchmarks/bench_call_cost.py):
+    # charged as 3 evaluations, against d = 7 (identifiable) or 14 (paper) for differences.
+    sensitivity_cost = 3
+
+    def trajectory_sensitivities(self, theta, signal, state=None):
+        """(w (L,), ∂w/∂θ (L, d)) of one θ row, by forward sensitivities integrated with w by the
+        kernel's own steps (``switched_sensitivity``); None on a blow-up."""
+        from bwbench.models import switched_identifiable as fm
+        from bwbench.models.switched_sensitivity import hysteretic_sensitivity, identifiable_jacobian
+
+        state = self.check_state(state)
+        theta = np.asarray(theta, dtype=float)
+        H = fm.kernel_hysteretic(theta[None, :], state)[0]
+        s = signal
+        return hysteretic_sensitivity(H, identifiable_jacobian(theta, state), s.t, s.x, s.v, state)
+
+    def force_sensitivities(self, P, signal, state=None):
+        """(force (L,) N, ∂F/∂P (L, 14)) of one paper 14-vector, exact (``switched_sensitivity``);
+        None on a blow-up."""
+        from bwbench.models.switched_sensitivity import force_sensitivities
+
+        return force_sensitivities(P, signal, self.check_state(state))
+
     def to_direct(self, theta, coef: dict, state=None):
         """The paper's 14 of the same loops with m = 1 and f± = 0 put in (the paper has neither), in
         the gauge nearest Table 5's centre (``identifiable.to_paper``); None where no gauge makes

@@ -258,6 +258,8 @@ class LinearDesign:
         held = np.zeros(len(beta), dtype=bool)
         if solution.bound_active[0]:
             held = _on_bound(beta, self.lower) | _on_bound(beta, self.upper)
+        if not held.any():
+            return self._projected_jacobian(X, solution.R[0], r, beta[q:], dW)
         XF = X[:, ~held]
         Q, R = np.linalg.qr(XF)
         # The free coefficients must be the least-squares ones given the held: r ⟂ the free columns.
@@ -275,6 +277,22 @@ class LinearDesign:
                 e = np.zeros(XF.shape[1])
                 e[position[q + k]] = 1.0
                 J -= np.outer(Q @ np.linalg.solve(R.T, e), dW[k].T @ r)
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+            return None
+        return r, J
+
+    def _projected_jacobian(self, X, R, r, h, dW):
+        """The variable-projection Jacobian with no coefficient held, from the solve's own factor
+        (XᵀX = RᵀR, no second factorisation): ∂r/∂θ = D − X·(XᵀX)⁻¹·(Xᵀ·D + Σ_k e_k·(∂W_k/∂θ)ᵀ·r)
+        with D = Σ_k h_k·∂W_k/∂θ (h: the w-columns' coefficients), e_k the w-column k of X."""
+        q = X.shape[1] - len(h)
+        with np.errstate(over="ignore", invalid="ignore"):  # huge finite sensitivities: checked below
+            D = np.einsum("k,kld->ld", h, dW)
+            C = X.T @ D
+            for k in range(len(h)):
+                C[q + k] += dW[k].T @ r
+            y = scipy.linalg.solve_triangular(R, scipy.linalg.solve_triangular(R, C, trans="T"))
+            J = D - X @ y
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
             return None
         return r, J
