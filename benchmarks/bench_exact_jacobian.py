@@ -25,7 +25,7 @@ import numpy as np
 
 from bwbench.data.specimen import read_specimen
 from bwbench.optimize import fitting
-from bwbench.problems.switched_vpp.formulations import make_problem
+from bwbench.problems.hysteresis.formulations import make_problem
 
 REPO = Path(__file__).resolve().parents[1]
 SPECIMENS = REPO / "data" / "specimens"

@@ -13,7 +13,7 @@ from bwbench.models import switched_bouc_wen as kernel
 from bwbench.models.switched_identifiable import kernel_hysteretic
 from bwbench.models.switched_sensitivity import hysteretic_sensitivity, identifiable_jacobian
 from bwbench.optimize.objective import Objective
-from bwbench.problems.switched_vpp.formulations import make_problem
+from bwbench.problems.hysteresis.formulations import make_problem
 
 SPECIMENS = Path(__file__).resolve().parents[2] / "data" / "specimens"
 SPECIMEN = SPECIMENS / "pom-mt24u01_0.01MPa_r1.csv"

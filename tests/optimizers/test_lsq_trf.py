@@ -144,7 +144,7 @@ def test_a_search_that_reaches_an_earlier_searchs_optimum_stops_there_at_the_sam
     ends at the same optimum (MSE within the agreement's 1 %) on fewer evaluations (372 against 474),
     and says so. (Not on every file: where the optimum is a flat valley a search that stopped on arrival
     may lie too far from a later, slightly better end to agree with it, and more searches run.)"""
-    from bwbench.problems.switched_vpp.formulations import make_problem
+    from bwbench.problems.hysteresis.formulations import make_problem
 
     mr = Path(__file__).resolve().parents[2] / "data" / "mr_damper" / "mr_10mm_2Hz_1V.csv"
     problem = make_problem(read_specimen(mr), {"model": "spencer", "formulation": "identifiable"})
