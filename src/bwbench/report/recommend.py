@@ -30,6 +30,16 @@ from bwbench.report.verdict import (
 )
 
 
+def _charge_text() -> str:
+    """How the budget counts an exact Jacobian, with the built-in models' charges."""
+    from bwbench.models import registry
+
+    charges = {registry.get(name).title: registry.get(name).sensitivity_cost for name in registry.BUILTIN}
+    listed = join([f"{cost} for the {title}" for title, cost in charges.items() if cost])
+    return ("An evaluation is one simulation of one parameter vector; an exact Jacobian (forward sensitivities "
+            f"integrated with the model's state) is charged the plain evaluations it costs, rounded up: {listed}.")
+
+
 def rule(test_name: str, noun: str | None = None) -> list[str]:
     """The decision rule as bullets, naming the test the design runs and, when the study compares
     variants side by side, what they are (``noun``: "formulation", "model", ...)."""
@@ -38,7 +48,8 @@ def rule(test_name: str, noun: str | None = None) -> list[str]:
         f"run *succeeds* when it gets within {TARGET:.0%} of the best known loss of its specimen (the lowest of any "
         "run in this database); *ERT* (COCO's expected running time) = evaluations spent by all runs (to the "
         "target for the successful ones) / number of successful runs; *expected time to the target* = ERT × "
-        "measured seconds per evaluation (all wall time of the label's runs / all their evaluations, one core).",
+        "measured seconds per evaluation (all wall time of the label's runs / all their evaluations, one core). "
+        + _charge_text(),
         "**Baseline.** Random search, in whichever "
         + (noun or "variant") + ", is the baseline: compared and described, never recommended.",
         f"**Order.** Candidates by success rate at the {TARGET:.0%} target (higher first), then by the mean rank "
