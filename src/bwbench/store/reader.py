@@ -188,7 +188,11 @@ def planned_from_config(config: dict) -> int | None:
         planned = _count(study["seeds"]) * len(files) * len(optimizers) * variants
         posterior = config.get("posterior")
         if posterior:
-            planned += _count(posterior["seeds"]) * len(posterior["specimens"])
+            samplers = posterior.get("optimizer")
+            model = study.get("model")
+            models = len(set(model)) if isinstance(model, list) else 1
+            planned += (_count(posterior["seeds"]) * len(posterior["specimens"]) * models
+                        * (len(samplers) if isinstance(samplers, list) else 1))
     except (KeyError, TypeError, ValueError):
         return None
     return planned

@@ -25,6 +25,13 @@ Generic format (``studies/quick.toml`` is a worked example)::
     seeds = 1                 # the default
     options = {}              # on top of POSTERIOR_OPTIONS (what converges without options)
 
+    # several samplers on the same specimens and budget, compared in the report:
+    # optimizer = ["nested", "emcee"]
+    # options = { emcee = { n_walkers = 32 } }   # then one table per sampler (omitted: its defaults)
+
+A study comparing models samples each model's posterior (the last formulation listed for it), so
+the report can weigh the models by their evidence.
+
 The problem's keys and tables are read by its ``ProblemType.configure``
 (``bwbench.problems.switched_vpp.study``, ``bwbench.problems.noel_schoukens.study``). Every mistake
 raises ``UserError`` naming the file and the key, e.g.
@@ -66,10 +73,18 @@ _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 @dataclass(frozen=True)
 class PosteriorConfig:
     specimens: tuple  # of SpecimenEntry
-    optimizer: str
+    optimizer: str  # the first sampler
     budget: int
     seeds: int
-    options: dict  # the backend's defaults updated with the configured options
+    options: dict  # the first sampler's defaults updated with the configured options
+    # every sampler with its resolved options, in the order given: several are compared on the same
+    # specimens and budget (the report's "posterior samplers" section)
+    samplers: tuple = ()
+
+    @property
+    def backends(self) -> tuple:
+        """((backend, options), ...) of every sampler."""
+        return self.samplers or ((self.optimizer, self.options),)
 
 
 @dataclass(frozen=True)
@@ -107,8 +122,11 @@ class StudyConfig:
         posterior = None
         if self.posterior is not None:
             p = self.posterior
-            posterior = {"specimens": [s.name for s in p.specimens], "optimizer": p.optimizer,
-                         "budget": p.budget, "seeds": p.seeds, "options": p.options}
+            several = len(p.backends) > 1  # one sampler: stored as before, so stored studies keep their hash
+            posterior = {"specimens": [s.name for s in p.specimens],
+                         "optimizer": [b for b, _ in p.backends] if several else p.optimizer,
+                         "budget": p.budget, "seeds": p.seeds,
+                         "options": dict(p.backends) if several else p.options}
             digests = {s.name: s.meta["sha256"] for s in p.specimens if "sha256" in s.meta}
             if digests:  # the data the posterior reads are part of the identity too
                 posterior["sha256"] = digests
@@ -248,8 +266,20 @@ def planned_runs(config: StudyConfig) -> int:
     variants = max(1, len(config.setup.variants))
     runs = config.seeds * len(config.specimens) * len(config.optimizers) * variants
     if config.posterior is not None:
-        runs += config.posterior.seeds * len(config.posterior.specimens)
+        p = config.posterior
+        runs += p.seeds * len(p.specimens) * len(p.backends) * len(posterior_variants(config.setup))
     return runs
+
+
+def posterior_variants(setup: ProblemSetup) -> list:
+    """The variants (label, settings) a ``[posterior]`` samples: each model's last one (its last formulation
+    listed: the identifiable one when both are), so a study comparing models has each model's evidence;
+    ``[("", settings)]`` without variants."""
+    variants = setup.variants or (("", setup.settings),)
+    last: dict = {}
+    for label, settings in variants:
+        last[settings.get("model")] = (label, settings)
+    return list(last.values())
 
 
 def check_plan_size(fail, config: StudyConfig) -> StudyConfig:
@@ -309,25 +339,48 @@ def _posterior(fail, table, setup: ProblemSetup) -> PosteriorConfig:
             fail(f"[posterior] specimens: {stem}: {available[stem].path} does not exist")
     if len(set(names)) != len(names):
         fail("[posterior] specimens lists a specimen twice")
-    optimizer = table.get("optimizer", DEFAULT_POSTERIOR_OPTIMIZER)
-    if not isinstance(optimizer, str):
-        fail("[posterior] optimizer must be a backend name")
-    _check_backend(fail, "[posterior] optimizer", optimizer)
+    samplers = _samplers(fail, table)
     return PosteriorConfig(
         specimens=tuple(available[stem] for stem in names),
-        optimizer=optimizer,
+        optimizer=samplers[0][0],
         budget=bounded(fail, "[posterior] budget", integer(fail, "[posterior] budget", table["budget"]),
                        "BWBENCH_MAX_BUDGET"),
         seeds=bounded(fail, "[posterior] seeds", integer(fail, "[posterior] seeds", table.get("seeds", 1)),
                       "BWBENCH_MAX_SEEDS"),
-        options=_resolve_options(fail, "[posterior] options", optimizer, _posterior_options(optimizer, table)),
+        options=samplers[0][1],
+        samplers=samplers if len(samplers) > 1 else (),
     )
 
 
-def _posterior_options(optimizer: str, table: dict):
-    """The table's options on top of the backend's ``POSTERIOR_OPTIONS`` (left as given when they are
-    not a table: ``_resolve_options`` says what is wrong)."""
+def _samplers(fail, table: dict) -> tuple:
+    """((backend, resolved options), ...) of ``[posterior] optimizer`` (a name or a list of names) and
+    ``options`` (one sampler: its table; several: a table per sampler, by name)."""
+    optimizer = table.get("optimizer", DEFAULT_POSTERIOR_OPTIMIZER)
+    several = isinstance(optimizer, list)
+    names = optimizer if several else [optimizer]
+    if not names or not all(isinstance(n, str) for n in names):
+        fail("[posterior] optimizer must be a backend name or a non-empty list of them, e.g. [\"nested\", \"emcee\"]")
+    if len(set(names)) != len(names):
+        fail("[posterior] optimizer names a backend twice")
+    for name in names:
+        _check_backend(fail, "[posterior] optimizer", name)
     given = table.get("options", {})
+    if not several:
+        return ((names[0], _resolve_options(fail, "[posterior] options", names[0],
+                                            _posterior_options(names[0], given))),)
+    if not isinstance(given, dict) or not all(isinstance(v, dict) for v in given.values()):
+        fail("[posterior] options: with several samplers, one table per sampler, e.g. "
+             "options = { emcee = { n_walkers = 32 } }")
+    unknown = [k for k in given if k not in names]
+    if unknown:
+        fail(f"[posterior] options: {unknown[0]!r} is not one of the samplers ({', '.join(names)})")
+    return tuple((name, _resolve_options(fail, f"[posterior] options {name}", name,
+                                         _posterior_options(name, given.get(name, {})))) for name in names)
+
+
+def _posterior_options(optimizer: str, given):
+    """``given`` options on top of the backend's ``POSTERIOR_OPTIONS`` (left as given when they are not a
+    table: ``_resolve_options`` says what is wrong)."""
     if not isinstance(given, dict):
         return given
     return {**POSTERIOR_OPTIONS.get(optimizer, {}), **given}
