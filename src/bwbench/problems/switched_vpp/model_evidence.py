@@ -43,6 +43,7 @@ COEF_RANGE = 10.0  # a linear coefficient's prior: its term alone within ± this
 PINNED_WIDTH = 0.5  # a searched parameter is pinned when its 95 % interval spans less than this of its box
 REVERSAL = 0.2  # near a reversal: |ẋ| below this share of its peak
 DRAWS = 200  # posterior draws of the importance weights
+TOP = 5  # most likely draws whose comparable likelihood bounds ln Z from above
 
 
 @dataclass(frozen=True)
@@ -90,17 +91,51 @@ def log_mean_exp(values: np.ndarray) -> tuple[float, float]:
     return top + float(np.log(mean)), err
 
 
-def identifiable_correction(problem, P) -> tuple[float, float]:
-    """(log E[p_flat/(V·p_sampled)], its error) over the parameter rows P of an identifiable problem."""
+def log_likelihoods(problem, P) -> tuple[np.ndarray, np.ndarray]:
+    """(what the sampler's likelihood is, the comparable log p(y | θ)) of each parameter row of P: equal
+    up to ``direct_constant`` in a direct formulation; in the identifiable one the comparable value is
+    the flat-prior marginal over the coefficients' box volume (module docstring). Its shift under a
+    change of the force's unit (F → s·F) is −L·log s for every model, as a density of the data must be."""
     from bwbench.problems.marginal import log_marginal
 
+    P = np.atleast_2d(np.asarray(P, dtype=float))
+    if getattr(problem, "formulation", "") != "identifiable":
+        n = int(problem.n_data)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sampled = -0.5 * n * np.log(problem.loss_batch(P))
+        return sampled, sampled + direct_constant(n)
     solution = problem.solve(P)
-    varying = len(problem.design.w_names)
-    flat = log_marginal(solution, prior="flat")
-    sampled = log_marginal(solution, prior="scale-free", varying=varying)
+    sampled = log_marginal(solution, prior="scale-free", varying=len(problem.design.w_names))
     with np.errstate(invalid="ignore"):
-        weights = flat - coefficient_log_volume(solution, problem.specimen.f) - sampled
-    return log_mean_exp(weights)
+        comparable = log_marginal(solution, prior="flat") - coefficient_log_volume(solution, problem.specimen.f)
+    return sampled, comparable
+
+
+def identifiable_correction(problem, P) -> tuple[float, float]:
+    """(log E[p_comparable/p_sampled], its error) over the posterior draws P (rows) of a problem."""
+    sampled, comparable = log_likelihoods(problem, P)
+    with np.errstate(invalid="ignore"):
+        return log_mean_exp(comparable - sampled)
+
+
+def best_log_likelihood(pc, study=None) -> float:
+    """The best comparable log p(y | θ) known for a posterior's model: over its ``TOP`` most likely draws
+    and, with ``study``, that model's best ranking fit on the specimen inside the box. ln Z, the mean of
+    p(y | θ) over the prior, cannot exceed it unless a better θ exists that neither the sampler nor the
+    ranking found: an upper bound of ln Z that needs no converged run."""
+    from bwbench.problems.switched_vpp.posterior_draws import best_ranking_fit
+
+    problem = pc.problem
+    flat = pc.chain.samples.reshape(-1, pc.chain.samples.shape[2])
+    lp = np.asarray(pc.chain.log_prob, dtype=float).reshape(-1) if pc.chain.log_prob is not None else np.zeros(len(flat))
+    order = np.argsort(np.where(np.isfinite(lp), lp, -np.inf))[-TOP:]
+    U = [flat[order]]
+    if study is not None:
+        found = best_ranking_fit(study, problem, pc.chain.specimen)
+        if found is not None:
+            U.append(np.asarray(found[0], dtype=float)[None, :])
+    values = log_likelihoods(problem, problem.from_unit(np.vstack(U)))[1]
+    return float(np.max(values[np.isfinite(values)])) if np.isfinite(values).any() else float("-inf")
 
 
 def pinned_count(pc) -> int:
@@ -159,9 +194,10 @@ def model_of(pc) -> str:
     return str(getattr(model, "name", pc.chain.optimizer))
 
 
-def table(chains, rng=None) -> pd.DataFrame:
+def table(chains, rng=None, study=None) -> pd.DataFrame:
     """One row per nested posterior: ``model``, ``ln Z``, ``±``, ``ln B against the best`` (of its
-    specimen), ``specimen``, the box shift and the predictive check (numbers, not text)."""
+    specimen), ``specimen``, the box shift, the bound ``best log-likelihood`` (``best_log_likelihood``)
+    and the predictive check (numbers, not text)."""
     rng = np.random.default_rng(0) if rng is None else rng
     rows = []
     for pc in chains:
@@ -171,6 +207,7 @@ def table(chains, rng=None) -> pd.DataFrame:
         check = predictive_check(pc, rng)
         rows.append({"model": model_of(pc), "ln Z": e.log_z, "±": e.err, "specimen": pc.chain.specimen,
                      "formulation": getattr(pc.problem, "formulation", ""), "box shift": e.box_shift,
+                     "best log-likelihood": best_log_likelihood(pc, study),
                      "pinned": e.pinned, "coefficients": e.coefficients,
                      "outside": np.nan if check is None else check.outside,
                      "outside near reversals": np.nan if check is None else check.outside_reversal,
@@ -195,6 +232,7 @@ def shown(frame: pd.DataFrame) -> pd.DataFrame:
         "ln B against the best": [f"{b:+.2f}" for b in frame["ln B against the best"]],
         "specimen": frame["specimen"],
         "Δ ln Z, every box ×2": [f"{s:+.1f}" for s in frame["box shift"]],
+        "best log-likelihood (ln Z ≤)": [f"{b:.1f}" for b in frame.get("best log-likelihood", np.full(len(frame), np.nan))],
         "outside the 95 % band": [pct(x) for x in frame["outside"]],
         "share of the squared residual near reversals": [
             "–" if not np.isfinite(r) else f"{100 * r:.0f} % (on {100 * s:.0f} % of the samples)"
@@ -220,6 +258,10 @@ def verdicts(frame: pd.DataFrame) -> list[str]:
                 f"{second['model']}" + (f" (odds of about e^{gap:.0f})" if gap >= 1 else "") + ". ")
         if gap <= 2 * err:
             text += "Within twice its error: the data do not decide between them. "
+        bounds = group.iloc[1:].get("best log-likelihood")
+        if bounds is not None and np.all(np.isfinite(bounds)) and best["ln Z"] - 2 * best["±"] > bounds.max():
+            text += ("Conclusive whatever the other runs' convergence: its ln Z exceeds the best log-likelihood known for "
+                     "every other model, which bounds their ln Z from above. ")
         text += (f"Doubling every box would move that ln B by {best['box shift'] - second['box shift']:+.1f}"
                  + (", far less than it: the verdict does not hang on the box." if flip < 0.2 * gap else
                     ", comparable to it: the verdict depends on the boxes."))
@@ -242,7 +284,9 @@ TEXT = ("Model evidence of each nested-sampling posterior, comparable between mo
         "importance weights over the posterior draws. ln B against the best is the log Bayes factor (0 for the "
         "best model; −5 is odds of 1 to 150). Doubling every box lowers ln Z by ln 2 for each parameter the "
         "data pin down (here: a searched parameter whose 95 % interval spans less than half its box, and every "
-        "linear coefficient); the column says by how much. The predictive check: the share of measured samples "
+        "linear coefficient); the column says by how much. ln Z, the mean likelihood over the prior, cannot exceed the "
+        "best log-likelihood known (the sampler's most likely draws and the model's best ranking fit, in the same units): "
+        "a bound that needs no converged run. The predictive check: the share of measured samples "
         "outside the 95 % band of the posterior's predicted measurement (about 5 % when the model holds), and the "
         f"share of the squared residual near the reversals (|ẋ| under {REVERSAL:.0%} of its peak), where hysteresis "
         "models differ.")
@@ -250,7 +294,7 @@ TEXT = ("Model evidence of each nested-sampling posterior, comparable between mo
 
 def section(report, chains) -> None:
     """The model-evidence subsection of the posterior section: nothing without a nested posterior."""
-    frame = table(chains)
+    frame = table(chains, study=report.study)
     if not len(frame):
         return
     doc = report.doc

@@ -196,7 +196,11 @@ def nested_chain(study, chain, problem, run: dict, names) -> PosteriorChain:
 def in_coordinates(values: dict, problem):
     """A run's parameters (``values``: name → value) as a vector of ``problem``'s searched coordinates:
     taken as they are when present, mapped from the model's direct parameters (``Model.from_direct``)
-    otherwise; None when neither works."""
+    otherwise; None when neither works, or when the run fitted another model (a study comparing models:
+    the classic Bouc-Wen's x_y, n, η are not Spencer's)."""
+    model = values.get("model")
+    if isinstance(model, str) and model != getattr(problem.model, "name", model):
+        return None
     names = list(problem.param_names)
     if all(np.isfinite(values.get(n, np.nan)) for n in names):
         return np.array([float(values[n]) for n in names])
