@@ -60,6 +60,9 @@ def test_a_study_comparing_models_samples_every_model_with_every_sampler(tmp_pat
     posterior = [t.optimizer for t in plan_tasks(config) if t.kind == "posterior"]
     assert posterior == [f"{s} [{m}]" for m in ("switched-bouc-wen", "spencer", "bouc-wen") for s in ("nested", "emcee")]
     assert planned_runs(config) == 3 + 6
+    from bwbench.store.reader import planned_from_config  # a stored configuration counts the same
+
+    assert planned_from_config(config.to_json_dict()) == 3 + 6
 
 
 def test_a_model_in_two_formulations_is_sampled_in_the_last_one(tmp_path):
