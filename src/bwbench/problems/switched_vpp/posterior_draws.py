@@ -126,12 +126,13 @@ def truth(study, problem, specimen) -> dict | None:
 
 def posterior_chains(study, chains=None) -> list[PosteriorChain]:
     """Every posterior chain of ``study`` with its problem, run and assessment."""
-    from bwbench.problems.switched_vpp.figure_common import formulation_of, problem_for
+    from bwbench.problems.switched_vpp.figure_common import problem_for
 
     cache: dict = {}
     out: list = []
     for chain in chains if chains is not None else [c for c in study.chains if c.kind == "posterior"]:
-        problem = problem_for(study, chain.specimen, formulation_of(study, chain.optimizer), cache)
+        # the run label names its model and formulation (a study comparing models samples each model)
+        problem = problem_for(study, chain.specimen, chain.optimizer, cache)
         names = list(problem.param_names)
         if chain.samples.shape[2] != len(names):
             continue  # not this problem's coordinates: nothing to read it with
