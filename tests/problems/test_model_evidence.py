@@ -73,6 +73,7 @@ def frame():
     out["box shift"] = -out.pop("n") * np.log(2)
     out["converged"] = True
     out["best log-likelihood"] = [-2590.0, -1980.0, -2880.0, -45.0, -48.0]
+    out["band draws"] = [200, 200, 2, 200, 200]  # bouc-wen's run on "mr" kept 2 draws
     out.insert(3, "ln B against the best", out["ln Z"] - out.groupby("specimen")["ln Z"].transform("max"))
     return out
 
@@ -82,12 +83,14 @@ def test_the_table_reads_model_ln_z_error_bayes_factor_specimen_first():
     assert list(table.columns[:5]) == ["model", "ln Z", "±", "ln B against the best", "specimen"]
     assert list(table["ln B against the best"]) == ["-600.00", "+0.00", "-900.00", "+0.00", "-1.00"]
     assert list(table["best log-likelihood (ln Z ≤)"])[:2] == ["-2590.0", "-1980.0"]
+    assert list(table["outside the 95 % band"])[:3] == ["31.0 %", "5.0 %", "50.0 % (from 2 draws: no check)"]
 
 
 def test_the_verdict_names_the_favoured_model_and_says_when_the_data_do_not_decide():
     mr, vpp = verdicts(frame())
     assert "favours **spencer** — ln B = 600.0 ± 1.8 over the next, switched-bouc-wen" in mr
     assert "does not hang on the box" in mr and "64 % of its squared residual near reversals (13 % of the samples)" in mr
+    assert "bouc-wen's measured force" not in mr  # its band rests on 2 draws: no check to report
     assert "Conclusive whatever the other runs' convergence" in mr  # −2000 − 2·1.5 > −2590, the next model's bound
     assert "favours **switched-bouc-wen**" in vpp and "the data do not decide between them" in vpp
     assert "Conclusive" not in vpp  # ln Z −50 is below spencer's best log-likelihood −48

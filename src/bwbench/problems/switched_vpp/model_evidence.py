@@ -43,6 +43,7 @@ COEF_RANGE = 10.0  # a linear coefficient's prior: its term alone within ± this
 PINNED_WIDTH = 0.5  # a searched parameter is pinned when its 95 % interval spans less than this of its box
 REVERSAL = 0.2  # near a reversal: |ẋ| below this share of its peak
 DRAWS = 200  # posterior draws of the importance weights
+FEW_DRAWS = 20  # a predictive band from fewer posterior draws than this is no check
 TOP = 5  # most likely draws whose comparable likelihood bounds ln Z from above
 
 
@@ -171,6 +172,7 @@ class Check:
     outside_reversal: float
     residual_reversal: float
     samples_reversal: float
+    draws: int = 0  # posterior draws the band rests on
 
 
 def predictive_check(pc, rng) -> Check | None:
@@ -186,7 +188,7 @@ def predictive_check(pc, rng) -> Check | None:
     residual2 = (f - 0.5 * (band.model_lower + band.model_upper)) ** 2
     total = float(residual2.sum())
     return Check(float(out.mean()), float(out[near].mean()) if near.any() else float("nan"),
-                 float(residual2[near].sum() / total) if total > 0 else float("nan"), float(near.mean()))
+                 float(residual2[near].sum() / total) if total > 0 else float("nan"), float(near.mean()), band.draws)
 
 
 def model_of(pc) -> str:
@@ -213,6 +215,7 @@ def table(chains, rng=None, study=None) -> pd.DataFrame:
                      "outside near reversals": np.nan if check is None else check.outside_reversal,
                      "residual near reversals": np.nan if check is None else check.residual_reversal,
                      "samples near reversals": np.nan if check is None else check.samples_reversal,
+                     "band draws": 0 if check is None else check.draws,
                      "converged": bool(pc.nested["converged"])})
     frame = pd.DataFrame(rows)
     if not len(frame):
@@ -227,13 +230,19 @@ def shown(frame: pd.DataFrame) -> pd.DataFrame:
     def pct(x):
         return "–" if not np.isfinite(x) else f"{100 * x:.1f} %"
 
+    def band(x, draws):
+        # a band of a few draws (a run cut early keeps few equal-weight draws) is no check of the model
+        few = draws < FEW_DRAWS
+        return pct(x) + (f" (from {draws} draw{'s' if draws != 1 else ''}: no check)" if few and np.isfinite(x) else "")
+
     return pd.DataFrame({
         "model": frame["model"], "ln Z": [f"{z:.2f}" for z in frame["ln Z"]], "±": [f"{e:.2f}" for e in frame["±"]],
         "ln B against the best": [f"{b:+.2f}" for b in frame["ln B against the best"]],
         "specimen": frame["specimen"],
         "Δ ln Z, every box ×2": [f"{s:+.1f}" for s in frame["box shift"]],
         "best log-likelihood (ln Z ≤)": [f"{b:.1f}" for b in frame.get("best log-likelihood", np.full(len(frame), np.nan))],
-        "outside the 95 % band": [pct(x) for x in frame["outside"]],
+        "outside the 95 % band": [band(x, d) for x, d in zip(frame["outside"],
+                                                             frame.get("band draws", np.full(len(frame), FEW_DRAWS)))],
         "share of the squared residual near reversals": [
             "–" if not np.isfinite(r) else f"{100 * r:.0f} % (on {100 * s:.0f} % of the samples)"
             for r, s in zip(frame["residual near reversals"], frame["samples near reversals"])],
@@ -265,13 +274,16 @@ def verdicts(frame: pd.DataFrame) -> list[str]:
         text += (f"Doubling every box would move that ln B by {best['box shift'] - second['box shift']:+.1f}"
                  + (", far less than it: the verdict does not hang on the box." if flip < 0.2 * gap else
                     ", comparable to it: the verdict depends on the boxes."))
-        worse = [r for _, r in group.iloc[1:].iterrows() if np.isfinite(r["residual near reversals"])]
+        def checked(r):
+            return np.isfinite(r["residual near reversals"]) and r.get("band draws", FEW_DRAWS) >= FEW_DRAWS
+
+        worse = [r for _, r in group.iloc[1:].iterrows() if checked(r)]
         if worse:
             text += " " + "; ".join(
                 f"{r['model']}'s measured force leaves its 95 % band at {100 * r['outside']:.0f} % of the samples"
                 + (f", {100 * r['residual near reversals']:.0f} % of its squared residual near reversals "
                    f"({100 * r['samples near reversals']:.0f} % of the samples)") for r in worse) + "."
-        if np.isfinite(best["outside"]):
+        if checked(best):
             text += f" {best['model']}: {100 * best['outside']:.1f} % outside its band (about 5 % when the model holds)."
         out.append(text)
     return out
