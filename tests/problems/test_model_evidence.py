@@ -90,7 +90,7 @@ def test_the_verdict_names_the_favoured_model_and_says_when_the_data_do_not_deci
     mr, vpp = verdicts(frame())
     assert "favours **spencer** — ln B = 600.0 ± 1.8 over the next, switched-bouc-wen" in mr
     assert "does not hang on the box" in mr and "64 % of its squared residual near reversals (13 % of the samples)" in mr
-    assert "bouc-wen's measured force" not in mr  # its band rests on 2 draws: no check to report
+    assert "; bouc-wen's measured force" not in mr  # its band rests on 2 draws: no check to report
     assert "Conclusive whatever the other runs' convergence" in mr  # −2000 − 2·1.5 > −2590, the next model's bound
     assert "favours **switched-bouc-wen**" in vpp and "the data do not decide between them" in vpp
     assert "Conclusive" not in vpp  # ln Z −50 is below spencer's best log-likelihood −48
