@@ -175,12 +175,15 @@ class Check:
     draws: int = 0  # posterior draws the band rests on
 
 
-def predictive_check(pc, rng) -> Check | None:
+def predictive_check(pc, rng, bands: dict | None = None) -> Check | None:
+    """The check of one posterior; its band goes into ``bands`` under (specimen, model) when given."""
     from bwbench.problems.switched_vpp.posterior_predictive import predictive
 
     band = predictive(pc, rng)
     if band is None:
         return None
+    if bands is not None:
+        bands[(pc.chain.specimen, model_of(pc))] = (pc, band)
     f = np.asarray(pc.problem.specimen.f, dtype=float)
     v = np.abs(np.asarray(pc.problem.signal.v, dtype=float))
     near = v < REVERSAL * np.max(v)
@@ -196,7 +199,7 @@ def model_of(pc) -> str:
     return str(getattr(model, "name", pc.chain.optimizer))
 
 
-def table(chains, rng=None, study=None) -> pd.DataFrame:
+def table(chains, rng=None, study=None, bands: dict | None = None) -> pd.DataFrame:
     """One row per nested posterior: ``model``, ``ln Z``, ``±``, ``ln B against the best`` (of its
     specimen), ``specimen``, the box shift, the bound ``best log-likelihood`` (``best_log_likelihood``)
     and the predictive check (numbers, not text)."""
@@ -206,7 +209,7 @@ def table(chains, rng=None, study=None) -> pd.DataFrame:
         if pc.nested is None:
             continue
         e = evidence(pc, rng)
-        check = predictive_check(pc, rng)
+        check = predictive_check(pc, rng, bands)
         rows.append({"model": model_of(pc), "ln Z": e.log_z, "±": e.err, "specimen": pc.chain.specimen,
                      "formulation": getattr(pc.problem, "formulation", ""), "box shift": e.box_shift,
                      "best log-likelihood": best_log_likelihood(pc, study),
@@ -306,7 +309,8 @@ TEXT = ("Model evidence of each nested-sampling posterior, comparable between mo
 
 def section(report, chains) -> None:
     """The model-evidence subsection of the posterior section: nothing without a nested posterior."""
-    frame = table(chains, study=report.study)
+    bands: dict = {}
+    frame = table(chains, study=report.study, bands=bands)
     if not len(frame):
         return
     doc = report.doc
@@ -320,3 +324,40 @@ def section(report, chains) -> None:
               "many times its error still ranks the models.")
     for text in verdicts(frame):
         doc.p(text)
+    for specimen in dict.fromkeys(frame["specimen"]):
+        shown_bands = [(model, pc, band) for (s, model), (pc, band) in bands.items()
+                       if s == specimen and band.draws >= FEW_DRAWS]
+        if len(shown_bands) > 1 or (len(shown_bands) == 1 and len(frame[frame["specimen"] == specimen]) > 1):
+            png = residual_figure(report.study, doc.out_dir, specimen, shown_bands)
+            doc.figure(png, f"{specimen}: each model's residual (measured force − the posterior's median model force) "
+                            "against time, within the 95 % band of the predicted measurement; grey: near the "
+                            "displacement's reversals")
+
+
+def residual_figure(study, out_dir, specimen: str, shown_bands: list):
+    """One panel per model: the residual against time, the band of the predicted measurement about the
+    median model force, and the samples near reversals shaded (where the residual concentrates)."""
+    from bwbench.problems.switched_vpp.figure_common import synthetic
+    from bwbench.report.palette import OKABE_ITO, figure, save, slug, theme
+
+    theme()
+    fig, axes = figure(9.0, 1.9 * len(shown_bands) + 0.8, nrows=len(shown_bands), sharex=True, squeeze=False)
+    frames = []
+    for ax, (model, pc, band) in zip(axes[:, 0], shown_bands):
+        t = np.asarray(pc.problem.specimen.t, dtype=float)
+        f = np.asarray(pc.problem.specimen.f, dtype=float)
+        v = np.abs(np.asarray(pc.problem.signal.v, dtype=float))
+        mid = 0.5 * (band.model_lower + band.model_upper)
+        near = v < REVERSAL * np.max(v)
+        ax.fill_between(t, 0, 1, where=near, color="0.85", lw=0, transform=ax.get_xaxis_transform(), zorder=0)
+        ax.fill_between(t, band.lower - mid, band.upper - mid, color=OKABE_ITO[5], alpha=0.5, lw=0, zorder=1)
+        ax.plot(t, f - mid, color="black", lw=0.7, zorder=2)
+        ax.set_title(f"{model}: {100 * band.outside:.1f} % of the samples outside the 95 % band ({band.draws} draws)",
+                     loc="left")
+        ax.set_ylabel("residual (N)")
+        frames.append(pd.DataFrame({"model": model, "time_s": t, "residual_N": f - mid, "band_lower_N": band.lower - mid,
+                                    "band_upper_N": band.upper - mid, "near_reversal": near}))
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.suptitle(f"{specimen}: residual, 95 % predictive band (blue), reversals (grey)")
+    return save(fig, out_dir, f"evidence_residuals_{slug(specimen)}", pd.concat(frames, ignore_index=True),
+                synthetic(study, [specimen]))
