@@ -235,17 +235,23 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
             values = diagnostics.set_index("parameter")[column].reindex(names).to_numpy(dtype=float)
             extra.append(pd.DataFrame([values], columns=names).assign(source=column, optimizer=chain.optimizer))
     frame = pd.concat([frame, *extra], ignore_index=True)[["source", "optimizer", *names]]
-    return save(fig, out_dir, f"posterior_{slug(specimen)}{_model_suffix(study, problem)}", frame,
+    return save(fig, out_dir, f"posterior_{slug(specimen)}{_suffix(study, problem, chain.optimizer)}", frame,
                 synthetic(study, [specimen]))
 
 
-def _model_suffix(study, problem) -> str:
-    """"_spencer" when the study compares models (each has its posterior figure), "" otherwise."""
+def _suffix(study, problem, label: str) -> str:
+    """"_spencer" when the study compares models, "_emcee" when its posterior runs several samplers (each
+    posterior has its own figure), "" otherwise."""
     from bwbench.problems.switched_vpp.figure_common import study_variants
+    from bwbench.report.labels import split_label
 
-    if problem is None or len({model for _, model, _ in study_variants(study)}) < 2:
-        return ""
-    return f"_{slug(problem.model.name)}"
+    out = ""
+    if problem is not None and len({model for _, model, _ in study_variants(study)}) > 1:
+        out += f"_{slug(problem.model.name)}"
+    samplers = (study.config.get("posterior") or {}).get("optimizer")
+    if isinstance(samplers, list) and len(samplers) > 1:
+        out += f"_{slug(split_label(label)[0])}"
+    return out
 
 
 # ------------------------------------------------------------------------------------ profiles
