@@ -6,7 +6,7 @@ import pytest
 
 from bwbench.analysis import mcmc
 from bwbench.optimize import fitting
-from bwbench.study.config import POSTERIOR_OPTIONS
+from bwbench.study.posterior_config import POSTERIOR_OPTIONS
 from toy_posteriors import BimodalToy, LinearToy
 
 OPTIONS = POSTERIOR_OPTIONS["emcee"]

@@ -8,7 +8,7 @@ import numpy as np
 from bwbench.data.specimen import read_specimen
 from bwbench.optimize import fitting
 from bwbench.problems.hysteresis.formulations import make_problem
-from bwbench.study.config import POSTERIOR_OPTIONS
+from bwbench.study.posterior_config import POSTERIOR_OPTIONS
 from bwbench.threads import limited
 
 SPECIMENS = Path(__file__).resolve().parents[2] / "data" / "specimens"

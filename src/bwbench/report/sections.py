@@ -56,7 +56,9 @@ def setup(report) -> None:
                                      "(one core each)")
     post = study.config.get("posterior")
     if post:
-        doc.p(f"Posterior sampling (not part of the ranking): {post.get('optimizer')} on "
+        samplers = post.get("optimizer")
+        samplers = " and ".join(samplers) if isinstance(samplers, list) else samplers
+        doc.p(f"Posterior sampling (not part of the ranking): {samplers} on "
               f"{', '.join(post.get('specimens', []))}, budget {post.get('budget')} evaluations, "
               f"{post.get('seeds')} seed(s), options {json.dumps(post.get('options', {}))}.")
 

@@ -184,11 +184,15 @@ def planned_from_config(config: dict) -> int | None:
         if not files:
             return None
         formulation = study.get("formulation", "paper")
-        variants = len(formulation) if isinstance(formulation, list) else 1
+        model = study.get("model")
+        models = len(set(model)) if isinstance(model, list) else 1
+        variants = (len(formulation) if isinstance(formulation, list) else 1) * models
         planned = _count(study["seeds"]) * len(files) * len(optimizers) * variants
         posterior = config.get("posterior")
         if posterior:
-            planned += _count(posterior["seeds"]) * len(posterior["specimens"])
+            samplers = posterior.get("optimizer")
+            planned += (_count(posterior["seeds"]) * len(posterior["specimens"]) * models
+                        * (len(samplers) if isinstance(samplers, list) else 1))
     except (KeyError, TypeError, ValueError):
         return None
     return planned

@@ -25,6 +25,13 @@ Generic format (``studies/quick.toml`` is a worked example)::
     seeds = 1                 # the default
     options = {}              # on top of POSTERIOR_OPTIONS (what converges without options)
 
+    # several samplers on the same specimens and budget, compared in the report:
+    # optimizer = ["nested", "emcee"]
+    # options = { emcee = { n_walkers = 32 } }   # then one table per sampler (omitted: its defaults)
+
+A study comparing models samples each model's posterior (the last formulation listed for it), so
+the report can weigh the models by their evidence.
+
 The problem's keys and tables are read by its ``ProblemType.configure``
 (``bwbench.problems.hysteresis.study``, ``bwbench.problems.noel_schoukens.study``). Every mistake
 raises ``UserError`` naming the file and the key, e.g.
@@ -34,7 +41,6 @@ raises ``UserError`` naming the file and the key, e.g.
 from __future__ import annotations
 
 import hashlib
-import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,8 +49,9 @@ import bwbench.limits as limits
 import bwbench.problems as problems
 from bwbench.data.input_files import read_text
 from bwbench.errors import UserError
-from bwbench.optimize import registry
-from bwbench.problems.base import Fail, ProblemSetup, integer
+from bwbench.problems.base import ProblemSetup, integer
+from bwbench.study.config_checks import bounded, canonical_json, check_backend, resolve_backend_options
+from bwbench.study.posterior_config import PosteriorConfig, posterior_table, posterior_variants
 
 try:
     import tomllib
@@ -52,25 +59,7 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib  # type: ignore[no-redef]
 
 GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem")
-POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
-# What a [posterior] run of a backend gets before its own options: the settings that converge on the
-# shipped specimens and on others of the same kind (docs/posterior.md), not the backend's
-# defaults, which are a sampler used as an optimiser in the ranking (walkers uniform in the box, one
-# ensemble, the whole budget spent).
-POSTERIOR_OPTIONS = {"emcee": {"start": "optima", "moves": "de", "ensembles": 3, "n_walkers": None,
-                               "start_fraction": 0.05, "stop": "converged"},
-                     "nested": {}}  # its defaults are the posterior's: 4 independent runs of 100 live points
-DEFAULT_POSTERIOR_OPTIMIZER = "nested"
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
-
-
-@dataclass(frozen=True)
-class PosteriorConfig:
-    specimens: tuple  # of SpecimenEntry
-    optimizer: str
-    budget: int
-    seeds: int
-    options: dict  # the backend's defaults updated with the configured options
 
 
 @dataclass(frozen=True)
@@ -108,8 +97,11 @@ class StudyConfig:
         posterior = None
         if self.posterior is not None:
             p = self.posterior
-            posterior = {"specimens": [s.name for s in p.specimens], "optimizer": p.optimizer,
-                         "budget": p.budget, "seeds": p.seeds, "options": p.options}
+            several = len(p.backends) > 1  # one sampler: stored as before, so stored studies keep their hash
+            posterior = {"specimens": [s.name for s in p.specimens],
+                         "optimizer": [b for b, _ in p.backends] if several else p.optimizer,
+                         "budget": p.budget, "seeds": p.seeds,
+                         "options": dict(p.backends) if several else p.options}
             digests = {s.name: s.meta["sha256"] for s in p.specimens if "sha256" in s.meta}
             if digests:  # the data the posterior reads are part of the identity too
                 posterior["sha256"] = digests
@@ -127,13 +119,6 @@ class StudyConfig:
     @property
     def config_hash(self) -> str:
         return hashlib.sha256(self.canonical_json().encode("utf-8")).hexdigest()
-
-
-def canonical_json(value) -> str:
-    """Sorted keys, no spaces: equal configurations give equal text (and hash)."""
-    from bwbench.data import strict_json  # no NaN/Infinity token: null, as everywhere bwbench writes JSON
-
-    return strict_json.dumps(value, canonical=True)
 
 
 def read_toml(path) -> dict:
@@ -194,14 +179,14 @@ def load_study_config(path, data=None) -> StudyConfig:
     if not optimizers_table:
         fail("[optimizers] names no backend")
     for backend in optimizers_table:
-        _check_backend(fail, "[optimizers]", backend)
-    optimizers = {backend: _resolve_options(fail, f"[optimizers] {backend}", backend, options)
+        check_backend(fail, "[optimizers]", backend)
+    optimizers = {backend: resolve_backend_options(fail, f"[optimizers] {backend}", backend, options)
                   for backend, options in optimizers_table.items()}
 
     setup = problem_type.configure(fail, study, document, root, data)
     posterior = None
     if "posterior" in document:
-        posterior = _posterior(fail, document["posterior"], setup)
+        posterior = posterior_table(fail, document["posterior"], setup)
     validation = ()
     if "validation" in document:
         validation = held_out(fail, problem_type, document["validation"], root, setup)
@@ -235,21 +220,13 @@ def with_locations(setup, validation):
                                                                    for e in validation}})
 
 
-def bounded(fail, label: str, value: int, variable: str) -> int:
-    """``value``, or ``fail`` if it is above the limit ``variable`` (``bwbench.limits``)."""
-    try:
-        limits.check(label, value, variable)
-    except UserError as err:
-        fail(str(err))
-    return value
-
-
 def planned_runs(config: StudyConfig) -> int:
     """How many runs ``config`` has, counted without listing them."""
     variants = max(1, len(config.setup.variants))
     runs = config.seeds * len(config.specimens) * len(config.optimizers) * variants
     if config.posterior is not None:
-        runs += config.posterior.seeds * len(config.posterior.specimens)
+        p = config.posterior
+        runs += p.seeds * len(p.specimens) * len(p.backends) * len(posterior_variants(config.setup))
     return runs
 
 
@@ -265,73 +242,6 @@ def check_plan_size(fail, config: StudyConfig) -> StudyConfig:
     except UserError as err:
         fail(str(err))
     return config
-
-
-def _check_backend(fail, label, optimizer) -> None:
-    backends = registry.available()
-    if optimizer not in backends:
-        fail(f"{label}: unknown optimiser {optimizer!r}; available: {', '.join(backends)}")
-
-
-def _resolve_options(fail: Fail, label, optimizer, options) -> dict:
-    if not isinstance(options, dict):
-        fail(f"{label} must be a table of options (use {{}} for the defaults)")
-    try:  # the same check as `bwbench fit --option`: names, types and ranges, defaults merged in
-        resolved = registry.resolve_options(optimizer, options, label=label)
-    except UserError as err:
-        fail(str(err))
-    try:  # options are stored as JSON with every run: only plain values will do
-        return json.loads(canonical_json(resolved))
-    except (TypeError, ValueError):
-        fail(f"{label}: options must be plain numbers, strings, booleans or lists of them")
-
-
-def _posterior(fail, table, setup: ProblemSetup) -> PosteriorConfig:
-    if not isinstance(table, dict):
-        fail("[posterior] must be a table")
-    unknown = [k for k in table if k not in POSTERIOR_KEYS]
-    if unknown:
-        fail(f"[posterior] unknown key {unknown[0]!r} (known: {', '.join(POSTERIOR_KEYS)})")
-    if "budget" not in table:
-        fail("[posterior] budget is required")
-    available = setup.available
-    only = list(available) if len(available) == 1 else None
-    if "specimens" not in table and only is None:
-        fail("[posterior] specimens is required")
-    names = table.get("specimens", only)
-    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
-        fail("[posterior] specimens must be a non-empty list of specimen names (file stems)")
-    if only is not None and names != only:
-        fail(f"[posterior] specimens: this study has one specimen, [\"{only[0]}\"] (or omit the key)")
-    for stem in names:
-        if stem not in available:
-            fail(f"[posterior] specimens: no specimen {stem!r} in this study's data")
-        if not Path(available[stem].path).exists():
-            fail(f"[posterior] specimens: {stem}: {available[stem].path} does not exist")
-    if len(set(names)) != len(names):
-        fail("[posterior] specimens lists a specimen twice")
-    optimizer = table.get("optimizer", DEFAULT_POSTERIOR_OPTIMIZER)
-    if not isinstance(optimizer, str):
-        fail("[posterior] optimizer must be a backend name")
-    _check_backend(fail, "[posterior] optimizer", optimizer)
-    return PosteriorConfig(
-        specimens=tuple(available[stem] for stem in names),
-        optimizer=optimizer,
-        budget=bounded(fail, "[posterior] budget", integer(fail, "[posterior] budget", table["budget"]),
-                       "BWBENCH_MAX_BUDGET"),
-        seeds=bounded(fail, "[posterior] seeds", integer(fail, "[posterior] seeds", table.get("seeds", 1)),
-                      "BWBENCH_MAX_SEEDS"),
-        options=_resolve_options(fail, "[posterior] options", optimizer, _posterior_options(optimizer, table)),
-    )
-
-
-def _posterior_options(optimizer: str, table: dict):
-    """The table's options on top of the backend's ``POSTERIOR_OPTIONS`` (left as given when they are
-    not a table: ``_resolve_options`` says what is wrong)."""
-    given = table.get("options", {})
-    if not isinstance(given, dict):
-        return given
-    return {**POSTERIOR_OPTIONS.get(optimizer, {}), **given}
 
 
 def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
@@ -375,8 +285,8 @@ def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *
     if len(set(names)) != len(names):
         fail("--optimizers names a backend twice")
     for backend in names:
-        _check_backend(fail, "--optimizers", backend)
-    resolved = {backend: _resolve_options(fail, f"--optimizers {backend}", backend, {}) for backend in names}
+        check_backend(fail, "--optimizers", backend)
+    resolved = {backend: resolve_backend_options(fail, f"--optimizers {backend}", backend, {}) for backend in names}
     root = Path.cwd()
     problem_type = problems.get(problems.DEFAULT)
     setup = problem_type.setup_from_files(fail, list(specimens), root, state=state, excitation=excitation,

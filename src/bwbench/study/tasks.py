@@ -23,6 +23,7 @@ from bwbench.errors import UserError
 from bwbench.problems.base import SpecimenEntry
 from bwbench.study import failures
 from bwbench.study.config import StudyConfig, canonical_json
+from bwbench.study.posterior_config import posterior_variants
 from bwbench.study.store import RUN_COLUMNS, utc_now
 
 
@@ -72,9 +73,10 @@ def plan_tasks(config: StudyConfig) -> list[Task]:
     variants = config.setup.variants or (("", config.settings),)
     tasks = []
     p = config.posterior
-    if p is not None:  # the posterior samples the last variant (the identifiable formulation, when both are)
-        tasks += [task("posterior", entry, p.optimizer, r, p.budget, p.options, variants[-1])
-                  for r in range(p.seeds) for entry in p.specimens]
+    if p is not None:  # each model's last variant (the identifiable formulation, when both are), every sampler
+        tasks += [task("posterior", entry, backend, r, p.budget, options, variant)
+                  for r in range(p.seeds) for entry in p.specimens for variant in posterior_variants(config.setup)
+                  for backend, options in p.backends]
     tasks += [task("ranking", entry, optimizer, r, config.budget, options, variant)
               for r in range(config.seeds) for entry in config.specimens
               for variant in variants for optimizer, options in config.optimizers.items()]

@@ -126,12 +126,13 @@ def truth(study, problem, specimen) -> dict | None:
 
 def posterior_chains(study, chains=None) -> list[PosteriorChain]:
     """Every posterior chain of ``study`` with its problem, run and assessment."""
-    from bwbench.problems.hysteresis.report.figure_common import formulation_of, problem_for
+    from bwbench.problems.hysteresis.report.figure_common import problem_for
 
     cache: dict = {}
     out: list = []
     for chain in chains if chains is not None else [c for c in study.chains if c.kind == "posterior"]:
-        problem = problem_for(study, chain.specimen, formulation_of(study, chain.optimizer), cache)
+        # the run label names its model and formulation (a study comparing models samples each model)
+        problem = problem_for(study, chain.specimen, chain.optimizer, cache)
         names = list(problem.param_names)
         if chain.samples.shape[2] != len(names):
             continue  # not this problem's coordinates: nothing to read it with
@@ -196,7 +197,11 @@ def nested_chain(study, chain, problem, run: dict, names) -> PosteriorChain:
 def in_coordinates(values: dict, problem):
     """A run's parameters (``values``: name → value) as a vector of ``problem``'s searched coordinates:
     taken as they are when present, mapped from the model's direct parameters (``Model.from_direct``)
-    otherwise; None when neither works."""
+    otherwise; None when neither works, or when the run fitted another model (a study comparing models:
+    the classic Bouc-Wen's x_y, n, η are not Spencer's)."""
+    model = values.get("model")
+    if isinstance(model, str) and model != getattr(problem.model, "name", model):
+        return None
     names = list(problem.param_names)
     if all(np.isfinite(values.get(n, np.nan)) for n in names):
         return np.array([float(values[n]) for n in names])

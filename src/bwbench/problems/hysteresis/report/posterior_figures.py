@@ -134,6 +134,8 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
                       & np.isfinite(study.runs["mse"].astype(float))]
     if (runs["kind"] == "ranking").any():
         runs = runs[runs["kind"] == "ranking"]
+    if problem is not None and "model" in runs and runs["model"].notna().any():
+        runs = runs[runs["model"] == problem.model.name]  # a study comparing models: this model's fits only
     best_run: Any = runs.loc[runs["mse"].idxmin()] if len(runs) else None
     best = None if best_run is None else _coordinates(best_run.to_dict(), names, state, problem)
     if problem is not None and posterior is not None and posterior.fixed:
@@ -233,4 +235,21 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
             values = diagnostics.set_index("parameter")[column].reindex(names).to_numpy(dtype=float)
             extra.append(pd.DataFrame([values], columns=names).assign(source=column, optimizer=chain.optimizer))
     frame = pd.concat([frame, *extra], ignore_index=True)[["source", "optimizer", *names]]
-    return save(fig, out_dir, f"posterior_{slug(specimen)}", frame, synthetic(study, [specimen]))
+    return save(fig, out_dir, f"posterior_{slug(specimen)}{_suffix(study, problem, chain.optimizer)}", frame,
+                synthetic(study, [specimen]))
+
+
+def _suffix(study, problem, label: str) -> str:
+    """"_spencer" when the study compares models, "_emcee" when its posterior runs several samplers (each
+    posterior has its own figure), "" otherwise."""
+    from bwbench.problems.hysteresis.report.figure_common import study_variants
+    from bwbench.render.labels import split_label
+
+    out = ""
+    if problem is not None and len({model for _, model, _ in study_variants(study)}) > 1:
+        out += f"_{slug(problem.model.name)}"
+    samplers = (study.config.get("posterior") or {}).get("optimizer")
+    if isinstance(samplers, list) and len(samplers) > 1:
+        out += f"_{slug(split_label(label)[0])}"
+    return out
+

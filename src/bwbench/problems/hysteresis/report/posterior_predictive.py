@@ -94,11 +94,17 @@ def _design_times(problem, theta, shift, row) -> np.ndarray:
 
 
 def band_of(study, specimen: str, rng=None) -> Band | None:
-    """The band of the first posterior chain on ``specimen`` in ``study``; None when it has none."""
+    """The band of the posterior chain on ``specimen`` in ``study`` (of the best ranking fit's model when
+    several models were sampled, else the first); None when it has none."""
     from bwbench.problems.hysteresis.report.posterior_draws import posterior_chains
 
     chains = [c for c in study.chains if c.kind == "posterior" and c.specimen == specimen]
-    found = posterior_chains(study, chains[:1])
+    found = posterior_chains(study, chains)
     if not found:
         return None
-    return predictive(found[0], np.random.default_rng(0) if rng is None else rng)
+    # a study comparing models: the band of the model of the best ranking fit, whose loops the figure draws
+    ranking = study.ranking
+    runs = ranking[(ranking["specimen"] == specimen) & (ranking["status"] == "ok")].sort_values("mse")
+    best_model = runs["model"].iloc[0] if len(runs) and "model" in runs else None
+    chosen = next((pc for pc in found if getattr(pc.problem.model, "name", None) == best_model), found[0])
+    return predictive(chosen, np.random.default_rng(0) if rng is None else rng)

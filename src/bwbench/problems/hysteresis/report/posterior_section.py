@@ -204,7 +204,7 @@ def write_inference_data(pc, out_dir) -> str | None:
 
 
 def section(report) -> list:
-    from bwbench.problems.hysteresis.report import figures
+    from bwbench.problems.hysteresis.report import figures, model_evidence, samplers_section
 
     doc, study = report.doc, report.study
     chains = cached(report)
@@ -283,16 +283,9 @@ def section(report) -> list:
                 doc.figure(png, f"{chain.specimen}: the best fits and the posterior predictive check — the measured "
                                 "force against the 95 % band of the posterior's predictions (model force plus noise), "
                                 "and the residual")
-    evidence = evidence_table(chains)
-    if len(evidence):
-        doc.h(3, "Model evidence")
-        shown = pd.DataFrame({"model": evidence["model"], "ln Z": [f"{z:.2f}" for z in evidence["ln Z"]],
-                              "±": [f"{e:.2f}" for e in evidence["±"]],
-                              "ln B against the best": [f"{b:+.2f}" for b in evidence["ln B against the best"]],
-                              "specimen": evidence["specimen"]})
-        doc.table(shown, "Model evidence of each posterior (the runs' ln Z pooled) and the log Bayes factor against the "
-                         "best model of the specimen")
-        doc.p(PRIOR_TEXT)
+    # which model the data support (nested posteriors of several models), and several samplers compared
+    model_evidence.section(report, chains)
+    samplers_section.section(report, chains)
     report.options["chain_diagnostics"] = verdicts
     return verdicts
 

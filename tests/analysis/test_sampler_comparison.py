@@ -1,0 +1,76 @@
+"""Samplers compared like optimisers (the report's "Posterior samplers" table): on a two-mode toy of
+masses 0.7/0.3, at the same budget, nested sampling finds both modes with their masses and the ensemble
+sampler, started as the study's posterior starts it, settles in the 0.7 mode and misses the 0.3 one."""
+
+import re
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from bwbench.analysis import mcmc, nested, sampler_comparison
+from bwbench.optimize import fitting
+from bwbench.problems.hysteresis.report.posterior_draws import PosteriorChain
+from bwbench.problems.hysteresis.report.samplers_section import comparison_table, groups
+from bwbench.study.posterior_config import POSTERIOR_OPTIONS
+from toy_posteriors import MixtureToy
+
+BUDGET = 30_000
+NAMES = ["p0", "p1"]
+
+
+def posterior(label, result):
+    """A ``PosteriorChain`` as the report reads a stored run of ``result``."""
+    e = result.extras
+    samples = e["chain"]
+    chain = SimpleNamespace(samples=samples, log_prob=e["log_prob"], optimizer=label, specimen="toy",
+                            steps=samples.shape[0], walkers=samples.shape[1])
+    run = {"nfev": result.nfev, "wall_s": 12.5}
+    if "log_z" in e:
+        verdict = nested.assess(samples, e["log_prob"], e["log_z"], e["log_z_err"], NAMES)
+        whole = mcmc.Mode(tuple(range(chain.walkers)), np.arange(chain.walkers), 0.0)
+        assessment = {"converged": verdict["converged"], "modes": [whole], "diagnostics": [verdict["diagnostics"]]}
+        return PosteriorChain(chain, None, run, chain.walkers, assessment, NAMES, [], verdict)
+    ensembles = POSTERIOR_OPTIONS["emcee"]["ensembles"]
+    return PosteriorChain(chain, None, run, ensembles, mcmc.assess(samples, e["log_prob"], ensembles, NAMES), NAMES)
+
+
+@pytest.fixture(scope="module")
+def samplers():
+    toy = MixtureToy([[0.3, 0.3], [0.7, 0.7]], 0.04, [0.7, 0.3])
+    reference = fitting.run(toy, "nested", BUDGET, 1, {"live_points": 60, "min_ess": 60, "runs": 3})
+    emcee = fitting.run(toy, "emcee", BUDGET, 1, dict(POSTERIOR_OPTIONS["emcee"]))
+    return posterior("nested [toy]", reference), posterior("emcee [toy]", emcee)
+
+
+def test_nested_finds_both_modes_and_emcee_misses_the_light_one(samplers):
+    reference, emcee = samplers
+    shares = sampler_comparison.mode_shares(reference.chain.samples, reference.nested,
+                                            emcee.chain.samples[emcee.burn:].reshape(-1, 2))
+    assert shares.reference == pytest.approx([0.7, 0.3], abs=0.05)
+    assert shares.shares[0] > 0.95 and shares.shares[1] < 0.01
+    assert list(shares.found) == [True, False]
+    own = sampler_comparison.mode_shares(reference.chain.samples, reference.nested,
+                                         reference.chain.samples.reshape(-1, 2))
+    assert own.all_found and own.shares == pytest.approx(own.reference, abs=1e-9)
+
+
+def test_the_table_says_which_sampler_misses_a_mode_with_masses_evaluations_and_time(samplers):
+    reference, emcee = samplers
+    (key, by_backend), = groups([emcee, reference]).items()
+    assert key == ("toy", "toy") and set(by_backend) == {"nested", "emcee"}
+    table = comparison_table(by_backend)
+    assert list(table.columns) == ["sampler", "finds every mode", "mass in each mode", "R̂/ESS verdict",
+                                   "evaluations", "wall time (s)"]
+    first, second = table.to_dict("records")
+    assert first["sampler"] == "nested (reference)" and first["finds every mode"] == "yes (2 of 2)"
+    assert first["R̂/ESS verdict"].startswith("converged")
+    assert second["sampler"] == "emcee" and second["finds every mode"] == "no: misses mode 2 (1 of 2)"
+    assert re.search(r"mode 2: 0\.00 \(reference 0\.(2[5-9]|3[0-5]) ± 0\.\d\d\)", second["mass in each mode"])
+    assert second["evaluations"] == f"{BUDGET:,}" and int(first["evaluations"].replace(",", "")) <= BUDGET
+    assert second["wall time (s)"] == "12.5"
+
+
+def test_one_sampler_per_specimen_is_no_comparison(samplers):
+    reference, _ = samplers
+    assert groups([reference]) == {}
