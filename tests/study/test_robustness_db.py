@@ -348,7 +348,7 @@ def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_p
 
 
 def test_planned_runs_are_counted_from_a_stored_configuration_when_possible():
-    from bwbench.store.reader import planned_from_config
+    from bwbench.store.plan import planned_from_config
 
     config = {"study": {"seeds": 5}, "specimens": {"files": ["a", "b", "c"]}, "optimizers": {"x": {}, "y": {}},
               "posterior": {"specimens": ["a"], "seeds": 2}}

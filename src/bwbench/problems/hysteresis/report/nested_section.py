@@ -1,0 +1,140 @@
+"""The posterior section's nested-sampling subsection: the prior stated, the runs and their agreement,
+the modes with their masses, every good ranking fit placed, and the evidence."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from bwbench.analysis.mcmc import ESS_MIN, R_HAT_MAX
+from bwbench.problems.hysteresis.report.posterior_draws import axis, parameters
+from bwbench.problems.hysteresis.report.posterior_tables import (
+    LEVEL,
+    _summary_against_truth,
+    convergence_table,
+    model_name,
+    write_inference_data,
+)
+from bwbench.render.format import number
+
+PRIOR_TEXT = ("The prior is uniform on the search box in the searched coordinates (log-uniform in a parameter whose box "
+              "is logarithmic), so ln Z is the log of the likelihood's mean over the box: widening the box by a factor c "
+              "in a parameter the data pin down lowers ln Z by ln c (doubling it: −0.69), and a direction the data "
+              "cannot pin down shows as a marginal as wide as its box, not removed. The likelihood's constant (σ "
+              "integrated out under Jeffreys' prior) is the same for every model of the same data: differences of "
+              "ln Z between models of one specimen are meaningful, their absolute values are not.")
+
+
+def nested_text(pc) -> list[str]:
+    """Paragraphs on a nested-sampling posterior: the verdict with the criteria that failed, and where
+    the best ranking fit lies."""
+    v = pc.nested
+    ev = v["evidence"]
+    out = []
+    if v["converged"]:
+        out.append(f"**Converged** across {pc.chain.walkers} independent runs: R̂ ≤ {R_HAT_MAX:g} and bulk ESS ≥ "
+                   f"{ESS_MIN} for every parameter (each run's equal-weight draws one chain), the runs agree on ln Z "
+                   f"(χ² p = {number(ev['p'], 2)}) and on every mode's mass, and no run was cut by the budget.")
+    else:
+        out.append("NOT converged — " + "; ".join(v["failed"]) + ".")
+    place = v.get("best_fit_place")
+    if place is not None:
+        if place["where"] == "mode":
+            out.append(f"The best ranking fit lies in mode {place['mode'] + 1} of the posterior.")
+        elif place["where"] == "below":
+            out.append(f"The best ranking fit lies below the posterior's support by Δ log p = {place['delta']:.1f} "
+                       "(the sampler's draws are all more probable).")
+        else:
+            out.append("The best ranking fit lies where no draw goes (outside every draw, or more probable than "
+                       "any draw), at least as probable as the draws: the sampler missed a mode at least as "
+                       "probable as it.")
+    return out
+
+
+def good_fits_placed(study, pc) -> pd.DataFrame:
+    """Every good ranking fit (``spread_decomposition.good_fits``) against a nested posterior's draws
+    (``nested.locate``): in which mode, or below the posterior's support by how much, or outside every
+    draw while as probable (a mode the sampler missed)."""
+    from bwbench.analysis import nested
+    from bwbench.problems.hysteresis.report.posterior_draws import in_coordinates, log_posterior
+    from bwbench.problems.hysteresis.report.spread_decomposition import good_fits
+
+    rows = []
+    for _, run in good_fits(study, pc.chain.specimen).sort_values("mse").iterrows():
+        theta = in_coordinates(run.to_dict(), pc.problem)
+        if theta is None:
+            continue
+        like = float(log_posterior(pc.problem, theta[None, :])[0])
+        u = np.asarray(pc.problem.to_unit(theta[None, :]), dtype=float)[0]
+        place = nested.locate(u, like, pc.chain.samples, pc.chain.log_prob, pc.nested)
+        where = (f"mode {place['mode'] + 1}" if place["where"] == "mode" else
+                 f"below the posterior's support by Δ log p = {place['delta']:.1f}" if place["where"] == "below" else
+                 "where no draw goes, as probable: the sampler missed a mode at least as probable as this fit")
+        rows.append({"fit": f"{run['optimizer']}, seed {int(run['replicate']) + 1}", "MSE": number(float(run["mse"])),
+                     "log-likelihood": f"{like:.1f}", "where": where})
+    return pd.DataFrame(rows)
+
+
+def nested_modes_table(pc) -> pd.DataFrame:
+    """One row per mode of a nested-sampling posterior: its mass with the run-to-run spread, its best
+    log-likelihood and the median [central 95 % interval] of every parameter."""
+    v, table = pc.nested, parameters(pc.problem)
+    flat = pc.chain.samples.reshape(-1, pc.chain.samples.shape[2])
+    rows = []
+    for i, mode in enumerate(v["modes"]):
+        P = pc.problem.from_unit(flat[mode.members])
+        row = {"mode": i + 1, "mass": f"{mode.mass:.2f} ± {mode.spread:.2f}" if np.isfinite(mode.spread)
+               else f"{mode.mass:.2f}", "best log-likelihood": f"{mode.best_log_like:.1f}"}
+        for j, n in enumerate(pc.names):
+            lo, mid, hi = np.quantile(P[:, j], [(1 - LEVEL) / 2, 0.5, 1 - (1 - LEVEL) / 2])
+            row[axis(pc.problem, n, table)] = f"{number(mid, 3)} [{number(lo, 3)}, {number(hi, 3)}]"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def evidence_table(chains) -> pd.DataFrame:
+    """``| specimen | model | ln Z | ± | ln B |``: each nested posterior's pooled ln Z, and the Bayes factor
+    (log) against the best model of the same specimen."""
+    from bwbench.analysis import nested
+
+    rows = [{"specimen": pc.chain.specimen, "model": model_name(pc), "ln Z": pc.nested["evidence"]["log_z"],
+             "±": pc.nested["evidence"]["err"]} for pc in chains if pc.nested is not None]
+    if not rows:
+        return pd.DataFrame()
+    frame = pd.DataFrame(rows)
+    for _, group in frame.groupby("specimen", sort=False):
+        factors = nested.bayes_factors(dict(zip(group.index, group["ln Z"])))
+        frame.loc[group.index, "ln B against the best"] = [factors[i] for i in group.index]
+    return frame
+
+
+def _nested_subsection(report, pc, rng, order):
+    from bwbench.problems.hysteresis.report import figures
+
+    doc, study, chain, v = report.doc, report.study, pc.chain, pc.nested
+    table = v["diagnostics"]
+    worst, least = float(table["r_hat"].max()), float(table["ess_bulk"].min())
+    doc.h(3, f"{chain.specimen} ({chain.optimizer}, {pc.problem.formulation} formulation)")
+    ev = chain.evidence
+    nfev = pc.run.get("nfev")
+    doc.table(convergence_table(pc), f"{chain.walkers} independent runs × {chain.steps:,} equal-weight draws"
+              + (f", {int(nfev):,} evaluations" if nfev == nfev and nfev else "")
+              + f"; ln Z per run: {', '.join(f'{z:.2f} ± {e:.2f}' for z, e in zip(ev['log_z'], ev['log_z_err']))}")
+    for text in nested_text(pc):
+        (doc.p if v["converged"] or not text.startswith("NOT") else doc.banner)(text)
+    if pc.run.get("message"):
+        doc.p(f"What the sampler did and why it stopped: {pc.run['message']}.")
+    doc.table(nested_modes_table(pc), "Modes: posterior mass (± run-to-run spread), best log-likelihood, median "
+                                      f"[central {LEVEL:.0%} interval] of each parameter")
+    placed = good_fits_placed(study, pc)
+    if len(placed):
+        doc.table(placed, "The good ranking fits (final MSE within 10 % of the best known) against the posterior's draws")
+    _summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals over every mode")
+    written = write_inference_data(pc, doc.out_dir)
+    if written:
+        doc.p(f"The draws in physical units, one chain per run, are in `{written}` (ArviZ InferenceData, netCDF).")
+    png = figures.posterior(study, doc.out_dir, chain, problem=pc.problem, posterior=pc, order=order)
+    doc.figure(png, f"{chain.specimen}: posterior marginals and the most correlated pairs, with the best fit on the "
+                    "specimen and the truth")
+    return (chain, {"converged": v["converged"], "steps": chain.steps, "worst_r_hat": worst, "min_ess": least,
+                    "modes": len(v["modes"])})
