@@ -275,10 +275,13 @@ def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="j
             agreed = _agreed(ends, int(stop_agree), float(agree_rtol), floor)
             if agreed:
                 arrived = f"; {arrivals} of them stopped on reaching an optimum an earlier one ended at" if arrivals else ""
+                by_fit = _how_agreed(ends, float(agree_rtol), floor).count("fit")
+                fit = f", {by_fit} of them by their fitted curve only" if by_fit else ""
+                rule = _rule(agree_rtol, agree_same_fit and residuals.has_residuals)
                 message = (f"stopped early: {agreed} of {len(ends)} independent local searches ended at the best "
-                           f"optimum ({_rule(agree_rtol, agree_same_fit and residuals.has_residuals)}), none better{arrived}")
+                           f"optimum{fit}, none better{arrived} (agreement: {rule})")
                 return {"message": message, "stop_reason": "restarts agree", "local_searches": len(ends),
-                        "arrivals": arrivals, "agreement": _rule(agree_rtol, agree_same_fit and residuals.has_residuals)}
+                        "arrivals": arrivals, "agreed_by_fit": by_fit, "agreement": rule}
 
 
 # How close (unit coordinates: a fraction of each parameter's search range, in log where the box is) the
@@ -333,6 +336,15 @@ def _same_optimum(end: tuple, best: tuple, bound: float, share: float = 1.0) -> 
     return "fit" if np.mean((r - r_best) ** 2) <= (share * AGREE_FTOL) ** 2 * best[0] else ""
 
 
+def _how_agreed(ends: list[tuple], rtol: float, floor: float = 0.0) -> list[str]:
+    """For each finite end, how it agrees with the best one: "place", "fit" or "" (``_same_optimum``)."""
+    finite = sorted((e for e in ends if np.isfinite(e[0])), key=lambda e: e[0])
+    if not finite:
+        return []
+    best = finite[0]
+    return [_same_optimum(end, best, best[0] * (1.0 + rtol) + floor) for end in finite]
+
+
 def _agreed(ends: list[tuple], needed: int, rtol: float, floor: float = 0.0) -> int:
     """How many local searches ended at the best optimum, when the search may stop there; else 0.
 
@@ -346,12 +358,7 @@ def _agreed(ends: list[tuple], needed: int, rtol: float, floor: float = 0.0) -> 
     fewer than ``needed`` agree by place, the agreement by fit needs ``VALLEY_SEARCHES`` searches."""
     if needed < 2 or len(ends) < MIN_SEARCHES:
         return 0
-    finite = sorted((e for e in ends if np.isfinite(e[0])), key=lambda e: e[0])
-    if not finite:
-        return 0
-    best = finite[0]
-    bound = best[0] * (1.0 + rtol) + floor
-    how = [_same_optimum(end, best, bound) for end in finite]
+    how = _how_agreed(ends, rtol, floor)
     by_place, agreeing = how.count("place"), len(how) - how.count("")
     if by_place >= needed or (agreeing >= needed and len(ends) >= VALLEY_SEARCHES):
         return agreeing
