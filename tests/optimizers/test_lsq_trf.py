@@ -173,3 +173,87 @@ def test_searches_agree_only_on_one_optimum_found_often_enough():
     assert lsq_trf._agreed(same + plateau, 0, 1e-2) == 0  # 0: never stop early
     worse = [(34.51 * 1.02, centre)] * 2 + [(34.51, centre)] + plateau  # MSE 2 % apart: not one optimum
     assert lsq_trf._agreed(worse, 3, 1e-2) == 0
+
+
+class _FlatValleyProblem(testing.SphereProblem):
+    """A decay exp(−3(θ₀ + θ₁ + θ₂)t) plus a slope θ₃t, 60 noisy samples: the data determine θ₀ + θ₁ + θ₂
+    only, so every local search ends somewhere else on one plane of equally good fits."""
+
+    def __init__(self):
+        super().__init__(dim=4, n_data=60)
+        self.t = np.linspace(0.0, 1.0, self.n_data)
+        noise = 0.01 * np.random.default_rng(0).standard_normal(self.n_data)
+        self.data = self.model(np.array([[0.1, 0.2, 0.3, 0.5]]))[0] + noise
+
+    def model(self, P):
+        return np.exp(-3.0 * P[:, :3].sum(axis=1, keepdims=True) * self.t) + P[:, 3:] * self.t
+
+    def residual_batch(self, P):
+        P = np.atleast_2d(P)
+        self.evaluated += len(P)
+        self.call_sizes.append(len(P))
+        return self.model(P) - self.data
+
+    def loss_batch(self, P):
+        return np.mean(self.residual_batch(P) ** 2, axis=1)
+
+
+def test_searches_that_end_along_a_direction_the_data_do_not_determine_agree_by_their_fitted_curves():
+    for seed in (0, 1):
+        by_fit = fitting.run(_FlatValleyProblem(), "lsq-trf", 2000, seed, {"stop_agree": 3})
+        by_place = fitting.run(_FlatValleyProblem(), "lsq-trf", 2000, seed, {"stop_agree": 3, "agree_same_fit": False})
+        # The ends lie up to ~0.5 apart on the plane: by their parameters three of them rarely agree.
+        assert by_place.nfev == 2000 and by_place.message == "budget exhausted"
+        # By their fitted curves every search ended at the one optimum: the 18th stops the fit
+        # (lsq_trf.VALLEY_SEARCHES; the searches after the first stop on arriving at its fitted curve).
+        assert by_fit.extras["stop_reason"] == "restarts agree" and by_fit.extras["local_searches"] == 18
+        assert by_fit.extras["arrivals"] == 17 and by_fit.nfev < 500  # 447 and 462 (seeds 0, 1)
+        assert by_fit.mse <= 1.0001 * by_place.mse and by_fit.mse == pytest.approx(7.778e-5, rel=1e-3)  # noise 0.01
+        assert "fitted curves within 0.05 of the residual RMS" in by_fit.extras["agreement"]
+        assert "fitted curves within 0.05" in by_fit.message and by_fit.extras["agreed_by_fit"] >= 1
+
+
+class _TwoOptimaProblem(testing.SphereProblem):
+    """Two optima at θ₀ ≈ 0.25 and ≈ 0.75 whose MSE differ by 0.5 %, with a barrier between them (+34 % at
+    the midpoint), and different fits: residual vectors at right angles."""
+
+    def __init__(self):
+        super().__init__(dim=2, n_data=3)
+
+    def residual_batch(self, P):
+        P = np.atleast_2d(P)
+        self.evaluated += len(P)
+        self.call_sizes.append(len(P))
+        a, b = P[:, 0], P[:, 1]
+        size = 1.0 + 40.0 * (a - 0.25) ** 2 * (a - 0.75) ** 2 + 0.005 * a
+        return np.column_stack([size * np.cos(np.pi * a), size * np.sin(np.pi * a), 3.0 * (b - 0.4)])
+
+    def loss_batch(self, P):
+        return np.mean(self.residual_batch(P) ** 2, axis=1)
+
+
+def test_two_separate_optima_of_equal_mse_do_not_agree():
+    from scipy.optimize import least_squares
+
+    problem = _TwoOptimaProblem()
+    ends = []
+    for u0 in ([0.2, 0.1], [0.8, 0.9]):
+        found = least_squares(lambda u: problem.residual_batch(u)[0], u0, bounds=(0.0, 1.0), xtol=1e-12)
+        ends.append((float(np.mean(found.fun**2)), found.x, found.fun))
+    best, other = ends
+    assert other[0] / best[0] == pytest.approx(1.005, abs=1e-4)  # within agree_rtol's 1 %
+    assert problem.loss_batch((best[1] + other[1]) / 2)[0] / best[0] == pytest.approx(1.339, abs=1e-3)  # a barrier
+    assert not lsq_trf._same_optimum(other, best, 1.01 * best[0])
+    assert lsq_trf._agreed([best] + [other] * 8, 3, 1e-2) == 0  # the other optimum found 8 times: no stop
+    assert lsq_trf._agreed([best] * 3 + [other] * 6, 3, 1e-2) == 3
+    # The same fitted curve, 0.3 away along a direction the data do not determine, agrees, once 18
+    # searches ran (a valley or a plateau of one fit attracts starts broadly: more evidence is asked).
+    valley = (best[0] * 1.001, best[1] + 0.3, best[2] * (1 + 1e-3))
+    assert lsq_trf._same_optimum(valley, best, 1.01 * best[0]) == "fit"
+    assert lsq_trf._agreed([best] * 2 + [valley] + [other] * 6, 3, 1e-2) == 0
+    assert lsq_trf._agreed([best] * 2 + [valley] + [other] * 15, 3, 1e-2) == 3
+    # Fits stop at the lower optimum, whichever the starts found first.
+    for seed in range(3):
+        result = fitting.run(_TwoOptimaProblem(), "lsq-trf", 3000, seed, {"stop_agree": 3})
+        assert result.extras["stop_reason"] == "restarts agree"
+        assert result.mse == pytest.approx(best[0], rel=1e-5)

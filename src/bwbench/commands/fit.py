@@ -194,8 +194,9 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
                         "(m, c+, f-, c1, ...) bound the linear solve")
     parser.add_argument("--stop", choices=["agreed", "budget"], default="agreed",
                         help="agreed (default): a backend that restarts local searches (lsq-trf) stops before the "
-                             "budget once 3 of them ended within 1%% of the best MSE, and says so; budget: spend "
-                             "the whole budget, as a study does")
+                             "budget once 3 of them (after at least 9) ended at the best optimum (MSE within 1%%, and the "
+                             "parameters within 2%% of the box or the fitted curves within 5%% of the residual RMS), "
+                             "and says so; budget: spend the whole budget, as a study does")
     parser.add_argument("--out", required=True, help="result JSON")
     parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
     parser.add_argument("--threads", type=int, default=1,
