@@ -58,10 +58,11 @@ REGISTRY: plugins.Registry[ProblemType] = plugins.Registry("problem", ENTRY_POIN
 
 
 def names() -> list[str]:
-    """Built-in problems first, in their order, then the plugged-in and registered ones by name."""
+    """Built-in problems first, in their order, then the plugged-in and registered ones by name, a
+    broken plug-in included: a study naming it is refused with the plug-in's own error (``get``)."""
     REGISTRY.load_plugins()
     with REGISTRY.lock:
-        return [*_BUILTIN, *sorted(set(REGISTRY.items) - set(_BUILTIN))]
+        return [*_BUILTIN, *sorted((set(REGISTRY.items) | set(REGISTRY.broken)) - set(_BUILTIN))]
 
 
 def only_in_this_process(name: str) -> bool:
