@@ -127,7 +127,7 @@ def test_reaches_the_noise_floor_on_the_identifiable_problem():
 def test_stops_early_once_the_local_searches_agree_on_one_optimum_and_says_so():
     problem = testing.SphereProblem(dim=4)
     early = fitting.run(problem, "lsq-trf", 5000, 2, {"stop_agree": 3})
-    # One optimum, found by every search: it stops after the ninth (lsq_trf.MIN_SEARCHES).
+    # One optimum, found by every search: it stops after the ninth (lsq_agreement.MIN_SEARCHES).
     assert early.nfev < 2000 and early.extras["stop_reason"] == "restarts agree"
     assert early.extras["local_searches"] == 9 and "9 of 9 independent local searches" in early.message
     exact = fitting.run(testing.SphereProblem(dim=4), "lsq-trf", 5000, 2)  # a study's rule: the whole budget
@@ -205,7 +205,7 @@ def test_searches_that_end_along_a_direction_the_data_do_not_determine_agree_by_
         # The ends lie up to ~0.5 apart on the plane: by their parameters three of them rarely agree.
         assert by_place.nfev == 2000 and by_place.message == "budget exhausted"
         # By their fitted curves every search ended at the one optimum: the 18th stops the fit
-        # (lsq_trf.VALLEY_SEARCHES; the searches after the first stop on arriving at its fitted curve).
+        # (lsq_agreement.VALLEY_SEARCHES; the searches after the first stop on arriving at its fitted curve).
         assert by_fit.extras["stop_reason"] == "restarts agree" and by_fit.extras["local_searches"] == 18
         assert by_fit.extras["arrivals"] == 17 and by_fit.nfev < 500  # 447 and 462 (seeds 0, 1)
         assert by_fit.mse <= 1.0001 * by_place.mse and by_fit.mse == pytest.approx(7.778e-5, rel=1e-3)  # noise 0.01
