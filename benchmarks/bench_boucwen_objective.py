@@ -59,16 +59,20 @@ def main():
     batched_all = rates(lambda: Objective(problem, n).batch(U_near), n)
 
     rate_hz = 750 * problem.steps_per_sample
-    print(f"integration: RK4 at {rate_hz:g} Hz, warm-up {problem.warmup_samples} samples, "
-          f"{problem.n_data} compared samples")
+    print(
+        f"integration: RK4 at {rate_hz:g} Hz, warm-up {problem.warmup_samples} samples, "
+        f"{problem.n_data} compared samples"
+    )
     print(f"e_RMS of the truth on test_multisine : {problem.test_error(TRUE_PARAMS):.3g} m")
     print(f"RMS residual of the truth (train)    : {np.sqrt(problem.loss_batch(TRUE_PARAMS[None])[0]):.3g} m")
     print("                                         CPU rate   wall rate  (evaluations/s)")
     print(f"one core, one call per point (near)  : {single[0]:9.0f}  {single[1]:9.0f}")
     print(f"one core, batched (near the truth)   : {batched[0]:9.0f}  {batched[1]:9.0f}")
     print(f"one core, batched (uniform in box)   : {box[0]:9.0f}  {box[1]:9.0f}")
-    print(f"{numba.config.NUMBA_NUM_THREADS} threads, batched (near the truth)  : "
-          f"{batched_all[0]:9.0f}  {batched_all[1]:9.0f}")
+    print(
+        f"{numba.config.NUMBA_NUM_THREADS} threads, batched (near the truth)  : "
+        f"{batched_all[0]:9.0f}  {batched_all[1]:9.0f}"
+    )
     print("target: >= 200 evaluations/s on one core")
 
 

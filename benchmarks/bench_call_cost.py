@@ -57,15 +57,22 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=40, help="random points of the box per case")
     parser.add_argument("--threads", type=int, default=0, help="numba threads (0: numba's default)")
-    parser.add_argument("--optimum", type=int, default=0, metavar="BUDGET",
-                        help="also price the sensitivities at the end of an lsq-trf fit of this budget")
+    parser.add_argument(
+        "--optimum",
+        type=int,
+        default=0,
+        metavar="BUDGET",
+        help="also price the sensitivities at the end of an lsq-trf fit of this budget",
+    )
     parser.add_argument("--only", default="", help="run only the cases of this model")
     args = parser.parse_args()
     if args.threads:
         numba.set_num_threads(args.threads)
     print(f"numba threads: {numba.get_num_threads()}; {args.points} random points of the default box per case")
-    print(f"{'model':<18} {'formulation':<12} {'samples':>7} {'sim ms/pt':>9} {'median ms':>9} {'max ms':>8} "
-          f"{'per call/sim':>12} {'batched/sim':>11}")
+    print(
+        f"{'model':<18} {'formulation':<12} {'samples':>7} {'sim ms/pt':>9} {'median ms':>9} {'max ms':>8} "
+        f"{'per call/sim':>12} {'batched/sim':>11}"
+    )
     for name, formulation, path, *state in CASES:
         if args.only and name != args.only:
             continue
@@ -91,8 +98,10 @@ def main():
         objective.batch(U)
         batched = time.perf_counter() - start
         label = f"{formulation} {state[0]}" if state else formulation
-        print(f"{name:<18} {label:<12} {problem.n_data:>7} {1e3 * sim / len(P):>9.2f} "
-              f"{1e3 * np.median(each):>9.2f} {1e3 * max(each):>8.1f} {per_call / sim:>12.2f} {batched / sim:>11.2f}")
+        print(
+            f"{name:<18} {label:<12} {problem.n_data:>7} {1e3 * sim / len(P):>9.2f} "
+            f"{1e3 * np.median(each):>9.2f} {1e3 * max(each):>8.1f} {per_call / sim:>12.2f} {batched / sim:>11.2f}"
+        )
         if has_sensitivities(problem):
             sensitivity_price(problem, P, "random points")
             if args.optimum:
@@ -148,9 +157,11 @@ def sensitivity_price(problem, P, where):
         plain += times[0]
         with_sens += times[1]
         batched += times[2] / d
-    print(f"{'':<18} {'':<12} sensitivities at {len(P)} {where}: {with_sens / plain:.2f} one-point plain simulations "
-          f"({with_sens / batched:.2f} per point of {d}-point batches; {failed} without); charged "
-          f"{problem.model.sensitivity_cost}")
+    print(
+        f"{'':<18} {'':<12} sensitivities at {len(P)} {where}: {with_sens / plain:.2f} one-point plain simulations "
+        f"({with_sens / batched:.2f} per point of {d}-point batches; {failed} without); charged "
+        f"{problem.model.sensitivity_cost}"
+    )
 
 
 if __name__ == "__main__":

@@ -39,6 +39,7 @@ def _sg(window, order):
 
         dt = t[1] - t[0]
         return tuple(savgol_filter(x, window, order, deriv=d, delta=dt, mode="interp") for d in (0, 1, 2))
+
     return estimate
 
 
@@ -48,6 +49,7 @@ def _interp(k):
 
         s = make_interp_spline(t, x, k=k)
         return s(t), s(t, 1), s(t, 2)
+
     return estimate
 
 
@@ -58,6 +60,7 @@ def _fitpack(k):
         sigma = derivatives.robust_noise(x)
         s = UnivariateSpline(t, x, k=k, s=len(x) * sigma**2)
         return s(t), s.derivative(1)(t), s.derivative(2)(t)
+
     return estimate
 
 
@@ -67,9 +70,12 @@ def _chosen(t, x):
 
 
 ESTIMATORS = {
-    "SG(9,4)": _sg(9, 4), "SG(25,4)": _sg(25, 4),
-    "interp k=3": _interp(3), "interp k=5": _interp(5),
-    "smooth k=3": _fitpack(3), "smooth k=5": _fitpack(5),
+    "SG(9,4)": _sg(9, 4),
+    "SG(25,4)": _sg(25, 4),
+    "interp k=3": _interp(3),
+    "interp k=5": _interp(5),
+    "smooth k=3": _fitpack(3),
+    "smooth k=5": _fitpack(5),
     "chosen": _chosen,
 }
 
@@ -92,8 +98,10 @@ def main():
     noises_um = (0.0, 0.1, 1.0) if args.quick else (0.0, 0.1, 1.0, 5.0)
     rng = np.random.default_rng(2024)
     cases = []  # per (motion, rate, noise): {estimator: median force RMSE}
-    print(f"{'motion':<7} {'Hz':>4} {'noise µm':>8}  {'estimator':<12} {'v rms mm/s':>10} {'v max mm/s':>10} "
-          f"{'F rms N med':>11} {'F rms N max':>11} {'ms':>6}  {'v rms predicted':>15}")
+    print(
+        f"{'motion':<7} {'Hz':>4} {'noise µm':>8}  {'estimator':<12} {'v rms mm/s':>10} {'v max mm/s':>10} "
+        f"{'F rms N med':>11} {'F rms N max':>11} {'ms':>6}  {'v rms predicted':>15}"
+    )
     for motion, (duration, exact) in motions(rng).items():
         if args.quick and motion != "ramps":
             continue
@@ -109,19 +117,28 @@ def main():
                     xs, vs, acc = estimator(t, x_rec)
                     ms = 1e3 * (time.perf_counter() - started)
                     err = vs - v
-                    force = [np.sqrt(np.mean((model.simulate(p, t, xs, vs, acc) - f) ** 2))
-                             for p, f in zip(truths, reference)]
+                    force = [
+                        np.sqrt(np.mean((model.simulate(p, t, xs, vs, acc) - f) ** 2))
+                        for p, f in zip(truths, reference)
+                    ]
                     cases[-1][name] = float(np.median(force))
-                    predicted = (f"{derivatives.velocity_error(t, x_rec):15.2e}" if name == "chosen" else "")
-                    print(f"{motion:<7} {rate:4g} {noise:8g}  {name:<12} {np.sqrt(np.mean(err**2)):10.2e} "
-                          f"{np.max(np.abs(err)):10.2e} {np.median(force):11.3f} {np.max(force):11.3f} {ms:6.1f}  "
-                          f"{predicted}", flush=True)
-    print(f"\nover the {len(cases)} cases: {'within 1.5× of the best':>24} {'geometric mean / best':>22} "
-          f"{'worst median F rms N':>21}")
+                    predicted = f"{derivatives.velocity_error(t, x_rec):15.2e}" if name == "chosen" else ""
+                    print(
+                        f"{motion:<7} {rate:4g} {noise:8g}  {name:<12} {np.sqrt(np.mean(err**2)):10.2e} "
+                        f"{np.max(np.abs(err)):10.2e} {np.median(force):11.3f} {np.max(force):11.3f} {ms:6.1f}  "
+                        f"{predicted}",
+                        flush=True,
+                    )
+    print(
+        f"\nover the {len(cases)} cases: {'within 1.5× of the best':>24} {'geometric mean / best':>22} "
+        f"{'worst median F rms N':>21}"
+    )
     for name in ESTIMATORS:
         ratios = np.array([case[name] / min(case.values()) for case in cases])
-        print(f"{name:<12} {int(np.sum(ratios <= 1.5)):>17} of {len(cases):<4} {np.exp(np.mean(np.log(ratios))):22.2f} "
-              f"{max(case[name] for case in cases):21.2f}")
+        print(
+            f"{name:<12} {int(np.sum(ratios <= 1.5)):>17} of {len(cases):<4} {np.exp(np.mean(np.log(ratios))):22.2f} "
+            f"{max(case[name] for case in cases):21.2f}"
+        )
 
 
 if __name__ == "__main__":

@@ -44,16 +44,24 @@ def main():
     parser.add_argument("--budget", type=int, default=4100)
     parser.add_argument("--only", default="", help="run only the cases of this model")
     parser.add_argument("--clock", choices=("wall", "cpu"), default="wall")
-    parser.add_argument("--stop", choices=("budget", "agreed"), default="budget",
-                        help="spend the whole budget (a study) or stop once restarts agree (bwbench fit)")
+    parser.add_argument(
+        "--stop",
+        choices=("budget", "agreed"),
+        default="budget",
+        help="spend the whole budget (a study) or stop once restarts agree (bwbench fit)",
+    )
     args = parser.parse_args()
     numba.set_num_threads(1)
     clock = time.process_time if args.clock == "cpu" else time.perf_counter
     agree = 3 if args.stop == "agreed" else 0
-    print(f"lsq-trf, budget {args.budget}, stop: {args.stop}, seeds 0..{args.seeds - 1}; per fit: {args.clock} s, MSE N², "
-          f"evaluations used and to 1 % of the best")
-    print(f"{'model':<18} {'formulation':<12} {'file':<28} {'seed':>4} {'exact s':>8} {'MSE':>8} {'nfev':>5} "
-          f"{'to 1%':>5} {'diff s':>8} {'MSE':>8} {'nfev':>5} {'to 1%':>5}")
+    print(
+        f"lsq-trf, budget {args.budget}, stop: {args.stop}, seeds 0..{args.seeds - 1}; per fit: {args.clock} s, MSE N², "
+        f"evaluations used and to 1 % of the best"
+    )
+    print(
+        f"{'model':<18} {'formulation':<12} {'file':<28} {'seed':>4} {'exact s':>8} {'MSE':>8} {'nfev':>5} "
+        f"{'to 1%':>5} {'diff s':>8} {'MSE':>8} {'nfev':>5} {'to 1%':>5}"
+    )
     for model, formulation, path in CASES:
         if args.only and model != args.only:
             continue
@@ -70,17 +78,37 @@ def main():
         rows = []
         for seed in range(args.seeds):
             row = []
-            for wall, result in runs[2 * seed:2 * seed + 2]:
+            for wall, result in runs[2 * seed : 2 * seed + 2]:
                 row += [wall, result.mse, result.nfev, to_target(result, target)]
             rows.append(row)
-            cells = [f"{row[0]:>8.1f}", f"{row[1]:>8.4g}", f"{row[2]:>5d}", count(row[3]),
-                     f"{row[4]:>8.1f}", f"{row[5]:>8.4g}", f"{row[6]:>5d}", count(row[7])]
+            cells = [
+                f"{row[0]:>8.1f}",
+                f"{row[1]:>8.4g}",
+                f"{row[2]:>5d}",
+                count(row[3]),
+                f"{row[4]:>8.1f}",
+                f"{row[5]:>8.4g}",
+                f"{row[6]:>5d}",
+                count(row[7]),
+            ]
             print(f"{model:<18} {formulation:<12} {path.name:<28} {seed:>4} " + " ".join(cells), flush=True)
         med = np.median(np.array(rows, dtype=float), axis=0)
-        cells = [f"{med[0]:>8.1f}", f"{med[1]:>8.4g}", f"{med[2]:>5.0f}", count(med[3]),
-                 f"{med[4]:>8.1f}", f"{med[5]:>8.4g}", f"{med[6]:>5.0f}", count(med[7])]
-        print(f"{'':<18} {'':<12} {'median':<28} {'':>4} " + " ".join(cells)
-              + f"   time differences ÷ exact {med[4] / med[0]:.2f}", flush=True)
+        cells = [
+            f"{med[0]:>8.1f}",
+            f"{med[1]:>8.4g}",
+            f"{med[2]:>5.0f}",
+            count(med[3]),
+            f"{med[4]:>8.1f}",
+            f"{med[5]:>8.4g}",
+            f"{med[6]:>5.0f}",
+            count(med[7]),
+        ]
+        print(
+            f"{'':<18} {'':<12} {'median':<28} {'':>4} "
+            + " ".join(cells)
+            + f"   time differences ÷ exact {med[4] / med[0]:.2f}",
+            flush=True,
+        )
 
 
 def to_target(result, target) -> float:

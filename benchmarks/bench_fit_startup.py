@@ -23,8 +23,23 @@ SPECIMEN = Path(__file__).resolve().parents[1] / "data" / "specimens" / "pom-mt2
 
 def wall(path: Path, out: Path) -> float:
     started = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "bwbench.cli", "fit", str(path), "--optimizer", "paper-ga", "--budget",
-                    "4100", "--out", str(out)], check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bwbench.cli",
+            "fit",
+            str(path),
+            "--optimizer",
+            "paper-ga",
+            "--budget",
+            "4100",
+            "--out",
+            str(out),
+        ],
+        check=True,
+        capture_output=True,
+    )
     return time.perf_counter() - started
 
 

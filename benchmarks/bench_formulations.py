@@ -80,9 +80,16 @@ def run_one(path: str, formulation: str, backend: str, replicate: int, budget: i
     result = fitting.run(problem, backend, budget, seed)
     floor = noise_floor(path)
     hits = [n for n, mse in zip(result.trace_nfev, result.trace_mse) if mse <= HIT * floor]
-    return {"specimen": Path(path).stem, "formulation": formulation, "backend": backend,
-            "replicate": replicate, "mse": result.mse, "nfev": result.nfev,
-            "nfev_to_hit": hits[0] if hits else None, "wall_s": time.perf_counter() - started}
+    return {
+        "specimen": Path(path).stem,
+        "formulation": formulation,
+        "backend": backend,
+        "replicate": replicate,
+        "mse": result.mse,
+        "nfev": result.nfev,
+        "nfev_to_hit": hits[0] if hits else None,
+        "wall_s": time.perf_counter() - started,
+    }
 
 
 def main(argv=None) -> int:
@@ -103,13 +110,21 @@ def main(argv=None) -> int:
     for b in backends:
         registry.get(b)  # unknown names fail here, before any work
     floors = {Path(p).stem: noise_floor(str(p)) for p in SPECIMENS}
-    print(f"budget {args.budget} evaluations, {args.seeds} seeds x {len(SPECIMENS)} specimens per cell; "
-          f"hit = final MSE <= {HIT:g} x truth MSE", flush=True)
+    print(
+        f"budget {args.budget} evaluations, {args.seeds} seeds x {len(SPECIMENS)} specimens per cell; "
+        f"hit = final MSE <= {HIT:g} x truth MSE",
+        flush=True,
+    )
     for name, floor in floors.items():
         print(f"  truth MSE {name}: {floor:.4f} N^2", flush=True)
 
-    tasks = [(str(p), f, b, r, args.budget) for f in formulations for b in backends
-             for p in SPECIMENS for r in range(args.seeds)]
+    tasks = [
+        (str(p), f, b, r, args.budget)
+        for f in formulations
+        for b in backends
+        for p in SPECIMENS
+        for r in range(args.seeds)
+    ]
     rows = []
     started = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers, initializer=_init_worker) as pool:
@@ -117,13 +132,18 @@ def main(argv=None) -> int:
         for i, future in enumerate(as_completed(futures), 1):
             row = future.result()
             rows.append(row)
-            print(f"[{i}/{len(tasks)} {time.perf_counter() - started:.0f}s] {row['backend']} "
-                  f"[{row['formulation']}] {row['specimen']} #{row['replicate']}: "
-                  f"MSE/truth {row['mse'] / floors[row['specimen']]:.4f}, {row['wall_s']:.1f}s",
-                  file=sys.stderr, flush=True)
+            print(
+                f"[{i}/{len(tasks)} {time.perf_counter() - started:.0f}s] {row['backend']} "
+                f"[{row['formulation']}] {row['specimen']} #{row['replicate']}: "
+                f"MSE/truth {row['mse'] / floors[row['specimen']]:.4f}, {row['wall_s']:.1f}s",
+                file=sys.stderr,
+                flush=True,
+            )
 
-    print(f"\n{'backend':<14} {'formulation':<13} {'hit':>11} {'median MSE':>11} {'median MSE/truth':>17} "
-          f"{'median nfev to hit':>19} {'median wall':>12}")
+    print(
+        f"\n{'backend':<14} {'formulation':<13} {'hit':>11} {'median MSE':>11} {'median MSE/truth':>17} "
+        f"{'median nfev to hit':>19} {'median wall':>12}"
+    )
     for f in formulations:
         for b in backends:
             cell = [r for r in rows if r["backend"] == b and r["formulation"] == f]
@@ -131,9 +151,11 @@ def main(argv=None) -> int:
             hits = int(np.sum(ratio <= HIT))
             to_hit = [r["nfev_to_hit"] for r in cell if r["nfev_to_hit"] is not None]
             to_hit = f"{np.median(to_hit):.0f}" if to_hit else "-"
-            print(f"{b:<14} {f:<13} {hits:>2}/{len(cell):<2} {hits / len(cell):>5.0%} "
-                  f"{np.median([r['mse'] for r in cell]):>11.4g} {np.median(ratio):>17.4f} "
-                  f"{to_hit:>19} {np.median([r['wall_s'] for r in cell]):>11.1f}s")
+            print(
+                f"{b:<14} {f:<13} {hits:>2}/{len(cell):<2} {hits / len(cell):>5.0%} "
+                f"{np.median([r['mse'] for r in cell]):>11.4g} {np.median(ratio):>17.4f} "
+                f"{to_hit:>19} {np.median([r['wall_s'] for r in cell]):>11.1f}s"
+            )
     print(f"\ntotal {time.perf_counter() - started:.0f}s on {args.workers} workers (cpu count {os.cpu_count()})")
     return 0
 

@@ -37,9 +37,16 @@ from bwbench.problems.hysteresis.linear.bounds import physical_bounds
 
 
 def record(amplitude, frequency, seed):
-    test = mr_damper.sine_test(amplitude_mm=amplitude, frequency_hz=frequency, voltage=1.0, rate_hz=500.0,
-                               cycles=3 if frequency <= 1 else 2, peak_force_N=None, rng=seed,
-                               velocity_noise_mm_s=0.5)
+    test = mr_damper.sine_test(
+        amplitude_mm=amplitude,
+        frequency_hz=frequency,
+        voltage=1.0,
+        rate_hz=500.0,
+        cycles=3 if frequency <= 1 else 2,
+        peak_force_N=None,
+        rng=seed,
+        velocity_noise_mm_s=0.5,
+    )
     return excitation.measured(test.t, test.x, test.v), test.f
 
 
@@ -75,20 +82,25 @@ def main() -> None:
             physical, _ = physical_bounds(LAYOUT, e, f, ls.coefficient_units(LAYOUT))
             unbounded = ls.LinearDesign(e, f, LAYOUT, fix_mass=None, mass_min=None)
             free = unbounded.solve(Z)
-            loose = ls.LinearDesign(e, f, LAYOUT, fix_mass=None, bounds={n: (-1e12, 1e12) for n in unbounded.free_names})
+            loose = ls.LinearDesign(
+                e, f, LAYOUT, fix_mass=None, bounds={n: (-1e12, 1e12) for n in unbounded.free_names}
+            )
             bounded = ls.LinearDesign(e, f, LAYOUT, fix_mass=None, bounds=physical)
             # tight bounds every row breaks: each coefficient held to 10 % of its median unbounded size
             size = 0.1 * np.median(np.abs(free.coef_ls), axis=0)
-            tight = ls.LinearDesign(e, f, LAYOUT, fix_mass=None,
-                                    bounds={n: (-s, s) for n, s in zip(unbounded.free_names, size)})
+            tight = ls.LinearDesign(
+                e, f, LAYOUT, fix_mass=None, bounds={n: (-s, s) for n, s in zip(unbounded.free_names, size)}
+            )
             # (default arguments bind this iteration's objects: each lambda is timed before the next)
             t_free = per_row(lambda d=unbounded, Z=Z: d.solve(Z), rows, args.repeat)
             t_loose = per_row(lambda d=loose, Z=Z: d.solve(Z), rows, args.repeat)
             t_physical = per_row(lambda d=bounded, Z=Z: d.solve(Z), rows, args.repeat)
             t_active = per_row(lambda d=tight, Z=Z: d.solve(Z), rows, args.repeat)
             t_sim = per_row(lambda th=theta, s=signals[0]: MODEL.trajectories(th, s, "shared"), len(theta), args.repeat)
-            print(f"{name} ({len(f):,} samples, {rows} rows of random θ; the physical bounds re-solve "
-                  f"{int(bounded.solve(Z).bound_active.sum())}, the tight ones {int(tight.solve(Z).bound_active.sum())}):")
+            print(
+                f"{name} ({len(f):,} samples, {rows} rows of random θ; the physical bounds re-solve "
+                f"{int(bounded.solve(Z).bound_active.sum())}, the tight ones {int(tight.solve(Z).bound_active.sum())}):"
+            )
             print(f"  unbounded solve                    {t_free * 1e6:9.1f} µs/row   1.00×")
             print(f"  bounds, none active (the check)    {t_loose * 1e6:9.1f} µs/row   {t_loose / t_free:.2f}×")
             print(f"  physical bounds (m, c±)            {t_physical * 1e6:9.1f} µs/row   {t_physical / t_free:.2f}×")
@@ -107,8 +119,11 @@ def whole_fits(part, budget: int, fits: int) -> None:
     spec = Specimen("mr_25mm_1Hz.csv", "mr_25mm_1Hz", e.t, e.x_recorded, f, v=e.v)
     open_bounds = {n: (-np.inf, np.inf) for n in ("m", "c+", "c-")}
     active = {}
-    cases = [(f"{label}, {bounds}", mass, given) for label, mass in (("m fitted", None), ("m by the rule", "auto"))
-             for bounds, given in (("physical bounds", None), ("no bounds", open_bounds))]
+    cases = [
+        (f"{label}, {bounds}", mass, given)
+        for label, mass in (("m fitted", None), ("m by the rule", "auto"))
+        for bounds, given in (("physical bounds", None), ("no bounds", open_bounds))
+    ]
     times = {name: [] for name, _, _ in cases}
     for _ in range(fits):
         for name, mass, given in cases:
@@ -122,8 +137,10 @@ def whole_fits(part, budget: int, fits: int) -> None:
     for name, values in times.items():
         base = float(np.median(times[name.split(",")[0] + ", no bounds"]))
         share, rmse = active[name]
-        print(f"  {name:<32} {np.median(values):7.2f} s   {np.median(values) / base:.2f}×   rows re-solved "
-              f"{share:.0%}, RMSE {rmse:.3g} N")
+        print(
+            f"  {name:<32} {np.median(values):7.2f} s   {np.median(values) / base:.2f}×   rows re-solved "
+            f"{share:.0%}, RMSE {rmse:.3g} N"
+        )
 
 
 def _count_active(problem) -> dict:

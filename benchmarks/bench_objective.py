@@ -98,24 +98,32 @@ def main():
     kernels = {"scalar": 0.0, "lockstep": 0.0}
     for _ in range(args.repeat):
         for kernel in kernels:
-            run = rate(lambda kernel=kernel: model.mse_batch(P, s.t, s.x, s.v, s.a, problem.specimen.f, kernel=kernel),
-                       len(P), 1, clock)
+            run = rate(
+                lambda kernel=kernel: model.mse_batch(P, s.t, s.x, s.v, s.a, problem.specimen.f, kernel=kernel),
+                len(P),
+                1,
+                clock,
+            )
             kernels[kernel] = max(kernels[kernel], run)
     k = args.scipy_evals  # before the threads line: numba's idle pool threads may still spin after it
     reference = rate(lambda: [scipy_mse(p, s, problem.specimen.f) for p in P[:k]], k, 1, clock)
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     batched_all = rate(lambda: Objective(problem, len(U)).batch(U), len(U), args.repeat)
 
-    print(f"specimen: {SPECIMEN.name} ({problem.specimen.n_samples} samples, synthetic); "
-          f"{len(U)} points, half uniform in Table 5, half near the Table 6 fits; {args.clock} clock")
+    print(
+        f"specimen: {SPECIMEN.name} ({problem.specimen.n_samples} samples, synthetic); "
+        f"{len(U)} points, half uniform in Table 5, half near the Table 6 fits; {args.clock} clock"
+    )
     print(f"bwbench, one core, one call per point : {single:9.0f} evaluations/s")
     print(f"bwbench, one core, batched            : {batched:9.0f} evaluations/s")
     print(f"bwbench, {numba.config.NUMBA_NUM_THREADS} threads, batched           : {batched_all:9.0f} evaluations/s")
     print(f"scipy solve_ivp (RK45), one core      : {reference:9.2f} evaluations/s")
     print(f"ratio one core (single / scipy)       : {single / reference:9.0f}x")
     print(f"ratio one core (batched / scipy)      : {batched / reference:9.0f}x")
-    print(f"kernels, one core: lockstep {kernels['lockstep']:.0f}/s, scalar {kernels['scalar']:.0f}/s, "
-          f"ratio (lockstep / scalar) : {kernels['lockstep'] / kernels['scalar']:.2f}x")
+    print(
+        f"kernels, one core: lockstep {kernels['lockstep']:.0f}/s, scalar {kernels['scalar']:.0f}/s, "
+        f"ratio (lockstep / scalar) : {kernels['lockstep'] / kernels['scalar']:.2f}x"
+    )
     print("targets: >= 3,000 evaluations/s on one core, >= 100x scipy; lockstep >= 2x scalar")
 
 

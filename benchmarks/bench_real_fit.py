@@ -72,10 +72,22 @@ def lsoda_force(p: dict, t, x, v, rtol=1e-3, atol=1e-6) -> np.ndarray:
 def write_sine(folder: Path, name, amplitude, frequency, rate, cycles, rng) -> Path:
     path = folder / f"{name}.csv"
     params = dict(mr_damper.SPENCER_1997)
-    mr_damper.write_test(path, velocity=True, amplitude_mm=amplitude, frequency_hz=frequency, voltage=VOLTAGE,
-                         rate_hz=rate, cycles=cycles, peak_force_N=None, force_noise_frac=NOISE["force_frac"],
-                         displacement_noise_mm=NOISE["x_mm"], force_offset_N=NOISE["offset_N"], rng=rng,
-                         params=params, velocity_noise_mm_s=NOISE["v_mm_s"])
+    mr_damper.write_test(
+        path,
+        velocity=True,
+        amplitude_mm=amplitude,
+        frequency_hz=frequency,
+        voltage=VOLTAGE,
+        rate_hz=rate,
+        cycles=cycles,
+        peak_force_N=None,
+        force_noise_frac=NOISE["force_frac"],
+        displacement_noise_mm=NOISE["x_mm"],
+        force_offset_N=NOISE["offset_N"],
+        rng=rng,
+        params=params,
+        velocity_noise_mm_s=NOISE["v_mm_s"],
+    )
     return path
 
 
@@ -84,7 +96,9 @@ def write_random(folder: Path, rng) -> Path:
     rate, duration = 1000.0, 6.0
     t = np.arange(0.0, duration, 1.0 / rate)
     freqs = np.fft.rfftfreq(len(t), 1.0 / rate)
-    spectrum = np.where((freqs >= 0.2) & (freqs <= 3.0), rng.normal(size=freqs.size) + 1j * rng.normal(size=freqs.size), 0)
+    spectrum = np.where(
+        (freqs >= 0.2) & (freqs <= 3.0), rng.normal(size=freqs.size) + 1j * rng.normal(size=freqs.size), 0
+    )
     x = np.fft.irfft(spectrum, len(t))
     x *= np.minimum(1.0, t / 0.5) ** 2  # from rest
     x *= 20.0 / np.max(np.abs(x))
@@ -118,8 +132,11 @@ def main():
     parser.add_argument("--quick", action="store_true", help="three files, no joint fit")
     parser.add_argument("--budget", type=int, default=4100)
     parser.add_argument("--stop", choices=("agreed", "budget"), default="agreed")
-    parser.add_argument("--coordinates-only", action="store_true",
-                        help="lsq-trf's earlier agreement rule: ends agree by their parameters only (agree_same_fit=false)")
+    parser.add_argument(
+        "--coordinates-only",
+        action="store_true",
+        help="lsq-trf's earlier agreement rule: ends agree by their parameters only (agree_same_fit=false)",
+    )
     args = parser.parse_args()
     options = {"agree_same_fit": False} if args.coordinates_only else None
     rng = np.random.default_rng(2027)
@@ -133,24 +150,47 @@ def main():
         print(f"{'file':<22} {'samples':>7} {'fit s':>7} {'nfev':>5} {'LSODA s':>8} {'fit/LSODA':>9} {'NRMSE':>7}")
         ratios = []
         for path in files:
-            fit, seconds = timed(lambda path=path: bwbench.fit(path, model="spencer", optimizer="lsq-trf", budget=args.budget,
-                                                               seed=1, stop=args.stop, options=options))
+            fit, seconds = timed(
+                lambda path=path: bwbench.fit(
+                    path,
+                    model="spencer",
+                    optimizer="lsq-trf",
+                    budget=args.budget,
+                    seed=1,
+                    stop=args.stop,
+                    options=options,
+                )
+            )
             reference = simulation_time(path, {k: fit.params[k] for k in DIRECT})
             ratios.append(seconds / reference)
-            print(f"{path.stem:<22} {fit.files[0]['n']:>7} {seconds:>7.2f} {fit.nfev:>5} {reference:>8.3f} "
-                  f"{ratios[-1]:>9.1f} {fit.files[0]['nrmse']:>7.4f}", flush=True)
+            print(
+                f"{path.stem:<22} {fit.files[0]['n']:>7} {seconds:>7.2f} {fit.nfev:>5} {reference:>8.3f} "
+                f"{ratios[-1]:>9.1f} {fit.files[0]['nrmse']:>7.4f}",
+                flush=True,
+            )
         print(f"median fit/LSODA: {np.median(ratios):.1f} (target ≤ 5)")
         if args.quick:
             return
         train, held_out = sines[:5], sines[5]
-        joint, seconds = timed(lambda: bwbench.fit(*train, model="spencer", optimizer="lsq-trf", budget=args.budget,
-                                                   seed=1, stop=args.stop, options=options))
+        joint, seconds = timed(
+            lambda: bwbench.fit(
+                *train,
+                model="spencer",
+                optimizer="lsq-trf",
+                budget=args.budget,
+                seed=1,
+                stop=args.stop,
+                options=options,
+            )
+        )
         reference = sum(simulation_time(p, {k: joint.params[k] for k in DIRECT}) for p in train)
         prediction = joint.predict(held_out)
         in_sample = ", ".join(f"{row['nrmse']:.4f}" for row in joint.files)
-        print(f"joint fit of {len(train)} files: {seconds:.1f} s, {joint.nfev} evaluations, "
-              f"{seconds / reference:.1f}× one LSODA simulation of the five ({reference:.2f} s); "
-              f"in-sample NRMSE {in_sample}")
+        print(
+            f"joint fit of {len(train)} files: {seconds:.1f} s, {joint.nfev} evaluations, "
+            f"{seconds / reference:.1f}× one LSODA simulation of the five ({reference:.2f} s); "
+            f"in-sample NRMSE {in_sample}"
+        )
         print(f"prediction of {held_out.stem}: NRMSE {prediction.nrmse:.4f}")
 
 

@@ -32,8 +32,9 @@ def main():
     args = parser.parse_args()
     derivatives.estimate(*record(100, np.random.default_rng(0)))  # imports and caches out of the timing
     lengths = [n for n in (10**4, 10**5, 10**6, 10**7) if n <= args.max]
-    print(f"{'samples':>9} {'estimate s':>10} {'µs/sample':>9} {'ratio':>6} {'error s':>8} {'µs/sample':>9} "
-          f"{'ratio':>6}")
+    print(
+        f"{'samples':>9} {'estimate s':>10} {'µs/sample':>9} {'ratio':>6} {'error s':>8} {'µs/sample':>9} {'ratio':>6}"
+    )
     reference = None
     for n in lengths:
         t, x = record(n, np.random.default_rng(1))
@@ -45,8 +46,11 @@ def main():
         error_s = time.perf_counter() - started
         per = (1e6 * estimate_s / n, 1e6 * error_s / n)
         reference = reference or per
-        print(f"{n:>9.0e} {estimate_s:>10.3f} {per[0]:>9.2f} {per[0] / reference[0]:>6.2f} {error_s:>8.3f} "
-              f"{per[1]:>9.2f} {per[1] / reference[1]:>6.2f}", flush=True)
+        print(
+            f"{n:>9.0e} {estimate_s:>10.3f} {per[0]:>9.2f} {per[0] / reference[0]:>6.2f} {error_s:>8.3f} "
+            f"{per[1]:>9.2f} {per[1] / reference[1]:>6.2f}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

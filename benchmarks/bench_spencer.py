@@ -19,8 +19,18 @@ from scipy.interpolate import CubicHermiteSpline
 from bwbench.models.spencer import MODEL
 
 # Spencer et al. (1997)'s damper at 1 V, mm units (see tests/models/test_spencer.py).
-P = {"c0": 2.45, "c1": 28.595, "k0": 4.69, "k1": 0.5, "x0": 143.0, "alpha": 83.5,
-     "beta": 3.63, "gamma": 3.63, "A": 301.0, "n": 2.0}
+P = {
+    "c0": 2.45,
+    "c1": 28.595,
+    "k0": 4.69,
+    "k1": 0.5,
+    "x0": 143.0,
+    "alpha": 83.5,
+    "beta": 3.63,
+    "gamma": 3.63,
+    "A": 301.0,
+    "n": 2.0,
+}
 CASES = [(10.0, 1.0, 1000.0), (25.0, 0.25, 200.0), (2.0, 5.0, 500.0)]  # amplitude mm, Hz, sampling Hz
 
 
@@ -68,8 +78,10 @@ def main():
         ref = lsoda(t, x, v, a)
         ref_ms = (time.perf_counter() - start) * 1e3
         name = f"{amplitude:g} mm, {frequency:g} Hz, {rate:g} Hz"
-        print(f"{name:>24} {len(t):>8} {ours_ms:>11.2f} {ref_ms:>9.0f} {ref_ms / ours_ms:>7.0f}× "
-              f"{np.max(np.abs(ours - ref)) / np.ptp(ref):>15.1e}")
+        print(
+            f"{name:>24} {len(t):>8} {ours_ms:>11.2f} {ref_ms:>9.0f} {ref_ms / ours_ms:>7.0f}× "
+            f"{np.max(np.abs(ours - ref)) / np.ptp(ref):>15.1e}"
+        )
 
 
 if __name__ == "__main__":

@@ -66,12 +66,13 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.toml"
-        path.write_text(CONFIG.format(budget=args.budget, seeds=args.runs_per_specimen,
-                                      data=SPECIMEN_DIR.as_posix()))
+        path.write_text(CONFIG.format(budget=args.budget, seeds=args.runs_per_specimen, data=SPECIMEN_DIR.as_posix()))
         tasks = plan_tasks(load_study_config(path))
     measure(tasks[:1], 1)  # imports and numba's cache load happen here, not in the timed runs
-    print(f"{len(tasks)} runs of random, {args.budget} evaluations each; cores: {os.cpu_count()}, "
-          f"load average before: {os.getloadavg()[0]:.2f}")
+    print(
+        f"{len(tasks)} runs of random, {args.budget} evaluations each; cores: {os.cpu_count()}, "
+        f"load average before: {os.getloadavg()[0]:.2f}"
+    )
     print(f"{'workers':>7}  {'wall (s)':>8}  {'runs/s':>6}  {'evals/s':>8}  {'steady runs/s':>13}")
     rates, steady_rates = {}, {}
     for workers in args.workers:
@@ -80,9 +81,12 @@ def main() -> None:
         print(f"{workers:>7}  {wall:>8.2f}  {len(tasks) / wall:>6.2f}  {evaluations / wall:>8.0f}  {steady:>13.2f}")
     first = args.workers[0]
     for workers in args.workers[1:]:
-        print(f"speed-up {workers} vs {first} worker(s): {rates[workers] / rates[first]:.2f}x end to end, "
-              f"{steady_rates[workers] / steady_rates[first]:.2f}x steady state; "
-              f"load average after: {os.getloadavg()[0]:.2f}")
+        print(
+            f"speed-up {workers} vs {first} worker(s): {rates[workers] / rates[first]:.2f}x end to end, "
+            f"{steady_rates[workers] / steady_rates[first]:.2f}x steady state; "
+            f"load average after: {os.getloadavg()[0]:.2f}"
+        )
+
 
 if __name__ == "__main__":
     main()

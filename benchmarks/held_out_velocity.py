@@ -61,14 +61,20 @@ def main():
             mse, mse_without = truth_loss(with_v, truth), truth_loss(without_v, truth)
             realised = float(np.mean((np.round(force + noise_f, 4) - force) ** 2))  # the file prints 0.1 mN
             label = f"{row['material']} {float(row['underpressure_MPa']):.2f} MPa"
-            print(f"{label:<24} {rms:9.3f} {mse:9.3f} {mse / FORCE_NOISE_N**2:7.3f} {mse / realised:10.3f} {mse_without:12.2f}",
-                  flush=True)
+            print(
+                f"{label:<24} {rms:9.3f} {mse:9.3f} {mse / FORCE_NOISE_N**2:7.3f} {mse / realised:10.3f} {mse_without:12.2f}",
+                flush=True,
+            )
             for key, value in zip(out, (rms, mse / FORCE_NOISE_N**2, mse / realised, mse_without)):
                 out[key].append(value)
-    print(f"1. noise-free, no velocity column: truth RMS {min(out['rms']):.3f}–{max(out['rms']):.3f} N (target ≤ 0.5 N)")
-    print(f"2. with a velocity column: truth MSE / 4 N² = {min(out['ratio']):.3f}–{max(out['ratio']):.3f} "
-          f"(target 0.9–1.1); / the realised noise's MSE {min(out['realised']):.4f}–{max(out['realised']):.4f}; "
-          f"without the column {min(out['without']):.1f}–{max(out['without']):.1f} N²")
+    print(
+        f"1. noise-free, no velocity column: truth RMS {min(out['rms']):.3f}–{max(out['rms']):.3f} N (target ≤ 0.5 N)"
+    )
+    print(
+        f"2. with a velocity column: truth MSE / 4 N² = {min(out['ratio']):.3f}–{max(out['ratio']):.3f} "
+        f"(target 0.9–1.1); / the realised noise's MSE {min(out['realised']):.4f}–{max(out['realised']):.4f}; "
+        f"without the column {min(out['without']):.1f}–{max(out['without']):.1f} N²"
+    )
 
 
 if __name__ == "__main__":

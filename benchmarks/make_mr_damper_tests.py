@@ -30,19 +30,29 @@ def main():
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     seeds = np.random.SeedSequence(SEED).spawn(len(FREQUENCIES_HZ) * len(VOLTAGES))
-    print(f"{'file':<22} {'peak unscaled N':>15} {'scale':>7} {'E/cycle J':>9} "
-          f"{'E unscaled J':>12} {'noise F N':>9} {'noise x um':>10}")
+    print(
+        f"{'file':<22} {'peak unscaled N':>15} {'scale':>7} {'E/cycle J':>9} "
+        f"{'E unscaled J':>12} {'noise F N':>9} {'noise x um':>10}"
+    )
     for i, (f_hz, volts) in enumerate((f, v) for f in FREQUENCIES_HZ for v in VOLTAGES):
         name = f"mr_{f_hz:g}Hz_{volts:g}V.csv"
-        test = mr_damper.write_test(out / name, frequency_hz=f_hz, voltage=volts, rate_hz=RATE_HZ,
-                                    rng=np.random.default_rng(seeds[i]), velocity=args.velocity,
-                                    velocity_noise_mm_s=VELOCITY_NOISE_MM_S if args.velocity else 0.0)
+        test = mr_damper.write_test(
+            out / name,
+            frequency_hz=f_hz,
+            voltage=volts,
+            rate_hz=RATE_HZ,
+            rng=np.random.default_rng(seeds[i]),
+            velocity=args.velocity,
+            velocity_noise_mm_s=VELOCITY_NOISE_MM_S if args.velocity else 0.0,
+        )
         n = round(RATE_HZ / f_hz)  # one cycle
         energy = mr_damper.loop_energy(test.x_true[: n + 1], test.f_true[: n + 1]) / 1000.0  # N·mm → J
         noise_f = np.std(test.f - test.f_true)  # the offset is a mean, not noise
         noise_x = np.std(test.x - test.x_true) * 1000.0
-        print(f"{name:<22} {test.peak_unscaled_N:15.1f} {test.scale:7.3f} {energy:9.1f} "
-              f"{energy / test.scale:12.1f} {noise_f:9.2f} {noise_x:10.3f}")
+        print(
+            f"{name:<22} {test.peak_unscaled_N:15.1f} {test.scale:7.3f} {energy:9.1f} "
+            f"{energy / test.scale:12.1f} {noise_f:9.2f} {noise_x:10.3f}"
+        )
 
 
 if __name__ == "__main__":

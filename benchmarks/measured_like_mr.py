@@ -36,8 +36,21 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 # Spencer et al. (1997), Table 1, in N, cm, s, V (c·a + c·b·u with the voltage u held constant).
-SPENCER_1997 = {"c0a": 21.0, "c0b": 3.50, "k0": 46.9, "c1a": 283.0, "c1b": 2.95, "k1": 5.00, "x0": 14.3,
-                "alpha_a": 140.0, "alpha_b": 695.0, "gamma": 363.0, "beta": 363.0, "A": 301.0, "n": 2.0}
+SPENCER_1997 = {
+    "c0a": 21.0,
+    "c0b": 3.50,
+    "k0": 46.9,
+    "c1a": 283.0,
+    "c1b": 2.95,
+    "k1": 5.00,
+    "x0": 14.3,
+    "alpha_a": 140.0,
+    "alpha_b": 695.0,
+    "gamma": 363.0,
+    "beta": 363.0,
+    "A": 301.0,
+    "n": 2.0,
+}
 # name, amplitude mm, frequency Hz, voltage V, sampling Hz, steady cycles, tared load cell
 TESTS = (
     ("rig_a10_f2_v1_500Hz", 10.0, 2.0, 1.0, 500.0, 3, True),
@@ -91,8 +104,9 @@ def spencer_force(t, amplitude_mm, f_hz, cycles_total, volts):
         zd = -gamma * abs(u) * z * abs(z) ** (n - 1) - beta * u * abs(z) ** n + A * u
         return [yd, zd]
 
-    sol = solve_ivp(rhs, (t[0], t[-1]), [0.0, 0.0], method="LSODA", t_eval=t, rtol=1e-8, atol=1e-10,
-                    max_step=0.05 / f_hz)
+    sol = solve_ivp(
+        rhs, (t[0], t[-1]), [0.0, 0.0], method="LSODA", t_eval=t, rtol=1e-8, atol=1e-10, max_step=0.05 / f_hz
+    )
     if not sol.success:
         raise RuntimeError(sol.message)
     y, z = sol.y
@@ -130,9 +144,20 @@ def write_tests(out: Path) -> dict:
 def published_theta(volts: float) -> np.ndarray:
     """Spencer's published parameters at ``volts`` as bwbench's direct vector (N, mm, s)."""
     p = SPENCER_1997
-    return np.array([(p["c0a"] + p["c0b"] * volts) / 10, (p["c1a"] + p["c1b"] * volts) / 10, p["k0"] / 10,
-                     p["k1"] / 10, p["x0"] * 10, (p["alpha_a"] + p["alpha_b"] * volts) / 10, p["beta"] / 100,
-                     p["gamma"] / 100, p["A"], p["n"]])
+    return np.array(
+        [
+            (p["c0a"] + p["c0b"] * volts) / 10,
+            (p["c1a"] + p["c1b"] * volts) / 10,
+            p["k0"] / 10,
+            p["k1"] / 10,
+            p["x0"] * 10,
+            (p["alpha_a"] + p["alpha_b"] * volts) / 10,
+            p["beta"] / 100,
+            p["gamma"] / 100,
+            p["A"],
+            p["n"],
+        ]
+    )
 
 
 def published_rmse(path: Path, volts: float) -> float:
@@ -158,9 +183,26 @@ def fit_all(made: dict, out: Path, optimizer: str) -> None:
     for name, (path, _, f_meas) in made.items():
         res = work / f"{name}.json"
         start = time.perf_counter()
-        proc = subprocess.run([bwbench, "fit", str(path.resolve()), "--model", "spencer", "--optimizer", optimizer,
-                               "--seed", "1", "--out", str(res), "--plot", str(work / f"{name}.png")],
-                              cwd=work, capture_output=True, text=True)
+        proc = subprocess.run(
+            [
+                bwbench,
+                "fit",
+                str(path.resolve()),
+                "--model",
+                "spencer",
+                "--optimizer",
+                optimizer,
+                "--seed",
+                "1",
+                "--out",
+                str(res),
+                "--plot",
+                str(work / f"{name}.png"),
+            ],
+            cwd=work,
+            capture_output=True,
+            text=True,
+        )
         wall = time.perf_counter() - start
         (work / f"{name}.log").write_text(proc.stdout + proc.stderr)
         data = json.loads(res.read_text())
@@ -180,22 +222,38 @@ def summary(name, path, data, f_meas, published, wall) -> dict:
     physical = set(data.get("physical_limits", {}))
     edges = [k for k in data.get("at_bound", {}) if k not in physical]
     unphysical = [k for k in ("c0", "c1", "k0", "k1") if isinstance(p.get(k), (int, float)) and p[k] < 0]
-    return {"name": name, "nrmse": rmse / np.max(f_meas), "nrmse_abs": rmse / np.max(np.abs(f_meas)),
-            "published": published / np.max(f_meas), "startup": startup, "k1": p.get("k1"), "x0": p.get("x0"),
-            "edges": edges, "limits": sorted(physical), "unphysical": unphysical, "wall": wall}
+    return {
+        "name": name,
+        "nrmse": rmse / np.max(f_meas),
+        "nrmse_abs": rmse / np.max(np.abs(f_meas)),
+        "published": published / np.max(f_meas),
+        "startup": startup,
+        "k1": p.get("k1"),
+        "x0": p.get("x0"),
+        "edges": edges,
+        "limits": sorted(physical),
+        "unphysical": unphysical,
+        "wall": wall,
+    }
 
 
 def print_table(rows) -> None:
-    print(f"\n{'file':<26} {'NRMSE':>7} {'|F|':>7} {'publ.':>7} {'start N':>8} {'k1 N/mm':>8} {'x0 mm':>8} "
-          f"{'wall s':>6}  box edge / on a physical limit / solved < 0")
+    print(
+        f"\n{'file':<26} {'NRMSE':>7} {'|F|':>7} {'publ.':>7} {'start N':>8} {'k1 N/mm':>8} {'x0 mm':>8} "
+        f"{'wall s':>6}  box edge / on a physical limit / solved < 0"
+    )
     for r in rows:
         k1 = f"{r['k1']:.3g}" if isinstance(r["k1"], (int, float)) else "-"
         x0 = f"{r['x0']:.3g}" if isinstance(r["x0"], (int, float)) else "-"
-        print(f"{r['name']:<26} {r['nrmse']:7.4f} {r['nrmse_abs']:7.4f} {r['published']:7.4f} {r['startup']:8.1f} "
-              f"{k1:>8} {x0:>8} {r['wall']:6.0f}  {','.join(r['edges']) or '-'} / {','.join(r['limits']) or '-'} / "
-              f"{','.join(r['unphysical']) or '-'}")
-    print("NRMSE: RMSE/max F (the literature's); |F|: RMSE/max|F|; publ.: the published parameters' shape on the "
-          "recorded signals (RMSE/max F); start: RMSE of the first 2 % of the record (N)")
+        print(
+            f"{r['name']:<26} {r['nrmse']:7.4f} {r['nrmse_abs']:7.4f} {r['published']:7.4f} {r['startup']:8.1f} "
+            f"{k1:>8} {x0:>8} {r['wall']:6.0f}  {','.join(r['edges']) or '-'} / {','.join(r['limits']) or '-'} / "
+            f"{','.join(r['unphysical']) or '-'}"
+        )
+    print(
+        "NRMSE: RMSE/max F (the literature's); |F|: RMSE/max|F|; publ.: the published parameters' shape on the "
+        "recorded signals (RMSE/max F); start: RMSE of the first 2 % of the record (N)"
+    )
 
 
 def table_of(folder: Path, out: Path) -> None:
@@ -207,8 +265,9 @@ def table_of(folder: Path, out: Path) -> None:
         if not res.exists():
             continue
         f_meas = np.loadtxt(path, delimiter=",", skiprows=1)[:, 3]
-        rows.append(summary(name, path, json.loads(res.read_text()), f_meas, published_rmse(path, volts[name]),
-                            float("nan")))
+        rows.append(
+            summary(name, path, json.loads(res.read_text()), f_meas, published_rmse(path, volts[name]), float("nan"))
+        )
     print_table(rows)
 
 
@@ -217,8 +276,12 @@ def main():
     parser.add_argument("--out", type=Path, required=True, help="folder for the CSV files (and fits)")
     parser.add_argument("--fit", action="store_true", help="fit each file with bwbench fit --model spencer")
     parser.add_argument("--optimizer", default="lsq-trf")
-    parser.add_argument("--table", type=Path, metavar="FOLDER",
-                        help="only print the table of the fits (JSON per file) in FOLDER against the files in --out")
+    parser.add_argument(
+        "--table",
+        type=Path,
+        metavar="FOLDER",
+        help="only print the table of the fits (JSON per file) in FOLDER against the files in --out",
+    )
     args = parser.parse_args()
     if args.table:
         table_of(args.table, args.out)

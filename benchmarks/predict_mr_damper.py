@@ -43,10 +43,19 @@ def write_sines(out: Path) -> float:
     """The sine tests; returns the noise σ (N) they got, for the random record."""
     sigma = None
     for i, (name, amplitude, frequency) in enumerate(TRAIN + (SINE,)):
-        test = mr_damper.write_test(out / f"{name}.csv", amplitude_mm=amplitude, frequency_hz=frequency, voltage=1.0,
-                                    rate_hz=RATE_HZ, cycles=3 if frequency < 2 else 5, peak_force_N=None, rng=i,
-                                    velocity=True, velocity_noise_mm_s=NOISE["v_mm_s"],
-                                    force_noise_frac=NOISE["force_frac"])
+        test = mr_damper.write_test(
+            out / f"{name}.csv",
+            amplitude_mm=amplitude,
+            frequency_hz=frequency,
+            voltage=1.0,
+            rate_hz=RATE_HZ,
+            cycles=3 if frequency < 2 else 5,
+            peak_force_N=None,
+            rng=i,
+            velocity=True,
+            velocity_noise_mm_s=NOISE["v_mm_s"],
+            force_noise_frac=NOISE["force_frac"],
+        )
         sigma = sigma or NOISE["force_frac"] * test.peak_unscaled_N
     return sigma
 
@@ -92,17 +101,50 @@ def main() -> None:
         for label, files in (("joint: 3 sines", train), ("one sine: 25 mm 1 Hz", train[:1])):
             stem = f"{model}_{'joint' if len(files) > 1 else 'single'}"
             fit = out / f"{stem}.json"
-            bwbench("fit", *files, "--model", model, "--formulation", "identifiable", "--optimizer", "lsq-trf",
-                    "--budget", args.budget, "--seed", 1, "--out", fit, "--plot", out / f"{stem}_fit.png")
-            bwbench("predict", "--fit", fit, *predicted, "--out", out / f"{stem}_predict.json",
-                    "--plot", out / f"{stem}_predict.png")
+            bwbench(
+                "fit",
+                *files,
+                "--model",
+                model,
+                "--formulation",
+                "identifiable",
+                "--optimizer",
+                "lsq-trf",
+                "--budget",
+                args.budget,
+                "--seed",
+                1,
+                "--out",
+                fit,
+                "--plot",
+                out / f"{stem}_fit.png",
+            )
+            bwbench(
+                "predict",
+                "--fit",
+                fit,
+                *predicted,
+                "--out",
+                out / f"{stem}_predict.json",
+                "--plot",
+                out / f"{stem}_predict.png",
+            )
             fitted = json.loads(fit.read_text())
             predictions = json.loads((out / f"{stem}_predict.json").read_text())["predictions"]
-            rows.append((model, label, {f["specimen"]: f["nrmse"] for f in fitted["files"]},
-                         {p["specimen"]: p["nrmse"] for p in predictions}, fitted["params"].get("m")))
+            rows.append(
+                (
+                    model,
+                    label,
+                    {f["specimen"]: f["nrmse"] for f in fitted["files"]},
+                    {p["specimen"]: p["nrmse"] for p in predictions},
+                    fitted["params"].get("m"),
+                )
+            )
     print(f"noise: force σ = {sigma:.3g} N, velocity 0.5 mm/s, offset 8 N\n")
-    print("| model (identifiable) | fitted to | NRMSE on the training files | predicted: 20 mm 1.5 Hz sine | "
-          "predicted: random record | m (N·s²/mm) |")
+    print(
+        "| model (identifiable) | fitted to | NRMSE on the training files | predicted: 20 mm 1.5 Hz sine | "
+        "predicted: random record | m (N·s²/mm) |"
+    )
     print("|---|---|---|---|---|---|")
     for model, label, train_nrmse, pred, m in rows:
         fitted_text = ", ".join(f"{n.removeprefix('mr_')} {v:.4f}" for n, v in train_nrmse.items())

@@ -54,7 +54,11 @@ def minimize(objective, *, rng, maxiter=1000, no_local_search=False):
     while True:  # until the objective raises BudgetExhausted
         spent = objective.nfev
         dual_annealing(
-            loss, [(0.0, 1.0)] * d, maxiter=int(maxiter), x0=rng.random(d), rng=rng,
+            loss,
+            [(0.0, 1.0)] * d,
+            maxiter=int(maxiter),
+            x0=rng.random(d),
+            rng=rng,
             no_local_search=bool(no_local_search),
         )
         if objective.nfev == spent:  # the next restart would do the same: never loop for nothing

@@ -56,7 +56,8 @@ class Share:
         R = np.full((len(U), run.shape[1]), np.inf)
         R[:take] = run
         with np.errstate(over="ignore"):
-            losses = np.where(np.all(np.isfinite(run), axis=1), np.mean(np.where(np.isfinite(run), run, 0) ** 2, axis=1),
-                              np.inf)
+            losses = np.where(
+                np.all(np.isfinite(run), axis=1), np.mean(np.where(np.isfinite(run), run, 0) ** 2, axis=1), np.inf
+            )
         self._keep_best(U[:take], losses)
         return R[0] if single else R

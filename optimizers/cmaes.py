@@ -42,8 +42,10 @@ from bwbench.optimize.registry import register
     "cmaes",
     family="evolution-strategy",
     description="CMA-ES (cma package, ask/tell) on the unit box, IPOP restarts doubling the population",
-    options={"sigma0": Float(0.3, minimum=1e-11, maximum=1.0),
-             "popsize": Int(None, minimum=2, maximum=1000, none="cma's default, 4 + ⌊3 ln d⌋")},
+    options={
+        "sigma0": Float(0.3, minimum=1e-11, maximum=1.0),
+        "popsize": Int(None, minimum=2, maximum=1000, none="cma's default, 4 + ⌊3 ln d⌋"),
+    },
 )
 def minimize(objective, *, rng, sigma0=0.3, popsize=None):
     import cma  # here, not at module level: it pulls in matplotlib and scipy.stats (~1 s per worker)
@@ -56,10 +58,20 @@ def minimize(objective, *, rng, sigma0=0.3, popsize=None):
     popsize = int(popsize) if popsize else 4 + int(3 * np.log(d))
     while True:  # until the objective raises BudgetExhausted
         spent = objective.nfev
-        es = cma.CMAEvolutionStrategy(rng.random(d), sigma0, {
-            "bounds": [0.0, 1.0], "popsize": popsize, "randn": randn, "seed": np.nan,
-            "verbose": -9, "verb_disp": 0, "verb_log": 0, "signals_filename": "",
-        })
+        es = cma.CMAEvolutionStrategy(
+            rng.random(d),
+            sigma0,
+            {
+                "bounds": [0.0, 1.0],
+                "popsize": popsize,
+                "randn": randn,
+                "seed": np.nan,
+                "verbose": -9,
+                "verb_disp": 0,
+                "verb_log": 0,
+                "signals_filename": "",
+            },
+        )
         while not es.stop():
             X = es.ask()
             losses = objective.batch(np.asarray(X))

@@ -40,21 +40,46 @@ from bwbench.optimize.options import Choice, Float, FloatOrPair, Int
 from bwbench.optimize.registry import register
 
 # scipy 1.17's differential_evolution strategies (its _binomial and _exponential tables)
-STRATEGIES = ("best1bin", "best1exp", "rand1bin", "rand1exp", "rand2bin", "rand2exp", "randtobest1bin",
-              "randtobest1exp", "currenttobest1bin", "currenttobest1exp", "best2bin", "best2exp")
+STRATEGIES = (
+    "best1bin",
+    "best1exp",
+    "rand1bin",
+    "rand1exp",
+    "rand2bin",
+    "rand2exp",
+    "randtobest1bin",
+    "randtobest1exp",
+    "currenttobest1bin",
+    "currenttobest1exp",
+    "best2bin",
+    "best2exp",
+)
 
 
 @register(
     "de",
     family="evolutionary",
     description="scipy differential_evolution (best1bin, deferred updating), restarted on convergence",
-    options={"popsize": Int(5, minimum=1, maximum=100), "strategy": Choice("best1bin", STRATEGIES),
-             "mutation": FloatOrPair((0.5, 1.0), minimum=0.0, maximum=2.0, exclusive_maximum=True),
-             "recombination": Float(0.7, minimum=0.0, maximum=1.0), "tol": Float(0.01, minimum=0.0),
-             "init": Choice("latinhypercube", ("latinhypercube", "sobol", "halton", "random"))},
+    options={
+        "popsize": Int(5, minimum=1, maximum=100),
+        "strategy": Choice("best1bin", STRATEGIES),
+        "mutation": FloatOrPair((0.5, 1.0), minimum=0.0, maximum=2.0, exclusive_maximum=True),
+        "recombination": Float(0.7, minimum=0.0, maximum=1.0),
+        "tol": Float(0.01, minimum=0.0),
+        "init": Choice("latinhypercube", ("latinhypercube", "sobol", "halton", "random")),
+    },
 )
-def minimize(objective, *, rng, popsize=5, strategy="best1bin", mutation=(0.5, 1.0), recombination=0.7,
-             tol=0.01, init="latinhypercube"):
+def minimize(
+    objective,
+    *,
+    rng,
+    popsize=5,
+    strategy="best1bin",
+    mutation=(0.5, 1.0),
+    recombination=0.7,
+    tol=0.01,
+    init="latinhypercube",
+):
     from scipy.optimize import differential_evolution  # here: scipy.optimize costs ~0.5 s to import
 
     d = objective.dim
@@ -65,9 +90,18 @@ def minimize(objective, *, rng, popsize=5, strategy="best1bin", mutation=(0.5, 1
     while True:  # until the objective raises BudgetExhausted
         spent = objective.nfev
         differential_evolution(
-            losses, [(0.0, 1.0)] * d, strategy=strategy, maxiter=np.iinfo(np.int32).max, popsize=int(popsize),
-            tol=tol, mutation=tuple(mutation) if np.ndim(mutation) else mutation,
-            recombination=recombination, rng=rng, polish=False, init=init, updating="deferred",
+            losses,
+            [(0.0, 1.0)] * d,
+            strategy=strategy,
+            maxiter=np.iinfo(np.int32).max,
+            popsize=int(popsize),
+            tol=tol,
+            mutation=tuple(mutation) if np.ndim(mutation) else mutation,
+            recombination=recombination,
+            rng=rng,
+            polish=False,
+            init=init,
+            updating="deferred",
             vectorized=True,
         )
         if objective.nfev == spent:  # the next restart would do the same: never loop for nothing

@@ -79,22 +79,38 @@ STUCK_STEPS = 100  # stored steps in a row that evaluate nothing: stop
     "emcee",
     family="mcmc",
     description="emcee ensemble sampler, uniform prior on the box, Gaussian likelihood with σ profiled out",
-    options={"n_walkers": Int(None, minimum=2, maximum=10_000, none="2·d + 2"),
-             "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points"),
-             "start": Choice("uniform", ("uniform", "optimum", "optima")),
-             "start_fraction": Float(0.1, minimum=0.0, maximum=0.9),
-             "moves": Choice("stretch", ("stretch", "de")),
-             "start_radius": Float(0.01, minimum=1e-6, maximum=0.5),
-             "ensembles": Int(1, minimum=1, maximum=64),
-             "stop": Choice("budget", ("budget", "converged")),
-             "thin": Int(None, minimum=1, maximum=10_000, none=f"at most {MAX_STORED} stored steps")},
+    options={
+        "n_walkers": Int(None, minimum=2, maximum=10_000, none="2·d + 2"),
+        "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points"),
+        "start": Choice("uniform", ("uniform", "optimum", "optima")),
+        "start_fraction": Float(0.1, minimum=0.0, maximum=0.9),
+        "moves": Choice("stretch", ("stretch", "de")),
+        "start_radius": Float(0.01, minimum=1e-6, maximum=0.5),
+        "ensembles": Int(1, minimum=1, maximum=64),
+        "stop": Choice("budget", ("budget", "converged")),
+        "thin": Int(None, minimum=1, maximum=10_000, none=f"at most {MAX_STORED} stored steps"),
+    },
 )
-def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", start_fraction=0.1, moves="stretch",
-             start_radius=0.01, ensembles=1, stop="budget", thin=None):
+def minimize(
+    objective,
+    *,
+    rng,
+    n_walkers=None,
+    n_data=None,
+    start="uniform",
+    start_fraction=0.1,
+    moves="stretch",
+    start_radius=0.01,
+    ensembles=1,
+    stop="budget",
+    thin=None,
+):
     d = objective.dim
     if n_walkers is not None and n_walkers < 2 * d:
-        raise OptionError(f"emcee: option n_walkers must be at least 2·d = {2 * d} on this {d}-parameter "
-                          f"problem (emcee's stretch move), got {n_walkers}")
+        raise OptionError(
+            f"emcee: option n_walkers must be at least 2·d = {2 * d} on this {d}-parameter "
+            f"problem (emcee's stretch move), got {n_walkers}"
+        )
     import emcee  # here, not at module level: it pulls in scipy.stats (~0.7 s for every command)
 
     W, K = (2 * d + 2 if n_walkers is None else n_walkers), ensembles
@@ -134,8 +150,10 @@ def minimize(objective, *, rng, n_walkers=None, n_data=None, start="uniform", st
             spent = objective.nfev
             if runs is None:  # emcee preallocates: ask for as many steps as the budget can still pay for
                 length = objective.remaining // (K * W * thin) + 1
-                runs = [s.sample(st, iterations=length, thin_by=thin, skip_initial_state_check=True)
-                        for s, st in zip(samplers, states)]
+                runs = [
+                    s.sample(st, iterations=length, thin_by=thin, skip_initial_state_check=True)
+                    for s, st in zip(samplers, states)
+                ]
             try:
                 states = [next(run) for run in runs]
             except StopIteration:  # proposals outside the box cost nothing: steps were cheaper than paid for
@@ -224,7 +242,9 @@ def _stacked(samplers, embed):
     """(chain (steps, K·W, d), log_prob (steps, K·W)) of every ensemble, cut to the shortest."""
     steps = min(s.iteration for s in samplers)
     if steps == 0:
-        return np.empty((0, sum(s.nwalkers for s in samplers), embed.d)), np.empty((0, sum(s.nwalkers for s in samplers)))
+        return np.empty((0, sum(s.nwalkers for s in samplers), embed.d)), np.empty(
+            (0, sum(s.nwalkers for s in samplers))
+        )
     chain = np.concatenate([s.get_chain()[:steps] for s in samplers], axis=1)
     full = embed(chain.reshape(-1, chain.shape[2])).reshape(steps, chain.shape[1], embed.d)
     return full, np.concatenate([s.get_log_prob()[:steps] for s in samplers], axis=1)
@@ -242,8 +262,10 @@ def _message(verdict, stuck, objective, stored, thin) -> str:
     if stuck:
         head = "every proposal fell outside the box; stopped"
     elif verdict is not None and verdict["converged"]:
-        return (f"converged after {objective.nfev:,} evaluations, {steps}: R̂ ≤ 1.01 and bulk ESS ≥ 400 for every "
-                f"sampled parameter" + verdict["modes_text"])
+        return (
+            f"converged after {objective.nfev:,} evaluations, {steps}: R̂ ≤ 1.01 and bulk ESS ≥ 400 for every "
+            f"sampled parameter" + verdict["modes_text"]
+        )
     else:
         head = "budget exhausted"
     if verdict is None:

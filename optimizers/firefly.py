@@ -63,9 +63,13 @@ def move(rng, U, loss, alpha, beta0, gamma) -> np.ndarray:
     "firefly",
     family="swarm",
     description="Yang's standard firefly algorithm, vectorised, with alpha decaying as alpha0*theta^t",
-    options={"population": Int(25, minimum=2, maximum=1000), "beta0": Float(1.0, minimum=0.0, maximum=2.0),
-             "gamma": Float(1.0, minimum=0.0), "alpha0": Float(0.2, minimum=0.0, maximum=1.0),
-             "alpha_decay": Float(0.97, minimum=0.0, maximum=1.0, exclusive_minimum=True)},
+    options={
+        "population": Int(25, minimum=2, maximum=1000),
+        "beta0": Float(1.0, minimum=0.0, maximum=2.0),
+        "gamma": Float(1.0, minimum=0.0),
+        "alpha0": Float(0.2, minimum=0.0, maximum=1.0),
+        "alpha_decay": Float(0.97, minimum=0.0, maximum=1.0, exclusive_minimum=True),
+    },
 )
 def minimize(objective, *, rng, population=25, beta0=1.0, gamma=1.0, alpha0=0.2, alpha_decay=0.97):
     U = rng.random((population, objective.dim))

@@ -37,10 +37,14 @@ def _rule(rtol: float, same_fit: bool) -> str:
     """The agreement rule in words (the message and ``extras["agreement"]``)."""
     place = f"every searched parameter within {AGREE_UTOL:.3g} of its box"
     if same_fit:
-        place = (f"either {place} or the fitted curves within {AGREE_FTOL:.3g} of the residual RMS of each "
-                 f"other (RMS of their difference): one valley along a direction the data do not determine")
-        return (f"MSE within {rtol:.3g} relative, and {place}; after at least {MIN_SEARCHES} local searches "
-                f"({VALLEY_SEARCHES} when ends agree by their fitted curves only)")
+        place = (
+            f"either {place} or the fitted curves within {AGREE_FTOL:.3g} of the residual RMS of each "
+            f"other (RMS of their difference): one valley along a direction the data do not determine"
+        )
+        return (
+            f"MSE within {rtol:.3g} relative, and {place}; after at least {MIN_SEARCHES} local searches "
+            f"({VALLEY_SEARCHES} when ends agree by their fitted curves only)"
+        )
     return f"MSE within {rtol:.3g} relative, and {place}; after at least {MIN_SEARCHES} local searches"
 
 

@@ -114,8 +114,7 @@ class _Arrived(_Stalled):
 class _Residuals:
     """The objective as a finite residual function for least_squares, with a batched Jacobian."""
 
-    def __init__(self, objective, diff_step: float, stall_iters: int = 0, stall_rtol: float = 0.0,
-                 exact: bool = False):
+    def __init__(self, objective, diff_step: float, stall_iters: int = 0, stall_rtol: float = 0.0, exact: bool = False):
         self.objective = objective
         self.exact = exact and getattr(objective, "jacobian_cost", 0) > 0  # a budget share has none
         self.stall_iters, self.stall_rtol = int(stall_iters), float(stall_rtol)
@@ -240,9 +239,23 @@ class _Residuals:
     options=OPTIONS,
     batched=True,
 )
-def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="jac", max_nfev_per_start=None,
-             stall_iters=5, stall_rtol=1e-3, jacobian="auto", stop_agree=0, agree_rtol=1e-2, stop_on_arrival=True,
-             agree_same_fit=True):
+def minimize(
+    objective,
+    *,
+    rng,
+    diff_step=1e-5,
+    xtol=1e-8,
+    ftol=1e-8,
+    x_scale="jac",
+    max_nfev_per_start=None,
+    stall_iters=5,
+    stall_rtol=1e-3,
+    jacobian="auto",
+    stop_agree=0,
+    agree_rtol=1e-2,
+    stop_on_arrival=True,
+    agree_same_fit=True,
+):
     from scipy.optimize import least_squares  # here: scipy.optimize costs ~0.5 s to import
 
     x_scale = 1.0 if x_scale == "unit" else x_scale
@@ -262,8 +275,17 @@ def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="j
             if residuals.start(u0) is None:
                 continue  # blew up at the start: draw another
             try:
-                least_squares(residuals.fun, u0, jac=residuals.jac, bounds=(0.0, 1.0), method="trf",
-                              x_scale=x_scale, xtol=float(xtol), ftol=float(ftol), max_nfev=max_nfev)
+                least_squares(
+                    residuals.fun,
+                    u0,
+                    jac=residuals.jac,
+                    bounds=(0.0, 1.0),
+                    method="trf",
+                    x_scale=x_scale,
+                    xtol=float(xtol),
+                    ftol=float(ftol),
+                    max_nfev=max_nfev,
+                )
             except _Arrived:
                 arrivals += 1
             except _Stalled:
@@ -275,13 +297,21 @@ def minimize(objective, *, rng, diff_step=1e-5, xtol=1e-8, ftol=1e-8, x_scale="j
             residuals.arrival_floor = floor
             agreed = _agreed(ends, int(stop_agree), float(agree_rtol), floor)
             if agreed:
-                arrived = f"; {arrivals} of them stopped on reaching an optimum an earlier one ended at" if arrivals else ""
+                arrived = (
+                    f"; {arrivals} of them stopped on reaching an optimum an earlier one ended at" if arrivals else ""
+                )
                 by_fit = _how_agreed(ends, float(agree_rtol), floor).count("fit")
                 fit = f", {by_fit} of them by their fitted curve only" if by_fit else ""
                 rule = _rule(agree_rtol, agree_same_fit and residuals.has_residuals)
-                message = (f"stopped early: {agreed} of {len(ends)} independent local searches ended at the best "
-                           f"optimum{fit}, none better{arrived} (agreement: {rule})")
-                return {"message": message, "stop_reason": "restarts agree", "local_searches": len(ends),
-                        "arrivals": arrivals, "agreed_by_fit": by_fit, "agreement": rule}
-
-
+                message = (
+                    f"stopped early: {agreed} of {len(ends)} independent local searches ended at the best "
+                    f"optimum{fit}, none better{arrived} (agreement: {rule})"
+                )
+                return {
+                    "message": message,
+                    "stop_reason": "restarts agree",
+                    "local_searches": len(ends),
+                    "arrivals": arrivals,
+                    "agreed_by_fit": by_fit,
+                    "agreement": rule,
+                }

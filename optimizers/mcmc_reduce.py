@@ -56,8 +56,9 @@ def reduce(objective, points: np.ndarray, log_prob: np.ndarray, log_prob_fn, bud
     if getattr(problem, "formulation", "") != "identifiable" or model is None or not len(points):
         return Reduction()
     names = list(problem.param_names)
-    limits = {b: limit for b, limit in model.linear_limits(problem.state).items()
-              if limit and all(n in names for n in limit)}
+    limits = {
+        b: limit for b, limit in model.linear_limits(problem.state).items() if limit and all(n in names for n in limit)
+    }
     if not limits:
         return Reduction()
     best = float(np.max(log_prob))
@@ -79,14 +80,18 @@ def reduce(objective, points: np.ndarray, log_prob: np.ndarray, log_prob_fn, bud
         gap = best - float(np.max(lp))
         labels = ", ".join(f"{_label(problem, n)} = {v:g}" for n, v in limit.items())
         if not gap <= LIKELIHOOD_RATIO:
-            out.notes.append(f"branch {branch}: with {labels} (linear until it yields) the best fit is Δlog p = "
-                             f"{gap:.1f} below the full model's (> {LIKELIHOOD_RATIO:.2f}, the likelihood-ratio test "
-                             "of its two shape parameters at 95 %): the data tell its shape; sampled in full")
+            out.notes.append(
+                f"branch {branch}: with {labels} (linear until it yields) the best fit is Δlog p = "
+                f"{gap:.1f} below the full model's (> {LIKELIHOOD_RATIO:.2f}, the likelihood-ratio test "
+                "of its two shape parameters at 95 %): the data tell its shape; sampled in full"
+            )
             continue
         out.fixed, out.points, out.log_prob = fixed, found, lp
-        note = (f"branch {branch}: with {labels} (linear until it yields) the best fit is Δlog p = {gap:.2f} from the "
-                f"full model's (≤ {LIKELIHOOD_RATIO:.2f}, the likelihood-ratio test of its two shape parameters at "
-                "95 %): the data cannot tell its shape from a linear branch's, so the chain holds these")
+        note = (
+            f"branch {branch}: with {labels} (linear until it yields) the best fit is Δlog p = {gap:.2f} from the "
+            f"full model's (≤ {LIKELIHOOD_RATIO:.2f}, the likelihood-ratio test of its two shape parameters at "
+            "95 %): the data cannot tell its shape from a linear branch's, so the chain holds these"
+        )
         # A linear branch that never yields within the stroke: where it would yield, beyond, only trades
         # with the scale of the state it hands to the other branch (x_y₊·ρ in the shared state): a ridge
         # to the box's cap that a chain crosses for ever. Held at the cap when the data cannot tell.
@@ -98,13 +103,17 @@ def reduce(objective, points: np.ndarray, log_prob: np.ndarray, log_prob_fn, bud
             top = float(problem.from_unit(np.ones((1, len(names))))[0][j])
             if gap_capped <= YIELD_LIKELIHOOD_RATIO:
                 out.fixed, out.points, out.log_prob = {**fixed, j: 1.0}, capped, lp_capped
-                note += (f"; and with {_label(problem, name)} at the top of its box ({top:.4g}, never yielding within "
-                         f"the stroke) Δlog p = {gap_capped:.2f} (≤ {YIELD_LIKELIHOOD_RATIO:.2f}, three parameters): "
-                         "held there too")
+                note += (
+                    f"; and with {_label(problem, name)} at the top of its box ({top:.4g}, never yielding within "
+                    f"the stroke) Δlog p = {gap_capped:.2f} (≤ {YIELD_LIKELIHOOD_RATIO:.2f}, three parameters): "
+                    "held there too"
+                )
             else:
-                note += (f"; {_label(problem, name)} at the top of its box is Δlog p = {gap_capped:.1f} below "
-                         f"(> {YIELD_LIKELIHOOD_RATIO:.2f}): the branch yields within the stroke, "
-                         f"{_label(problem, name)} sampled")
+                note += (
+                    f"; {_label(problem, name)} at the top of its box is Δlog p = {gap_capped:.1f} below "
+                    f"(> {YIELD_LIKELIHOOD_RATIO:.2f}): the branch yields within the stroke, "
+                    f"{_label(problem, name)} sampled"
+                )
         out.notes.append(note + "; the other parameters sampled")
     return out
 
@@ -155,8 +164,16 @@ def _reoptimise(objective, u0: np.ndarray, fixed: dict, budget: int) -> np.ndarr
         return np.where(np.isfinite(r), r, 1e10)  # a blow-up: a huge cost, never NaN in scipy
 
     try:
-        least_squares(residual, np.clip(u0[free], 0.0, 1.0), bounds=(0.0, 1.0), method="trf", diff_step=1e-5,
-                      xtol=1e-8, ftol=1e-8, max_nfev=max(budget // (len(free) + 1), 1))
+        least_squares(
+            residual,
+            np.clip(u0[free], 0.0, 1.0),
+            bounds=(0.0, 1.0),
+            method="trf",
+            diff_step=1e-5,
+            xtol=1e-8,
+            ftol=1e-8,
+            max_nfev=max(budget // (len(free) + 1), 1),
+        )
     except BudgetExhausted:
         pass
     return share.best_u

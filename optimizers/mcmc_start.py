@@ -110,7 +110,9 @@ class Plan:
     notes: list = field(default_factory=list)
 
 
-def plan(objective, rng, log_prob, ensembles: int, walkers: int, fraction: float, searches_per_ensemble: int = 2) -> Plan:
+def plan(
+    objective, rng, log_prob, ensembles: int, walkers: int, fraction: float, searches_per_ensemble: int = 2
+) -> Plan:
     """The starts of the module docstring on ``fraction`` of the remaining budget (local searches) plus
     a few evaluations per ensemble (curvature, the walkers' own log-probabilities); ``log_prob`` maps
     unit points (m, d) to log-posteriors, counted by the objective. A budget too small for one local
@@ -121,8 +123,11 @@ def plan(objective, rng, log_prob, ensembles: int, walkers: int, fraction: float
     share = int(fraction * objective.remaining)
     optima = local_optima(objective, rng, share, searches_per_ensemble * ensembles)
     if not optima or objective.remaining < ensembles * (walkers + d + 1) + 2 * len(optima):
-        return Plan([rng.random((walkers, d)) for _ in range(ensembles)], [None] * ensembles,
-                    notes=["start: walkers uniform in the box (the budget is too small for local searches)"])
+        return Plan(
+            [rng.random((walkers, d)) for _ in range(ensembles)],
+            [None] * ensembles,
+            notes=["start: walkers uniform in the box (the budget is too small for local searches)"],
+        )
     points = np.array([u for u, _ in optima])
     lp = log_prob(points)
     reduction = mcmc_reduce.reduce(objective, points, lp, log_prob, share // 2)
@@ -135,13 +140,16 @@ def plan(objective, rng, log_prob, ensembles: int, walkers: int, fraction: float
             points[:, j] = value
         assert reduction.points is not None and reduction.log_prob is not None  # set with ``fixed``
         points = np.vstack([reduction.points, points])
-        lp = np.concatenate([reduction.log_prob, log_prob(points[len(reduction.points):])])
+        lp = np.concatenate([reduction.log_prob, log_prob(points[len(reduction.points) :])])
     picks, negligible = choose(points, lp, ensembles)
     distinct = len(set(picks))
-    notes.insert(0, f"start: {len(optima)} local searches (lsq-trf) on {fraction:.0%} of the budget; "
-                    f"{distinct} distinct optim{'um' if distinct == 1 else 'a'} within Δlog p = {MODE_LOG_PROB:g} of the "
-                    f"best seed the {ensembles} ensemble(s)"
-                    + (f"; {negligible} optima lower by more left out (negligible modes)" if negligible else ""))
+    notes.insert(
+        0,
+        f"start: {len(optima)} local searches (lsq-trf) on {fraction:.0%} of the budget; "
+        f"{distinct} distinct optim{'um' if distinct == 1 else 'a'} within Δlog p = {MODE_LOG_PROB:g} of the "
+        f"best seed the {ensembles} ensemble(s)"
+        + (f"; {negligible} optima lower by more left out (negligible modes)" if negligible else ""),
+    )
     fixed_index = np.array(sorted(reduction.fixed), dtype=int)
     free = np.setdiff1d(np.arange(d), fixed_index)
     starts, start_lp = [], []
@@ -156,8 +164,9 @@ def plan(objective, rng, log_prob, ensembles: int, walkers: int, fraction: float
             bad = ~np.isfinite(values)
             if not bad.any():
                 break
-            U[np.ix_(bad, free)] = draw_walkers(rng, centre[free], spread**2 * reduced + 1e-12 * np.eye(len(free)),
-                                                int(bad.sum()))
+            U[np.ix_(bad, free)] = draw_walkers(
+                rng, centre[free], spread**2 * reduced + 1e-12 * np.eye(len(free)), int(bad.sum())
+            )
             values[bad] = log_prob(U[bad])
         starts.append(U)
         start_lp.append(values)

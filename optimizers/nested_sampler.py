@@ -63,16 +63,17 @@ IMPOSSIBLE = -1e300  # the log-likelihood UltraNest gets for a blow-up (it refus
     "nested",
     family="nested",
     description="UltraNest nested sampling, uniform prior on the box: every mode with its mass, and ln Z, "
-                "from independent runs",
-    options={"runs": Int(4, minimum=1, maximum=64),
-             "live_points": Int(100, minimum=20, maximum=100_000),
-             "dlogz": Float(0.5, minimum=0.001, maximum=100.0),
-             "min_ess": Int(150, minimum=10, maximum=1_000_000),
-             "step_sampler": Choice("auto", ("auto", "region", "slice")),
-             "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points")},
+    "from independent runs",
+    options={
+        "runs": Int(4, minimum=1, maximum=64),
+        "live_points": Int(100, minimum=20, maximum=100_000),
+        "dlogz": Float(0.5, minimum=0.001, maximum=100.0),
+        "min_ess": Int(150, minimum=10, maximum=1_000_000),
+        "step_sampler": Choice("auto", ("auto", "region", "slice")),
+        "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points"),
+    },
 )
-def minimize(objective, *, rng, runs=4, live_points=100, dlogz=0.5, min_ess=150, step_sampler="auto",
-             n_data=None):
+def minimize(objective, *, rng, runs=4, live_points=100, dlogz=0.5, min_ess=150, step_sampler="auto", n_data=None):
     from bwbench.optimize.global_rng import seeded_global_rng
 
     _quiet()
@@ -99,13 +100,17 @@ def minimize(objective, *, rng, runs=4, live_points=100, dlogz=0.5, min_ess=150,
         # not enough budget for one run: the budget goes to prior draws, so there is a best point to report
         log_like.stop, log_like.raise_when_spent = objective.budget, False
         log_like(rng.random((objective.remaining, d)))
-        return {"message": f"budget of {objective.budget:,} evaluations too small for one nested-sampling run "
-                           f"(at least {4 * MIN_LIVE * runs:,} for {runs} runs): spent on uniform draws from the "
-                           "prior, nothing sampled", "converged": False}
+        return {
+            "message": f"budget of {objective.budget:,} evaluations too small for one nested-sampling run "
+            f"(at least {4 * MIN_LIVE * runs:,} for {runs} runs): spent on uniform draws from the "
+            "prior, nothing sampled",
+            "converged": False,
+        }
     extras = _extras(results, rng, objective, live_points, runs)
     if lost:
-        extras["message"] += (f"; {lost} run(s) spent their share of the budget inside one UltraNest iteration "
-                              "and were lost")
+        extras["message"] += (
+            f"; {lost} run(s) spent their share of the budget inside one UltraNest iteration and were lost"
+        )
     return extras
 
 
@@ -113,14 +118,20 @@ def _one_run(log_like, d, live_points, dlogz, min_ess, share, slice_sampling) ->
     import ultranest
 
     start = log_like.objective.nfev
-    sampler = ultranest.ReactiveNestedSampler([f"u{j}" for j in range(d)], log_like, vectorized=True,
-                                              ndraw_min=min(128, live_points), ndraw_max=NDRAW_MAX,
-                                              num_test_samples=2)
+    sampler = ultranest.ReactiveNestedSampler(
+        [f"u{j}" for j in range(d)],
+        log_like,
+        vectorized=True,
+        ndraw_min=min(128, live_points),
+        ndraw_max=NDRAW_MAX,
+        num_test_samples=2,
+    )
     if slice_sampling:
         from ultranest.popstepsampler import PopulationSliceSampler, generate_region_oriented_direction
 
-        sampler.stepsampler = PopulationSliceSampler(popsize=min(live_points, 100), nsteps=2 * d,
-                                                     generate_direction=generate_region_oriented_direction)
+        sampler.stepsampler = PopulationSliceSampler(
+            popsize=min(live_points, 100), nsteps=2 * d, generate_direction=generate_region_oriented_direction
+        )
     # UltraNest checks max_ncalls between iterations only, and one iteration may cost up to ndraw_max
     # (region sampling) or a population's slice moves: stop that much short of the share
     margin = (100 * 2 * d * 4) if slice_sampling else NDRAW_MAX
@@ -129,15 +140,29 @@ def _one_run(log_like, d, live_points, dlogz, min_ess, share, slice_sampling) ->
     # Its "sampling from region seems inefficient" warning is about cost, which the run's evaluations show.
     with np.errstate(over="ignore", invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
-        out = sampler.run(min_num_live_points=live_points, dlogz=dlogz, min_ess=min_ess, show_status=False,
-                          viz_callback=False, max_ncalls=max_ncalls, max_num_improvement_loops=3,
-                          cluster_num_live_points=min(40, live_points))
+        out = sampler.run(
+            min_num_live_points=live_points,
+            dlogz=dlogz,
+            min_ess=min_ess,
+            show_status=False,
+            viz_callback=False,
+            max_ncalls=max_ncalls,
+            max_num_improvement_loops=3,
+            cluster_num_live_points=min(40, live_points),
+        )
     nfev = log_like.objective.nfev - start
     weighted = out["weighted_samples"]
-    return {"live_points": live_points, "log_z": float(out["logz"]), "log_z_err": float(out["logzerr"]), "nfev": int(nfev),
-            "complete": bool(sampler.ncall < max_ncalls),
-            "u": np.asarray(weighted["upoints"], dtype=float), "weights": np.asarray(weighted["weights"], float),
-            "logl": np.asarray(weighted["logl"], dtype=float), "ess": float(out["ess"])}
+    return {
+        "live_points": live_points,
+        "log_z": float(out["logz"]),
+        "log_z_err": float(out["logzerr"]),
+        "nfev": int(nfev),
+        "complete": bool(sampler.ncall < max_ncalls),
+        "u": np.asarray(weighted["upoints"], dtype=float),
+        "weights": np.asarray(weighted["weights"], float),
+        "logl": np.asarray(weighted["logl"], dtype=float),
+        "ess": float(out["ess"]),
+    }
 
 
 class _ShareSpent(Exception):
@@ -187,8 +212,10 @@ def _extras(results, rng, objective, live_points, runs) -> dict:
 
     done = [r for r in results if r is not None]
     if not done:
-        return {"message": f"no run finished within the budget of {objective.budget:,} evaluations: nothing sampled",
-                "converged": False}
+        return {
+            "message": f"no run finished within the budget of {objective.budget:,} evaluations: nothing sampled",
+            "converged": False,
+        }
     size = int(min(MAX_DRAWS, *(max(1.0, np.floor(r["ess"])) for r in done)))
     chain, log_prob = [], []
     for r in done:
@@ -197,17 +224,33 @@ def _extras(results, rng, objective, live_points, runs) -> dict:
         log_prob.append(r["logl"][index])
     chain_arr = np.stack(chain, axis=1)  # (draws, runs, d)
     lp = np.stack(log_prob, axis=1)
-    verdict = nested.assess(chain_arr, lp, [r["log_z"] for r in done], [r["log_z_err"] for r in done],
-                            list(objective.problem.param_names), complete=[r["complete"] for r in done],
-                            runs_asked=runs)
+    verdict = nested.assess(
+        chain_arr,
+        lp,
+        [r["log_z"] for r in done],
+        [r["log_z_err"] for r in done],
+        list(objective.problem.param_names),
+        complete=[r["complete"] for r in done],
+        runs_asked=runs,
+    )
     fewer = sorted({r["live_points"] for r in done if r["live_points"] < live_points})
-    message = verdict["message"] + (f"; the budget allowed only {', '.join(map(str, fewer))} live points in some "
-                                     f"runs (asked {live_points})" if fewer else "")
-    return {"message": message, "chain": chain_arr, "log_prob": lp,
-            "log_z": [r["log_z"] for r in done], "log_z_err": [r["log_z_err"] for r in done],
-            "run_nfev": [r["nfev"] for r in done], "run_complete": [r["complete"] for r in done],
-            "live_points": live_points, "n_data": objective.problem.n_data if hasattr(objective.problem, "n_data")
-            else None, "converged": bool(verdict["converged"])}
+    message = verdict["message"] + (
+        f"; the budget allowed only {', '.join(map(str, fewer))} live points in some runs (asked {live_points})"
+        if fewer
+        else ""
+    )
+    return {
+        "message": message,
+        "chain": chain_arr,
+        "log_prob": lp,
+        "log_z": [r["log_z"] for r in done],
+        "log_z_err": [r["log_z_err"] for r in done],
+        "run_nfev": [r["nfev"] for r in done],
+        "run_complete": [r["complete"] for r in done],
+        "live_points": live_points,
+        "n_data": objective.problem.n_data if hasattr(objective.problem, "n_data") else None,
+        "converged": bool(verdict["converged"]),
+    }
 
 
 def _quiet() -> None:

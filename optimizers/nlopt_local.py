@@ -41,8 +41,11 @@ from bwbench.optimize.finite_penalty import WorstFinitePenalty
 from bwbench.optimize.options import Float, Int
 from bwbench.optimize.registry import register
 
-_OPTIONS = {"xtol_rel": Float(1e-6, minimum=0.0), "ftol_rel": Float(1e-8, minimum=0.0),
-            "maxeval": Int(0, minimum=0, maximum=2**31 - 1)}
+_OPTIONS = {
+    "xtol_rel": Float(1e-6, minimum=0.0),
+    "ftol_rel": Float(1e-8, minimum=0.0),
+    "maxeval": Int(0, minimum=0, maximum=2**31 - 1),
+}
 
 
 def _restarted_local_search(algorithm, objective, rng, xtol_rel, ftol_rel, maxeval):
@@ -84,9 +87,12 @@ def _backend(name, algorithm, description):
     return minimize
 
 
-minimize_bobyqa = _backend("nlopt-bobyqa", nlopt.LN_BOBYQA,
-                           "NLopt BOBYQA (quadratic-model trust region), bounded, random restarts")
-minimize_sbplx = _backend("nlopt-sbplx", nlopt.LN_SBPLX,
-                          "NLopt Sbplx (Subplex: Nelder-Mead on subspaces), bounded, random restarts")
-minimize_neldermead = _backend("nlopt-neldermead", nlopt.LN_NELDERMEAD,
-                               "NLopt Nelder-Mead simplex, bounded, random restarts")
+minimize_bobyqa = _backend(
+    "nlopt-bobyqa", nlopt.LN_BOBYQA, "NLopt BOBYQA (quadratic-model trust region), bounded, random restarts"
+)
+minimize_sbplx = _backend(
+    "nlopt-sbplx", nlopt.LN_SBPLX, "NLopt Sbplx (Subplex: Nelder-Mead on subspaces), bounded, random restarts"
+)
+minimize_neldermead = _backend(
+    "nlopt-neldermead", nlopt.LN_NELDERMEAD, "NLopt Nelder-Mead simplex, bounded, random restarts"
+)

@@ -85,8 +85,12 @@ def survivors(pop, loss, kids, kid_loss):
     family="evolutionary",
     description="the paper's GA (Sec. 3.2): binary tournament, one-gene uniform mutation and "
     "one-gene swap crossover at 50%, (mu+lambda) survival, 100 x 40 generations",
-    options={"population": Int(100, minimum=2, maximum=100_000), "generations": Int(40, minimum=0),
-             "p_mutation": Float(0.5, minimum=0.0, maximum=1.0), "p_crossover": Float(0.5, minimum=0.0, maximum=1.0)},
+    options={
+        "population": Int(100, minimum=2, maximum=100_000),
+        "generations": Int(40, minimum=0),
+        "p_mutation": Float(0.5, minimum=0.0, maximum=1.0),
+        "p_crossover": Float(0.5, minimum=0.0, maximum=1.0),
+    },
 )
 def minimize(objective, *, rng, population=100, generations=40, p_mutation=0.5, p_crossover=0.5):
     pop = rng.random((population, objective.dim))

@@ -77,9 +77,12 @@ def _logging_config_frozen():
     "pso",
     family="swarm",
     description="pyswarms GlobalBestPSO on the unit box, constriction coefficients, reflective bounds",
-    options={"n_particles": Int(40, minimum=1, maximum=1000), "c1": Float(1.49618, minimum=0.0, maximum=4.0),
-             "c2": Float(1.49618, minimum=0.0, maximum=4.0),
-             "w": Float(0.7298, minimum=0.0, maximum=1.0, exclusive_maximum=True)},
+    options={
+        "n_particles": Int(40, minimum=1, maximum=1000),
+        "c1": Float(1.49618, minimum=0.0, maximum=4.0),
+        "c2": Float(1.49618, minimum=0.0, maximum=4.0),
+        "w": Float(0.7298, minimum=0.0, maximum=1.0, exclusive_maximum=True),
+    },
 )
 def minimize(objective, *, rng, n_particles=40, c1=1.49618, c2=1.49618, w=0.7298):
     d = objective.dim
@@ -89,8 +92,11 @@ def minimize(objective, *, rng, n_particles=40, c1=1.49618, c2=1.49618, w=0.7298
             from pyswarms.single import GlobalBestPSO
 
             swarm = GlobalBestPSO(
-                n_particles=int(n_particles), dimensions=d, options={"c1": c1, "c2": c2, "w": w},
-                bounds=(np.zeros(d), np.ones(d)), bh_strategy="reflective",
+                n_particles=int(n_particles),
+                dimensions=d,
+                options={"c1": c1, "c2": c2, "w": w},
+                bounds=(np.zeros(d), np.ones(d)),
+                bh_strategy="reflective",
             )
         reflect = swarm.bh
 
@@ -104,6 +110,8 @@ def minimize(objective, *, rng, n_particles=40, c1=1.49618, c2=1.49618, w=0.7298
             # Never returns: the objective raises BudgetExhausted mid-iteration.
             swarm.optimize(objective.batch, iters=sys.maxsize, verbose=False)
         except _Diverged:
-            return {"message": f"the swarm ran away (a particle over {_DIVERGED:g} box widths out): "
-                               f"c1 = {c1}, c2 = {c2}, w = {w} are outside PSO's stable region"}
+            return {
+                "message": f"the swarm ran away (a particle over {_DIVERGED:g} box widths out): "
+                f"c1 = {c1}, c2 = {c2}, w = {w} are outside PSO's stable region"
+            }
     return {"message": "pyswarms stopped before the budget was spent"}

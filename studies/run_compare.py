@@ -1,7 +1,7 @@
 """Run (or resume) a comparison study: the same entry point as ``bwbench compare``.
 
-    python studies/run_compare.py --config studies/quick.toml [--db PATH] [--workers N]
-                                  [--scheduler tcp://HOST:PORT] [--csv runs.csv]
+python studies/run_compare.py --config studies/quick.toml [--db PATH] [--workers N]
+                              [--scheduler tcp://HOST:PORT] [--csv runs.csv]
 """
 
 import sys

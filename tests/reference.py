@@ -45,8 +45,7 @@ def reference_force(params, t, amplitude, period, state="shared", rtol=1e-10):
         z0 = z_minus if use_minus else z_plus
         # A sample exactly on a reversal belongs to the branch its own velocity selects.
         inside = (t >= lo) & (t <= hi) & ((v >= 0) == branch_plus)
-        sol = solve_ivp(rhs, (lo, hi), [z0], method="DOP853", rtol=rtol, atol=1e-14,
-                        args=(pars,), dense_output=True)
+        sol = solve_ivp(rhs, (lo, hi), [z0], method="DOP853", rtol=rtol, atol=1e-14, args=(pars,), dense_output=True)
         assert sol.success, sol.message
         z_at[inside] = sol.sol(t[inside])[0]
         z_end = sol.y[0, -1]

@@ -49,8 +49,9 @@ def spencer_force(p: dict, t, x_of, v_of, rtol=1e-11, method="DOP853"):
         pre = solve_ivp(rhs, (t[0], t[k]), start, method=method, rtol=rtol, atol=1e-13, max_step=float(t[1] - t[0]))
         assert pre.success, pre.message
         start = [pre.y[0, -1] + float(x_of(t[0]) - x_of(t[k])), pre.y[1, -1]]
-    sol = solve_ivp(rhs, (t[0], t[-1]), start, method=method, rtol=rtol, atol=1e-13,
-                    t_eval=t, max_step=float(t[1] - t[0]))
+    sol = solve_ivp(
+        rhs, (t[0], t[-1]), start, method=method, rtol=rtol, atol=1e-13, t_eval=t, max_step=float(t[1] - t[0])
+    )
     assert sol.success, sol.message
     y, z = sol.y
     return c1 * np.array([ydot(tt, yy, zz) for tt, yy, zz in zip(t, y, z)]) + k1 * (x_of(t) - x0)
@@ -106,12 +107,18 @@ def random_motion(seed: int, amplitude: float, f_max: float, components: int = 8
     w = 2 * np.pi * f
 
     def x(tt):
-        return np.sum(amp[:, None] * np.sin(np.multiply.outer(w, tt).reshape(len(w), -1) + phase[:, None]), axis=0).reshape(np.shape(tt))
+        return np.sum(
+            amp[:, None] * np.sin(np.multiply.outer(w, tt).reshape(len(w), -1) + phase[:, None]), axis=0
+        ).reshape(np.shape(tt))
 
     def v(tt):
-        return np.sum((amp * w)[:, None] * np.cos(np.multiply.outer(w, tt).reshape(len(w), -1) + phase[:, None]), axis=0).reshape(np.shape(tt))
+        return np.sum(
+            (amp * w)[:, None] * np.cos(np.multiply.outer(w, tt).reshape(len(w), -1) + phase[:, None]), axis=0
+        ).reshape(np.shape(tt))
 
     def a(tt):
-        return np.sum((-amp * w * w)[:, None] * np.sin(np.multiply.outer(w, tt).reshape(len(w), -1) + phase[:, None]), axis=0).reshape(np.shape(tt))
+        return np.sum(
+            (-amp * w * w)[:, None] * np.sin(np.multiply.outer(w, tt).reshape(len(w), -1) + phase[:, None]), axis=0
+        ).reshape(np.shape(tt))
 
     return x, v, a

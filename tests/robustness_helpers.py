@@ -29,10 +29,18 @@ HANG = 300  # s: only to turn a hang into a failure, never a speed requirement
 KEYS = "kind, specimen, optimizer, replicate"
 
 
-def write_config(path: Path, *, budget=200, seeds=4, optimizers="random = {}\nfirefly = {}",
-                 underpressures="[0.01, 0.05, 0.09]", extra="") -> Path:
+def write_config(
+    path: Path,
+    *,
+    budget=200,
+    seeds=4,
+    optimizers="random = {}\nfirefly = {}",
+    underpressures="[0.01, 0.05, 0.09]",
+    extra="",
+) -> Path:
     """3 specimens x 2 backends x 4 seeds = 24 runs of 200 evaluations by default."""
-    path.write_text(f"""
+    path.write_text(
+        f"""
 [study]
 name = "tiny"
 seed = 11
@@ -48,18 +56,31 @@ repeat = [1]
 [optimizers]
 {optimizers}
 {extra}
-""", encoding="utf-8")
+""",
+        encoding="utf-8",
+    )
     return path
 
 
 def start_compare(*args) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, str(RUN_COMPARE), *map(str, args)], cwd=REPO,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, str(RUN_COMPARE), *map(str, args)],
+        cwd=REPO,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def run_compare(*args, **kwargs) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(RUN_COMPARE), *map(str, args)], cwd=REPO,
-                          capture_output=True, text=True, timeout=HANG, **kwargs)
+    return subprocess.run(
+        [sys.executable, str(RUN_COMPARE), *map(str, args)],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=HANG,
+        **kwargs,
+    )
 
 
 def count_runs(db) -> int:
@@ -107,7 +128,6 @@ def tiny_db(tmp_path_factory):
     db = folder / "tiny.sqlite"
     assert run_study(load_study_config(config), db, workers=1, log=io.StringIO()).complete
     return config, db
-
 
 
 class KeyOnly:

@@ -51,10 +51,32 @@ CREATE TABLE chains ({_KEY}, steps INTEGER, walkers INTEGER, dim INTEGER, chain 
 CREATE TABLE evidence ({_KEY}, evidence_json TEXT, {_PK});
 """
 RUN_COLUMNS = (
-    "kind", "specimen", "optimizer", "replicate", "seed_entropy", "status", "error", "budget",
-    "nfev", "mse", "f_err", "rmse_N", "success", "message", "state", "excitation", "material",
-    "underpressure_MPa", "repeat", "options_json", "problem", "params_json", "metrics_json", "model",
-    "formulation", "variant",
+    "kind",
+    "specimen",
+    "optimizer",
+    "replicate",
+    "seed_entropy",
+    "status",
+    "error",
+    "budget",
+    "nfev",
+    "mse",
+    "f_err",
+    "rmse_N",
+    "success",
+    "message",
+    "state",
+    "excitation",
+    "material",
+    "underpressure_MPa",
+    "repeat",
+    "options_json",
+    "problem",
+    "params_json",
+    "metrics_json",
+    "model",
+    "formulation",
+    "variant",
 )
 
 
@@ -111,30 +133,64 @@ def make_study_db(
     rng = np.random.default_rng(seed)
     manifest = {e["file"]: e for e in json.loads((DATA_DIR / manifest_mod.MANIFEST).read_text())["specimens"]}
     config = {
-        "study": {"name": "fixture", "seed": seed, "budget": budget, "seeds": replicates, "state": "shared",
-                  "excitation": "measured", "data": "data/specimens"},
+        "study": {
+            "name": "fixture",
+            "seed": seed,
+            "budget": budget,
+            "seeds": replicates,
+            "state": "shared",
+            "excitation": "measured",
+            "data": "data/specimens",
+        },
         "specimens": {"filters": {}, "files": list(specimens)},
         "optimizers": {name: {"fixture_spread": spread} for name, spread in optimizers.items()},
-        "posterior": ({"specimens": [specimens[0]], "optimizer": "emcee", "budget": chain_steps * chain_walkers,
-                       "seeds": 1, "options": {"n_walkers": chain_walkers, "n_data": None}}
-                      if posterior else None),
+        "posterior": (
+            {
+                "specimens": [specimens[0]],
+                "optimizer": "emcee",
+                "budget": chain_steps * chain_walkers,
+                "seeds": 1,
+                "options": {"n_walkers": chain_walkers, "n_data": None},
+            }
+            if posterior
+            else None
+        ),
     }
     runs, timings, traces, chains = [], [], [], []
 
     def add_run(kind, specimen, optimizer, replicate, params, mse, nfev, trace, options, status="ok"):
         entry = manifest[f"{specimen}.csv"]
         row = dict.fromkeys(RUN_COLUMNS)
-        row.update(kind=kind, specimen=specimen, optimizer=optimizer, replicate=replicate,
-                   seed_entropy=str(seed), status=status, budget=budget if kind == "ranking" else nfev,
-                   state="shared", excitation="measured", material=entry["material"],
-                   underpressure_MPa=entry["underpressure_MPa"], repeat=entry["repeat"],
-                   options_json=json.dumps(options, sort_keys=True), success=0, problem="switched-bouc-wen",
-                   model="switched-bouc-wen", formulation="paper")
+        row.update(
+            kind=kind,
+            specimen=specimen,
+            optimizer=optimizer,
+            replicate=replicate,
+            seed_entropy=str(seed),
+            status=status,
+            budget=budget if kind == "ranking" else nfev,
+            state="shared",
+            excitation="measured",
+            material=entry["material"],
+            underpressure_MPa=entry["underpressure_MPa"],
+            repeat=entry["repeat"],
+            options_json=json.dumps(options, sort_keys=True),
+            success=0,
+            problem="switched-bouc-wen",
+            model="switched-bouc-wen",
+            formulation="paper",
+        )
         if status == "ok":
-            row.update(nfev=nfev, mse=mse, f_err=-mse, rmse_N=float(np.sqrt(mse)), success=1,
-                       message="budget exhausted",
-                       params_json=json.dumps(dict(zip(PARAM_NAMES, map(float, params))), sort_keys=True),
-                       metrics_json="{}")
+            row.update(
+                nfev=nfev,
+                mse=mse,
+                f_err=-mse,
+                rmse_N=float(np.sqrt(mse)),
+                success=1,
+                message="budget exhausted",
+                params_json=json.dumps(dict(zip(PARAM_NAMES, map(float, params))), sort_keys=True),
+                metrics_json="{}",
+            )
         else:
             row.update(error="FloatingPointError: fixture failure")
         key = (kind, specimen, optimizer, replicate)
@@ -161,34 +217,72 @@ def make_study_db(
                     mse *= 1e3
                 reach = min(0.95, 0.4 + 4.0 * spread)  # tighter backends get there sooner
                 trace = _trace(rng, mse, budget, reach)
-                add_run("ranking", specimen, optimizer, replicate, params, mse, budget, trace,
-                        {"fixture_spread": spread})
+                add_run(
+                    "ranking", specimen, optimizer, replicate, params, mse, budget, trace, {"fixture_spread": spread}
+                )
         if posterior and specimen == specimens[0]:
             chain, log_prob = _chain(rng, u_truth, chain_steps, chain_walkers)
             best = chain.reshape(-1, u_truth.size)[np.argmax(log_prob)]
             params = LOWER + best * (UPPER - LOWER)
             mse = float(problem.loss_batch(params[None, :])[0])
             nfev = chain_steps * chain_walkers
-            add_run("posterior", specimen, "emcee", 0, params, mse, nfev, _trace(rng, mse, nfev, 0.7),
-                    config["posterior"]["options"])
+            add_run(
+                "posterior",
+                specimen,
+                "emcee",
+                0,
+                params,
+                mse,
+                nfev,
+                _trace(rng, mse, nfev, 0.7),
+                config["posterior"]["options"],
+            )
             import emcee
 
             tau = emcee.autocorr.integrated_time(chain, quiet=True, tol=0)
-            chains.append(("posterior", specimen, "emcee", 0, chain_steps, chain_walkers, u_truth.size,
-                           chain.tobytes(), log_prob.tobytes(), 0.31, json.dumps([float(t) for t in tau])))
+            chains.append(
+                (
+                    "posterior",
+                    specimen,
+                    "emcee",
+                    0,
+                    chain_steps,
+                    chain_walkers,
+                    u_truth.size,
+                    chain.tobytes(),
+                    log_prob.tobytes(),
+                    0.31,
+                    json.dumps([float(t) for t in tau]),
+                )
+            )
 
     if path.exists():
         path.unlink()
     known = registry.available()  # the fixture's names that are real backends (a test may invent others)
     with closing(sqlite3.connect(path)) as conn:
         conn.executescript(SCHEMA)
-        conn.executemany("INSERT INTO study VALUES (?, ?)", [
-            ("name", "fixture"), ("config_json", json.dumps(config, sort_keys=True)), ("config_hash", "0" * 64),
-            ("created_utc", "2024-01-01T00:00:00Z"), ("bwbench_version", "fixture"),
-            # as the runner records them (bwbench.study.store.backend_facts); the fixture's backends are real ones
-            ("backends", json.dumps({name: {"family": known[name].family, "batched": known[name].batched}
-                                     for name in [*optimizers, "emcee"] if name in known}, sort_keys=True)),
-        ])
+        conn.executemany(
+            "INSERT INTO study VALUES (?, ?)",
+            [
+                ("name", "fixture"),
+                ("config_json", json.dumps(config, sort_keys=True)),
+                ("config_hash", "0" * 64),
+                ("created_utc", "2024-01-01T00:00:00Z"),
+                ("bwbench_version", "fixture"),
+                # as the runner records them (bwbench.study.store.backend_facts); the fixture's backends are real ones
+                (
+                    "backends",
+                    json.dumps(
+                        {
+                            name: {"family": known[name].family, "batched": known[name].batched}
+                            for name in [*optimizers, "emcee"]
+                            if name in known
+                        },
+                        sort_keys=True,
+                    ),
+                ),
+            ],
+        )
         conn.executemany(f"INSERT INTO runs VALUES ({', '.join('?' * len(RUN_COLUMNS))})", runs)
         conn.executemany("INSERT INTO timings VALUES (?, ?, ?, ?, ?, ?, ?)", timings)
         conn.executemany("INSERT INTO traces VALUES (?, ?, ?, ?, ?, ?)", traces)

@@ -16,15 +16,35 @@ REPO = Path(__file__).resolve().parents[1]
 
 def readme_example() -> str:
     text = (REPO / "README.md").read_text(encoding="utf-8")
-    section = text[text.index("## Python API"):]
+    section = text[text.index("## Python API") :]
     return re.search(r"```python\n(.*?)```", section, re.S).group(1)
 
 
 def test_the_readme_example_runs_as_written(tmp_path, monkeypatch, capsys):
     shutil.copy(REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv", tmp_path / "s.csv")
-    study = subprocess.run([sys.executable, "-m", "bwbench.cli", "compare", "--specimens", "s.csv", "--optimizers",
-                            "random,cmaes", "--seeds", "1", "--budget", "30", "--workers", "2", "--db", "study.sqlite"],
-                           cwd=tmp_path, capture_output=True, text=True)
+    study = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bwbench.cli",
+            "compare",
+            "--specimens",
+            "s.csv",
+            "--optimizers",
+            "random,cmaes",
+            "--seeds",
+            "1",
+            "--budget",
+            "30",
+            "--workers",
+            "2",
+            "--db",
+            "study.sqlite",
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
     assert study.returncode == 0, study.stderr
     monkeypatch.chdir(tmp_path)
     namespace = {}
@@ -38,8 +58,10 @@ def test_the_readme_example_runs_as_written(tmp_path, monkeypatch, capsys):
 
 
 def test_import_bwbench_loads_no_numerical_library_and_the_api_is_documented():
-    probe = ("import sys, bwbench; heavy = [m for m in ('numpy', 'scipy', 'pandas', 'numba', 'matplotlib') "
-             "if m in sys.modules]; print(heavy)")
+    probe = (
+        "import sys, bwbench; heavy = [m for m in ('numpy', 'scipy', 'pandas', 'numba', 'matplotlib') "
+        "if m in sys.modules]; print(heavy)"
+    )
     assert subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True).stdout.strip() == "[]"
     for name in ("fit", "load_fit", "load_study", "FitResult", "FittedModel", "Prediction"):
         assert name in bwbench.__all__ and getattr(bwbench, name).__doc__, name
@@ -119,12 +141,16 @@ def test_fit_result_save_refuses_the_fits_own_input_and_leaves_it_byte_identical
     assert bwbench.load_fit(tmp_path / "fit.json").model == "switched-bouc-wen"
 
 
-@pytest.mark.parametrize("call, words", [
-    (lambda: bwbench.load_fit(3), "load_fit needs the path"),
-    (lambda: bwbench.load_study(None), "load_study: db must be a path"),
-    (lambda: bwbench.FittedModel("spencer", "direct", []), "\"params\" is []"),
-    (lambda: bwbench.FittedModel("spencer", "direct", {}, excitation="chirp"), "\"excitation\" is 'chirp'"),
-], ids=["load_fit a number", "load_study None", "params a list", "excitation chirp"])
+@pytest.mark.parametrize(
+    "call, words",
+    [
+        (lambda: bwbench.load_fit(3), "load_fit needs the path"),
+        (lambda: bwbench.load_study(None), "load_study: db must be a path"),
+        (lambda: bwbench.FittedModel("spencer", "direct", []), '"params" is []'),
+        (lambda: bwbench.FittedModel("spencer", "direct", {}, excitation="chirp"), "\"excitation\" is 'chirp'"),
+    ],
+    ids=["load_fit a number", "load_study None", "params a list", "excitation chirp"],
+)
 def test_the_other_api_calls_raise_user_errors(call, words):
     with pytest.raises(bwbench.errors.UserError, match=re.escape(words)):
         call()

@@ -33,8 +33,22 @@ def test_evaluate_prints_mse_f_err_rmse(truth_json, capsys):
 
 def test_simulate_writes_the_model_force(truth_json, tmp_path, capsys):
     out_csv = tmp_path / "sim.csv"
-    assert main(["simulate", "--params", str(truth_json), "--specimen", str(SPECIMEN),
-                 "--state", "split", "--out", str(out_csv)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "--params",
+                str(truth_json),
+                "--specimen",
+                str(SPECIMEN),
+                "--state",
+                "split",
+                "--out",
+                str(out_csv),
+            ]
+        )
+        == 0
+    )
     frame = pd.read_csv(out_csv)
     assert list(frame.columns)[:2] == ["time_s", "displacement_mm"]
     assert len(frame) == 1921
@@ -42,11 +56,14 @@ def test_simulate_writes_the_model_force(truth_json, tmp_path, capsys):
     assert 1.0 < rms < 100.0  # split differs from the shared truth, but not wildly
 
 
-@pytest.mark.parametrize("content, problem", [
-    ("{", "not valid JSON"),
-    ("[1, 2]", "JSON object"),
-    ('{"A+": 1}', "missing parameter"),
-])
+@pytest.mark.parametrize(
+    "content, problem",
+    [
+        ("{", "not valid JSON"),
+        ("[1, 2]", "JSON object"),
+        ('{"A+": 1}', "missing parameter"),
+    ],
+)
 def test_bad_parameter_file_is_one_line_and_exit_2(tmp_path, capsys, content, problem):
     bad = tmp_path / "p.json"
     bad.write_text(content)
@@ -68,8 +85,18 @@ def test_non_numeric_parameter_is_refused(tmp_path, capsys, truth_json):
 def test_fit_refuses_an_output_folder_that_does_not_exist_before_fitting(tmp_path, capsys, flag):
     paths = {"--out": str(tmp_path / "r.json"), "--plot": str(tmp_path / "r.png")}
     paths[flag] = str(tmp_path / "missing" / "x.png")
-    argv = ["fit", str(SPECIMEN), "--optimizer", "random", "--budget", "10", "--out", paths["--out"],
-            "--plot", paths["--plot"]]
+    argv = [
+        "fit",
+        str(SPECIMEN),
+        "--optimizer",
+        "random",
+        "--budget",
+        "10",
+        "--out",
+        paths["--out"],
+        "--plot",
+        paths["--plot"],
+    ]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "does not exist" in err

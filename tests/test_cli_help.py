@@ -56,12 +56,23 @@ def test_every_help_has_a_description_and_an_example(words, capsys):
     assert f"example:\n  bwbench {' '.join(words)}" in text, text
 
 
-@pytest.mark.parametrize("argv", [["--help"], ["report", "--help"], ["compare", "--help"], ["data", "check", "--help"],
-                                  ["models", "--help"], ["optimizers", "--help"]])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--help"],
+        ["report", "--help"],
+        ["compare", "--help"],
+        ["data", "check", "--help"],
+        ["models", "--help"],
+        ["optimizers", "--help"],
+    ],
+)
 def test_help_imports_no_numerical_library(argv):
-    probe = ("import sys, contextlib, io\nfrom bwbench import cli\n"
-             f"with contextlib.suppress(SystemExit), contextlib.redirect_stdout(io.StringIO()): cli.main({argv!r})\n"
-             f"print([m for m in {HEAVY!r} if m in sys.modules])")
+    probe = (
+        "import sys, contextlib, io\nfrom bwbench import cli\n"
+        f"with contextlib.suppress(SystemExit), contextlib.redirect_stdout(io.StringIO()): cli.main({argv!r})\n"
+        f"print([m for m in {HEAVY!r} if m in sys.modules])"
+    )
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
     assert done.returncode == 0 and done.stdout.strip() == "[]", done.stdout + done.stderr
 
@@ -78,8 +89,12 @@ def test_fit_defaults_are_the_apis_and_help_states_them(tmp_path):
 
 def test_fit_without_optimizer_runs_lsq_trf(tmp_path):
     shutil.copy(SPECIMEN, tmp_path / "s.csv")
-    done = subprocess.run([sys.executable, "-m", "bwbench.cli", "fit", "s.csv", "--budget", "40", "--out", "r.json"],
-                          cwd=tmp_path, capture_output=True, text=True)
+    done = subprocess.run(
+        [sys.executable, "-m", "bwbench.cli", "fit", "s.csv", "--budget", "40", "--out", "r.json"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
     assert done.returncode == 0, done.stderr
     result = json.loads((tmp_path / "r.json").read_text())
     assert result["optimizer"] == "lsq-trf" and result["nfev"] == 40 and result["formulation"] == "paper"

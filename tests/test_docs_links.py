@@ -41,8 +41,10 @@ def test_the_documents_exist_and_the_readme_is_short():
 
 
 def test_slug_follows_github():
-    assert slug("Other models: Spencer's MR-damper model, the classic Bouc-Wen, your own") == \
-        "other-models-spencers-mr-damper-model-the-classic-bouc-wen-your-own"
+    assert (
+        slug("Other models: Spencer's MR-damper model, the classic Bouc-Wen, your own")
+        == "other-models-spencers-mr-damper-model-the-classic-bouc-wen-your-own"
+    )
     assert slug("Signals: recorded or estimated") == "signals-recorded-or-estimated"
     assert slug("The `bwbench` command") == "the-bwbench-command"
 

@@ -38,7 +38,7 @@ def _imports(name: str, path: Path, known: set, only=None) -> set:
             base = node.module or ""
             if node.level:  # relative import
                 anchor = name.split(".") if is_package else name.split(".")[:-1]
-                anchor = anchor[:len(anchor) - node.level + 1]
+                anchor = anchor[: len(anchor) - node.level + 1]
                 base = ".".join(anchor + ([base] if base else []))
             targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in known else base for alias in node.names]
         for target in targets:
@@ -57,7 +57,7 @@ def find_cycle(graph: dict) -> list | None:
         stack.append(node)
         for nxt in sorted(graph.get(node, ())):
             if state.get(nxt) == "open":
-                return stack[stack.index(nxt):] + [nxt]
+                return stack[stack.index(nxt) :] + [nxt]
             if nxt not in state:
                 cycle = visit(nxt)
                 if cycle:
@@ -104,8 +104,13 @@ LOWER_LAYERS = {
 def test_a_layer_does_not_import_the_layers_above_it(layer):
     modules = _modules()
     above = LOWER_LAYERS[layer]
-    wrong = sorted(f"{name} -> {target}" for name, path in modules.items() if name.startswith(layer)
-                   for target in _imports(name, path, set(modules)) if target.startswith(above))
+    wrong = sorted(
+        f"{name} -> {target}"
+        for name, path in modules.items()
+        if name.startswith(layer)
+        for target in _imports(name, path, set(modules))
+        if target.startswith(above)
+    )
     assert not wrong, wrong
 
 
@@ -154,8 +159,9 @@ def layer_violations(modules: dict) -> list[str]:
                 if aim != source and ROOMS[aim] <= ROOMS[source]:
                     where = "beside" if ROOMS[aim] == ROOMS[source] else "above"
                     shown = path.relative_to(ROOT) if ROOT in path.parents else path
-                    found.append(f"{shown}:{node.lineno}: {name} imports {target} "
-                                 f"({aim} is {where} {source} in LAYERS)")
+                    found.append(
+                        f"{shown}:{node.lineno}: {name} imports {target} ({aim} is {where} {source} in LAYERS)"
+                    )
     return found
 
 
@@ -174,5 +180,10 @@ def test_a_wrong_import_is_named_with_its_line(tmp_path):
     bad.write_text("import math\n\nfrom bwbench.study import config\n", encoding="utf-8")
     modules = {**_modules(), "bwbench.models.bad": bad}
     wrong = [line for line in layer_violations(modules) if "bwbench.models.bad" in line]
-    assert any(line.endswith("bad.py:3: bwbench.models.bad imports bwbench.study.config "
-                             "(bwbench.study is above bwbench.models in LAYERS)") for line in wrong), wrong
+    assert any(
+        line.endswith(
+            "bad.py:3: bwbench.models.bad imports bwbench.study.config "
+            "(bwbench.study is above bwbench.models in LAYERS)"
+        )
+        for line in wrong
+    ), wrong

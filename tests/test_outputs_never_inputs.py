@@ -37,13 +37,33 @@ def lab(tmp_path_factory):
     (lab / "p.json").write_text(json.dumps(truth))
     shutil.copy(SPECIMENS / NAME, lab / "held.csv")  # a held-out test (predict, compare --validate)
     (lab / "box.json").write_text(json.dumps({"xi+": [1.0, 50.0]}))
-    (lab / "cfg.toml").write_text(f'[study]\nname = "c"\nseed = 1\nbudget = 20\nseeds = 1\n'
-                                  f'[specimens]\nfiles = ["{NAME}"]\n[optimizers]\nrandom = {{}}\n')
+    (lab / "cfg.toml").write_text(
+        f'[study]\nname = "c"\nseed = 1\nbudget = 20\nseeds = 1\n'
+        f'[specimens]\nfiles = ["{NAME}"]\n[optimizers]\nrandom = {{}}\n'
+    )
     cwd = os.getcwd()
     os.chdir(lab)
     try:
-        assert cli.main(["compare", "--specimens", NAME, "--optimizers", "random", "--seeds", "1", "--budget", "20",
-                         "--workers", "1", "--db", "study.sqlite"]) == 0
+        assert (
+            cli.main(
+                [
+                    "compare",
+                    "--specimens",
+                    NAME,
+                    "--optimizers",
+                    "random",
+                    "--seeds",
+                    "1",
+                    "--budget",
+                    "20",
+                    "--workers",
+                    "1",
+                    "--db",
+                    "study.sqlite",
+                ]
+            )
+            == 0
+        )
         assert cli.main(["fit", NAME, "--optimizer", "random", "--budget", "20", "--out", "fit.json"]) == 0
     finally:
         os.chdir(cwd)
@@ -52,22 +72,62 @@ def lab(tmp_path_factory):
 
 # command -> (argv with {outputs} placeholders filled per case, {output flag: [inputs it may not be]})
 FILES = {
-    ("simulate",): (["simulate", "--params", "p.json", "--specimen", NAME, "--out", "sim.csv"],
-                    {"--out": ["p.json", NAME]}),
-    ("fit",): ([ "fit", NAME, "--optimizer", "random", "--budget", "20", "--bounds", "box.json",
-                "--out", "r.json", "--plot", "r.png"],
-               {"--out": [NAME, "box.json"], "--plot": [NAME, "box.json"]}),
-    ("predict",): (["predict", "--fit", "fit.json", NAME, "held.csv", "--out", "pred.json", "--plot", "pred.png"],
-                   {"--out": ["fit.json", NAME, "held.csv"], "--plot": ["fit.json", "held.csv"]}),
-    ("compare", "--specimens"): (["compare", "--specimens", NAME, "--optimizers", "random", "--seeds", "1",
-                                  "--budget", "20", "--bounds", "box.json", "--workers", "1", "--db", "new.sqlite",
-                                  "--csv", "runs.csv", "--validate", "held.csv"],
-                                 {"--db": [NAME, "box.json", "manifest.json", "held.csv"],
-                                  "--csv": [NAME, "box.json", "manifest.json", "held.csv"]}),
-    ("compare", "--config"): (["compare", "--config", "cfg.toml", "--workers", "1", "--db", "new.sqlite",
-                               "--csv", "runs.csv"],
-                              {"--db": ["cfg.toml", NAME, "manifest.json"],
-                               "--csv": ["cfg.toml", NAME, "manifest.json"]}),
+    ("simulate",): (
+        ["simulate", "--params", "p.json", "--specimen", NAME, "--out", "sim.csv"],
+        {"--out": ["p.json", NAME]},
+    ),
+    ("fit",): (
+        [
+            "fit",
+            NAME,
+            "--optimizer",
+            "random",
+            "--budget",
+            "20",
+            "--bounds",
+            "box.json",
+            "--out",
+            "r.json",
+            "--plot",
+            "r.png",
+        ],
+        {"--out": [NAME, "box.json"], "--plot": [NAME, "box.json"]},
+    ),
+    ("predict",): (
+        ["predict", "--fit", "fit.json", NAME, "held.csv", "--out", "pred.json", "--plot", "pred.png"],
+        {"--out": ["fit.json", NAME, "held.csv"], "--plot": ["fit.json", "held.csv"]},
+    ),
+    ("compare", "--specimens"): (
+        [
+            "compare",
+            "--specimens",
+            NAME,
+            "--optimizers",
+            "random",
+            "--seeds",
+            "1",
+            "--budget",
+            "20",
+            "--bounds",
+            "box.json",
+            "--workers",
+            "1",
+            "--db",
+            "new.sqlite",
+            "--csv",
+            "runs.csv",
+            "--validate",
+            "held.csv",
+        ],
+        {
+            "--db": [NAME, "box.json", "manifest.json", "held.csv"],
+            "--csv": [NAME, "box.json", "manifest.json", "held.csv"],
+        },
+    ),
+    ("compare", "--config"): (
+        ["compare", "--config", "cfg.toml", "--workers", "1", "--db", "new.sqlite", "--csv", "runs.csv"],
+        {"--db": ["cfg.toml", NAME, "manifest.json"], "--csv": ["cfg.toml", NAME, "manifest.json"]},
+    ),
 }
 # Commands whose output is a folder: the folder may not be an input, nor hold an input it could overwrite.
 FOLDERS = {
@@ -108,8 +168,9 @@ def cases():
 
 
 def snapshot(*folders) -> dict:
-    return {p: p.read_bytes() for folder in folders for p in Path(folder).rglob("*")
-            if p.is_file() and not p.is_symlink()}
+    return {
+        p: p.read_bytes() for folder in folders for p in Path(folder).rglob("*") if p.is_file() and not p.is_symlink()
+    }
 
 
 @pytest.mark.parametrize("argv, flag, target, how", list(cases()))
@@ -148,8 +209,12 @@ def output_flags() -> set:
 
 
 def test_every_output_flag_of_every_command_is_in_the_sweep():
-    covered = {(command[:1] if command[0] == "compare" else command, flag)
-               for table in (FILES, FOLDERS) for command, (_, outputs) in table.items() for flag in outputs}
+    covered = {
+        (command[:1] if command[0] == "compare" else command, flag)
+        for table in (FILES, FOLDERS)
+        for command, (_, outputs) in table.items()
+        for flag in outputs
+    }
     missing = output_flags() - covered - READ_ONLY
     assert not missing, f"output flags with no case in this sweep: {sorted(missing)}"
 

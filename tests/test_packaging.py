@@ -14,6 +14,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_every_package_folder_is_in_pyproject():
     listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]["packages"])
-    folders = {".".join(("bwbench", *p.parent.relative_to(ROOT / "src" / "bwbench").parts))
-               for p in (ROOT / "src" / "bwbench").rglob("__init__.py")} | {"bwbench.optimizers"}
+    folders = {
+        ".".join(("bwbench", *p.parent.relative_to(ROOT / "src" / "bwbench").parts))
+        for p in (ROOT / "src" / "bwbench").rglob("__init__.py")
+    } | {"bwbench.optimizers"}
     assert folders == listed, f"not listed: {sorted(folders - listed)}; listed, no folder: {sorted(listed - folders)}"

@@ -19,8 +19,10 @@ def broken_entry_point(name: str, group: str) -> EntryPoint:
 
 
 def expected(kind: str, name: str, group: str) -> str:
-    return (f"{kind} plug-in {name!r} (entry point 'no_such_plugin_module:THING' of group {group!r}) "
-            f"failed to load: {MISSING}")
+    return (
+        f"{kind} plug-in {name!r} (entry point 'no_such_plugin_module:THING' of group {group!r}) "
+        f"failed to load: {MISSING}"
+    )
 
 
 def installed(monkeypatch, module, *eps):
@@ -39,8 +41,11 @@ def test_a_broken_optimiser_plugin_breaks_only_itself(monkeypatch):
     with pytest.raises(plugins.PluginError) as named:
         optimizers.get("bad-search")
     assert str(named.value) == line
-    with pytest.raises(UserError, match=r"^unknown optimiser 'nope'; available: .*random.*; optimiser plug-in "
-                                        r"'bad-search' .* failed to load: ModuleNotFoundError"):
+    with pytest.raises(
+        UserError,
+        match=r"^unknown optimiser 'nope'; available: .*random.*; optimiser plug-in "
+        r"'bad-search' .* failed to load: ModuleNotFoundError",
+    ):
         optimizers.get("nope")
 
 
@@ -62,6 +67,9 @@ def test_a_broken_problem_plugin_breaks_only_itself(monkeypatch):
 
 def test_a_plugin_of_the_wrong_type_is_named():
     ep = EntryPoint(name="wrong", value="bwbench.errors:UserError", group="bwbench.problems")
-    with pytest.raises(plugins.PluginError, match=r"^problem plug-in 'wrong' \(entry point 'bwbench.errors:UserError' "
-                                                  r"of group 'bwbench.problems'\) gives .*not a bwbench.problems"):
+    with pytest.raises(
+        plugins.PluginError,
+        match=r"^problem plug-in 'wrong' \(entry point 'bwbench.errors:UserError' "
+        r"of group 'bwbench.problems'\) gives .*not a bwbench.problems",
+    ):
         problems._read(ep, plugins.load(ep, "problem"))

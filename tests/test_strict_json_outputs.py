@@ -29,20 +29,38 @@ HANG = 600  # s: a hang detector only
 # Within Table 5 except γ± < 0 and n± near their tops: the model's z runs away on this specimen.
 BLOWS_UP = {"n+": 10.7, "gamma+": -7.4, "beta+": 0.1, "n-": 4.9, "gamma-": -4.9, "beta-": 0.001}
 # A box where some corners are finite (so a fit is not refused) but the first random point blows up.
-EDGE_BOX = {"n+": [9.0, 10.75], "n-": [4.5, 5.0], "gamma+": [-7.5, 7.5], "beta+": [0.1, 0.2],
-            "gamma-": [-5.0, 5.0], "beta-": [0.001, 0.002]}
+EDGE_BOX = {
+    "n+": [9.0, 10.75],
+    "n-": [4.5, 5.0],
+    "gamma+": [-7.5, 7.5],
+    "beta+": [0.1, 0.2],
+    "gamma-": [-5.0, 5.0],
+    "beta-": [0.001, 0.002],
+}
 # A point of the Table 5 box (found by a seeded random search) whose weakest direction walks into a
 # blow-up within 0.02 of the unit range: its largest σ/σmax along the walk is +inf.
-WALKS_INTO_BLOW_UP = {"A+": 0.01328371899280616, "n+": 10.238785346083652, "alpha+": 0.31218814936898465,
-                      "beta+": 2.3767586731293853, "gamma+": 2.545186454475495, "xi+": 223.1966955068363,
-                      "wn+": 6.25945867550718, "A-": 0.5410389636429935, "n-": 2.8380497008306858,
-                      "alpha-": 0.009137802948085024, "beta-": 0.01908431460819536, "gamma-": 2.7830879034525355,
-                      "xi-": -392.9880924925011, "wn-": 35.860119988107066}
+WALKS_INTO_BLOW_UP = {
+    "A+": 0.01328371899280616,
+    "n+": 10.238785346083652,
+    "alpha+": 0.31218814936898465,
+    "beta+": 2.3767586731293853,
+    "gamma+": 2.545186454475495,
+    "xi+": 223.1966955068363,
+    "wn+": 6.25945867550718,
+    "A-": 0.5410389636429935,
+    "n-": 2.8380497008306858,
+    "alpha-": 0.009137802948085024,
+    "beta-": 0.01908431460819536,
+    "gamma-": 2.7830879034525355,
+    "xi-": -392.9880924925011,
+    "wn-": 35.860119988107066,
+}
 
 
 def bwbench(*args, cwd) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bwbench.cli", *map(str, args)], cwd=cwd, capture_output=True,
-                          text=True, timeout=HANG)
+    return subprocess.run(
+        [sys.executable, "-m", "bwbench.cli", *map(str, args)], cwd=cwd, capture_output=True, text=True, timeout=HANG
+    )
 
 
 @pytest.fixture(scope="module")
@@ -75,8 +93,25 @@ def lab(tmp_path_factory):
     (lab / "blows.json").write_text(json.dumps({**truth, **BLOWS_UP}))
     (lab / "walk.json").write_text(json.dumps(WALKS_INTO_BLOW_UP))
     (lab / "edge.json").write_text(json.dumps(EDGE_BOX))
-    study = bwbench("compare", "--specimens", NAME, "small.csv", "--optimizers", "random,cmaes", "--budget", "4",
-                    "--seeds", "1", "--workers", "1", "--bounds", "edge.json", "--db", "huge.sqlite", cwd=lab)
+    study = bwbench(
+        "compare",
+        "--specimens",
+        NAME,
+        "small.csv",
+        "--optimizers",
+        "random,cmaes",
+        "--budget",
+        "4",
+        "--seeds",
+        "1",
+        "--workers",
+        "1",
+        "--bounds",
+        "edge.json",
+        "--db",
+        "huge.sqlite",
+        cwd=lab,
+    )
     assert study.returncode == 0, study.stderr
     return lab
 
@@ -105,34 +140,111 @@ def blown_up(doc, keys, why):
 
 # (id, argv, exit status, where the JSON is, a check of the documents)
 CASES = [
-    ("fit --out, nothing finite", ["fit", NAME, "--optimizer", "random", "--budget", "1", "--bounds", "edge.json",
-                                   "--out", "r.json"], 1, "file:r.json",
-     lambda d: blown_up(d[0], ["mse", "f_err", "rmse_N"], "the model blows up wherever it was evaluated)")
-     and d[0]["params"]["n+"] is None and d[0]["not_finite"]["/params/n+"].startswith("nan: no best point")),
-    ("evaluate, blows up", ["evaluate", "--params", "blows.json", "--specimen", NAME], 1, "stdout",
-     lambda d: blown_up(d[0], ["mse", "f_err", "rmse_N"], "the model blows up with these parameters on this "
-                                                          "specimen (force not finite)") and d[0]["n"] == 1921),
-    ("simulate stdout, blows up", ["simulate", "--params", "blows.json", "--specimen", NAME, "--out", "s.csv"], 1,
-     "stdout", lambda d: blown_up(d[0], ["mse", "rmse_N"], "(force not finite)") and d[0]["out"] == "s.csv"),
-    ("identifiability --json, walk into a blow-up", ["identifiability", NAME, "--params", "walk.json", "--json"], 0,
-     "stdout", lambda d: any(row["max_ratio"] is None and d[0]["not_finite"][f"/null_directions/{i}/max_ratio"]
-                             == "+inf: the walk along this direction reached parameters where the model blows up"
-                             for i, row in enumerate(d[0]["null_directions"]))
-                   and all(math.isfinite(s) for s in d[0]["singular_values"])),
-    ("identifiability --json, zero force", ["identifiability", "zero.csv", "--params", "truth.json", "--json"], 2,
-     "stdout:none", None),
-    ("evaluate, zero force", ["evaluate", "--params", "truth.json", "--specimen", "zero.csv"], 0, "stdout",
-     lambda d: d[0]["mse"] > 0 and "not_finite" not in d[0]),
-    ("fit: a force whose loss would overflow", ["fit", "huge.csv", "--optimizer", "random", "--budget", "4",
-                                                "--out", "h.json"], 2, "stdout:none", None),
-    ("compare: the store's JSON columns", ["compare", "--specimens", NAME, "--optimizers", "random,cmaes",
-                                           "--budget", "4", "--seeds", "1", "--workers", "1", "--bounds", "edge.json",
-                                           "--db", "again.sqlite"],
-     0, "db:again.sqlite", lambda d: any(isinstance(x, dict) and "n+" in x and x["n+"] is None for x in d)),
-    ("report folder", ["report", "--db", "huge.sqlite", "--out", "report", "--profiles", "0"], 0, "folder:report",
-     lambda d: True),
-    ("data generate: the manifest", ["data", "generate", "--out", "generated"], 0, "file:generated/manifest.json",
-     lambda d: len(d[0]["specimens"]) == 45),
+    (
+        "fit --out, nothing finite",
+        ["fit", NAME, "--optimizer", "random", "--budget", "1", "--bounds", "edge.json", "--out", "r.json"],
+        1,
+        "file:r.json",
+        lambda d: (
+            blown_up(d[0], ["mse", "f_err", "rmse_N"], "the model blows up wherever it was evaluated)")
+            and d[0]["params"]["n+"] is None
+            and d[0]["not_finite"]["/params/n+"].startswith("nan: no best point")
+        ),
+    ),
+    (
+        "evaluate, blows up",
+        ["evaluate", "--params", "blows.json", "--specimen", NAME],
+        1,
+        "stdout",
+        lambda d: (
+            blown_up(
+                d[0],
+                ["mse", "f_err", "rmse_N"],
+                "the model blows up with these parameters on this specimen (force not finite)",
+            )
+            and d[0]["n"] == 1921
+        ),
+    ),
+    (
+        "simulate stdout, blows up",
+        ["simulate", "--params", "blows.json", "--specimen", NAME, "--out", "s.csv"],
+        1,
+        "stdout",
+        lambda d: blown_up(d[0], ["mse", "rmse_N"], "(force not finite)") and d[0]["out"] == "s.csv",
+    ),
+    (
+        "identifiability --json, walk into a blow-up",
+        ["identifiability", NAME, "--params", "walk.json", "--json"],
+        0,
+        "stdout",
+        lambda d: (
+            any(
+                row["max_ratio"] is None
+                and d[0]["not_finite"][f"/null_directions/{i}/max_ratio"]
+                == "+inf: the walk along this direction reached parameters where the model blows up"
+                for i, row in enumerate(d[0]["null_directions"])
+            )
+            and all(math.isfinite(s) for s in d[0]["singular_values"])
+        ),
+    ),
+    (
+        "identifiability --json, zero force",
+        ["identifiability", "zero.csv", "--params", "truth.json", "--json"],
+        2,
+        "stdout:none",
+        None,
+    ),
+    (
+        "evaluate, zero force",
+        ["evaluate", "--params", "truth.json", "--specimen", "zero.csv"],
+        0,
+        "stdout",
+        lambda d: d[0]["mse"] > 0 and "not_finite" not in d[0],
+    ),
+    (
+        "fit: a force whose loss would overflow",
+        ["fit", "huge.csv", "--optimizer", "random", "--budget", "4", "--out", "h.json"],
+        2,
+        "stdout:none",
+        None,
+    ),
+    (
+        "compare: the store's JSON columns",
+        [
+            "compare",
+            "--specimens",
+            NAME,
+            "--optimizers",
+            "random,cmaes",
+            "--budget",
+            "4",
+            "--seeds",
+            "1",
+            "--workers",
+            "1",
+            "--bounds",
+            "edge.json",
+            "--db",
+            "again.sqlite",
+        ],
+        0,
+        "db:again.sqlite",
+        lambda d: any(isinstance(x, dict) and "n+" in x and x["n+"] is None for x in d),
+    ),
+    (
+        "report folder",
+        ["report", "--db", "huge.sqlite", "--out", "report", "--profiles", "0"],
+        0,
+        "folder:report",
+        lambda d: True,
+    ),
+    (
+        "data generate: the manifest",
+        ["data", "generate", "--out", "generated"],
+        0,
+        "file:generated/manifest.json",
+        lambda d: len(d[0]["specimens"]) == 45,
+    ),
 ]
 
 

@@ -57,8 +57,17 @@ def test_a_study_run_uses_the_threads_it_is_given(monkeypatch):
 
     found = []
     monkeypatch.setattr(fitting, "run", lambda *a, **k: found.append(numba.get_num_threads()) or 1 / 0)
-    task = tasks.Task("ranking", "random", 0, 1, 10, {}, "switched-bouc-wen", {"state": "shared", "excitation": "measured"},
-                      tasks.SpecimenEntry("s", str(SPECIMEN)))
+    task = tasks.Task(
+        "ranking",
+        "random",
+        0,
+        1,
+        10,
+        {},
+        "switched-bouc-wen",
+        {"state": "shared", "excitation": "measured"},
+        tasks.SpecimenEntry("s", str(SPECIMEN)),
+    )
     row = tasks.run_task(task)["row"]
     assert row["status"] == "error" and "ZeroDivisionError" in row["error"]  # the spy raised: recorded
     if numba.config.NUMBA_NUM_THREADS >= 2:

@@ -122,8 +122,9 @@ class MixtureToy(DensityToy):
         self.peak = float(np.max(self.log_density(centres)))
 
     def log_density(self, P):
-        parts = [np.log(w) + _log_normal(P, c, np.full(self.dim, s))
-                 for c, s, w in zip(self.centres, self.sd, self.weights)]
+        parts = [
+            np.log(w) + _log_normal(P, c, np.full(self.dim, s)) for c, s, w in zip(self.centres, self.sd, self.weights)
+        ]
         return np.logaddexp.reduce(np.stack(parts), axis=0)
 
 

@@ -43,8 +43,12 @@ class LinearDamper(Model):
         """c ∈ [0, 2·max|F|/max|ẋ|], k ∈ [0, 2·max|F|/amplitude]: each term alone can carry twice the force."""
         force = float(np.max(np.abs(np.asarray(f, dtype=float))))
         force = force if force > 0 else 1.0  # a zero-force file: any box, every fit is F = 0
-        return Box(("c", "k"), [0.0, 0.0], [2 * force / velocity_scale(signal), 2 * force / amplitude(signal.x)],
-                   [False, False])
+        return Box(
+            ("c", "k"),
+            [0.0, 0.0],
+            [2 * force / velocity_scale(signal), 2 * force / amplitude(signal.x)],
+            [False, False],
+        )
 
     def force_batch(self, P, signal, state=None) -> np.ndarray:
         P = np.atleast_2d(np.asarray(P, dtype=float))

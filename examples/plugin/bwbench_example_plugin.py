@@ -13,11 +13,14 @@ from bwbench.optimize.options import Float
 from bwbench.optimize.registry import register
 
 
-@register("example-coordinate-search", family="plugin", description="coordinate search with a halving step "
-          "(example plugin)",
-          # the initial step, in unit coordinates: the box is 1 wide, and a step of 0 would never move
-          options={"step": Float(0.25, minimum=0.0, maximum=1.0, exclusive_minimum=True)},
-          batched=False)
+@register(
+    "example-coordinate-search",
+    family="plugin",
+    description="coordinate search with a halving step (example plugin)",
+    # the initial step, in unit coordinates: the box is 1 wide, and a step of 0 would never move
+    options={"step": Float(0.25, minimum=0.0, maximum=1.0, exclusive_minimum=True)},
+    batched=False,
+)
 def minimize(objective, *, rng, step=0.25):
     u = rng.random(objective.dim)
     best = objective(u)

@@ -66,11 +66,17 @@ class Decay(ProblemType):
         noise = study.get("noise_mV", 0.01)
         if isinstance(noise, bool) or not isinstance(noise, (int, float)) or not 0 <= noise < float("inf"):
             fail("[study] noise_mV must be a finite non-negative number")
-        entries = (SpecimenEntry("decay-1", "made-up", {"a": 2.0, "b": 0.7}),
-                   SpecimenEntry("decay-2", "made-up", {"a": 5.0, "b": 1.9}))
-        return ProblemSetup(settings={"noise_mV": noise}, study_json={"problem": self.name, "noise_mV": noise},
-                            specimens_json={"files": [e.name for e in entries]}, specimens=entries,
-                            available={e.name: e for e in entries})
+        entries = (
+            SpecimenEntry("decay-1", "made-up", {"a": 2.0, "b": 0.7}),
+            SpecimenEntry("decay-2", "made-up", {"a": 5.0, "b": 1.9}),
+        )
+        return ProblemSetup(
+            settings={"noise_mV": noise},
+            study_json={"problem": self.name, "noise_mV": noise},
+            specimens_json={"files": [e.name for e in entries]},
+            specimens=entries,
+            available={e.name: e for e in entries},
+        )
 
     def make_problem(self, settings, entry):
         t = np.linspace(0.0, 4.0, 80)

@@ -17,10 +17,31 @@ The Python API (``bwbench.api``; imported on first use, so ``import bwbench`` st
 
 from bwbench.version import __version__
 
-__all__ = ["fit", "load_fit", "load_study", "compare", "FitResult", "FittedModel", "Prediction", "Study",
-           "UserError", "FitWarning", "__version__"]
-_API = {"fit", "load_fit", "load_study", "compare", "FitResult", "FittedModel", "Prediction", "Study", "UserError",
-        "FitWarning"}
+__all__ = [
+    "fit",
+    "load_fit",
+    "load_study",
+    "compare",
+    "FitResult",
+    "FittedModel",
+    "Prediction",
+    "Study",
+    "UserError",
+    "FitWarning",
+    "__version__",
+]
+_API = {
+    "fit",
+    "load_fit",
+    "load_study",
+    "compare",
+    "FitResult",
+    "FittedModel",
+    "Prediction",
+    "Study",
+    "UserError",
+    "FitWarning",
+}
 
 
 def __getattr__(name):

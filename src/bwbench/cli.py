@@ -37,51 +37,87 @@ class Command(NamedTuple):
 
 
 COMMANDS = {
-    "data": Command("bwbench.commands.data", "add_arguments", "check specimen files, or regenerate the shipped ones",
-                    "bwbench data check mytest.csv other.csv\n  bwbench data generate --out /tmp/specimens"),
-    "simulate": Command("bwbench.commands.simulate", "add_simulate_arguments",
-                        "the model force of a parameter set (or a fit result) on a specimen's motion",
-                        "bwbench simulate --params fit.json --specimen test.csv --out force.csv"),
-    "evaluate": Command("bwbench.commands.simulate", "add_evaluate_arguments",
-                        "MSE, F_err and RMSE of a parameter set (or a fit result) on a specimen",
-                        "bwbench evaluate --params fit.json --specimen test.csv"),
-    "optimizers": Command("bwbench.commands.fit", "add_list_arguments",
-                          "list the registered optimiser backends, their options, ranges and defaults",
-                          "bwbench optimizers"),
-    "models": Command("bwbench.commands.models", "add_arguments",
-                      "list the registered hysteresis models, their formulations and parameters",
-                      "bwbench models"),
-    "fit": Command("bwbench.commands.fit", "add_fit_arguments",
-                   "fit one specimen, or several jointly (one parameter set), with one optimiser",
-                   "bwbench fit mytest.csv --formulation identifiable --out fit.json --plot fit.png\n"
-                   "  bwbench fit a.csv b.csv --model spencer --optimizer cmaes --budget 2000 --out joint.json"),
-    "predict": Command("bwbench.commands.predict", "add_arguments",
-                       "a fitted model's force on other tests, every coefficient as stored, nothing refitted",
-                       "bwbench predict --fit fit.json other.csv --out prediction.json --plot prediction.png"),
-    "compare": Command("bwbench.commands.compare", "add_arguments",
-                       "run or resume a study: specimens × backends × seeds, each on the same exact budget",
-                       "bwbench compare --config studies/quick.toml\n"
-                       "  bwbench compare --specimens 'tests/*.csv' --optimizers lsq-trf,cmaes,random "
-                       "--formulation identifiable --db study.sqlite"),
-    "report": Command("bwbench.commands.report", "add_arguments",
-                      "a study's report: the recommended optimiser and why, figures and statistics",
-                      "bwbench report --db study.sqlite --out report   # report/report.html, report.md"),
-    "identifiability": Command("bwbench.commands.simulate", "add_identifiability_arguments",
-                               "which parameter combinations a specimen cannot pin down",
-                               "bwbench identifiability test.csv --params fit.json"),
+    "data": Command(
+        "bwbench.commands.data",
+        "add_arguments",
+        "check specimen files, or regenerate the shipped ones",
+        "bwbench data check mytest.csv other.csv\n  bwbench data generate --out /tmp/specimens",
+    ),
+    "simulate": Command(
+        "bwbench.commands.simulate",
+        "add_simulate_arguments",
+        "the model force of a parameter set (or a fit result) on a specimen's motion",
+        "bwbench simulate --params fit.json --specimen test.csv --out force.csv",
+    ),
+    "evaluate": Command(
+        "bwbench.commands.simulate",
+        "add_evaluate_arguments",
+        "MSE, F_err and RMSE of a parameter set (or a fit result) on a specimen",
+        "bwbench evaluate --params fit.json --specimen test.csv",
+    ),
+    "optimizers": Command(
+        "bwbench.commands.fit",
+        "add_list_arguments",
+        "list the registered optimiser backends, their options, ranges and defaults",
+        "bwbench optimizers",
+    ),
+    "models": Command(
+        "bwbench.commands.models",
+        "add_arguments",
+        "list the registered hysteresis models, their formulations and parameters",
+        "bwbench models",
+    ),
+    "fit": Command(
+        "bwbench.commands.fit",
+        "add_fit_arguments",
+        "fit one specimen, or several jointly (one parameter set), with one optimiser",
+        "bwbench fit mytest.csv --formulation identifiable --out fit.json --plot fit.png\n"
+        "  bwbench fit a.csv b.csv --model spencer --optimizer cmaes --budget 2000 --out joint.json",
+    ),
+    "predict": Command(
+        "bwbench.commands.predict",
+        "add_arguments",
+        "a fitted model's force on other tests, every coefficient as stored, nothing refitted",
+        "bwbench predict --fit fit.json other.csv --out prediction.json --plot prediction.png",
+    ),
+    "compare": Command(
+        "bwbench.commands.compare",
+        "add_arguments",
+        "run or resume a study: specimens × backends × seeds, each on the same exact budget",
+        "bwbench compare --config studies/quick.toml\n"
+        "  bwbench compare --specimens 'tests/*.csv' --optimizers lsq-trf,cmaes,random "
+        "--formulation identifiable --db study.sqlite",
+    ),
+    "report": Command(
+        "bwbench.commands.report",
+        "add_arguments",
+        "a study's report: the recommended optimiser and why, figures and statistics",
+        "bwbench report --db study.sqlite --out report   # report/report.html, report.md",
+    ),
+    "identifiability": Command(
+        "bwbench.commands.simulate",
+        "add_identifiability_arguments",
+        "which parameter combinations a specimen cannot pin down",
+        "bwbench identifiability test.csv --params fit.json",
+    ),
 }
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The full parser; a command's own options are only added when ``command`` names it."""
-    parser = argparse.ArgumentParser(prog="bwbench", description=DESCRIPTION, epilog=EPILOG,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="bwbench", description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--version", action="version", version=f"bwbench {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, spec in COMMANDS.items():
-        command_parser = sub.add_parser(name, help=spec.summary, description=spec.summary[0].upper() + spec.summary[1:],
-                                        epilog=f"example:\n  {spec.example}",
-                                        formatter_class=argparse.RawDescriptionHelpFormatter)
+        command_parser = sub.add_parser(
+            name,
+            help=spec.summary,
+            description=spec.summary[0].upper() + spec.summary[1:],
+            epilog=f"example:\n  {spec.example}",
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
         if name == command:
             getattr(importlib.import_module(spec.module), spec.adder)(command_parser)
     return parser
@@ -102,8 +138,7 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         # Ctrl-C: one line, exit 130 (128 + SIGINT). Outputs are written at the end of a command and
         # atomically, so nothing half-written is left behind.
-        print(f"interrupted: bwbench {command or ''} stopped (Ctrl-C); no output is left half-written",
-              file=sys.stderr)
+        print(f"interrupted: bwbench {command or ''} stopped (Ctrl-C); no output is left half-written", file=sys.stderr)
         return 130
     except BrokenPipeError:
         # The reader of stdout stopped early (``| head -1``): every file was written before the printing.
@@ -120,8 +155,9 @@ def main(argv=None) -> int:
         print(f"error: {where}{err.strerror or err}", file=sys.stderr)
         return 2
     except MemoryError:
-        print("error: not enough memory for this command (a file or a study too large for this machine?)",
-              file=sys.stderr)
+        print(
+            "error: not enough memory for this command (a file or a study too large for this machine?)", file=sys.stderr
+        )
         return 2
 
 

@@ -50,5 +50,7 @@ def check(label: str, value: int, variable: str, what: str = "") -> None:
     """``UserError`` naming ``label``, the limit and how to raise it if ``value`` exceeds ``variable``'s."""
     limit = maximum(variable)
     if value > limit:
-        raise UserError(f"{label} {value:,} is above the limit of {limit:,}{what}; if you mean it, raise the "
-                        f"limit: {variable}={value} bwbench ...")
+        raise UserError(
+            f"{label} {value:,} is above the limit of {limit:,}{what}; if you mean it, raise the "
+            f"limit: {variable}={value} bwbench ..."
+        )

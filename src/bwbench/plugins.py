@@ -52,9 +52,24 @@ class Registry(Generic[T]):
     optimiser backends' decorator). The failure policy above is this class's: a broken plug-in is kept
     in ``broken`` and named when asked for; the others keep working."""
 
-    def __init__(self, kind: str, group: str, builtin: dict[str, str], *, attribute: str | None = None,
-                 read: Callable[[Any, Any], str] | None = None, known: str = "known"):
-        self.kind, self.group, self.builtin, self.attribute, self.read, self.known = kind, group, builtin, attribute, read, known
+    def __init__(
+        self,
+        kind: str,
+        group: str,
+        builtin: dict[str, str],
+        *,
+        attribute: str | None = None,
+        read: Callable[[Any, Any], str] | None = None,
+        known: str = "known",
+    ):
+        self.kind, self.group, self.builtin, self.attribute, self.read, self.known = (
+            kind,
+            group,
+            builtin,
+            attribute,
+            read,
+            known,
+        )
         self.items: dict[str, T] = {}
         self.broken: dict[str, str] = {}  # entry point name -> the line naming it and its error
         self.from_entry_points: set[str] = set()  # names the installed plug-ins gave
@@ -66,7 +81,9 @@ class Registry(Generic[T]):
         with self.lock:
             present = self.items.get(name)
             if present is not None and not same(present, value):
-                raise ValueError(f"a{'n' if self.kind[0] in 'aeiou' else ''} {self.kind} named {name!r} is already registered")
+                raise ValueError(
+                    f"a{'n' if self.kind[0] in 'aeiou' else ''} {self.kind} named {name!r} is already registered"
+                )
             return self.items.setdefault(name, value)
 
     def load_plugins(self) -> None:

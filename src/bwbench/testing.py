@@ -82,7 +82,7 @@ class SphereProblem:
         self.evaluated += len(P)
         self.call_sizes.append(len(P))
         R = np.zeros((len(P), self.n_data))
-        R[:, :self.dim] = np.sqrt(self.n_data) * (P - self.centre)
+        R[:, : self.dim] = np.sqrt(self.n_data) * (P - self.centre)
         if self.blow_up is None:
             return R
         blown = self.blow_up(P)
@@ -107,17 +107,20 @@ def check_exact_budget(name: str, budgets=BUDGETS, options: dict | None = None) 
         problem = counting_problem()
         result = fitting.run(problem, name, budget, seed=11, options=options)
         assert problem.evaluated == result.nfev, (
-            f"{name}: the problem counted {problem.evaluated} evaluations, the objective {result.nfev}")
+            f"{name}: the problem counted {problem.evaluated} evaluations, the objective {result.nfev}"
+        )
         assert result.nfev <= budget, f"{name}: {result.nfev} evaluations on a budget of {budget}"
         stopped_early = result.message != "budget exhausted"
         assert result.nfev == budget or stopped_early, (
-            f"{name}: stopped after {result.nfev} of {budget} evaluations without saying why")
+            f"{name}: stopped after {result.nfev} of {budget} evaluations without saying why"
+        )
 
 
 def check_same_seed(name: str, budget: int = 400, options: dict | None = None) -> None:
     runs = [fitting.run(counting_problem(), name, budget, seed=s, options=options) for s in (5, 5, 6)]
     assert runs[0].trace_mse == runs[1].trace_mse and runs[0].trace_nfev == runs[1].trace_nfev, (
-        f"{name}: the same seed gave different runs")
+        f"{name}: the same seed gave different runs"
+    )
     assert runs[0].params == runs[1].params and runs[0].nfev == runs[1].nfev, f"{name}: same seed, other result"
     assert runs[0].trace_mse != runs[2].trace_mse, f"{name}: seeds 5 and 6 gave the same run"
 
@@ -132,8 +135,9 @@ def check_infinite_loss(name: str, budget: int = 300, options: dict | None = Non
 
 def option_edge_cases(name: str) -> list[tuple[str, object]]:
     """(option, value) for every declared option of backend ``name`` and every value at its edges."""
-    return [(option, value) for option, declaration in registry.get(name).options.items()
-            for value in declaration.edges()]
+    return [
+        (option, value) for option, declaration in registry.get(name).options.items() for value in declaration.edges()
+    ]
 
 
 def check_option_ends(name: str, option: str, value, budget: int = 200, hang_after: float = HANG_AFTER_S) -> None:
@@ -156,21 +160,25 @@ def check_option_ends(name: str, option: str, value, budget: int = 200, hang_aft
     what = f"{name} with {option} = {show(value)}"
     assert not thread.is_alive(), (
         f"{what}: still running after {hang_after:g} s: a loop that spends no budget? "
-        "(a hang detector, not a speed limit)")
+        "(a hang detector, not a speed limit)"
+    )
     error = outcome.get("error")
     if isinstance(error, UserError):  # refused: fine if the user would read one clear line
         text = str(error)
         assert "\n" not in text and text.startswith(f"{name}: "), (
-            f"{what}: a refusal must be one line starting with '{name}: ', got {text!r}")
+            f"{what}: a refusal must be one line starting with '{name}: ', got {text!r}"
+        )
         return
     if error is not None:
         raise AssertionError(f"{what}: {type(error).__name__}: {error}") from error
     result = outcome["result"]
     assert problem.evaluated == result.nfev, (
-        f"{what}: the problem counted {problem.evaluated} evaluations, the objective {result.nfev}")
+        f"{what}: the problem counted {problem.evaluated} evaluations, the objective {result.nfev}"
+    )
     assert result.nfev <= budget, f"{what}: {result.nfev} evaluations on a budget of {budget}"
     assert result.nfev == budget or result.message != "budget exhausted", (
-        f"{what}: stopped after {result.nfev} of {budget} evaluations without saying why")
+        f"{what}: stopped after {result.nfev} of {budget} evaluations without saying why"
+    )
 
 
 def check_options_end(name: str, budget: int = 200, hang_after: float = HANG_AFTER_S) -> None:

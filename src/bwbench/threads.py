@@ -78,8 +78,10 @@ def check_environment(environ=None) -> None:
         except ValueError:
             value = 0
         if not 1 <= value <= cores:
-            raise UserError(f"{name}={environ[name]!r} in the environment: it must be a whole number of threads from "
-                            f"1 to {cores} (the cores of this machine); unset it (bwbench uses 1) or fix it")
+            raise UserError(
+                f"{name}={environ[name]!r} in the environment: it must be a whole number of threads from "
+                f"1 to {cores} (the cores of this machine); unset it (bwbench uses 1) or fix it"
+            )
 
 
 @contextmanager

@@ -14,14 +14,23 @@ def _runs(table):
     rows = []
     for (specimen, label), losses in table.items():
         for r, loss in enumerate(losses):
-            rows.append({"kind": "ranking", "specimen": specimen, "optimizer": label, "replicate": r,
-                         "status": "ok" if np.isfinite(loss) else "error", "mse": loss})
+            rows.append(
+                {
+                    "kind": "ranking",
+                    "specimen": specimen,
+                    "optimizer": label,
+                    "replicate": r,
+                    "status": "ok" if np.isfinite(loss) else "error",
+                    "mse": loss,
+                }
+            )
     return pd.DataFrame(rows)
 
 
 def test_failed_runs_count_one_decade_above_the_worst_finished_run_of_their_specimen():
-    values = comparisons.log_losses(_runs({("s", "a"): [1.0, 10.0], ("s", "b"): [100.0, np.inf],
-                                           ("t", "a"): [np.inf], ("t", "b"): [np.inf]}))
+    values = comparisons.log_losses(
+        _runs({("s", "a"): [1.0, 10.0], ("s", "b"): [100.0, np.inf], ("t", "a"): [np.inf], ("t", "b"): [np.inf]})
+    )
     got = dict(zip(zip(values["specimen"], values["optimizer"], values["replicate"]), values["value"]))
     assert got[("s", "a", 0)] == 0.0 and got[("s", "b", 0)] == 2.0
     assert got[("s", "b", 1)] == 3.0  # worst finished on s: 100 → one decade above
@@ -75,8 +84,13 @@ def test_hodges_lehmann_is_the_median_of_within_block_differences_only():
 
 def test_the_bootstrap_interval_is_fixed_by_the_names_and_covers_the_estimate():
     rng = np.random.default_rng(9)
-    values = _runs({(s, label): list(10 ** rng.normal(shift, 0.1, 4)) for s in ("p", "q", "r")
-                    for label, shift in (("a", 0.0), ("b", 0.3))})
+    values = _runs(
+        {
+            (s, label): list(10 ** rng.normal(shift, 0.1, 4))
+            for s in ("p", "q", "r")
+            for label, shift in (("a", 0.0), ("b", 0.3))
+        }
+    )
     values = comparisons.log_losses(values)
     first = comparisons.compare(values, "a", "b")
     again = comparisons.compare(values.sample(frac=1.0, random_state=3), "a", "b")
@@ -87,8 +101,9 @@ def test_the_bootstrap_interval_is_fixed_by_the_names_and_covers_the_estimate():
 
 
 def test_holm_runs_over_the_family_given_and_its_floor_is_size_times_smallest_p():
-    values = comparisons.log_losses(_runs({("s", n): [float(k + 1)] * 2 + [float(k + 2)] * 2
-                                           for k, n in enumerate("abcd")}))
+    values = comparisons.log_losses(
+        _runs({("s", n): [float(k + 1)] * 2 + [float(k + 2)] * 2 for k, n in enumerate("abcd")})
+    )
     family = comparisons.family(values, [("b", "a"), ("c", "a"), ("d", "a")], "against a", 0.05)
     assert list(family["family"]) == ["against a"] * 3
     assert family["p_holm"].to_numpy() == pytest.approx(statistics.holm(family["p"]))
@@ -99,7 +114,9 @@ def test_ranks_tie_within_one_percent_not_by_round_off():
     logs = np.log10([1.0, 1.0 + 1e-8, 1.005, 1.3, 1.3])
     assert statistics.tied_ranks(logs).tolist() == [2.0, 2.0, 2.0, 4.5, 4.5]
     assert statistics.tied_ranks(np.log10([1.0, 1.02])).tolist() == [1.0, 2.0]
-    table = pd.DataFrame({"a": np.log10([1.0, 2.0]), "b": np.log10([1.0 + 7.6e-9, 2.0 * (1 + 1.9e-6)]),
-                          "c": np.log10([5.0, 9.0])}, index=["s", "t"])
+    table = pd.DataFrame(
+        {"a": np.log10([1.0, 2.0]), "b": np.log10([1.0 + 7.6e-9, 2.0 * (1 + 1.9e-6)]), "c": np.log10([5.0, 9.0])},
+        index=["s", "t"],
+    )
     fr = statistics.friedman(table)
     assert fr.mean_ranks["a"] == fr.mean_ranks["b"] == 1.5 and fr.mean_ranks["c"] == 3.0

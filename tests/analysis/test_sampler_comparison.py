@@ -23,8 +23,14 @@ def posterior(label, result):
     """A ``PosteriorChain`` as the report reads a stored run of ``result``."""
     e = result.extras
     samples = e["chain"]
-    chain = SimpleNamespace(samples=samples, log_prob=e["log_prob"], optimizer=label, specimen="toy",
-                            steps=samples.shape[0], walkers=samples.shape[1])
+    chain = SimpleNamespace(
+        samples=samples,
+        log_prob=e["log_prob"],
+        optimizer=label,
+        specimen="toy",
+        steps=samples.shape[0],
+        walkers=samples.shape[1],
+    )
     run = {"nfev": result.nfev, "wall_s": 12.5}
     if "log_z" in e:
         verdict = nested.assess(samples, e["log_prob"], e["log_z"], e["log_z_err"], NAMES)
@@ -45,23 +51,31 @@ def samplers():
 
 def test_nested_finds_both_modes_and_emcee_misses_the_light_one(samplers):
     reference, emcee = samplers
-    shares = sampler_comparison.mode_shares(reference.chain.samples, reference.nested,
-                                            emcee.chain.samples[emcee.burn:].reshape(-1, 2))
+    shares = sampler_comparison.mode_shares(
+        reference.chain.samples, reference.nested, emcee.chain.samples[emcee.burn :].reshape(-1, 2)
+    )
     assert shares.reference == pytest.approx([0.7, 0.3], abs=0.05)
     assert shares.shares[0] > 0.95 and shares.shares[1] < 0.01
     assert list(shares.found) == [True, False]
-    own = sampler_comparison.mode_shares(reference.chain.samples, reference.nested,
-                                         reference.chain.samples.reshape(-1, 2))
+    own = sampler_comparison.mode_shares(
+        reference.chain.samples, reference.nested, reference.chain.samples.reshape(-1, 2)
+    )
     assert own.all_found and own.shares == pytest.approx(own.reference, abs=1e-9)
 
 
 def test_the_table_says_which_sampler_misses_a_mode_with_masses_evaluations_and_time(samplers):
     reference, emcee = samplers
-    (key, by_backend), = groups([emcee, reference]).items()
+    ((key, by_backend),) = groups([emcee, reference]).items()
     assert key == ("toy", "toy") and set(by_backend) == {"nested", "emcee"}
     table = comparison_table(by_backend)
-    assert list(table.columns) == ["sampler", "finds every mode", "mass in each mode", "R̂/ESS verdict",
-                                   "evaluations", "wall time (s)"]
+    assert list(table.columns) == [
+        "sampler",
+        "finds every mode",
+        "mass in each mode",
+        "R̂/ESS verdict",
+        "evaluations",
+        "wall time (s)",
+    ]
     first, second = table.to_dict("records")
     assert first["sampler"] == "nested (reference)" and first["finds every mode"] == "yes (2 of 2)"
     assert first["R̂/ESS verdict"].startswith("converged")

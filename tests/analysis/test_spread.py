@@ -32,10 +32,12 @@ def test_the_posterior_has_the_known_width(posterior):
 
 def test_a_strong_optimisers_scatter_is_the_datas_and_a_weak_ones_is_the_optimisers(posterior):
     problem, draws, draws_lp = posterior
-    strong = np.array([[fitting.run(problem, "lsq-trf", 200, seed=s).params[n] for n in problem.param_names]
-                       for s in range(6)])
-    weak = np.array([[fitting.run(problem, "random", 40, seed=s).params[n] for n in problem.param_names]
-                     for s in range(6)])
+    strong = np.array(
+        [[fitting.run(problem, "lsq-trf", 200, seed=s).params[n] for n in problem.param_names] for s in range(6)]
+    )
+    weak = np.array(
+        [[fitting.run(problem, "random", 40, seed=s).params[n] for n in problem.param_names] for s in range(6)]
+    )
     fits = np.vstack([strong, weak])
     table, kind = spread.decompose(fits, _log_post(problem, fits), draws, draws_lp, ["a", "b"])
     assert list(kind[:6]) == [spread.DATA] * 6  # the least-squares optimum: as probable as the draws, inside

@@ -47,10 +47,27 @@ def test_evaluations_to_target_reads_the_step_function():
 
 
 def test_runtimes_and_ert_from_traces():
-    runs = pd.DataFrame({"kind": "ranking", "specimen": "s", "optimizer": ["a", "a", "b"], "replicate": [0, 1, 0],
-                         "status": "ok", "nfev": [100.0, 100.0, 100.0], "mse": [1.0, 1.05, 3.0]})
-    traces = pd.DataFrame({"kind": "ranking", "specimen": "s", "optimizer": ["a", "a", "a", "a", "b"],
-                           "replicate": [0, 0, 1, 1, 0], "nfev": [1, 40, 1, 70, 1], "mse": [9.0, 1.0, 9.0, 1.05, 3.0]})
+    runs = pd.DataFrame(
+        {
+            "kind": "ranking",
+            "specimen": "s",
+            "optimizer": ["a", "a", "b"],
+            "replicate": [0, 1, 0],
+            "status": "ok",
+            "nfev": [100.0, 100.0, 100.0],
+            "mse": [1.0, 1.05, 3.0],
+        }
+    )
+    traces = pd.DataFrame(
+        {
+            "kind": "ranking",
+            "specimen": "s",
+            "optimizer": ["a", "a", "a", "a", "b"],
+            "replicate": [0, 0, 1, 1, 0],
+            "nfev": [1, 40, 1, 70, 1],
+            "mse": [9.0, 1.0, 9.0, 1.05, 3.0],
+        }
+    )
     rt = statistics.runtimes(runs, traces, taus=(0.01, 0.1))
     a10 = rt[(rt["optimizer"] == "a") & (rt["tau"] == 0.1)]
     assert list(a10["evals"]) == [40, 70]
@@ -104,8 +121,15 @@ def test_failed_runs_rank_last_and_count_as_errors(tmp_path):
 def test_ranking_table_is_sorted_by_mean_rank(study):
     table, fr = statistics.ranking_table(study.runs, study.traces, study.optimizers)
     assert list(table["optimizer"]) == ["cmaes", "de", "random"]
-    assert set(table.columns) >= {"median_rmse_N", "best_rmse_N", "success_1%", "success_10%", "ert_1%",
-                                  "ert_10%", "mean_rank"}
+    assert set(table.columns) >= {
+        "median_rmse_N",
+        "best_rmse_N",
+        "success_1%",
+        "success_10%",
+        "ert_1%",
+        "ert_10%",
+        "mean_rank",
+    }
     assert (table["runs"] == 8).all()
 
 
@@ -161,8 +185,13 @@ def test_load_refuses_missing_and_foreign_files(tmp_path):
 
 def test_one_specimen_uses_kruskal_wallis_and_names_the_unpaired_test():
     mse = {"a": [1.0, 2.0, 3.0, 4.0, 5.0], "b": [10.0, 11.0, 12.0, 13.0, 14.0], "c": [1.5, 2.5, 3.5, 4.5, np.inf]}
-    runs = pd.DataFrame([{"kind": "ranking", "specimen": "s", "optimizer": o, "replicate": r, "status": "ok", "mse": v}
-                         for o, values in mse.items() for r, v in enumerate(values)])
+    runs = pd.DataFrame(
+        [
+            {"kind": "ranking", "specimen": "s", "optimizer": o, "replicate": r, "status": "ok", "mse": v}
+            for o, values in mse.items()
+            for r, v in enumerate(values)
+        ]
+    )
     runs.loc[(runs["optimizer"] == "c") & (runs["replicate"] == 4), "status"] = "error"
     kw = statistics.kruskal_wallis(runs)
     assert kw.n_groups == 3 and kw.pvalue < 0.05

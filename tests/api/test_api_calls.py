@@ -62,21 +62,24 @@ def test_the_fit_notes_are_warnings_of_their_own_category():
             bwbench.fit(toy_frame(0), **FIT, bounds={"n": (1.7, 3.0)})
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"budget": 0}, "budget must be a positive number of evaluations, got 0"),
-    ({"budget": 2.5}, "budget must be a positive number of evaluations, got 2.5"),
-    ({"budget": 10**12}, "budget 1,000,000,000,000 is above the limit"),
-    ({"seed": -1}, "seed must be a non-negative integer, got -1"),
-    ({"optimizer": "nope"}, "unknown optimiser 'nope'"),
-    ({"options": {"population": -3}, "optimizer": "paper-ga"}, "population"),
-    ({"excitation": "square"}, "--excitation must be one of 'measured', 'sine'"),
-    ({"weighting": "some"}, "weighting must be one of 'equal', 'samples'"),
-    ({"state": "split"}, "state does not apply to model 'bouc-wen'"),
-    ({"fix_mass": -1}, "--fix-mass must be 'auto', 'fit' or a mass ≥ 0"),
-    ({"formulation": "paper", "fix_mass": 1.0}, "--fix-mass applies to the identifiable formulation"),
-    ({"threads": 0}, "--threads must be 1 to"),
-    ({"bounds": {"nope": (0, 1)}}, "nope"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"budget": 0}, "budget must be a positive number of evaluations, got 0"),
+        ({"budget": 2.5}, "budget must be a positive number of evaluations, got 2.5"),
+        ({"budget": 10**12}, "budget 1,000,000,000,000 is above the limit"),
+        ({"seed": -1}, "seed must be a non-negative integer, got -1"),
+        ({"optimizer": "nope"}, "unknown optimiser 'nope'"),
+        ({"options": {"population": -3}, "optimizer": "paper-ga"}, "population"),
+        ({"excitation": "square"}, "--excitation must be one of 'measured', 'sine'"),
+        ({"weighting": "some"}, "weighting must be one of 'equal', 'samples'"),
+        ({"state": "split"}, "state does not apply to model 'bouc-wen'"),
+        ({"fix_mass": -1}, "--fix-mass must be 'auto', 'fit' or a mass ≥ 0"),
+        ({"formulation": "paper", "fix_mass": 1.0}, "--fix-mass applies to the identifiable formulation"),
+        ({"threads": 0}, "--threads must be 1 to"),
+        ({"bounds": {"nope": (0, 1)}}, "nope"),
+    ],
+)
 def test_bad_arguments_are_user_errors_with_the_cli_message(kwargs, message):
     with pytest.raises(bwbench.UserError, match=message.replace("(", r"\(").replace(")", r"\)")):
         bwbench.fit(toy_frame(0), **{**FIT, **kwargs})
@@ -107,23 +110,24 @@ def test_plots_leave_the_backend_rcparams_and_pyplot_alone(tmp_path):
     # In a fresh process: the figure is drawn and saved, matplotlib's state is what it was.
     script = f"""
 import sys, warnings, matplotlib
-sys.path.insert(0, {str(REPO / 'tests')!r})
+sys.path.insert(0, {str(REPO / "tests")!r})
 from api_toy import toy_frame
 import bwbench
 warnings.simplefilter("ignore")
 before = matplotlib.rcParams.copy()  # dict(rcParams) would resolve the backend itself
 fit = bwbench.fit(toy_frame(0), model="bouc-wen", budget=40)
 fig = fit.plot()
-fig.savefig({str(tmp_path / 'fit.png')!r})
+fig.savefig({str(tmp_path / "fit.png")!r})
 p = fit.predict(toy_frame(3))
-p.plot().savefig({str(tmp_path / 'prediction.png')!r})
+p.plot().savefig({str(tmp_path / "prediction.png")!r})
 print(len(fig.axes), [a.get_xlabel() for a in fig.axes], "matplotlib.pyplot" in sys.modules,
       matplotlib.rcParams.copy() == before, matplotlib.rcParams._get_backend_or_none())
 """
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.split("\n")[0] == ("4 ['displacement (mm)', 'velocity (mm/s)', 'time (s)', 'time (s)'] "
-                                         "False True None")
+    assert out.stdout.split("\n")[0] == (
+        "4 ['displacement (mm)', 'velocity (mm/s)', 'time (s)', 'time (s)'] False True None"
+    )
     assert (tmp_path / "fit.png").stat().st_size > 10_000 and (tmp_path / "prediction.png").is_file()
 
 

@@ -21,13 +21,23 @@ def execute(notebook: Path, folder: Path):
 
 
 def outputs(book, kind: str) -> list:
-    return [o for cell in book.cells if cell.cell_type == "code" for o in cell.get("outputs", [])
-            if kind in o.get("data", {}) or o.get("output_type") == kind]
+    return [
+        o
+        for cell in book.cells
+        if cell.cell_type == "code"
+        for o in cell.get("outputs", [])
+        if kind in o.get("data", {}) or o.get("output_type") == kind
+    ]
 
 
 def test_there_are_the_five_notebooks():
-    assert [n.stem for n in NOTEBOOKS] == ["01_first_fit", "02_your_own_data", "03_compare", "04_predict",
-                                           "05_posterior"]
+    assert [n.stem for n in NOTEBOOKS] == [
+        "01_first_fit",
+        "02_your_own_data",
+        "03_compare",
+        "04_predict",
+        "05_posterior",
+    ]
 
 
 @pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[n.stem for n in NOTEBOOKS])
@@ -44,6 +54,7 @@ def test_notebook_runs_top_to_bottom(notebook, tmp_path):
     if notebook.stem == "02_your_own_data":
         warned = [o for o in outputs(book, "stream") if o.get("name") == "stderr" and "FitWarning" in o["text"]]
         assert warned and "UserError: DataFrame 'data', row 10: force_N is nan" in "".join(
-            o.get("text", "") for o in outputs(book, "stream"))
+            o.get("text", "") for o in outputs(book, "stream")
+        )
     if notebook.stem == "03_compare":
         assert (tmp_path / "report" / "report.html").is_file()

@@ -22,8 +22,14 @@ def files(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def study(files):
-    return bwbench.compare(specimens=[files / "toy1.csv", files / "toy2.csv"], optimizers=["lsq-trf", "random"],
-                           seeds=2, budget=40, model="bouc-wen", db=files / "study.sqlite")
+    return bwbench.compare(
+        specimens=[files / "toy1.csv", files / "toy2.csv"],
+        optimizers=["lsq-trf", "random"],
+        seeds=2,
+        budget=40,
+        model="bouc-wen",
+        db=files / "study.sqlite",
+    )
 
 
 def test_runs_have_typed_columns(study):
@@ -48,7 +54,12 @@ def test_ranking_follows_the_rule_and_says_each_verdict(study):
 def test_recommendation_names_label_backend_formulation_model_budget(study):
     rec = study.recommendation
     assert (rec.label, rec.backend, rec.formulation, rec.model, rec.budget) == (
-        "lsq-trf", "lsq-trf", "identifiable", "bouc-wen", 40)
+        "lsq-trf",
+        "lsq-trf",
+        "identifiable",
+        "bouc-wen",
+        40,
+    )
     assert rec.sentence.startswith("Use lsq-trf at a budget of 40 evaluations") and rec.sentence.endswith(".")
     assert "**" not in rec.sentence and rec.text.startswith("**Use lsq-trf**")
 
@@ -74,21 +85,30 @@ def test_load_study_reads_the_same_study_and_the_repr_is_short(study):
 
 
 def test_a_complete_study_is_read_not_run_again(study, files):
-    again = bwbench.compare(specimens=[files / "toy1.csv", files / "toy2.csv"], optimizers="lsq-trf,random",
-                            seeds=2, budget=40, model="bouc-wen", db=files / "study.sqlite")
+    again = bwbench.compare(
+        specimens=[files / "toy1.csv", files / "toy2.csv"],
+        optimizers="lsq-trf,random",
+        seeds=2,
+        budget=40,
+        model="bouc-wen",
+        db=files / "study.sqlite",
+    )
     assert again.runs["finished_utc"].tolist() == study.runs["finished_utc"].tolist()
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({}, "either config= .* or specimens="),
-    ({"specimens": ["x.csv"]}, "specimens= needs optimizers="),
-    ({"specimens": [pd.DataFrame()], "optimizers": ["cmaes"]}, "write a DataFrame with frame.to_csv"),
-    ({"specimens": ["missing.csv"], "optimizers": ["cmaes"]}, "missing.csv"),
-    ({"specimens": ["toy1.csv"], "optimizers": ["nope"]}, "nope"),
-    ({"specimens": ["toy1.csv"], "optimizers": ["cmaes"], "seeds": 0}, "--seeds must be a positive integer"),
-    ({"specimens": ["toy1.csv"], "optimizers": ["cmaes"], "workers": 0}, "workers must be a positive integer"),
-    ({"config": "a.toml", "optimizers": ["cmaes"]}, "optimizers= goes with specimens="),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({}, "either config= .* or specimens="),
+        ({"specimens": ["x.csv"]}, "specimens= needs optimizers="),
+        ({"specimens": [pd.DataFrame()], "optimizers": ["cmaes"]}, "write a DataFrame with frame.to_csv"),
+        ({"specimens": ["missing.csv"], "optimizers": ["cmaes"]}, "missing.csv"),
+        ({"specimens": ["toy1.csv"], "optimizers": ["nope"]}, "nope"),
+        ({"specimens": ["toy1.csv"], "optimizers": ["cmaes"], "seeds": 0}, "--seeds must be a positive integer"),
+        ({"specimens": ["toy1.csv"], "optimizers": ["cmaes"], "workers": 0}, "workers must be a positive integer"),
+        ({"config": "a.toml", "optimizers": ["cmaes"]}, "optimizers= goes with specimens="),
+    ],
+)
 def test_bad_arguments_are_user_errors(files, monkeypatch, kwargs, message):
     monkeypatch.chdir(files)
     with pytest.raises(bwbench.UserError, match=message):
@@ -106,7 +126,7 @@ budget = 40
 seeds = 1
 model = "bouc-wen"
 [specimens]
-files = ["{(files / 'toy1.csv').as_posix()}"]
+files = ["{(files / "toy1.csv").as_posix()}"]
 [optimizers]
 lsq-trf = {{}}
 [posterior]

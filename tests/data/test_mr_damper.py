@@ -30,8 +30,9 @@ def test_file_reads_back_with_the_requested_samples_rate_and_amplitude(tmp_path)
 
 
 def test_loop_dissipates_the_expected_energy_and_peaks_at_the_requested_force():
-    test = mr_damper.sine_test(amplitude_mm=25.0, frequency_hz=1.0, voltage=1.0, rate_hz=500.0,
-                               peak_force_N=1200.0, rng=0)
+    test = mr_damper.sine_test(
+        amplitude_mm=25.0, frequency_hz=1.0, voltage=1.0, rate_hz=500.0, peak_force_N=1200.0, rng=0
+    )
     # Spencer's damper itself (cross-checked against an SI-unit Radau solution at rtol 1e-10).
     assert test.peak_unscaled_N == pytest.approx(938.38, abs=0.01)
     assert test.scale == pytest.approx(1200.0 / 938.38, rel=1e-5)
@@ -56,8 +57,9 @@ def test_noise_and_offset_have_the_requested_size():
 
 def test_force_grows_with_velocity_and_voltage():
     def peak(f_hz, volts):
-        return mr_damper.sine_test(frequency_hz=f_hz, voltage=volts, rate_hz=500.0, cycles=1,
-                                   peak_force_N=None, rng=0).peak_unscaled_N
+        return mr_damper.sine_test(
+            frequency_hz=f_hz, voltage=volts, rate_hz=500.0, cycles=1, peak_force_N=None, rng=0
+        ).peak_unscaled_N
 
     # Same ±25 mm: 0.1 Hz (≤ 16 mm/s) stays on the steep low-velocity c1 branch, 5 Hz (≤ 785 mm/s)
     # adds the post-yield c0 viscous force.
@@ -75,7 +77,7 @@ def test_loop_runs_anticlockwise_unlike_the_projects_synthetic_specimens():
     # The docstring warns that the project's specimens have the opposite sign; keep it true.
     spec = read_specimen(DATA / "pom-mt24u01_0.01MPa_r1.csv")
     quarter = spec.n_samples // 16  # 4 cycles, 1,920 s: one cycle is 480 samples
-    assert mr_damper.loop_energy(spec.x[quarter:quarter + 481], spec.f[quarter:quarter + 481]) < -2000
+    assert mr_damper.loop_energy(spec.x[quarter : quarter + 481], spec.f[quarter : quarter + 481]) < -2000
 
 
 @pytest.mark.parametrize("f_hz, volts", [(0.1, 0.0), (1.0, 2.25), (5.0, 1.0)])
@@ -110,8 +112,9 @@ def test_a_velocity_channel_can_be_written_and_matches_the_displacement(tmp_path
     from bwbench.data.specimen import read_specimen
 
     path = tmp_path / "mr.csv"
-    test = mr_damper.write_test(path, frequency_hz=2.0, rate_hz=500.0, cycles=2, rng=5, velocity=True,
-                                velocity_noise_mm_s=0.5)
+    test = mr_damper.write_test(
+        path, frequency_hz=2.0, rate_hz=500.0, cycles=2, rng=5, velocity=True, velocity_noise_mm_s=0.5
+    )
     spec = read_specimen(path)
     assert spec.measured_signals == ("velocity",)
     w = 2 * np.pi * 2.0
@@ -120,6 +123,7 @@ def test_a_velocity_channel_can_be_written_and_matches_the_displacement(tmp_path
     assert signal_warnings(spec) == []
     # without the channel the bytes are those of the files written before it existed
     plain = mr_damper.render(mr_damper.sine_test(frequency_hz=2.0, rate_hz=500.0, cycles=2, rng=5))
-    assert plain.splitlines()[1:] == [",".join(line.split(",")[i] for i in (0, 1, 3))
-                                      for line in path.read_text().splitlines()[1:]]
+    assert plain.splitlines()[1:] == [
+        ",".join(line.split(",")[i] for i in (0, 1, 3)) for line in path.read_text().splitlines()[1:]
+    ]
     assert test.v is not None

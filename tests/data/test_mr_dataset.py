@@ -26,16 +26,18 @@ def test_generate_reproduces_the_shipped_files(tmp_path):
 
 def test_the_manifest_says_synthetic_and_from_what():
     document = json.loads((SHIPPED / manifest.MANIFEST).read_text())
-    assert "Spencer" in document["source"] and all(e["synthetic"] and e["model"] == "spencer"
-                                                   for e in document["specimens"])
+    assert "Spencer" in document["source"] and all(
+        e["synthetic"] and e["model"] == "spencer" for e in document["specimens"]
+    )
     path = SHIPPED / document["specimens"][0]["file"]
     assert manifest.is_synthetic(path) and not manifest.is_paper_data(path)
     assert switched_parameters.truth_params(path) is None  # not a paper 14-vector
     assert manifest.truth(path)[0] == "spencer"
 
 
-@pytest.mark.parametrize("entry", json.loads((SHIPPED / manifest.MANIFEST).read_text())["specimens"],
-                         ids=lambda e: e["file"])
+@pytest.mark.parametrize(
+    "entry", json.loads((SHIPPED / manifest.MANIFEST).read_text())["specimens"], ids=lambda e: e["file"]
+)
 def test_the_truth_is_a_noise_floor(entry):
     path = SHIPPED / entry["file"]
     truth = np.array([entry["truth"][p.name] for p in MODEL.direct_parameters()])

@@ -79,7 +79,11 @@ def test_identified_parameters_against_table5_bounds(bounds, identified):
 def test_material_properties_table1():
     m = pd.read_csv(PAPER / "material_properties.csv", keep_default_na=False)
     assert list(m.columns) == [
-        "material", "young_modulus_MPa", "yield_stress_MPa", "strain_at_break_percent", "strain_at_break_note"
+        "material",
+        "young_modulus_MPa",
+        "yield_stress_MPa",
+        "strain_at_break_percent",
+        "strain_at_break_note",
     ]
     m = m.set_index("material")
     assert list(m.index) == ["PC/ABS C12HF", "POM C9021", "POM MT24u01"]
@@ -92,7 +96,12 @@ def test_material_properties_table1():
 def test_mechanical_properties_tables_2_to_4():
     m = pd.read_csv(PAPER / "mechanical_properties.csv")
     assert list(m.columns) == [
-        "material", "table", "underpressure_MPa", "yield_stress_0.2pct_MPa", "stress_5pct_MPa", "absorbed_energy"
+        "material",
+        "table",
+        "underpressure_MPa",
+        "yield_stress_0.2pct_MPa",
+        "stress_5pct_MPa",
+        "absorbed_energy",
     ]
     assert len(m) == 15
     assert m.dtypes["stress_5pct_MPa"] == np.float64  # the printed '0.0.108' typos are gone

@@ -154,7 +154,7 @@ MALFORMED = {
     "too many cells": (_with_line(2, "0.0,0.0,1.0,7"), 2, ["4 cells", "expected 3"]),
     "trailing separator": (_with_line(30, "0.28,1.2,3.4,"), 30, ["4 cells", "expected 3"]),
     "non-numeric": (_with_line(7, "0.05,abc,1.0"), 7, ["not a number", "displacement_mm", "'abc'"]),
-    "quoted number": (_with_line(8, '0.06,0.2,"1.0"'), 8, ["not a number", "force_N", '\'"1.0"\'']),
+    "quoted number": (_with_line(8, '0.06,0.2,"1.0"'), 8, ["not a number", "force_N", "'\"1.0\"'"]),
     "empty cell": (_with_line(9, "0.07,,1.0"), 9, ["empty cell", "displacement_mm"]),
     "NaN": (_with_line(6, "0.04,0.3,nan"), 6, ["NaN", "force_N", "'nan'"]),
     "inf": (_with_line(4, "0.02,-inf,1.0"), 4, ["infinite", "displacement_mm", "'-inf'"]),
@@ -164,10 +164,15 @@ MALFORMED = {
     "too few samples": (_csv(*_rows(MIN_SAMPLES - 1)), MIN_SAMPLES, ["too few samples", "19", "at least 20"]),
     "no motion": (_csv(_t, np.full(N, 1.25), _f), 2, ["no motion", "1.25 mm"]),
     "semicolon header, comma rows": (
-        "time_s;displacement_mm;force_N\n" + "\n".join(_valid_lines()[1:]) + "\n", 2, ["1 cell", "';'"]),
+        "time_s;displacement_mm;force_N\n" + "\n".join(_valid_lines()[1:]) + "\n",
+        2,
+        ["1 cell", "';'"],
+    ),
     "semicolon, non-numeric keeps decimal comma text": (
-        _csv(_t, _x, _f, header="time_s;displacement_mm;force_N", sep=";", decimal=",").replace(
-            "0,02;", "0,02x;", 1), 4, ["not a number", "time_s", "'0,02x'"]),
+        _csv(_t, _x, _f, header="time_s;displacement_mm;force_N", sep=";", decimal=",").replace("0,02;", "0,02x;", 1),
+        4,
+        ["not a number", "time_s", "'0,02x'"],
+    ),
 }
 
 
@@ -239,4 +244,6 @@ def test_check_several_files_one_error_line_per_bad_file(tmp_path, capsys):
         f"error: {missing}: no such file",
     ]
     assert [line.split(" at ")[0] for line in out.splitlines() if line.startswith("ok:")] == [
-        f"ok: {good}: 50 samples", f"ok: {good2}: 30 samples"]
+        f"ok: {good}: 50 samples",
+        f"ok: {good2}: 30 samples",
+    ]

@@ -83,37 +83,52 @@ def test_data_check_says_which_signals_are_measured_and_which_estimated(tmp_path
     assert main(["data", "check", str(measured), str(estimated), str(only_a)]) == 0
     out, err = capsys.readouterr()
     lines = out.splitlines()
-    assert lines[1] == ("  signals: displacement and velocity measured (velocity_mm_s), acceleration estimated "
-                        "from the velocity")
-    assert lines[3].startswith("  signals: displacement measured, velocity and acceleration estimated from it "
-                               "(quintic smoothing spline; displacement noise ")
+    assert lines[1] == (
+        "  signals: displacement and velocity measured (velocity_mm_s), acceleration estimated from the velocity"
+    )
+    assert lines[3].startswith(
+        "  signals: displacement measured, velocity and acceleration estimated from it "
+        "(quintic smoothing spline; displacement noise "
+    )
     assert "expected velocity error" in lines[3] and "per 1000 N·s/mm" in lines[3]
-    assert lines[5].startswith("  signals: displacement measured, velocity estimated from it, acceleration measured "
-                               "(acceleration_mm_s2) (quintic smoothing spline")
+    assert lines[5].startswith(
+        "  signals: displacement measured, velocity estimated from it, acceleration measured "
+        "(acceleration_mm_s2) (quintic smoothing spline"
+    )
     assert err == ""
 
 
-@pytest.mark.parametrize("recorded, hint", [
-    (lambda v: -v, "-1 × the one the displacement implies (the opposite sign convention?)"),
-    (lambda v: 60 * v, "60 × the one the displacement implies (mm/min instead of the header's unit?)"),
-    (lambda v: -60 * v, "-60 × the one the displacement implies (the opposite sign convention and mm/min"),
-    (lambda v: 1000 * v, "1e+03 × the one the displacement implies (time_s in milliseconds"),
-])
+@pytest.mark.parametrize(
+    "recorded, hint",
+    [
+        (lambda v: -v, "-1 × the one the displacement implies (the opposite sign convention?)"),
+        (lambda v: 60 * v, "60 × the one the displacement implies (mm/min instead of the header's unit?)"),
+        (lambda v: -60 * v, "-60 × the one the displacement implies (the opposite sign convention and mm/min"),
+        (lambda v: 1000 * v, "1e+03 × the one the displacement implies (time_s in milliseconds"),
+    ],
+)
 def test_a_velocity_column_inconsistent_with_the_displacement_gets_a_warning(tmp_path, capsys, recorded, hint):
     t, x, v, _, f = _motion()
     path = _write(tmp_path, "bad.csv", em.render_csv(t, x, f, v=recorded(v)))
     capsys.readouterr()
     assert main(["data", "check", str(path)]) == 0  # a warning, not an error: the file is valid
     _, err = capsys.readouterr()
-    assert f"warning: {path}: column velocity_mm_s does not match the displacement: the velocity recorded is {hint}" in err
+    assert (
+        f"warning: {path}: column velocity_mm_s does not match the displacement: the velocity recorded is {hint}" in err
+    )
 
 
 def test_a_velocity_of_another_channel_or_shifted_in_time_gets_a_warning(tmp_path):
     t, x, v, a, f = _motion()
     shifted = read_specimen(_write(tmp_path, "shifted.csv", em.render_csv(t, x, f, v=np.interp(t - 10.0, t, v))))
     assert any("does not follow the displacement" in w for w in signal_warnings(shifted))
-    fine = read_specimen(_write(tmp_path, "fine.csv", em.render_csv(t, x + np.random.default_rng(0).normal(
-        0, 1e-3, t.shape), f, v=v, a=a)))
+    fine = read_specimen(
+        _write(
+            tmp_path, "fine.csv", em.render_csv(t, x + np.random.default_rng(0).normal(0, 1e-3, t.shape), f, v=v, a=a)
+        )
+    )
     assert signal_warnings(fine) == []
     wrong_a = read_specimen(_write(tmp_path, "wrong_a.csv", em.render_csv(t, x, f, v=v, a=-a)))
-    assert [w.split(":")[0] for w in signal_warnings(wrong_a)] == ["column acceleration_mm_s2 does not match the displacement"]
+    assert [w.split(":")[0] for w in signal_warnings(wrong_a)] == [
+        "column acceleration_mm_s2 does not match the displacement"
+    ]

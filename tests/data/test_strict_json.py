@@ -12,24 +12,40 @@ from bwbench.data import strict_json
 
 
 def test_values_that_are_not_finite_are_null_with_where_and_why():
-    value = {"mse": math.inf, "f_err": -math.inf, "params": {"a/b": np.float32(2.5), "c~": np.nan},
-             "trace": np.array([1.0, np.inf]), "x/y": math.inf, "n": np.int64(7), "ok": np.bool_(True), "name": "x"}
+    value = {
+        "mse": math.inf,
+        "f_err": -math.inf,
+        "params": {"a/b": np.float32(2.5), "c~": np.nan},
+        "trace": np.array([1.0, np.inf]),
+        "x/y": math.inf,
+        "n": np.int64(7),
+        "ok": np.bool_(True),
+        "name": "x",
+    }
     text = strict_json.dumps(value, why={"mse": "the model blows up", "trace": "a blow-up mid-run"})
     parsed = strict_json.loads(text)
     assert parsed["mse"] is None and parsed["f_err"] is None and parsed["params"] == {"a/b": 2.5, "c~": None}
     assert parsed["trace"] == [1.0, None] and parsed["n"] == 7 and parsed["ok"] is True and parsed["name"] == "x"
     # RFC 6901 pointers ("~" in a key written "~0", "/" written "~1"), the reasons given by top-level key
-    assert parsed["not_finite"] == {"/mse": "+inf: the model blows up", "/f_err": "-inf", "/params/c~0": "nan",
-                                    "/trace/1": "+inf: a blow-up mid-run", "/x~1y": "+inf"}
-    assert strict_json.dumps({"x": math.nan}, why="one reason for all") == \
-        '{"x": null, "not_finite": {"/x": "nan: one reason for all"}}'
+    assert parsed["not_finite"] == {
+        "/mse": "+inf: the model blows up",
+        "/f_err": "-inf",
+        "/params/c~0": "nan",
+        "/trace/1": "+inf: a blow-up mid-run",
+        "/x~1y": "+inf",
+    }
+    assert (
+        strict_json.dumps({"x": math.nan}, why="one reason for all")
+        == '{"x": null, "not_finite": {"/x": "nan: one reason for all"}}'
+    )
 
 
 def test_finite_documents_are_written_as_json_writes_them():
     value = {"b": [1, 2.5, True, None], "a": {"u": "N·s/mm"}, "t": (1, 2)}
     assert strict_json.dumps(value, indent=2) == json.dumps(value, indent=2)
-    assert strict_json.dumps(value, canonical=True) == json.dumps(value, sort_keys=True, separators=(",", ":"),
-                                                                  ensure_ascii=False)
+    assert strict_json.dumps(value, canonical=True) == json.dumps(
+        value, sort_keys=True, separators=(",", ":"), ensure_ascii=False
+    )
 
 
 def test_canonical_text_for_the_store_has_null_only():

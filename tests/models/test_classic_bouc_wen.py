@@ -21,8 +21,12 @@ PARAMETER_SETS = {
 def _sine(amplitude, period, rate, cycles=2):
     w = 2 * np.pi / period
     t = np.arange(0.0, cycles * period, 1.0 / rate) + 0.37 / rate  # no sample on a reversal
-    return (lambda s: amplitude * np.sin(w * s), lambda s: amplitude * w * np.cos(w * s),
-            lambda s: -amplitude * w * w * np.sin(w * s), t)
+    return (
+        lambda s: amplitude * np.sin(w * s),
+        lambda s: amplitude * w * np.cos(w * s),
+        lambda s: -amplitude * w * w * np.sin(w * s),
+        t,
+    )
 
 
 @pytest.mark.parametrize("name", PARAMETER_SETS)
@@ -44,8 +48,10 @@ def test_is_the_switched_model_with_equal_sets():
     x_of, v_of, a_of, t = _sine(5.0, 10.0, 50.0)
     p = np.array(PARAMETER_SETS["smooth_n3"])
     signal = SimpleNamespace(t=t, x=x_of(t), v=v_of(t), a=a_of(t))
-    np.testing.assert_array_equal(MODEL.force_batch(p[None], signal)[0],
-                                  switched.simulate(switched.symmetric_params(*p), t, signal.x, signal.v, signal.a))
+    np.testing.assert_array_equal(
+        MODEL.force_batch(p[None], signal)[0],
+        switched.simulate(switched.symmetric_params(*p), t, signal.x, signal.v, signal.a),
+    )
     mse = MODEL.mse_batch(p[None], signal, signal.x * 3.0)[0]
     assert mse == pytest.approx(np.mean((MODEL.force_batch(p[None], signal)[0] - signal.x * 3.0) ** 2), rel=1e-12)
 
@@ -57,11 +63,15 @@ def test_identifiable_coordinates_give_the_same_force_and_map_back(name):
     p = np.array(PARAMETER_SETS[name])
     theta, coef = MODEL.from_direct(p)
     w = MODEL.trajectories(theta[None], signal)[0]
-    force = (coef["m"] * signal.a + coef["c"] * signal.v + coef["k"] * signal.x + coef["h"] * w + coef["f"])
+    force = coef["m"] * signal.a + coef["c"] * signal.v + coef["k"] * signal.x + coef["h"] * w + coef["f"]
     np.testing.assert_allclose(force, MODEL.force_batch(p[None], signal)[0], rtol=1e-9, atol=1e-9 * np.ptp(force))
     back = MODEL.to_direct(theta, coef)
-    np.testing.assert_allclose(MODEL.force_batch(back[None], signal)[0], MODEL.force_batch(p[None], signal)[0],
-                               rtol=1e-9, atol=1e-9 * np.ptp(force))
+    np.testing.assert_allclose(
+        MODEL.force_batch(back[None], signal)[0],
+        MODEL.force_batch(p[None], signal)[0],
+        rtol=1e-9,
+        atol=1e-9 * np.ptp(force),
+    )
 
 
 def test_direct_parameters_leave_out_mass_and_offset():

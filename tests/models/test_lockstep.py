@@ -52,7 +52,7 @@ def population():
 def _batches(P):
     start = 0
     for size in BATCH_SIZES:
-        yield P[start:start + size]
+        yield P[start : start + size]
         start += size
 
 
@@ -65,7 +65,7 @@ def test_lockstep_mse_is_bit_identical_to_scalar(specimen, population, state):
     start = 0
     for P in _batches(population):
         ours = model.mse_batch(P, ex.t, ex.x, ex.v, ex.a, f, state, kernel="lockstep")
-        np.testing.assert_array_equal(ours, scalar[start:start + len(P)])
+        np.testing.assert_array_equal(ours, scalar[start : start + len(P)])
         start += len(P)
     assert start == len(population)
     # The whole population at once: several groups, in parallel when numba has threads.
@@ -83,7 +83,7 @@ def test_lockstep_z_is_bit_identical_to_scalar(specimen, population, state):
     start = 0
     for batch in _batches(H):
         ours = model.hysteretic_state_batch(batch, ex.t, ex.x, ex.v, state, kernel="lockstep")
-        np.testing.assert_array_equal(ours, scalar[start:start + len(batch)])
+        np.testing.assert_array_equal(ours, scalar[start : start + len(batch)])
         start += len(batch)
 
 
@@ -97,7 +97,9 @@ def test_grouping_does_not_change_results(specimen, population, monkeypatch):
 @pytest.mark.parametrize("state", model.STATES)
 def test_force_is_linear_in_the_hysteretic_state(specimen, state):
     ex, _ = specimen
-    for p in np.array([TABLE6, EXTREME[0], EXTREME[1], EXTREME[7], model.symmetric_params(0.3, 1.5, 0.2, 0.5, 1.5, 50, 10)]):
+    for p in np.array(
+        [TABLE6, EXTREME[0], EXTREME[1], EXTREME[7], model.symmetric_params(0.3, 1.5, 0.2, 0.5, 1.5, 50, 10)]
+    ):
         z = model.hysteretic_state(p[list(model.HYSTERETIC_INDEX)], ex.t, ex.x, ex.v, state)
         force = model.simulate(p, ex.t, ex.x, ex.v, ex.a, state)
         assert np.all(np.isfinite(z)) and np.ptp(z) > 0

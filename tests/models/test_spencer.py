@@ -11,10 +11,30 @@ from reference_mr import hermite_excitation, random_motion, spencer_force
 
 # Spencer et al. (1997)'s identified damper at 1 V in mm units (paper: N, cm; c/10, k/10, α/10,
 # β, γ /100 for cm⁻² → mm⁻², x0 ×10), and a stiffer, sharper variant at 2.25 V with k0 = 0.
-PUBLISHED_1V = {"c0": 2.45, "c1": 28.595, "k0": 4.69, "k1": 0.5, "x0": 143.0, "alpha": 83.5,
-                "beta": 3.63, "gamma": 3.63, "A": 301.0, "n": 2.0}
-SHARP = {"c0": 2.9, "c1": 28.96, "k0": 0.0, "k1": 0.0, "x0": 0.0, "alpha": 170.4,
-         "beta": 9.0, "gamma": 2.0, "A": 300.0, "n": 3.0}
+PUBLISHED_1V = {
+    "c0": 2.45,
+    "c1": 28.595,
+    "k0": 4.69,
+    "k1": 0.5,
+    "x0": 143.0,
+    "alpha": 83.5,
+    "beta": 3.63,
+    "gamma": 3.63,
+    "A": 301.0,
+    "n": 2.0,
+}
+SHARP = {
+    "c0": 2.9,
+    "c1": 28.96,
+    "k0": 0.0,
+    "k1": 0.0,
+    "x0": 0.0,
+    "alpha": 170.4,
+    "beta": 9.0,
+    "gamma": 2.0,
+    "A": 300.0,
+    "n": 3.0,
+}
 NAMES = [p.name for p in MODEL.direct_parameters()]
 # The kernel's accuracy, max |error| / force range, from its per-step tolerance 1e-5 (measured 7e-6 –
 # 2.4e-5 on these cases): 100× below the force noise of a measured test (≥ 0.5 % of the range).
@@ -30,8 +50,11 @@ def _vector(p):
 
 
 @pytest.mark.parametrize("params", [PUBLISHED_1V, SHARP], ids=["published_1V", "sharp"])
-@pytest.mark.parametrize("case", [(15.0, 2.5, 500.0), (2.0, 5.0, 200.0), (25.0, 0.5, 200.0)],
-                         ids=["15mm_2.5Hz_500Hz", "2mm_5Hz_200Hz", "25mm_0.5Hz_200Hz"])
+@pytest.mark.parametrize(
+    "case",
+    [(15.0, 2.5, 500.0), (2.0, 5.0, 200.0), (25.0, 0.5, 200.0)],
+    ids=["15mm_2.5Hz_500Hz", "2mm_5Hz_200Hz", "25mm_0.5Hz_200Hz"],
+)
 def test_sine_matches_solve_ivp_to_5e_5_of_the_force_range(params, case):
     amplitude, frequency, rate = case
     t = np.arange(0.0, 2.0 / frequency, 1.0 / rate)
@@ -76,14 +99,19 @@ def test_identifiable_coordinates_give_the_same_force_and_map_back():
     theta, coef = MODEL.from_direct(P)
     assert theta.shape == (6,)
     W = MODEL.trajectories(theta[None], signal)[0]
-    np.testing.assert_allclose(coef["c1"] * W + coef["k1"] * signal.x + coef["f0"], MODEL.force_batch(P[None], signal)[0],
-                               rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(
+        coef["c1"] * W + coef["k1"] * signal.x + coef["f0"],
+        MODEL.force_batch(P[None], signal)[0],
+        rtol=1e-12,
+        atol=1e-9,
+    )
     back = direct_from_theta(theta, list(coef.values()), gauge_A=PUBLISHED_1V["A"])
     np.testing.assert_allclose(back, P, rtol=1e-12, atol=1e-12)
     # Another gauge of A is the same force: A is not identifiable.
     other = direct_from_theta(theta, list(coef.values()), gauge_A=30.0)
-    np.testing.assert_allclose(MODEL.force_batch(other[None], signal)[0], MODEL.force_batch(P[None], signal)[0],
-                               rtol=1e-9, atol=1e-6)
+    np.testing.assert_allclose(
+        MODEL.force_batch(other[None], signal)[0], MODEL.force_batch(P[None], signal)[0], rtol=1e-9, atol=1e-6
+    )
 
 
 def test_published_damper_lies_inside_the_data_scaled_box():
@@ -133,14 +161,26 @@ def test_a_test_recorded_in_motion_starts_in_its_steady_state():
     from bwbench.datasets import mr_damper
 
     published = dict(mr_damper.SPENCER_1997, k0=0.0)  # k0 = 0: y itself does not enter the force
-    t, x, force, _ = mr_damper.damper_force(amplitude_mm=10.0, frequency_hz=1.0, voltage=1.0, rate_hz=500.0,
-                                            cycles=2, params=published)
+    t, x, force, _ = mr_damper.damper_force(
+        amplitude_mm=10.0, frequency_hz=1.0, voltage=1.0, rate_hz=500.0, cycles=2, params=published
+    )
     c = mr_damper._coefficients(1.0, published)
-    p = {"c0": c["c0"] / 10, "c1": c["c1"] / 10, "k0": 0.0, "k1": published["k1"] / 10, "x0": published["x0"] * 10,
-         "alpha": c["alpha"] / 10, "beta": published["beta"] / 100, "gamma": published["gamma"] / 100,
-         "A": published["A"], "n": published["n"]}
+    p = {
+        "c0": c["c0"] / 10,
+        "c1": c["c1"] / 10,
+        "k0": 0.0,
+        "k1": published["k1"] / 10,
+        "x0": published["x0"] * 10,
+        "alpha": c["alpha"] / 10,
+        "beta": published["beta"] / 100,
+        "gamma": published["gamma"] / 100,
+        "A": published["A"],
+        "n": published["n"],
+    }
     w = 2 * np.pi
-    ours = MODEL.force_batch(_vector(p)[None], _signal(t, x, 10.0 * w * np.cos(w * t), -10.0 * w * w * np.sin(w * t)))[0]
+    ours = MODEL.force_batch(_vector(p)[None], _signal(t, x, 10.0 * w * np.cos(w * t), -10.0 * w * w * np.sin(w * t)))[
+        0
+    ]
     assert np.max(np.abs(ours - force)) <= ACCURACY * np.ptp(force)
 
 

@@ -64,12 +64,14 @@ def test_sensitivities_at_the_fits_tolerance_match_differences_to_a_few_thousand
         assert np.linalg.norm(S[0, :, j] - fd) <= 2e-2 * np.linalg.norm(fd), f"column {j}"
 
 
-@pytest.mark.parametrize("files", [["mr_25mm_1Hz_0V.csv"], ["mr_25mm_1Hz_0V.csv", "mr_10mm_2Hz_1V.csv"]],
-                         ids=["single", "joint"])
+@pytest.mark.parametrize(
+    "files", [["mr_25mm_1Hz_0V.csv"], ["mr_25mm_1Hz_0V.csv", "mr_10mm_2Hz_1V.csv"]], ids=["single", "joint"]
+)
 def test_the_identifiable_jacobian_matches_differences_and_costs_its_measured_price(files):
     specimens = [read_specimen(DATA / f) for f in files]
-    problem = make_problem(specimens if len(specimens) > 1 else specimens[0],
-                           {"model": "spencer", "formulation": "identifiable"})
+    problem = make_problem(
+        specimens if len(specimens) > 1 else specimens[0], {"model": "spencer", "formulation": "identifiable"}
+    )
     objective = Objective(problem, 100)
     u = problem.to_unit(OPTIMUM)
     r, J = objective.residual_jacobian(u)
@@ -85,16 +87,25 @@ def test_the_identifiable_jacobian_matches_differences_and_costs_its_measured_pr
         assert np.linalg.norm(J[:, j] - fd) <= 5e-3 * np.linalg.norm(fd), f"column {problem.param_names[j]}"
 
 
-@pytest.mark.parametrize("bounds, held", [
-    ({}, {"k1": 0.0}),  # the physical default: k₁ ≥ 0 holds a column of x at 0 (unbounded k₁ = −6.65 N/mm)
-    ({"k1": [-np.inf, np.inf], "c1": [0, 50]}, {"c1": 50.0}),  # a held coefficient of the w-column (ẏ)
-    ({"k1": [0, 1], "c1": [0, 50]}, {"k1": 1.0, "c1": 50.0}),  # both held (k₁ = 1.91 N/mm with c₁ = 50): the offset solved
-], ids=["k1", "c1", "both"])
+@pytest.mark.parametrize(
+    "bounds, held",
+    [
+        ({}, {"k1": 0.0}),  # the physical default: k₁ ≥ 0 holds a column of x at 0 (unbounded k₁ = −6.65 N/mm)
+        ({"k1": [-np.inf, np.inf], "c1": [0, 50]}, {"c1": 50.0}),  # a held coefficient of the w-column (ẏ)
+        (
+            {"k1": [0, 1], "c1": [0, 50]},
+            {"k1": 1.0, "c1": 50.0},
+        ),  # both held (k₁ = 1.91 N/mm with c₁ = 50): the offset solved
+    ],
+    ids=["k1", "c1", "both"],
+)
 def test_the_jacobian_with_coefficients_held_on_their_bounds_matches_differences(bounds, held):
     """Variable projection over the free columns, the held w-column's contribution differentiated
     and projected: against central differences at a point where the bounds are active."""
-    problem = make_problem(read_specimen(DATA / "mr_25mm_1Hz_0V.csv"),
-                           {"model": "spencer", "formulation": "identifiable", "bounds": bounds})
+    problem = make_problem(
+        read_specimen(DATA / "mr_25mm_1Hz_0V.csv"),
+        {"model": "spencer", "formulation": "identifiable", "bounds": bounds},
+    )
     coef = dict(zip(problem.linear_names, problem.linear(OPTIMUM)))
     assert {name: coef[name] for name in held} == held  # the bounds are active at this point
     objective = Objective(problem, 100)

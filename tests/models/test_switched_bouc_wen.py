@@ -10,10 +10,38 @@ from reference import reference_force, sine_excitation
 # Spanning Table 5: the paper's own fits, n below 1 and above 10, the box corners, the
 # symmetric 7-parameter model as a special case.
 PARAMETER_SETS = {
-    "table6_pom_mt24u01_0.01": [0.005, 5.019, 1.009, 1.171, 3.600, 261.893, 3.589,
-                                0.341, 2.825, 0.068, 0.014, 2.814, -151.740, 17.333],
-    "table8_pcabs_0.01_n-_0.466": [0.011, 4.351, 0.577, 2.452, 5.231, 152.329, 5.049,
-                                   0.717, 0.466, 0.028, 0.024, 1.952, -54.433, 31.888],
+    "table6_pom_mt24u01_0.01": [
+        0.005,
+        5.019,
+        1.009,
+        1.171,
+        3.600,
+        261.893,
+        3.589,
+        0.341,
+        2.825,
+        0.068,
+        0.014,
+        2.814,
+        -151.740,
+        17.333,
+    ],
+    "table8_pcabs_0.01_n-_0.466": [
+        0.011,
+        4.351,
+        0.577,
+        2.452,
+        5.231,
+        152.329,
+        5.049,
+        0.717,
+        0.466,
+        0.028,
+        0.024,
+        1.952,
+        -54.433,
+        31.888,
+    ],
     "n+_10.5": [0.02, 10.5, 0.3, 0.5, 5.0, 100, 5.0, 1.0, 4.5, 0.1, 0.02, 0.5, -300, 30],
     "n-_0.3_stiff": [0.02, 1.0, 0.3, 0.5, 1.0, 100, 5.0, 0.2, 0.3, 0.1, 0.02, 1.0, -300, 30],
     "n+_0.5": [0.01, 0.5, 0.5, 0.5, 1.0, 100, 5.0, 0.5, 2, 0.1, 0.02, 1.0, -300, 30],
@@ -52,7 +80,7 @@ def test_conventions_differ_and_symmetric_sets_switch_nothing():
     # first quarter cycle, as the symmetric Bouc-Wen loop is.
     f = model.simulate(sym, t, x, v, a, "shared") - a
     half = int(PERIOD / 2)
-    np.testing.assert_allclose(f[480:960], -f[480 + half:960 + half], atol=1e-6 * np.ptp(f))
+    np.testing.assert_allclose(f[480:960], -f[480 + half : 960 + half], atol=1e-6 * np.ptp(f))
 
 
 def test_runaway_parameters_give_inf_never_nan():

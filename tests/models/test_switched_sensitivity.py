@@ -91,7 +91,7 @@ def test_the_identifiable_jacobian_at_an_optimum_matches_differences():
 @pytest.mark.parametrize("state", ["shared", "split"])
 def test_z_is_the_plain_kernels_and_the_map_to_kernel_parameters_is_differentiated_right(state):
     problem = problem_of("switched-bouc-wen", "identifiable", state)
-    theta = OPTIMUM[:problem.dim]
+    theta = OPTIMUM[: problem.dim]
     s = problem.signal
     z, _ = problem.model.trajectory_sensitivities(theta, s, state)
     assert np.array_equal(z, problem.model.trajectories(theta[None, :], s, state)[0])  # lockstep

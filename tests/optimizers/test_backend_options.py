@@ -105,8 +105,12 @@ def test_a_declared_default_outside_its_range_fails_at_declaration():
 def test_edges_are_valid_values_at_the_bounds_and_just_inside():
     assert Int(5, minimum=1, maximum=100).edges() == [1, 2, 99, 100, 5]
     assert Float(0.97, minimum=0.0, maximum=1.0, exclusive_minimum=True).edges() == [1e-6, 1.0, 0.999999, 0.97]
-    for declaration in (Int(40, minimum=0), Float(1.0, minimum=0.0), Int(None, minimum=2, none="x"),
-                        FloatOrPair((0.5, 1.0), minimum=0.0, maximum=2.0, exclusive_maximum=True)):
+    for declaration in (
+        Int(40, minimum=0),
+        Float(1.0, minimum=0.0),
+        Int(None, minimum=2, none="x"),
+        FloatOrPair((0.5, 1.0), minimum=0.0, maximum=2.0, exclusive_maximum=True),
+    ):
         for value in declaration.edges():
             assert declaration.validate(value, "x") == value
 
@@ -123,9 +127,16 @@ def test_every_builtin_backend_declares_typed_options_and_its_defaults_derive_fr
 
 def test_resolve_options_merges_defaults_and_refuses_unknown_names_listing_the_known():
     assert registry.resolve_options("paper-ga", {"generations": 3}) == {
-        "population": 100, "generations": 3, "p_mutation": 0.5, "p_crossover": 0.5}
-    with pytest.raises(UserError, match=r"^paper-ga: unknown option\(s\) colour, size; it takes population, "
-                                        r"generations, p_mutation, p_crossover$"):
+        "population": 100,
+        "generations": 3,
+        "p_mutation": 0.5,
+        "p_crossover": 0.5,
+    }
+    with pytest.raises(
+        UserError,
+        match=r"^paper-ga: unknown option\(s\) colour, size; it takes population, "
+        r"generations, p_mutation, p_crossover$",
+    ):
         registry.resolve_options("paper-ga", {"size": 3, "colour": 1})
     with pytest.raises(UserError, match=r"^\[here\] cmaes: option sigma0 must be a number in \[1e-11, 1\], got -1$"):
         registry.resolve_options("cmaes", {"sigma0": -1}, label="[here] cmaes")
@@ -148,8 +159,9 @@ def test_a_plugin_on_the_untyped_contract_still_works(monkeypatch, capsys):
 
     # a copy of the registry (built-ins loaded), so the test entry is gone afterwards
     monkeypatch.setattr(registry.REGISTRY, "items", dict(registry.available()))
-    registry.register("test-untyped", family="plugin", description="old contract", defaults={"step": 0.25},
-                      batched=False)(minimize)
+    registry.register(
+        "test-untyped", family="plugin", description="old contract", defaults={"step": 0.25}, batched=False
+    )(minimize)
     assert registry.get("test-untyped").options == {}
     assert registry.resolve_options("test-untyped", {"step": "anything"}) == {"step": "anything"}
     with pytest.raises(UserError, match=r"test-untyped: unknown option\(s\) stp; it takes step"):
@@ -167,7 +179,7 @@ def test_optimizers_lists_every_option_with_type_range_and_default(capsys):
     for name, backend in registry.available().items():
         at = next(i for i, line in enumerate(lines) if line.startswith(name + " "))
         assert "per call" in lines[at]
-        listed = [line.split(None, 1) for line in lines[at + 1: at + 1 + len(backend.options)]]
+        listed = [line.split(None, 1) for line in lines[at + 1 : at + 1 + len(backend.options)]]
         assert [(key, d.describe()) for key, d in backend.options.items()] == [tuple(x) for x in listed]
     assert "    population   int in [2, 100000], default 100" in lines
 
@@ -187,31 +199,63 @@ def run_cli(argv, capsys):
 @pytest.mark.parametrize("optimizer, option, message", REFUSED, ids=[f"{o} {v}" for o, v, _ in REFUSED])
 def test_fit_refuses_a_bad_option_in_one_line(optimizer, option, message, capsys, tmp_path):
     out = tmp_path / "r.json"
-    code, _, err = run_cli(["fit", str(SPECIMEN), "--optimizer", optimizer, "--budget", "300",
-                            "--out", str(out), "--option", option], capsys)
+    code, _, err = run_cli(
+        ["fit", str(SPECIMEN), "--optimizer", optimizer, "--budget", "300", "--out", str(out), "--option", option],
+        capsys,
+    )
     assert code == 2 and err.startswith(f"error: {message}") and err.count("\n") == 1, err
     assert not out.exists()
 
 
 def test_fit_refuses_a_negative_seed_in_one_line(capsys, tmp_path):
-    code, _, err = run_cli(["fit", str(SPECIMEN), "--optimizer", "random", "--budget", "300",
-                            "--out", str(tmp_path / "r.json"), "--seed", "-1"], capsys)
+    code, _, err = run_cli(
+        [
+            "fit",
+            str(SPECIMEN),
+            "--optimizer",
+            "random",
+            "--budget",
+            "300",
+            "--out",
+            str(tmp_path / "r.json"),
+            "--seed",
+            "-1",
+        ],
+        capsys,
+    )
     assert (code, err) == (2, "error: --seed must be a non-negative integer, got -1\n")
     with pytest.raises(UserError, match="seed must be a non-negative integer, got -1"):
         fitting.run(testing.SphereProblem(), "random", 10, seed=-1)
 
 
 def test_a_refusal_is_one_line_and_no_traceback_in_a_real_process(tmp_path):
-    fit = subprocess.run([sys.executable, "-m", "bwbench.cli", "fit", str(SPECIMEN), "--optimizer", "paper-ga",
-                          "--budget", "300", "--out", str(tmp_path / "r.json"), "--option", "population=abc"],
-                         capture_output=True, text=True, timeout=HANG_AFTER_S)  # timeout: a hang detector
+    fit = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "bwbench.cli",
+            "fit",
+            str(SPECIMEN),
+            "--optimizer",
+            "paper-ga",
+            "--budget",
+            "300",
+            "--out",
+            str(tmp_path / "r.json"),
+            "--option",
+            "population=abc",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=HANG_AFTER_S,
+    )  # timeout: a hang detector
     assert fit.returncode == 2 and fit.stdout == ""
-    assert fit.stderr == ("error: paper-ga: option population must be an integer in [2, 100000], "
-                          "got 'abc'\n")
+    assert fit.stderr == ("error: paper-ga: option population must be an integer in [2, 100000], got 'abc'\n")
 
 
 def study_toml(path: Path, optimizers: str, extra: str = "") -> Path:
-    path.write_text(f"""
+    path.write_text(
+        f"""
 [study]
 name = "options"
 seed = 1
@@ -227,7 +271,9 @@ repeat = [1]
 [optimizers]
 {optimizers}
 {extra}
-""", encoding="utf-8")
+""",
+        encoding="utf-8",
+    )
     return path
 
 
@@ -248,8 +294,7 @@ TOML_REFUSED = [
 ]
 
 
-@pytest.mark.parametrize("optimizer, assignment, message", TOML_REFUSED,
-                         ids=[f"{o} {a}" for o, a, _ in TOML_REFUSED])
+@pytest.mark.parametrize("optimizer, assignment, message", TOML_REFUSED, ids=[f"{o} {a}" for o, a, _ in TOML_REFUSED])
 def test_a_study_toml_refuses_a_bad_option_naming_file_table_and_backend(optimizer, assignment, message, tmp_path):
     other = "pso" if optimizer == "random" else "random"  # a well-configured backend first
     path = study_toml(tmp_path / "x.toml", f"{other} = {{}}\n{optimizer} = {{ {assignment} }}")
@@ -260,13 +305,17 @@ def test_a_study_toml_refuses_a_bad_option_naming_file_table_and_backend(optimiz
 
 
 def test_a_study_toml_refuses_a_bad_posterior_option(tmp_path):
-    path = study_toml(tmp_path / "p.toml", "random = {}", extra="""
+    path = study_toml(
+        tmp_path / "p.toml",
+        "random = {}",
+        extra="""
 [posterior]
 specimens = ["pom-mt24u01_0.01MPa_r1"]
 optimizer = "emcee"
 budget = 50
 options = { n_walkers = 1 }
-""")
+""",
+    )
     with pytest.raises(UserError, match=r"p\.toml: \[posterior\] options: option n_walkers must be an integer"):
         load_study_config(path)
 
@@ -284,15 +333,21 @@ def test_walkers_below_twice_the_dimension_are_refused_by_the_run_in_one_line(tm
     config = load_study_config(study_toml(tmp_path / "w.toml", "emcee = { n_walkers = 3 }"))
     row = run_task(plan_tasks(config)[0])["row"]
     assert row["status"] == "error" and row["nfev"] is None
-    assert row["error"] == ("OptionError: emcee: option n_walkers must be at least 2·d = 28 on this "
-                            "14-parameter problem (emcee's stretch move), got 3")
+    assert row["error"] == (
+        "OptionError: emcee: option n_walkers must be at least 2·d = 28 on this "
+        "14-parameter problem (emcee's stretch move), got 3"
+    )
     # where 2·d allows it, the smallest declared value runs
     assert fitting.run(testing.SphereProblem(dim=1), "emcee", 50, seed=1, options={"n_walkers": 2}).nfev == 50
 
 
 # ---------------------------------------------------------------------------------------- no loop without budget
-CASES = [(name, option, value) for name in sorted(registry.available()) if not name.startswith("example-")
-         for option, value in testing.option_edge_cases(name)]
+CASES = [
+    (name, option, value)
+    for name in sorted(registry.available())
+    if not name.startswith("example-")
+    for option, value in testing.option_edge_cases(name)
+]
 
 
 @pytest.mark.parametrize("name, option, value", CASES, ids=[f"{n}-{o}={v!r}" for n, o, v in CASES])
@@ -331,6 +386,5 @@ def test_a_runaway_swarm_ends_the_run(monkeypatch):
     from bwbench.optimizers import pso
 
     monkeypatch.setattr(pso, "_DIVERGED", 3.0)  # reached quickly by an unstable swarm
-    result = fitting.run(testing.SphereProblem(), "pso", 100_000, seed=1,
-                         options={"w": 0.99, "c1": 4.0, "c2": 4.0})
+    result = fitting.run(testing.SphereProblem(), "pso", 100_000, seed=1, options={"w": 0.99, "c1": 4.0, "c2": 4.0})
     assert 0 < result.nfev < 100_000 and result.message.startswith("the swarm ran away")

@@ -17,8 +17,19 @@ from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
 ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 BACKENDS = sorted(registry.available())
-EXPECTED = {"paper-ga", "pso", "anneal", "firefly", "nlopt-bobyqa", "nlopt-sbplx", "nlopt-neldermead",
-            "emcee", "cmaes", "de", "random"}
+EXPECTED = {
+    "paper-ga",
+    "pso",
+    "anneal",
+    "firefly",
+    "nlopt-bobyqa",
+    "nlopt-sbplx",
+    "nlopt-neldermead",
+    "emcee",
+    "cmaes",
+    "de",
+    "random",
+}
 
 
 def test_every_backend_of_the_issue_is_registered():
@@ -58,8 +69,22 @@ def plugin_env(tmp_path_factory):
     source = tmp_path_factory.mktemp("plugin-src") / "plugin"
     shutil.copytree(ROOT / "examples" / "plugin", source)  # the build writes into the source tree
     site = tmp_path_factory.mktemp("site")
-    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
-                    "--target", str(site), str(source)], check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "--target",
+            str(site),
+            str(source),
+        ],
+        check=True,
+        capture_output=True,
+    )
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")])
     return env
@@ -72,16 +97,33 @@ def test_installed_example_plugin_is_listed_runs_and_keeps_the_contract(plugin_e
     assert "example-coordinate-search" in listing.stdout and "one point per call" in listing.stdout
     out = tmp_path / "r.json"
     fit = subprocess.run(
-        bwbench + ["fit", str(SPECIMEN), "--optimizer", "example-coordinate-search", "--budget", "120",
-                   "--seed", "3", "--out", str(out)],
-        env=plugin_env, capture_output=True, text=True,
+        bwbench
+        + [
+            "fit",
+            str(SPECIMEN),
+            "--optimizer",
+            "example-coordinate-search",
+            "--budget",
+            "120",
+            "--seed",
+            "3",
+            "--out",
+            str(out),
+        ],
+        env=plugin_env,
+        capture_output=True,
+        text=True,
     )
     assert fit.returncode == 0, fit.stderr
     assert '"nfev": 120' in out.read_text()
     # the plugin's own tests: bwbench.testing's contract checks, run against the installed plugin
-    tests = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                            str(ROOT / "examples" / "plugin" / "tests")],
-                           env=plugin_env, capture_output=True, text=True, cwd=tmp_path)
+    tests = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(ROOT / "examples" / "plugin" / "tests")],
+        env=plugin_env,
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert tests.returncode == 0, tests.stdout + tests.stderr
     assert "2 passed" in tests.stdout
 
@@ -105,7 +147,12 @@ def test_the_table_of_builtin_backends_is_what_the_modules_register():
     for module in pkgutil.iter_modules(builtin.__path__):
         before = set(registry.REGISTRY.items)
         loaded = importlib.import_module(f"{builtin.__name__}.{module.name}")
-        found.update({name: module.name for name, backend in registry.REGISTRY.items.items()
-                      if backend.minimize.__module__ == loaded.__name__})
+        found.update(
+            {
+                name: module.name
+                for name, backend in registry.REGISTRY.items.items()
+                if backend.minimize.__module__ == loaded.__name__
+            }
+        )
         assert set(registry.REGISTRY.items) >= before
     assert found == registry.BUILTIN

@@ -21,7 +21,7 @@ def test_a_posterior_that_converges_stops_before_its_budget_and_says_so():
     verdict = mcmc.assess(extras["chain"], extras["log_prob"], extras["ensembles"], problem.param_names)
     assert verdict["converged"] and len(verdict["modes"]) == 1
     # ... and it is the right posterior: the Gaussian of the linear model, known in closed form
-    kept = extras["chain"][len(extras["chain"]) // 2:].reshape(-1, 2)
+    kept = extras["chain"][len(extras["chain"]) // 2 :].reshape(-1, 2)
     np.testing.assert_allclose(kept.std(axis=0), problem.posterior_sd(), rtol=0.15)
     ls = np.linalg.lstsq(np.column_stack([np.ones_like(problem.x), problem.x]), problem.y, rcond=None)[0]
     np.testing.assert_allclose(kept.mean(axis=0), ls, atol=0.2 * problem.posterior_sd().max())
@@ -43,8 +43,9 @@ def test_a_bimodal_posterior_is_reported_as_two_modes():
     extras = result.extras
     verdict = mcmc.assess(extras["chain"], extras["log_prob"], 4, problem.param_names)
     assert len(verdict["modes"]) == 2, result.message
-    centres = sorted(float(np.median(extras["chain"][len(extras["chain"]) // 2:, m.walkers, 0]))
-                     for m in verdict["modes"])
+    centres = sorted(
+        float(np.median(extras["chain"][len(extras["chain"]) // 2 :, m.walkers, 0])) for m in verdict["modes"]
+    )
     assert centres == pytest.approx([0.25, 0.75], abs=0.02)
     assert "2 modes" in result.message
     # each mode converged on its own; pooled, the walkers of the two modes would give a huge R̂

@@ -16,8 +16,10 @@ SPECIMENS = Path(__file__).resolve().parents[2] / "data" / "specimens"
 
 def test_the_linear_tension_branch_is_held_and_the_compression_branch_sampled():
     # pom-mt24u01 0.05 MPa: truth x_y₊ = 39 mm on a ±10 mm stroke (linear), x_y₋ = 0.76 mm (yields)
-    problem = make_problem(read_specimen(SPECIMENS / "pom-mt24u01_0.05MPa_r1.csv"),
-                           {"state": "shared", "excitation": "measured", "formulation": "identifiable"})
+    problem = make_problem(
+        read_specimen(SPECIMENS / "pom-mt24u01_0.05MPa_r1.csv"),
+        {"state": "shared", "excitation": "measured", "formulation": "identifiable"},
+    )
     options = {**POSTERIOR_OPTIONS["emcee"], "start_fraction": 0.5, "stop": "budget"}
     with limited(1):  # as a study's worker runs it: numba's parallel loops wait for busy cores otherwise
         result = fitting.run(problem, "emcee", 30_000, seed=3, options=options)

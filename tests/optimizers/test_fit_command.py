@@ -11,8 +11,14 @@ from bwbench.cli import main
 
 SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 # β + γ < 0 with n ≥ 4.5: |z| runs away on loading, in both branches, everywhere in this box
-RUNAWAY = {"n+": [9.0, 10.75], "n-": [4.5, 5.0], "gamma+": [-7.5, -7.0], "beta+": [0.1, 0.2],
-           "gamma-": [-5.0, -4.5], "beta-": [0.001, 0.002]}
+RUNAWAY = {
+    "n+": [9.0, 10.75],
+    "n-": [4.5, 5.0],
+    "gamma+": [-7.5, -7.0],
+    "beta+": [0.1, 0.2],
+    "gamma-": [-5.0, -4.5],
+    "beta-": [0.001, 0.002],
+}
 
 
 @pytest.fixture
@@ -28,15 +34,18 @@ def one_error_line(capsys) -> str:
     return err[0]
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--out", "s.csv"], "--out s.csv is an input of this command"),
-    (["--out", "r.json", "--plot", "./s.csv"], "--plot s.csv is an input of this command"),
-    (["--out", "r.json", "--plot", "fit.txt"], "--plot fit.txt: the figure format comes from the extension"),
-    (["--out", "fit.png", "--plot", "./fit.png"], "two outputs name the same file"),
-    (["--out", "/proc/bwbench-test.json"], "cannot write /proc/bwbench-test.json"),
-    (["--out", "no/such/folder/r.json"], "folder"),
-    (["--out", "."], "it is a folder"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--out", "s.csv"], "--out s.csv is an input of this command"),
+        (["--out", "r.json", "--plot", "./s.csv"], "--plot s.csv is an input of this command"),
+        (["--out", "r.json", "--plot", "fit.txt"], "--plot fit.txt: the figure format comes from the extension"),
+        (["--out", "fit.png", "--plot", "./fit.png"], "two outputs name the same file"),
+        (["--out", "/proc/bwbench-test.json"], "cannot write /proc/bwbench-test.json"),
+        (["--out", "no/such/folder/r.json"], "folder"),
+        (["--out", "."], "it is a folder"),
+    ],
+)
 def test_bad_outputs_are_refused_before_the_fit(folder, capsys, args, message):
     before = sorted(p.name for p in folder.iterdir())
     assert main(["fit", "s.csv", "--optimizer", "random", "--budget", "20", *args]) == 2
@@ -47,8 +56,10 @@ def test_bad_outputs_are_refused_before_the_fit(folder, capsys, args, message):
 
 def test_a_box_that_blows_up_at_every_probed_corner_is_refused_before_the_fit(folder, capsys):
     (folder / "box.json").write_text(json.dumps(RUNAWAY))
-    assert main(["fit", "s.csv", "--optimizer", "random", "--budget", "30", "--bounds", "box.json",
-                 "--out", "r.json"]) == 2
+    assert (
+        main(["fit", "s.csv", "--optimizer", "random", "--budget", "30", "--bounds", "box.json", "--out", "r.json"])
+        == 2
+    )
     assert "blows up (force not finite) at every one of 32 corners" in one_error_line(capsys)
     assert not (folder / "r.json").exists()
 
@@ -57,8 +68,25 @@ def test_a_fit_that_finds_nothing_finite_exits_1_with_strict_json(folder, capsys
     # The probe of the box's corners refuses RUNAWAY before the fit; without it, the fit itself says so.
     monkeypatch.setattr("bwbench.data.bounds.refuse_if_blows_up", lambda problem, where: None)
     (folder / "box.json").write_text(json.dumps(RUNAWAY))
-    assert main(["fit", "s.csv", "--optimizer", "random", "--budget", "30", "--bounds", "box.json",
-                 "--out", "r.json", "--plot", "r.png"]) == 1
+    assert (
+        main(
+            [
+                "fit",
+                "s.csv",
+                "--optimizer",
+                "random",
+                "--budget",
+                "30",
+                "--bounds",
+                "box.json",
+                "--out",
+                "r.json",
+                "--plot",
+                "r.png",
+            ]
+        )
+        == 1
+    )
     assert "none of the 30 evaluations gave a finite force" in one_error_line(capsys)
     result = json.loads((folder / "r.json").read_text(), parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
     assert result["mse"] is None and result["rmse_N"] is None and result["params"]["A+"] is None

@@ -76,8 +76,14 @@ def test_a_mode_missed_for_want_of_live_points_is_said_and_never_converged():
     alone = nested.assess(draws, lp, extras["log_z"], extras["log_z_err"], names)
     assert alone["converged"], alone["message"]  # by R̂, ESS, ln Z and masses
     best = np.array([0.85, 0.85, 0.85])  # what an optimiser finds: the narrow mode's peak
-    verdict = nested.assess(draws, lp, extras["log_z"], extras["log_z_err"], names,
-                            best_fit=(best, float(toy.log_density(best[None])[0]), "the best ranking fit"))
+    verdict = nested.assess(
+        draws,
+        lp,
+        extras["log_z"],
+        extras["log_z_err"],
+        names,
+        best_fit=(best, float(toy.log_density(best[None])[0]), "the best ranking fit"),
+    )
     assert not verdict["converged"] and verdict["best_fit_place"]["where"] == "missed"
     assert "the sampler missed a mode at least as probable as the best ranking fit" in verdict["message"]
     # a poor point is below the support, a point among the draws is in the mode

@@ -43,8 +43,9 @@ def test_a_batch_counts_every_row_and_blown_up_rows_read_inf():
     # the same points as losses: the same numbers, and the trace of one point at a time
     twin = Objective(blowing_up_sphere(), budget=10)
     losses = twin.batch(U)
-    np.testing.assert_allclose(np.mean(np.where(np.isfinite(R), R, 0) ** 2, axis=1)[[0, 2, 3]],
-                               losses[[0, 2, 3]], rtol=1e-14, atol=1e-300)
+    np.testing.assert_allclose(
+        np.mean(np.where(np.isfinite(R), R, 0) ** 2, axis=1)[[0, 2, 3]], losses[[0, 2, 3]], rtol=1e-14, atol=1e-300
+    )
     assert twin.trace_nfev == objective.trace_nfev and twin.best_mse == objective.best_mse
 
 
@@ -62,8 +63,12 @@ def test_a_batch_is_cut_at_the_budget_and_the_next_call_raises():
     R = objective.residuals(np.full((6, 3), 0.4))  # 4 left: rows 4 and 5 are not run
     assert problem.evaluated == objective.nfev == 7 and objective.exhausted
     assert np.all(np.isfinite(R[:4])) and np.all(np.isinf(R[4:]))
-    for call in (lambda: objective.residuals(np.full(3, 0.5)), lambda: objective.residuals(np.full((2, 3), 0.5)),
-                 lambda: objective.batch(np.full((2, 3), 0.5)), lambda: objective(np.full(3, 0.5))):
+    for call in (
+        lambda: objective.residuals(np.full(3, 0.5)),
+        lambda: objective.residuals(np.full((2, 3), 0.5)),
+        lambda: objective.batch(np.full((2, 3), 0.5)),
+        lambda: objective(np.full(3, 0.5)),
+    ):
         with pytest.raises(BudgetExhausted):
             call()
     assert problem.evaluated == 7

@@ -12,9 +12,11 @@ from bwbench.optimize.objective import Objective
 from bwbench.problems.hysteresis.formulations import make_problem
 
 DATA = Path(__file__).resolve().parents[2] / "data"
-CASES = [("switched-bouc-wen", DATA / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
-         ("spencer", DATA / "mr_damper" / "mr_10mm_2Hz_1V.csv"),
-         ("bouc-wen", DATA / "specimens" / "pc-abs-c12hf_0.01MPa_r1.csv")]
+CASES = [
+    ("switched-bouc-wen", DATA / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
+    ("spencer", DATA / "mr_damper" / "mr_10mm_2Hz_1V.csv"),
+    ("bouc-wen", DATA / "specimens" / "pc-abs-c12hf_0.01MPa_r1.csv"),
+]
 
 
 @pytest.fixture

@@ -23,8 +23,14 @@ def test_units_of_the_paper_parameters_follow_from_z_in_mm():
     assert UNITS["beta+"] == "mm^-n+" and UNITS["gamma-"] == "mm^-n-" and UNITS["wn+"] == "rad/s"
     problem = IdentifiableProblem(read_specimen(SPECIMEN))
     units = fit_checks.units(problem, ["m", "c+", "h-", "xy+", "rho", "beta-"])
-    assert units == {"m": "N·s²/mm (1 N·s²/mm = 1 t = 1000 kg)", "c+": "N·s/mm", "h-": "N", "xy+": "mm",
-                     "rho": "-", "beta-": "mm^-n-"}
+    assert units == {
+        "m": "N·s²/mm (1 N·s²/mm = 1 t = 1000 kg)",
+        "c+": "N·s/mm",
+        "h-": "N",
+        "xy+": "mm",
+        "rho": "-",
+        "beta-": "mm^-n-",
+    }
 
 
 @pytest.fixture
@@ -43,17 +49,33 @@ def _fit(capsys, *args):
 def test_a_parameter_on_its_box_edge_is_warned_about_and_flagged(folder, capsys):
     # The truth has x_y₋ ≈ 1.4 mm: held at ≥ 4 mm, the fit makes up with η₋ and ends on its lower edge.
     (folder / "box.json").write_text(json.dumps({"xy-": [4.0, 10.0]}))
-    status, out, err = _fit(capsys, SPECIMEN, "--optimizer", "cmaes", "--budget", "200", "--seed", "1",
-                            "--formulation", "identifiable", "--bounds", "box.json", "--out", "r.json")
+    status, out, err = _fit(
+        capsys,
+        SPECIMEN,
+        "--optimizer",
+        "cmaes",
+        "--budget",
+        "200",
+        "--seed",
+        "1",
+        "--formulation",
+        "identifiable",
+        "--bounds",
+        "box.json",
+        "--out",
+        "r.json",
+    )
     assert status == 0
     result = json.loads((folder / "r.json").read_text())
     assert result["at_bound"] == {"eta-": "lower"}
     assert result["units"]["xy+"] == "mm" and result["units"]["beta-"] == "mm^-n-"
     assert result["units"]["m"].startswith("N·s²/mm")
     edge = [line for line in err.splitlines() if "edge of its search box" in line]
-    assert edge == [f"warning: {SPECIMEN}: eta- = {result['params']['eta-']:.6g} ended on the lower edge of its "
-                    "search box [-2, 1]: the best fit may lie beyond it (widen it with --bounds, or see docs/models.md "
-                    "on the box)"]
+    assert edge == [
+        f"warning: {SPECIMEN}: eta- = {result['params']['eta-']:.6g} ended on the lower edge of its "
+        "search box [-2, 1]: the best fit may lie beyond it (widen it with --bounds, or see docs/models.md "
+        "on the box)"
+    ]
     # the synthetic specimen's loop runs clockwise, as the paper's parameters make it: a note, no alarm
     assert "note: the fitted loop runs clockwise" in out and "generates energy" not in err
     assert result["energy_per_cycle_Nmm"] < 0
@@ -72,7 +94,8 @@ def test_an_estimated_velocity_and_a_clockwise_loop_of_own_data_are_reported(fol
     estimate = result["velocity_estimate"]
     assert 5e-5 < estimate["velocity_error_mm_s"] < 1e-3  # 1 µm encoder noise at 1 Hz
     assert estimate["expected_force_error_N"] == pytest.approx(
-        estimate["velocity_error_mm_s"] * estimate["sensitivity_N_s_per_mm"])
+        estimate["velocity_error_mm_s"] * estimate["sensitivity_N_s_per_mm"]
+    )
     assert "velocity estimated from the displacement: expected error" in out
     assert f"warning: {own}: the fitted model generates energy" in err
 

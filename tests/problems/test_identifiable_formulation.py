@@ -34,11 +34,11 @@ def gauge_transform(p, s_plus, s_minus, state):
     """Apply z → s·z to a paper vector (shared: s_minus is s_plus), keeping c = 2ξωn and k = αωn²."""
     q = np.array(p, dtype=float)
     for i, s in ((0, s_plus), (7, s_plus if state == "shared" else s_minus)):
-        A, n, alpha, beta, gamma, xi, wn = q[i:i + 7]
+        A, n, alpha, beta, gamma, xi, wn = q[i : i + 7]
         c, k, h = 2 * xi * wn, alpha * wn**2, (1 - alpha) * wn**2
         w2 = k + h / s
         assert w2 > 0
-        q[i:i + 7] = [s * A, n, k / w2, beta * s ** (1 - n), gamma * s ** (1 - n), c / (2 * np.sqrt(w2)), np.sqrt(w2)]
+        q[i : i + 7] = [s * A, n, k / w2, beta * s ** (1 - n), gamma * s ** (1 - n), c / (2 * np.sqrt(w2)), np.sqrt(w2)]
     return q
 
 
@@ -93,7 +93,10 @@ def test_identifiable_to_paper_to_identifiable_round_trips(state):
         linear[0] = 1.0
         for b in "+-":  # c of either sign, k and h > 0: ωn² > 0 for every gauge
             linear[[fm.LINEAR_NAMES.index(f"{n}{b}") for n in "ckh"]] = [
-                rng.uniform(-5e3, 5e3), rng.uniform(1.0, 100.0), rng.uniform(10.0, 1e3)]
+                rng.uniform(-5e3, 5e3),
+                rng.uniform(1.0, 100.0),
+                rng.uniform(10.0, 1e3),
+            ]
         back = fm.to_paper(theta, linear, state)
         assert back.params is not None, back.reason
         theta2, linear2 = fm.from_paper(back.params, state)
@@ -174,7 +177,7 @@ def test_batched_solve_equals_lstsq_on_the_written_out_design(fix_mass):
         np.testing.assert_allclose(sol.mse[i], np.mean(r**2), rtol=1e-9)
         np.testing.assert_allclose(sol.residual[i], -r, atol=1e-8 * np.abs(f).max())
         np.testing.assert_allclose(sol.logdet[i], np.linalg.slogdet(X.T @ X)[1], rtol=0, atol=1e-6)
-    one = M.design.solve(Z[finite[-1]:finite[-1] + 1])
+    one = M.design.solve(Z[finite[-1] : finite[-1] + 1])
     assert one.mse[0] == pytest.approx(sol.mse[finite[-1]], rel=1e-12)
 
 
@@ -201,7 +204,9 @@ def test_a_test_that_only_moves_one_way_drops_the_idle_branch():
     assert any("branch - has no samples" in note for note in design.notes)
     assert "h-" not in sol.free_names and np.all(np.isnan(sol.coef[0, 5:]))
     k, h, off = (sol.coef[0, fm.LINEAR_NAMES.index(n)] for n in ("k+", "h+", "f+"))
-    assert k == pytest.approx(3.0, rel=0.05) and h == pytest.approx(50.0, rel=0.01) and off == pytest.approx(7.0, abs=0.5)
+    assert (
+        k == pytest.approx(3.0, rel=0.05) and h == pytest.approx(50.0, rel=0.01) and off == pytest.approx(7.0, abs=0.5)
+    )
     assert np.sqrt(sol.mse[0]) < 0.12
 
 
@@ -311,8 +316,11 @@ def test_residual_vector_is_model_minus_measured_and_finite_on_blow_up():
     c = dict(zip(fm.LINEAR_NAMES, sol.coef[0]))
     w = M.trajectories(theta[None])[0]
     plus = e.v >= 0
-    F = c["m"] * e.a + np.where(plus, c["c+"] * e.v + c["k+"] * e.x + c["h+"] * w + c["f+"],
-                                c["c-"] * e.v + c["k-"] * e.x + c["h-"] * w + c["f-"])
+    F = c["m"] * e.a + np.where(
+        plus,
+        c["c+"] * e.v + c["k+"] * e.x + c["h+"] * w + c["f+"],
+        c["c-"] * e.v + c["k-"] * e.x + c["h-"] * w + c["f-"],
+    )
     np.testing.assert_allclose(r, F - f, atol=1e-9 * np.ptp(f))
     assert np.mean(r**2) == pytest.approx(sol.mse[0], rel=1e-12)
     runaway = M.bounds.from_unit(np.array([0.9, 0.9, 0.99, 0.1, 0.9, 0.99, 0.01]))
@@ -333,5 +341,7 @@ def test_a_finite_but_huge_trajectory_is_a_blow_up_not_a_crash():
     assert np.all(problem.residual_batch(theta[None]) == np.inf)
     on_signal = IdentifiableModel(problem.signal, problem.specimen.f)
     assert np.all(on_signal.residual(theta) == on_signal.penalty)
-    mse, log_marginal = problem.log_likelihood_batch(np.vstack([theta, problem.lower + 0.5 * (problem.upper - problem.lower)]))
+    mse, log_marginal = problem.log_likelihood_batch(
+        np.vstack([theta, problem.lower + 0.5 * (problem.upper - problem.lower)])
+    )
     assert mse[0] == np.inf and log_marginal[0] == -np.inf and np.isfinite(mse[1])

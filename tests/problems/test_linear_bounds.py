@@ -14,8 +14,16 @@ from bwbench.problems.hysteresis.linear.bounds import M_MAX, physical_bounds
 
 def damper_test(amplitude, frequency, seed=0):
     """A recorded MR-damper sine test (velocity channel with 0.5 mm/s noise) as (excitation, force)."""
-    test = mr_damper.sine_test(amplitude_mm=amplitude, frequency_hz=frequency, voltage=1.0, rate_hz=500.0, cycles=2,
-                               peak_force_N=None, rng=seed, velocity_noise_mm_s=0.5)
+    test = mr_damper.sine_test(
+        amplitude_mm=amplitude,
+        frequency_hz=frequency,
+        voltage=1.0,
+        rate_hz=500.0,
+        cycles=2,
+        peak_force_N=None,
+        rng=seed,
+        velocity_noise_mm_s=0.5,
+    )
     return excitation.measured(test.t, test.x, test.v), test.f
 
 
@@ -49,8 +57,9 @@ def test_bounded_coefficients_stay_inside_their_bounds_and_are_the_bounded_least
         lower = [bounds.get(n, (-np.inf, np.inf))[0] for n in X_names]
         upper = [bounds.get(n, (-np.inf, np.inf))[1] for n in X_names]
         scale = np.linalg.norm(X, axis=0)
-        reference = lsq_linear(X / scale, f, bounds=(np.array(lower) * scale, np.array(upper) * scale),
-                               method="bvls", tol=1e-12)
+        reference = lsq_linear(
+            X / scale, f, bounds=(np.array(lower) * scale, np.array(upper) * scale), method="bvls", tol=1e-12
+        )
         rss = np.sum((X @ (reference.x / scale) - f) ** 2)
         assert sol.mse[i] * len(f) == pytest.approx(rss, rel=1e-7)
         residual = X @ sol.coef[i, sol.free_index] - f
@@ -82,8 +91,9 @@ def test_one_sine_test_never_separates_the_mass_but_sines_at_two_frequencies_do(
     # a record that is not a sine keeps the noise rule
     t = np.arange(0.0, 2.0, 2e-3)
     two_tone = excitation.measured(t, 20 * np.sin(2 * np.pi * 2 * t) + 5 * np.sin(2 * np.pi * 5.3 * t + 0.4))
-    check = ls.inertia_check(two_tone, 50 * np.tanh(two_tone.v / 10) + np.random.default_rng(2).normal(0, 1, len(t)),
-                             LAYOUT)
+    check = ls.inertia_check(
+        two_tone, 50 * np.tanh(two_tone.v / 10) + np.random.default_rng(2).normal(0, 1, len(t)), LAYOUT
+    )
     assert check.sine_segments == 0 and check.fit
 
 

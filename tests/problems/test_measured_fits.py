@@ -99,7 +99,9 @@ def test_a_ramped_sine_is_a_sine_test_on_its_steady_part(tmp_path):
     t, x, v = ramped_sine()
     steady = steady_part(t, x)
     assert (steady.ramp_in_cycles, steady.ramp_out_cycles) == (1.0, 1.0)
-    assert t[steady.start] == pytest.approx(0.5, abs=2 / RATE) and t[steady.stop - 1] == pytest.approx(2.0, abs=2 / RATE)
+    assert t[steady.start] == pytest.approx(0.5, abs=2 / RATE) and t[steady.stop - 1] == pytest.approx(
+        2.0, abs=2 / RATE
+    )
     # the whole record is not a sine within the tolerance, its steady part is
     from bwbench.models.excitation import fit_sine
 
@@ -107,7 +109,7 @@ def test_a_ramped_sine_is_a_sine_test_on_its_steady_part(tmp_path):
     assert np.sqrt(np.mean((sine.evaluate(t)[0] - x) ** 2)) > SINE_TOLERANCE * AMP
     a, judged = sine_test(t, x)
     assert judged is not None and judged.ramped
-    assert np.allclose(a, -(2 * np.pi * FREQ) ** 2 * x, atol=1e-6 * AMP * (2 * np.pi * FREQ) ** 2)
+    assert np.allclose(a, -((2 * np.pi * FREQ) ** 2) * x, atol=1e-6 * AMP * (2 * np.pi * FREQ) ** 2)
     spec = spencer_record(tmp_path / "s.csv")
     check = inertia_check(excitation.of_specimen("measured", spec), spec.f, SPENCER.linear_layout())
     assert check.sine_segments == 1 and "judged on its steady part" in check.reason
@@ -129,8 +131,11 @@ def test_data_check_flags_the_ramps(tmp_path, capsys):
     path = write(tmp_path / "r.csv", t, x, v, 100 * np.sin(2 * np.pi * FREQ * t + 0.3) * (np.abs(x) + 1))
     assert main(["data", "check", str(path)]) == 0
     out = capsys.readouterr().out
-    found = re.search(r"ramps: ramp-in 1 cycle \(([\d.]+) s\), ramp-out 1 cycle \(([\d.]+) s\); steady part "
-                      r"t = ([\d.]+) … ([\d.]+) s", out)
+    found = re.search(
+        r"ramps: ramp-in 1 cycle \(([\d.]+) s\), ramp-out 1 cycle \(([\d.]+) s\); steady part "
+        r"t = ([\d.]+) … ([\d.]+) s",
+        out,
+    )
     assert found is not None, out
     ramp_in, ramp_out, start, stop = map(float, found.groups())
     assert ramp_in == pytest.approx(0.5, abs=2 / RATE) and ramp_out == pytest.approx(0.5, abs=2 / RATE)
@@ -156,7 +161,7 @@ def test_a_record_that_starts_from_rest_starts_the_model_from_rest_without_a_spi
     spiked = coef["c1"] * ydot[0] + coef["k1"] * signal.x + coef["f0"]
     assert abs(spiked[0] - force[0]) > 100.0
     # after the first cycles the two agree: only the start differs
-    assert np.max(np.abs(spiked - force)[len(force) // 2:]) < 0.05 * np.max(np.abs(force))
+    assert np.max(np.abs(spiked - force)[len(force) // 2 :]) < 0.05 * np.max(np.abs(force))
 
 
 def test_a_record_cut_at_a_reversal_is_not_taken_as_at_rest():
@@ -175,8 +180,14 @@ def test_the_fit_json_records_its_inputs_nrmse_both_ways_and_the_command(tmp_pat
     out = capsys.readouterr().out
     result = json.loads((tmp_path / "r.json").read_text())
     data = (tmp_path / "s.csv").read_bytes()
-    assert result["inputs"] == [{"role": "specimen", "path": str((tmp_path / "s.csv").resolve()),
-                                 "size_bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}]
+    assert result["inputs"] == [
+        {
+            "role": "specimen",
+            "path": str((tmp_path / "s.csv").resolve()),
+            "size_bytes": len(data),
+            "sha256": hashlib.sha256(data).hexdigest(),
+        }
+    ]
     assert result["command_line"] == "bwbench " + " ".join(args)
     assert result["bwbench_version"]
     f = read_specimen(tmp_path / "s.csv").f
@@ -201,8 +212,25 @@ def test_the_box_probe_says_so_and_its_time_is_in_the_result(tmp_path, capsys, m
     monkeypatch.chdir(tmp_path)
     spencer_record(tmp_path / "s.csv")
     (tmp_path / "box.json").write_text(json.dumps({"n": [1.5, 3.0]}))
-    assert main(["fit", "s.csv", "--model", "spencer", "--optimizer", "random", "--budget", "8",
-                 "--bounds", "box.json", "--out", "r.json"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                "s.csv",
+                "--model",
+                "spencer",
+                "--optimizer",
+                "random",
+                "--budget",
+                "8",
+                "--bounds",
+                "box.json",
+                "--out",
+                "r.json",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out.splitlines()
     assert out[0] == "probing the search box of --bounds box.json (32 corners, one evaluation each) …"
     result = json.loads((tmp_path / "r.json").read_text())

@@ -31,8 +31,10 @@ def specimens(tmp_path_factory):
     return read_specimen(SPECIMEN), read_specimen(path)
 
 
-@pytest.mark.parametrize("model, formulation", [("bouc-wen", "identifiable"), ("spencer", "identifiable"),
-                                                ("switched-bouc-wen", "identifiable")])
+@pytest.mark.parametrize(
+    "model, formulation",
+    [("bouc-wen", "identifiable"), ("spencer", "identifiable"), ("switched-bouc-wen", "identifiable")],
+)
 def test_the_comparable_likelihood_is_a_density_of_the_data(specimens, model, formulation):
     settings = {"model": model, "formulation": formulation, "state": "shared", "excitation": "measured"}
     newton, milli = (make_problem(s, settings) for s in specimens)
@@ -54,8 +56,13 @@ def test_the_direct_constant_is_jeffreys_sigma_integrated_out():
     rss = L * mse
     expected = -0.5 * L * np.log(mse) + direct_constant(L)
     # the integrand divided by exp(expected), so that quad's absolute tolerance is meaningful
-    ratio, _ = quad(lambda s: np.exp(-L * np.log(s) - 0.5 * L * np.log(2 * np.pi) - rss / (2 * s * s) - expected) / s,
-                    1e-2, 100, limit=200, points=[np.sqrt(mse)])
+    ratio, _ = quad(
+        lambda s: np.exp(-L * np.log(s) - 0.5 * L * np.log(2 * np.pi) - rss / (2 * s * s) - expected) / s,
+        1e-2,
+        100,
+        limit=200,
+        points=[np.sqrt(mse)],
+    )
     assert ratio == pytest.approx(1.0, rel=1e-6)
 
 
@@ -65,11 +72,17 @@ def test_log_mean_exp_and_its_error():
 
 
 def frame():
-    rows = [("switched-bouc-wen", -2600.0, 1.0, "mr", 12, 0.31, 0.64, 0.13), ("spencer", -2000.0, 1.5, "mr", 9, 0.05, 0.2, 0.13),
-            ("bouc-wen", -2900.0, 0.8, "mr", 8, 0.5, 0.7, 0.13), ("switched-bouc-wen", -50.0, 0.5, "vpp", 12, 0.05, 0.1, 0.2),
-            ("spencer", -51.0, 0.9, "vpp", 9, 0.06, 0.1, 0.2)]
-    out = pd.DataFrame(rows, columns=["model", "ln Z", "±", "specimen", "n", "outside", "residual near reversals",
-                                      "samples near reversals"])
+    rows = [
+        ("switched-bouc-wen", -2600.0, 1.0, "mr", 12, 0.31, 0.64, 0.13),
+        ("spencer", -2000.0, 1.5, "mr", 9, 0.05, 0.2, 0.13),
+        ("bouc-wen", -2900.0, 0.8, "mr", 8, 0.5, 0.7, 0.13),
+        ("switched-bouc-wen", -50.0, 0.5, "vpp", 12, 0.05, 0.1, 0.2),
+        ("spencer", -51.0, 0.9, "vpp", 9, 0.06, 0.1, 0.2),
+    ]
+    out = pd.DataFrame(
+        rows,
+        columns=["model", "ln Z", "±", "specimen", "n", "outside", "residual near reversals", "samples near reversals"],
+    )
     out["box shift"] = -out.pop("n") * np.log(2)
     out["converged"] = True
     out["best log-likelihood"] = [-2590.0, -1980.0, -2880.0, -45.0, -48.0]
@@ -89,7 +102,9 @@ def test_the_table_reads_model_ln_z_error_bayes_factor_specimen_first():
 def test_the_verdict_names_the_favoured_model_and_says_when_the_data_do_not_decide():
     mr, vpp = verdicts(frame())
     assert "favours **spencer** — ln B = 600.0 ± 1.8 over the next, switched-bouc-wen" in mr
-    assert "does not hang on the box" in mr and "64 % of its squared residual near reversals (13 % of the samples)" in mr
+    assert (
+        "does not hang on the box" in mr and "64 % of its squared residual near reversals (13 % of the samples)" in mr
+    )
     assert "; bouc-wen's measured force" not in mr  # its band rests on 2 draws: no check to report
     assert "Conclusive whatever the other runs' convergence" in mr  # −2000 − 2·1.5 > −2590, the next model's bound
     assert "favours **switched-bouc-wen**" in vpp and "the data do not decide between them" in vpp

@@ -75,12 +75,14 @@ def test_beta_scaling_is_an_exact_invariance(problem):
 
 @needs_data
 def test_absurd_parameters_give_inf_never_nan(problem):
-    absurd = np.array([
-        [1e-9, 0.0, 1e12, 1e12, 1e9, 1e3, -1e3, 50.0],  # stiff beyond any step, runaway
-        [2.0, 10.0, 5e4, 5e4, 1e4, 0.08, -3.0, 3.0],  # box corner: β(γ+δ) < 0 with ν = 3 runs away
-        [0.0, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1, 1.0],  # zero mass
-        [np.nan, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1, 1.0],
-    ])
+    absurd = np.array(
+        [
+            [1e-9, 0.0, 1e12, 1e12, 1e9, 1e3, -1e3, 50.0],  # stiff beyond any step, runaway
+            [2.0, 10.0, 5e4, 5e4, 1e4, 0.08, -3.0, 3.0],  # box corner: β(γ+δ) < 0 with ν = 3 runs away
+            [0.0, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1, 1.0],  # zero mass
+            [np.nan, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1, 1.0],
+        ]
+    )
     losses = problem.loss_batch(absurd)
     assert not np.any(np.isnan(losses))
     assert np.all(losses == np.inf)

@@ -31,15 +31,25 @@ needs_data = pytest.mark.skipif(
 # The configuration of studies/quick.toml as databases written before specimens were identified by
 # their bytes store it (issue 6's format): such a database must still resume (migrated on open).
 QUICK_LEGACY = {
-    "study": {"name": "quick", "seed": 20261121, "budget": 4100, "seeds": 5, "state": "shared",
-              "excitation": "measured", "data": "data/specimens"},
-    "specimens": {"filters": {"material": ["POM MT24u01"], "underpressure_MPa": [0.01, 0.05, 0.09], "repeat": [1]},
-                  "files": ["pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.05MPa_r1", "pom-mt24u01_0.09MPa_r1"]},
+    "study": {
+        "name": "quick",
+        "seed": 20261121,
+        "budget": 4100,
+        "seeds": 5,
+        "state": "shared",
+        "excitation": "measured",
+        "data": "data/specimens",
+    },
+    "specimens": {
+        "filters": {"material": ["POM MT24u01"], "underpressure_MPa": [0.01, 0.05, 0.09], "repeat": [1]},
+        "files": ["pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.05MPa_r1", "pom-mt24u01_0.09MPa_r1"],
+    },
 }
 
 
 def write_benchmark_config(path: Path, body: str = "", optimizers: str = "random = {}\ncmaes = {}") -> Path:
-    path.write_text(f"""
+    path.write_text(
+        f"""
 [study]
 name = "bench-tiny"
 problem = "bouc-wen-benchmark"
@@ -50,13 +60,16 @@ seeds = 2
 
 [optimizers]
 {optimizers}
-""", encoding="utf-8")
+""",
+        encoding="utf-8",
+    )
     return path
 
 
 def run_compare(*args):
-    return subprocess.run([sys.executable, str(RUN_COMPARE), *map(str, args)], cwd=REPO, capture_output=True,
-                          text=True, timeout=180)
+    return subprocess.run(
+        [sys.executable, str(RUN_COMPARE), *map(str, args)], cwd=REPO, capture_output=True, text=True, timeout=180
+    )
 
 
 @pytest.fixture(scope="module")
@@ -77,8 +90,12 @@ def test_the_runner_records_problem_parameters_and_test_metrics(tiny):
         conn.row_factory = sqlite3.Row
         rows = conn.execute("SELECT * FROM runs ORDER BY optimizer, replicate").fetchall()
         config = json.loads(dict(conn.execute("SELECT key, value FROM study").fetchall())["config_json"])
-    assert [(r["optimizer"], r["replicate"]) for r in rows] == [("cmaes", 0), ("cmaes", 1), ("random", 0),
-                                                                ("random", 1)]
+    assert [(r["optimizer"], r["replicate"]) for r in rows] == [
+        ("cmaes", 0),
+        ("cmaes", 1),
+        ("random", 0),
+        ("random", 1),
+    ]
     for r in rows:
         assert r["problem"] == "bouc-wen-benchmark" and r["status"] == "ok" and r["nfev"] == 30
         params = json.loads(r["params_json"])
@@ -106,12 +123,21 @@ def test_the_report_is_the_benchmark_report(tiny, tmp_path):
         assert png.with_suffix(".csv").is_file()
     md = (tmp_path / "report.md").read_text(encoding="utf-8")
     # the published figures, in one table with the backends
-    table = md[md.index("| model | kind |"):].split("\n\n")[0]
-    for model in ("identified by cmaes", "identified by random", "dynoNet", "NFIR", "PNLSS, 217 parameters",
-                  "RK4 at 15 kHz"):
+    table = md[md.index("| model | kind |") :].split("\n\n")[0]
+    for model in (
+        "identified by cmaes",
+        "identified by random",
+        "dynoNet",
+        "NFIR",
+        "PNLSS, 217 parameters",
+        "RK4 at 15 kHz",
+    ):
         assert model in table
-    counts = re.search(r"reached e_RMS < 1e-05 m on test_multisine within the budget of 30 evaluations: "
-                       r"(\w+) \d/2 and (\w+) \d/2\.", md)
+    counts = re.search(
+        r"reached e_RMS < 1e-05 m on test_multisine within the budget of 30 evaluations: "
+        r"(\w+) \d/2 and (\w+) \d/2\.",
+        md,
+    )
     assert counts and {counts.group(1), counts.group(2)} == {"cmaes", "random"}
     assert "Noël and M. Schoukens" in md and "SYNTHETIC" not in md
     # the answer first, as in every report; the data named for what they are
@@ -123,9 +149,12 @@ def test_the_report_is_the_benchmark_report(tiny, tmp_path):
     assert "Wilcoxon signed-rank" not in md and "paired (specimen, seed)" not in md
     assert "β, γ and δ are not separately identifiable" in md and "| βγ (1/m) | βδ (1/m) |" in md
     # the generic Jacobian/SVD finds the exact scaling invariance and names it
-    finding = re.search(r"The smallest singular value is σ/σmax = ([0-9.e+-]+), numerically zero.*?"
-                        r"its direction, ([^,]+), is the tangent of the exact scaling invariance", md)
-    assert finding, md[md.index("## Identifiability"):][:1500]
+    finding = re.search(
+        r"The smallest singular value is σ/σmax = ([0-9.e+-]+), numerically zero.*?"
+        r"its direction, ([^,]+), is the tangent of the exact scaling invariance",
+        md,
+    )
+    assert finding, md[md.index("## Identifiability") :][:1500]
     assert float(finding.group(1)) < 1e-6
     assert {"β", "γ", "δ"} <= set(re.findall(r"[βγδ]", finding.group(2)))
 
@@ -158,12 +187,15 @@ def test_changed_data_are_refused(tiny, tmp_path):
     assert result.returncode == 2 and "study.data_sha256 changed" in result.stderr
 
 
-@pytest.mark.parametrize("body, message", [
-    ('state = "shared"', r"\[study\] state does not apply to problem 'bouc-wen-benchmark' .*: remove it"),
-    ('excitation = "sine"', r"\[study\] excitation does not apply to problem 'bouc-wen-benchmark'"),
-    ("budgett = 3", r"\[study\] unknown key 'budgett'"),
-    ('problem2 = "x"', r"\[study\] unknown key 'problem2'"),
-])
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ('state = "shared"', r"\[study\] state does not apply to problem 'bouc-wen-benchmark' .*: remove it"),
+        ('excitation = "sine"', r"\[study\] excitation does not apply to problem 'bouc-wen-benchmark'"),
+        ("budgett = 3", r"\[study\] unknown key 'budgett'"),
+        ('problem2 = "x"', r"\[study\] unknown key 'problem2'"),
+    ],
+)
 def test_settings_that_do_not_apply_are_refused(tmp_path, body, message):
     with pytest.raises(UserError, match=message):
         load_study_config(write_benchmark_config(tmp_path / "bad.toml", body))
@@ -177,24 +209,27 @@ def test_a_specimens_table_is_refused(tmp_path):
 
 @needs_data  # checked after the data folder
 def test_posterior_specimens_other_than_train_multisine_are_refused(tmp_path):
-    path = write_benchmark_config(tmp_path / "bad.toml", optimizers='random = {}\n[posterior]\nspecimens = ["x"]\n'
-                                                                     "budget = 10")
+    path = write_benchmark_config(
+        tmp_path / "bad.toml", optimizers='random = {}\n[posterior]\nspecimens = ["x"]\nbudget = 10'
+    )
     with pytest.raises(UserError, match=r'\[posterior\] specimens: .* \["train_multisine"\]'):
         load_study_config(path)
 
 
 def test_unknown_problem_is_refused(tmp_path):
     path = tmp_path / "bad.toml"
-    path.write_text('[study]\nname = "x"\nseed = 1\nbudget = 5\nseeds = 1\nproblem = "duffing"\n'
-                    "[optimizers]\nrandom = {}\n")
+    path.write_text(
+        '[study]\nname = "x"\nseed = 1\nbudget = 5\nseeds = 1\nproblem = "duffing"\n[optimizers]\nrandom = {}\n'
+    )
     with pytest.raises(UserError, match=r"\[study\] problem must be one of 'switched-bouc-wen', 'bouc-wen-benchmark'"):
         load_study_config(path)
 
 
 def test_missing_data_folder_is_one_line_saying_where_and_how(tmp_path):
     missing = tmp_path / "no-such-folder"
-    result = run_compare("--config", write_benchmark_config(tmp_path / "b.toml"), "--db", tmp_path / "x.sqlite",
-                         "--data", missing)
+    result = run_compare(
+        "--config", write_benchmark_config(tmp_path / "b.toml"), "--db", tmp_path / "x.sqlite", "--data", missing
+    )
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
@@ -214,16 +249,22 @@ def test_a_database_of_the_old_format_still_resumes_the_same_study(tmp_path):
     config = load_study_config(tmp_path / "quick.toml")
     assert config.problem == "switched-bouc-wen" and "problem" not in config.to_json_dict()["study"]
     new = config.to_json_dict()
-    legacy = {**QUICK_LEGACY, "optimizers": new["optimizers"], "posterior": {
-        k: v for k, v in new["posterior"].items() if k != "sha256"}}
+    legacy = {
+        **QUICK_LEGACY,
+        "optimizers": new["optimizers"],
+        "posterior": {k: v for k, v in new["posterior"].items() if k != "sha256"},
+    }
     assert extension_conflicts(legacy, new) == []
     fewer = {**legacy, "study": {**legacy["study"], "budget": 4000}}
     assert extension_conflicts(fewer, new) == ["study.budget: 4000 -> 4100"]
 
 
 def test_naming_the_default_problem_keeps_the_hash(tmp_path):
-    text = (REPO / "studies" / "quick.toml").read_text(encoding="utf-8").replace(
-        'data = "../data/specimens"', f'data = "{(REPO / "data" / "specimens").as_posix()}"')
+    text = (
+        (REPO / "studies" / "quick.toml")
+        .read_text(encoding="utf-8")
+        .replace('data = "../data/specimens"', f'data = "{(REPO / "data" / "specimens").as_posix()}"')
+    )
     implicit, explicit = tmp_path / "implicit.toml", tmp_path / "explicit.toml"
     implicit.write_text(text, encoding="utf-8")
     explicit.write_text(text.replace("[study]\n", '[study]\nproblem = "switched-bouc-wen"\n', 1), encoding="utf-8")

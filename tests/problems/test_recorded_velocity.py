@@ -15,8 +15,11 @@ from reference import reference_force_of_motion
 
 # POM C9021 0.05 MPa: the largest viscous coefficient of Tables 6-8 (2·ξ₋·ωn₋ ≈ 18,000 N·s/mm), where
 # a velocity error weighs most.
-TRUTH = next(r["params"] for r in read_paper_parameters()
-             if r["material"] == "POM C9021" and float(r["underpressure_MPa"]) == 0.05)
+TRUTH = next(
+    r["params"]
+    for r in read_paper_parameters()
+    if r["material"] == "POM C9021" and float(r["underpressure_MPa"]) == 0.05
+)
 
 
 @pytest.fixture(scope="module")

@@ -1,13 +1,17 @@
 """The report's first paragraph says which formulation and search box the study used."""
+
 from types import SimpleNamespace
 
 from bwbench.problems.hysteresis.report.sections import setup_text
 
 
 def _text(paper_data=True, **settings):
-    return setup_text(SimpleNamespace(
-        study=SimpleNamespace(settings={"state": "shared", "excitation": "measured", **settings}),
-        problem_type=SimpleNamespace(is_synthetic=lambda study: paper_data)))
+    return setup_text(
+        SimpleNamespace(
+            study=SimpleNamespace(settings={"state": "shared", "excitation": "measured", **settings}),
+            problem_type=SimpleNamespace(is_synthetic=lambda study: paper_data),
+        )
+    )
 
 
 def test_a_study_says_which_box_it_searched():

@@ -54,8 +54,9 @@ def test_cli_refuses_parameters_outside_table5(tmp_path):
         _cli([str(SPECIMEN), "--params", str(params)])
 
 
-@pytest.mark.parametrize("state, names", [("shared", ["z → s·z in both branches"]),
-                                          ("split", ["z₊ → s·z₊", "z₋ → s·z₋"])])
+@pytest.mark.parametrize(
+    "state, names", [("shared", ["z → s·z in both branches"]), ("split", ["z₊ → s·z₊", "z₋ → s·z₋"])]
+)
 def test_the_exact_symmetry_is_named_and_verified_along_its_orbit(state, names):
     result = identifiability.analyse(SPECIMEN, switched_parameters.truth_params(SPECIMEN), state)
     assert [s["name"] for s in result["symmetries"]] == names

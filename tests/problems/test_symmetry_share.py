@@ -1,4 +1,5 @@
 """The share of the paper-coordinate scatter that is the exact symmetry."""
+
 import numpy as np
 
 from bwbench.problems.hysteresis.paper.non_uniqueness import symmetry_share

@@ -51,8 +51,9 @@ def test_a_toy_problem_runs_through_compare_and_report(registered, tmp_path, cap
     out = capsys.readouterr().out
     assert "median RMSE (mV)" in out
     with closing(sqlite3.connect(db)) as conn:
-        rows = conn.execute("SELECT problem, specimen, status, params_json, metrics_json, material "
-                            "FROM runs").fetchall()
+        rows = conn.execute(
+            "SELECT problem, specimen, status, params_json, metrics_json, material FROM runs"
+        ).fetchall()
     assert len(rows) == 2 * 3 * 2 and {r[0] for r in rows} == {"toy-decay"} and {r[2] for r in rows} == {"ok"}
     assert all('"a":' in r[3] and '"a_error":' in r[4] and r[5] is None for r in rows)
 
@@ -69,8 +70,7 @@ def test_a_toy_problem_runs_through_compare_and_report(registered, tmp_path, cap
 
 
 @pytest.mark.parametrize("where", [["--workers", "2"], ["--scheduler", "tcp://127.0.0.1:9"]], ids=["workers", "dask"])
-def test_a_problem_registered_in_this_process_only_is_refused_with_other_processes(registered, tmp_path, capsys,
-                                                                                    where):
+def test_a_problem_registered_in_this_process_only_is_refused_with_other_processes(registered, tmp_path, capsys, where):
     """Spawned or Dask workers cannot see it: one line naming the fix, before any database is made
     (it used to lose every run with "unknown problem 'toy-decay'" and retry them on every rerun)."""
     assert not problems.only_in_this_process("switched-bouc-wen")

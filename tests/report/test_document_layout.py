@@ -20,8 +20,9 @@ def test_long_tables_collapse_with_their_csv_and_the_page_has_a_viewport(tmp_pat
     assert "a <em>final loss</em> is the best loss; 1.87×* is" in html  # the star of 1.87×* stays a star
     csv = tmp_path / "table_pom-mt24u01-tension-set.csv"
     assert pd.read_csv(csv)["value"].tolist() == list(range(COLLAPSE_ROWS + 5))
-    assert ('<details><summary>POM MT24u01: tension set (+) (35 rows; data: '
-            '<a href="table_pom-mt24u01-tension-set.csv">') in html
+    assert (
+        '<details><summary>POM MT24u01: tension set (+) (35 rows; data: <a href="table_pom-mt24u01-tension-set.csv">'
+    ) in html
     assert html.count("<details>") == 1  # the short table stays open
     assert "position: sticky" in html and ".scroll { overflow-x: auto" in html
     md = doc.markdown()

@@ -41,14 +41,24 @@ def drawn(monkeypatch):
             for handle, text in zip(leg.legend_handles, leg.get_texts()):
                 look = {"text": text.get_text()}
                 if hasattr(handle, "get_linestyle") and hasattr(handle, "get_marker"):
-                    look.update(colour=matplotlib.colors.to_hex(handle.get_color()), ls=handle.get_linestyle(),
-                                marker=handle.get_marker())
+                    look.update(
+                        colour=matplotlib.colors.to_hex(handle.get_color()),
+                        ls=handle.get_linestyle(),
+                        marker=handle.get_marker(),
+                    )
                 entries.append(look)
         texts = [t for t in fig.findobj(matplotlib.text.Text) if t.get_visible() and t.get_text().strip()]
-        seen.append(types.SimpleNamespace(
-            width_in=fig.get_size_inches()[0], dpi=kwargs.get("dpi"), figure_legends=len(fig.legends),
-            axes_legends=sum(ax.get_legend() is not None for ax in fig.axes), entries=entries,
-            texts=" | ".join(t.get_text() for t in texts), smallest_font=min(t.get_fontsize() for t in texts)))
+        seen.append(
+            types.SimpleNamespace(
+                width_in=fig.get_size_inches()[0],
+                dpi=kwargs.get("dpi"),
+                figure_legends=len(fig.legends),
+                axes_legends=sum(ax.get_legend() is not None for ax in fig.axes),
+                entries=entries,
+                texts=" | ".join(t.get_text() for t in texts),
+                smallest_font=min(t.get_fontsize() for t in texts),
+            )
+        )
         return result
 
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
@@ -138,9 +148,17 @@ def test_one_legend_per_figure_and_sized_for_the_page(study, drawn, tmp_path):
     switched_figures.posterior(study, tmp_path, study.chains[0], order=ORDER)
     non_uniqueness.figure(study, tmp_path, study.specimens[0], order=ORDER)
     names = ("wn-", "A+", "n-", "xi+")  # four profiles: two rows of panels
-    analysis = {"specimen": "toy", "mse": 1.0, "noise_rmse_N": 1.0, "n_data": 100, "params": dict.fromkeys(names, 10.0),
-                "profiles": {name: [{"value": v, "unit": 0.0, "mse": 1.0 + (v - 10) ** 2, "evaluations": 5}
-                                    for v in (2.0, 10.0, 20.0)] for name in names}}
+    analysis = {
+        "specimen": "toy",
+        "mse": 1.0,
+        "noise_rmse_N": 1.0,
+        "n_data": 100,
+        "params": dict.fromkeys(names, 10.0),
+        "profiles": {
+            name: [{"value": v, "unit": 0.0, "mse": 1.0 + (v - 10) ** 2, "evaluations": 5} for v in (2.0, 10.0, 20.0)]
+            for name in names
+        },
+    }
     switched_figures.profiles(analysis, tmp_path)
     assert len(drawn) == 9
     for record in drawn:
@@ -182,9 +200,19 @@ def test_posterior_in_the_identifiable_coordinates(study, tmp_path):
 
 
 def test_profiles_say_when_the_profile_found_a_better_fit(drawn, tmp_path):
-    analysis = {"specimen": "toy", "mse": 2.0, "noise_rmse_N": 1.0, "n_data": 100, "params": {"beta+": 1.0},
-                "profiles": {"beta+": [{"value": v, "unit": 0.0, "mse": m, "evaluations": 5}
-                                       for v, m in ((0.5, 3.0), (1.0, 2.0), (1.5, 1.5), (2.0, 1.5))]}}
+    analysis = {
+        "specimen": "toy",
+        "mse": 2.0,
+        "noise_rmse_N": 1.0,
+        "n_data": 100,
+        "params": {"beta+": 1.0},
+        "profiles": {
+            "beta+": [
+                {"value": v, "unit": 0.0, "mse": m, "evaluations": 5}
+                for v, m in ((0.5, 3.0), (1.0, 2.0), (1.5, 1.5), (2.0, 1.5))
+            ]
+        },
+    }
     frame = pd.read_csv(switched_figures.profiles(analysis, tmp_path).with_suffix(".csv"))
     assert "the profile found a better fit: 1.5 N², 25.00% below the analysed fit's 2 N²" in drawn[0].texts
     assert "95 % region bounded below only" in drawn[0].texts
@@ -210,9 +238,19 @@ def test_profiles_claim_a_bound_only_from_converged_points(drawn, tmp_path):
     assert bounded(values, mse, 2.0, [True, True, True, False]) == "below only"
     assert bounded(values, mse, 2.0, [False, True, True, False]) == "not shown"  # upper bounds only
     assert bounded(values, [1.5, 1.0, 1.2, 1.9], 2.0, [False] * 4) == "neither"  # below: shown either way
-    analysis = {"specimen": "toy", "mse": 1.0, "noise_rmse_N": 1.0, "n_data": 100, "params": {"n+": 1.0},
-                "profiles": {"n+": [{"value": v, "unit": 0.0, "mse": m, "evaluations": 5, "converged": c}
-                                    for v, m, c in zip(values, mse, [False, True, True, False])]}}
+    analysis = {
+        "specimen": "toy",
+        "mse": 1.0,
+        "noise_rmse_N": 1.0,
+        "n_data": 100,
+        "params": {"n+": 1.0},
+        "profiles": {
+            "n+": [
+                {"value": v, "unit": 0.0, "mse": m, "evaluations": 5, "converged": c}
+                for v, m, c in zip(values, mse, [False, True, True, False])
+            ]
+        },
+    }
     switched_figures.profiles(analysis, tmp_path)
     assert "95 % region no bound shown (not converged)" in drawn[0].texts
     assert "bounded on both sides" not in drawn[0].texts
@@ -223,8 +261,9 @@ def test_plot_fit_titles_the_formulation_and_shows_the_residual(study, drawn, tm
     problem = problem_for(study, specimen)
     run = study.ranking[study.ranking["specimen"] == specimen].sort_values("mse").iloc[0]
     params = {n: float(run[n]) for n in problem.param_names}
-    result = types.SimpleNamespace(params=params, optimizer="cmaes", seed=1, nfev=400, rmse_N=float(np.sqrt(run["mse"])),
-                                   f_err=-float(run["mse"]))
+    result = types.SimpleNamespace(
+        params=params, optimizer="cmaes", seed=1, nfev=400, rmse_N=float(np.sqrt(run["mse"])), f_err=-float(run["mse"])
+    )
     switched_figures.plot_fit(problem, result, tmp_path / "fit.png", synthetic=True)
     assert (tmp_path / "fit.png").stat().st_size > 10_000
     (record,) = drawn
@@ -238,8 +277,11 @@ def test_a_legend_too_wide_for_the_page_gets_fewer_columns(tmp_path, monkeypatch
     from matplotlib.lines import Line2D
 
     drawn = {}
-    monkeypatch.setattr(matplotlib.figure.Figure, "savefig",
-                        lambda self, *a, **k: drawn.update(fig=self, legend=self._bwbench_legend_below))
+    monkeypatch.setattr(
+        matplotlib.figure.Figure,
+        "savefig",
+        lambda self, *a, **k: drawn.update(fig=self, legend=self._bwbench_legend_below),
+    )
     fig, ax = palette.figure(palette.MAX_WIDTH_IN, 4.0)
     ax.plot([0, 1], [0, 1])
     handles = [Line2D([], [], marker="o", label=f"a long backend name [identifiable] ({i} runs)") for i in range(24)]

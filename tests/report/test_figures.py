@@ -81,8 +81,8 @@ def test_ecdf_reaches_one_only_when_every_pair_is_reached():
 def test_many_labels_are_drawn_as_small_multiples_with_the_best_highlighted():
     order = [f"b{k} [identifiable]" for k in range(11)] + ["random [identifiable]"]
     coloured, baselines, grey = ecdf_figures.highlighted(order)
-    assert coloured == order[:ecdf_figures.HIGHLIGHT] and baselines == ["random [identifiable]"]
-    assert grey == order[ecdf_figures.HIGHLIGHT:11]
+    assert coloured == order[: ecdf_figures.HIGHLIGHT] and baselines == ["random [identifiable]"]
+    assert grey == order[ecdf_figures.HIGHLIGHT : 11]
     few = ["a", "b", "random"]
     assert ecdf_figures.highlighted(few) == (["a", "b"], ["random"], [])
     groups = ecdf_figures.by_variant(["a [paper]", "a [identifiable]", "b [paper]"])
@@ -134,8 +134,11 @@ def test_convergence_pools_relative_to_the_floor_only_when_every_specimen_has_on
     high = "pom-mt24u01_0.09MPa_r1"
     frame = _read(figures.convergence(study, out, floors={high: (10.0, "noise floor")}))
     kinds = frame.drop_duplicates("panel").set_index("panel")["y"].to_dict()
-    assert kinds == {"all specimens (pooled)": "mse_over_best_known", "0.01 MPa, repeat 1": "mse_over_best_known",
-                     "0.09 MPa, repeat 1": "mse_over_floor"}
+    assert kinds == {
+        "all specimens (pooled)": "mse_over_best_known",
+        "0.01 MPa, repeat 1": "mse_over_best_known",
+        "0.09 MPa, repeat 1": "mse_over_floor",
+    }
     pooled = frame[frame["panel"] == "all specimens (pooled)"]
     assert pooled.groupby("optimizer")["median"].min().min() >= 1.0 - 1e-9  # nothing below the best known
 
@@ -145,8 +148,7 @@ BAND = "posterior predictive 95 %"
 
 def test_loops_show_the_best_ranking_run_of_the_best_backends_and_random(study, out):
     specimen = study.specimens[0]
-    frame = _read(switched_figures.hysteresis_loops(study, out, specimen, order=["de", "cmaes", "random"],
-                                                    backends=1))
+    frame = _read(switched_figures.hysteresis_loops(study, out, specimen, order=["de", "cmaes", "random"], backends=1))
     band = frame[frame["optimizer"] == BAND]
     frame = frame[frame["optimizer"] != BAND]
     runs = study.ranking[study.ranking["specimen"] == specimen]
@@ -221,17 +223,27 @@ def test_underpressure_values_beyond_table_5_are_drawn_at_the_edge_not_dropped(s
     runs = study.runs.copy()
     first = runs.index[(runs["optimizer"] == "cmaes") & (runs["kind"] == "ranking")][0]
     runs.loc[first, "A+"] = 10.0  # Table 5: 0.001 … 0.025
-    frame = _read(switched_figures.parameters_vs_underpressure(dataclasses.replace(study, runs=runs), out,
-                                                               "cmaes", material))
+    frame = _read(
+        switched_figures.parameters_vs_underpressure(dataclasses.replace(study, runs=runs), out, "cmaes", material)
+    )
     edge = frame[frame["drawn_at_edge"]]
     assert len(edge) == 1 and edge["parameter"].iloc[0] == "A+" and edge["value"].iloc[0] == 10.0
     assert len(frame[frame["source"] == "cmaes"]) == 14 * 8  # still every value
 
 
 def test_profiles_figure(out):
-    analysis = {"specimen": "toy", "mse": 1.0, "noise_rmse_N": 1.0, "n_data": 100, "params": {"wn-": 10.0},
-                "profiles": {"wn-": [{"value": v, "unit": 0.0, "mse": 1.0 + (v - 10) ** 2, "evaluations": 5}
-                                     for v in (2.0, 10.0, 20.0, 40.0)]}}
+    analysis = {
+        "specimen": "toy",
+        "mse": 1.0,
+        "noise_rmse_N": 1.0,
+        "n_data": 100,
+        "params": {"wn-": 10.0},
+        "profiles": {
+            "wn-": [
+                {"value": v, "unit": 0.0, "mse": 1.0 + (v - 10) ** 2, "evaluations": 5} for v in (2.0, 10.0, 20.0, 40.0)
+            ]
+        },
+    }
     frame = _read(switched_figures.profiles(analysis, out))
     assert len(frame) == 4 and frame["threshold_mse"].iloc[0] == pytest.approx(1.0 + 1.96**2 / 100, rel=1e-5)
     assert set(frame["bounded"]) == {"both sides"}
@@ -276,8 +288,9 @@ def test_twenty_labels_in_two_formulations_are_two_columns_with_the_best_four_in
     spreads = {f"b{k}": 0.002 * (k + 1) for k in range(9)}
     labels = {f"{b} [{v}]": s for b, s in spreads.items() for v in ("identifiable", "paper")}
     labels.update({"random [identifiable]": 0.15, "random [paper]": 0.2})
-    many = results_db.load_study(make_study_db(tmp_path / "many.sqlite", optimizers=labels, replicates=2,
-                                               posterior=False))
+    many = results_db.load_study(
+        make_study_db(tmp_path / "many.sqlite", optimizers=labels, replicates=2, posterior=False)
+    )
     order = sorted(labels, key=lambda n: (n.startswith("random"), labels[n], n))
     frame = _read(figures.convergence(many, tmp_path, order=order))
     assert set(frame["variant"]) == {"identifiable", "paper"}
@@ -286,6 +299,6 @@ def test_twenty_labels_in_two_formulations_are_two_columns_with_the_best_four_in
         mine = [n for n in order if n.endswith(f"[{variant}]")]
         assert coloured == mine[:4] + [f"random [{variant}]"]  # the best four and the baseline
         assert set(g.loc[~g["highlighted"], "optimizer"]) == set(mine[4:-1])  # the rest in grey
-        assert list(dict.fromkeys(g.loc[g["band"], "optimizer"])) == mine[:figures.BANDS]
+        assert list(dict.fromkeys(g.loc[g["band"], "optimizer"])) == mine[: figures.BANDS]
     target = pd.read_csv(ecdf_figures.runtime_distributions(many, tmp_path, order=order).with_suffix(".csv"))
     assert set(target["variant"]) == {"identifiable", "paper"} and target["highlighted"].sum() < len(target)

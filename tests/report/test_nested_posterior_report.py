@@ -32,14 +32,22 @@ def nested_posterior(db, rng):
         draws[second, 0] = np.clip(draws[second, 0] + 0.2, 0, 1)
         draws = np.clip(draws, 0, 1)
         lp = log_posterior(problem, problem.from_unit(draws.reshape(-1, blob[3]))).reshape(DRAWS, RUNS)
-        evidence = {"log_z": [-10.02, -9.95, -10.06, -9.98], "log_z_err": [0.1] * RUNS,
-                    "run_nfev": [5000] * RUNS, "run_complete": [True] * RUNS, "live_points": 400}
+        evidence = {
+            "log_z": [-10.02, -9.95, -10.06, -9.98],
+            "log_z_err": [0.1] * RUNS,
+            "run_nfev": [5000] * RUNS,
+            "run_complete": [True] * RUNS,
+            "live_points": 400,
+        }
         for table in ("runs", "timings", "traces", "chains"):
             conn.execute(f"UPDATE {table} SET optimizer = 'nested' WHERE kind = 'posterior'")
-        conn.execute("UPDATE chains SET steps = ?, walkers = ?, chain = ?, log_prob = ?",
-                     (DRAWS, RUNS, draws.tobytes(), lp.tobytes()))
-        conn.execute("INSERT INTO evidence VALUES ('posterior', ?, 'nested', 0, ?)",
-                     (SPECIMENS[0], json.dumps(evidence)))
+        conn.execute(
+            "UPDATE chains SET steps = ?, walkers = ?, chain = ?, log_prob = ?",
+            (DRAWS, RUNS, draws.tobytes(), lp.tobytes()),
+        )
+        conn.execute(
+            "INSERT INTO evidence VALUES ('posterior', ?, 'nested', 0, ?)", (SPECIMENS[0], json.dumps(evidence))
+        )
     return draws
 
 
@@ -74,7 +82,9 @@ def test_the_report_shows_runs_modes_masses_evidence_and_writes_the_draws(study,
     assert masses == pytest.approx([0.7, 0.3], abs=0.05)
     assert "| model | ln Z | ± |" in part and "-10.0" in part
     assert "The best ranking fit lies" in part
-    assert "| fit | MSE | log-likelihood | where |" in part and re.search(r"\| cmaes, seed \d \| .* \| (mode 1|below)", part)
+    assert "| fit | MSE | log-likelihood | where |" in part and re.search(
+        r"\| cmaes, seed \d \| .* \| (mode 1|below)", part
+    )
     nc = next(out.glob("posterior_*.nc"))
     import arviz as az
 

@@ -23,10 +23,18 @@ def own_report(tmp_path_factory):
 
     folder = tmp_path_factory.mktemp("lab")
     for hz in (2.0, 4.0):
-        mr_damper.write_test(folder / f"damper_{hz:g}hz.csv", amplitude_mm=20.0, frequency_hz=hz, rate_hz=400.0,
-                             cycles=2, peak_force_N=1500.0, rng=int(hz))
+        mr_damper.write_test(
+            folder / f"damper_{hz:g}hz.csv",
+            amplitude_mm=20.0,
+            frequency_hz=hz,
+            rate_hz=400.0,
+            cycles=2,
+            peak_force_N=1500.0,
+            rng=int(hz),
+        )
     toml = folder / "mine.toml"
-    toml.write_text("""
+    toml.write_text(
+        """
 [study]
 name = "mine"
 seed = 11
@@ -38,7 +46,9 @@ files = ["damper_*.csv"]
 [optimizers]
 cmaes = {}
 random = {}
-""", encoding="utf-8")
+""",
+        encoding="utf-8",
+    )
     db = folder / "mine.sqlite"
     execute.run_study(load_study_config(toml), db, workers=1, log=open(folder / "log.txt", "w"))
     out = folder / "report"

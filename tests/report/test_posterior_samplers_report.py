@@ -29,8 +29,10 @@ def report(tmp_path_factory):
         for table in TABLES:
             for row in saved[table]:
                 values = dict(zip(columns[table], row), optimizer="emcee")
-                conn.execute(f"INSERT INTO {table} ({', '.join(values)}) VALUES ({', '.join('?' * len(values))})",
-                             list(values.values()))
+                conn.execute(
+                    f"INSERT INTO {table} ({', '.join(values)}) VALUES ({', '.join('?' * len(values))})",
+                    list(values.values()),
+                )
         conn.commit()
     build.build_report(db, folder / "report", profile_params=0)
     return (folder / "report" / "report.md").read_text(encoding="utf-8")
@@ -40,16 +42,23 @@ def test_the_samplers_table_finds_the_missed_mode(report):
     part = report.split("### Posterior samplers")[1]
     assert "| sampler | finds every mode | mass in each mode | R̂/ESS verdict | evaluations | wall time (s) |" in part
     nested = re.search(r"^\| nested \(reference\) \| yes \(2 of 2\) \| mode 1: 0\.[67]\d \(reference", part, flags=re.M)
-    emcee = re.search(r"^\| emcee \| no: misses mode 2 \(1 of 2\) \| mode 1: 0\.\d\d .*; mode 2: 0\.00 \(reference 0\.[23]",
-                      part, flags=re.M)
+    emcee = re.search(
+        r"^\| emcee \| no: misses mode 2 \(1 of 2\) \| mode 1: 0\.\d\d .*; mode 2: 0\.00 \(reference 0\.[23]",
+        part,
+        flags=re.M,
+    )
     assert nested and emcee
 
 
 def test_the_evidence_table_has_its_columns_and_its_checks(report):
     part = report.split("### Model evidence")[1]
     assert "| model | ln Z | ± | ln B against the best | specimen | Δ ln Z, every box ×2 |" in part
-    row = re.search(r"^\| switched-bouc-wen \| (-?\d+\.\d\d) \| \d+\.\d\d \| \+0\.00 \| pom-mt24u01_0\.01MPa_r1 \| "
-                    r"(-\d+\.\d) \| (-?\d+\.\d) \| (\d+\.\d) % \|", part, flags=re.M)
+    row = re.search(
+        r"^\| switched-bouc-wen \| (-?\d+\.\d\d) \| \d+\.\d\d \| \+0\.00 \| pom-mt24u01_0\.01MPa_r1 \| "
+        r"(-\d+\.\d) \| (-?\d+\.\d) \| (\d+\.\d) % \|",
+        part,
+        flags=re.M,
+    )
     assert row, part[:1500]
     # (the fixture's ln Z is made up, −10 in the sampler's units: it is not checked against the bound here)
     # the fixture's draws sit at the truth: the measured force stays inside the band at about 95 % of samples

@@ -26,8 +26,15 @@ def tables(labels: dict, specimens=tuple(BASE), seeds: int = 4):
                 factor, evals = outcome(specimen, seed)
                 final = BASE[specimen] * factor
                 key = {"kind": "ranking", "specimen": specimen, "optimizer": label, "replicate": seed}
-                runs.append({**key, "status": "ok" if np.isfinite(final) else "error", "mse": final,
-                             "nfev": float(BUDGET), "wall_s": s_per_eval * BUDGET})
+                runs.append(
+                    {
+                        **key,
+                        "status": "ok" if np.isfinite(final) else "error",
+                        "mse": final,
+                        "nfev": float(BUDGET),
+                        "wall_s": s_per_eval * BUDGET,
+                    }
+                )
                 traces += [{**key, "nfev": 1, "mse": BASE[specimen] * 1000.0}]
                 if np.isfinite(final):
                     traces += [{**key, "nfev": int(evals), "mse": final}]
@@ -38,8 +45,9 @@ def decide(runs, traces, noun=None):
     table, _ = statistics.ranking_table(runs, traces)
     success = statistics.success_by_specimen(runs, traces, TARGET)
     tests = statistics.compare_backends(runs)
-    return recommend(table, success, comparisons.log_losses(runs), tests, BUDGET, "N", noun,
-                     times=time_noise.intervals(runs, traces))
+    return recommend(
+        table, success, comparisons.log_losses(runs), tests, BUDGET, "N", noun, times=time_noise.intervals(runs, traces)
+    )
 
 
 def always(factor=1.0, evals=300):
@@ -48,8 +56,7 @@ def always(factor=1.0, evals=300):
 
 def test_equal_median_but_lower_success_rate_is_not_as_good():
     # b ends at the best known on 3 of 4 seeds of every specimen (same median as a), 50 % above on one
-    runs, traces = tables({"a": (1e-3, always()),
-                           "b": (1e-4, lambda s, seed: (1.5 if seed == 3 else 1.0, 200))})
+    runs, traces = tables({"a": (1e-3, always()), "b": (1e-4, lambda s, seed: (1.5 if seed == 3 else 1.0, 200))})
     rec = decide(runs, traces)
     v = rec["verdict"]
     assert v.vs_reference.set_index("a").loc["b", "ratio"] == pytest.approx(1.0)  # final losses: practically equal
@@ -78,10 +85,12 @@ def test_a_label_faster_far_beyond_the_noise_wins_on_time_not_on_fewer_evaluatio
 
 
 def test_random_search_in_any_formulation_is_the_baseline_and_avoid_reads_formulation_labels():
-    labels = {"random [identifiable]": (1e-4, always(1.0, 900)),  # even when it fits best
-              "lsq-trf [identifiable]": (1e-3, always(1.0, 300)),
-              "ga [paper]": (1e-4, always(30.0, 900)),
-              "random [paper]": (1e-4, always(300.0, 900))}
+    labels = {
+        "random [identifiable]": (1e-4, always(1.0, 900)),  # even when it fits best
+        "lsq-trf [identifiable]": (1e-3, always(1.0, 300)),
+        "ga [paper]": (1e-4, always(30.0, 900)),
+        "random [paper]": (1e-4, always(300.0, 900)),
+    }
     rec = decide(*tables(labels), noun="formulation")
     v = rec["verdict"]
     assert v.baselines == ["random [identifiable]", "random [paper]"]
@@ -93,9 +102,11 @@ def test_random_search_in_any_formulation_is_the_baseline_and_avoid_reads_formul
 
 def test_final_losses_within_tolerance_share_a_rank_and_success_decides_the_order():
     # a and b end 1e-8 apart (a lower); b reaches the target on every run, a misses one
-    labels = {"a": (1e-4, lambda s, seed: (1.0 if (s, seed) != ("s1", 0) else 2.0, 300)),
-              "b": (1e-4, always(1.0 + 1e-8, 300)),
-              "c": (1e-4, always(3.0, 300))}
+    labels = {
+        "a": (1e-4, lambda s, seed: (1.0 if (s, seed) != ("s1", 0) else 2.0, 300)),
+        "b": (1e-4, always(1.0 + 1e-8, 300)),
+        "c": (1e-4, always(3.0, 300)),
+    }
     table, fr = statistics.ranking_table(*tables(labels))
     ranks = table.set_index("optimizer")["mean_rank"]
     assert ranks["a"] == ranks["b"] == 1.5 and ranks["c"] == 3.0
@@ -108,22 +119,27 @@ def test_the_power_statement_names_the_test_actually_run():
     assert "1 specimen × up to 5 seeds" in one["text"] and "smallest p it can give is 0.0079" in one["text"]
     blocks = decide(*tables({"a": (1e-4, always()), "b": (1e-4, always(1.3))}))
     assert "Power: every comparison uses van Elteren's stratified Wilcoxon–Mann–Whitney test" in blocks["text"]
-    assert any("van Elteren" in item for item in rule(statistics.compare_backends(tables(
-        {"a": (1e-4, always())})[0]).test_name))
+    assert any(
+        "van Elteren" in item
+        for item in rule(statistics.compare_backends(tables({"a": (1e-4, always())})[0]).test_name)
+    )
 
 
 def test_a_held_out_study_with_a_clear_answer_gets_it():
     """lsq-trf reaches the best fit within a few hundred evaluations on every seed; cmaes misses it on
     some seeds; random search is the baseline; the paper formulation is far worse for every backend."""
+
     def cmaes(s, seed):
         return (1.0, 1500) if seed % 3 else (1.8, 4000)
 
-    labels = {"lsq-trf [identifiable]": (2e-3, always(1.0, 300)),
-              "cmaes [identifiable]": (1e-3, cmaes),
-              "random [identifiable]": (5e-4, always(1.4, 900)),
-              "lsq-trf [paper]": (1e-3, always(50.0, 600)),
-              "cmaes [paper]": (1e-3, always(60.0, 900)),
-              "random [paper]": (5e-4, always(5000.0, 900))}
+    labels = {
+        "lsq-trf [identifiable]": (2e-3, always(1.0, 300)),
+        "cmaes [identifiable]": (1e-3, cmaes),
+        "random [identifiable]": (5e-4, always(1.4, 900)),
+        "lsq-trf [paper]": (1e-3, always(50.0, 600)),
+        "cmaes [paper]": (1e-3, always(60.0, 900)),
+        "random [paper]": (5e-4, always(5000.0, 900)),
+    }
     runs, traces = tables(labels, seeds=6)
     rec = decide(runs, traces, noun="formulation")
     v = rec["verdict"]
@@ -134,12 +150,13 @@ def test_a_held_out_study_with_a_clear_answer_gets_it():
     for group in (v.candidates, v.equal, v.less_reliable, v.behind, v.avoid):
         assert not randoms & set(group)
     text = rec["text"]
-    assert text.startswith("In the identifiable formulation, 3 of 3 backends end at lower final losses than in "
-                           "the paper formulation")
+    assert text.startswith(
+        "In the identifiable formulation, 3 of 3 backends end at lower final losses than in the paper formulation"
+    )
     assert "**Use lsq-trf in the identifiable formulation** (lsq-trf [identifiable])" in text
     assert text.index("In the identifiable formulation") < text.index("**Use lsq-trf")  # the formulation first
     assert "Random search is the baseline, never a candidate" in text
-    before = text[:text.index("Random search is the baseline")]
+    before = text[: text.index("Random search is the baseline")]
     assert "**random" not in before  # never recommended, never "as good", "less reliable" or "behind" …
     for sentence in before.split(". "):
         if "random [" in sentence:  # … only the yardstick of "avoid"
@@ -156,15 +173,19 @@ def test_the_rule_is_stated_with_its_thresholds():
 def test_the_formulation_is_told_from_the_side_most_backends_favour_even_when_the_pair_sits_in_the_other():
     """lsq-trf is as good in both formulations and faster in the paper's, so the pair is lsq-trf [paper];
     every other backend ends lower in the identifiable formulation, and the text says it that way round."""
-    labels = {"lsq-trf [identifiable]": (2e-3, always(1.0, 600)),
-              "lsq-trf [paper]": (1e-3, always(1.0, 300)),
-              "cmaes [identifiable]": (1e-3, always(1.0, 1500)),
-              "cmaes [paper]": (1e-3, always(60.0, 900)),
-              "random [identifiable]": (5e-4, always(1.4, 900)),
-              "random [paper]": (5e-4, always(5000.0, 900))}
+    labels = {
+        "lsq-trf [identifiable]": (2e-3, always(1.0, 600)),
+        "lsq-trf [paper]": (1e-3, always(1.0, 300)),
+        "cmaes [identifiable]": (1e-3, always(1.0, 1500)),
+        "cmaes [paper]": (1e-3, always(60.0, 900)),
+        "random [identifiable]": (5e-4, always(1.4, 900)),
+        "random [paper]": (5e-4, always(5000.0, 900)),
+    }
     rec = decide(*tables(labels, seeds=6), noun="formulation")
     assert rec["choice"] == "lsq-trf [paper]"
     text = rec["text"]
-    assert text.startswith("In the identifiable formulation, 2 of 3 backends end at lower final losses than in "
-                           "the paper formulation (paper over identifiable: Hodges–Lehmann ratio ")
+    assert text.startswith(
+        "In the identifiable formulation, 2 of 3 backends end at lower final losses than in "
+        "the paper formulation (paper over identifiable: Hodges–Lehmann ratio "
+    )
     assert "**Use lsq-trf in the paper formulation**" in text

@@ -44,8 +44,12 @@ def test_the_answer_comes_first_then_the_rule_then_the_rule_applied(built):
     ranking = pd.read_csv(out / "ranking.csv")
     md = (out / "report.md").read_text(encoding="utf-8")
     assert md.split("\n## ")[1].startswith("Recommendation\n\n- **Use cmaes**")  # the first section: the box
-    assert (md.index("## Recommendation") < md.index("## How the recommendation is decided")
-            < md.index("## The rule applied to this study") < md.index("## Ranking"))
+    assert (
+        md.index("## Recommendation")
+        < md.index("## How the recommendation is decided")
+        < md.index("## The rule applied to this study")
+        < md.index("## Ranking")
+    )
     assert '<meta name="viewport"' in (out / "report.html").read_text(encoding="utf-8")
     named = re.search(r"\*\*Use ([^*]+)\*\*", md).group(1)
     assert named == ranking.iloc[0]["optimizer"] == "cmaes"  # the ranking table is in the rule's order
@@ -62,9 +66,16 @@ def test_the_answer_comes_first_then_the_rule_then_the_rule_applied(built):
 def test_report_has_tables_identifiability_and_mcmc_sections(built):
     _, out, _ = built
     md = (out / "report.md").read_text(encoding="utf-8")
-    for heading in ("## What was compared", "## Data", "## Ranking", "## Recommendation",
-                    "## Identified parameters per specimen", "## Identifiability", "## Posterior sampling",
-                    "## Limits of this study"):
+    for heading in (
+        "## What was compared",
+        "## Data",
+        "## Ranking",
+        "## Recommendation",
+        "## Identified parameters per specimen",
+        "## Identifiability",
+        "## Posterior sampling",
+        "## Limits of this study",
+    ):
         assert heading in md
     assert "POM MT24u01: tension set (+)" in md and "truth (synthetic)" in md
     assert "noise_force_n | 1 | N" in md and "| seed | 20181208 |" in md  # the generation settings, with units
@@ -135,8 +146,13 @@ budget = 300
     from bwbench.analysis import comparisons
     from bwbench.report.recommend import recommend
 
-    rec = recommend(table, statistics.success_by_specimen(loaded.runs, loaded.traces, 0.01),
-                    comparisons.log_losses(loaded.ranking), statistics.compare_backends(loaded.runs), 60)
+    rec = recommend(
+        table,
+        statistics.success_by_specimen(loaded.runs, loaded.traces, 0.01),
+        comparisons.log_losses(loaded.ranking),
+        statistics.compare_backends(loaded.runs),
+        60,
+    )
     assert rec["choice"] in {"de", "cmaes"} and rec["order"][-1] != rec["choice"]
 
 

@@ -34,8 +34,9 @@ def scaled(db, folder, factors: dict) -> Path:
     copy = folder / f"scaled_{abs(hash(tuple(factors.values())))}.sqlite"
     shutil.copyfile(db, copy)
     with closing(sqlite3.connect(copy)) as conn:
-        conn.executemany("UPDATE timings SET wall_s = wall_s * ? WHERE optimizer = ?",
-                         [(f, label) for label, f in factors.items()])
+        conn.executemany(
+            "UPDATE timings SET wall_s = wall_s * ? WHERE optimizer = ?", [(f, label) for label, f in factors.items()]
+        )
         conn.commit()
     return copy
 
@@ -68,9 +69,12 @@ def test_expected_times_within_the_noise_are_tied_and_broken_by_evaluations_to_t
     assert v.time_bounds["b"][1] * time_noise.LOAD_FACTOR > v.time_bounds["a"][0]  # within the noise
     assert rec["choice"] == "a" and v.tied == ["b"] and v.slower == []
     assert v.role("b") == "tied on time"
-    assert ("a and b are **tied** on time" in rec["text"]
-            and "the tie is broken by the deterministic key, ERT in evaluations (fewest first), then the rule's "
-                "order: **a** (ERT a 300 and b 400 evaluations)" in rec["text"])
+    assert (
+        "a and b are **tied** on time" in rec["text"]
+        and "the tie is broken by the deterministic key, ERT in evaluations (fewest first), then the rule's "
+        "order: **a** (ERT a 300 and b 400 evaluations)"
+        in rec["text"]
+    )
 
 
 def test_a_wide_spread_of_wall_times_keeps_even_a_twofold_difference_within_the_noise():
@@ -101,6 +105,8 @@ def test_compare_prints_what_it_counts_and_ends_with_the_reports_recommendation(
     assert cells["cmaes"][1:4] == ["8", "8", "8"] and cells["random"][3] == "0"  # 8 runs, finished, on target
     assert "'finished': a finite loss" in note
     line = recommendation_line(study_db)
-    assert line == ("Recommendation: use cmaes at 400 evaluations (8 of 8 runs within 1% of the best known loss, "
-                    f"expected time {line.split('expected time ')[1].split(')')[0]}); tied on time: de and pso "
-                    "(broken by fewest evaluations to the target).")
+    assert line == (
+        "Recommendation: use cmaes at 400 evaluations (8 of 8 runs within 1% of the best known loss, "
+        f"expected time {line.split('expected time ')[1].split(')')[0]}); tied on time: de and pso "
+        "(broken by fewest evaluations to the target)."
+    )

@@ -1,4 +1,5 @@
 """How long a study took: run intervals merged into sessions, idle gaps between sessions left out."""
+
 import pandas as pd
 
 from bwbench.store.timing import compute_time, machine_description
@@ -9,13 +10,18 @@ def _runs(rows):
 
 
 def test_two_workers_in_two_sessions_count_only_the_busy_time():
-    runs = _runs([
-        # session 1, two workers side by side: 10:00:00 to 10:00:30
-        (10.0, "2026-11-22T10:00:10Z"), (20.0, "2026-11-22T10:00:30Z"),
-        (15.0, "2026-11-22T10:00:25Z"), (5.0, "2026-11-22T10:00:30Z"),
-        # resumed an hour later: 11:00:00 to 11:00:12
-        (12.0, "2026-11-22T11:00:12Z"), (4.0, "2026-11-22T11:00:04Z"),
-    ])
+    runs = _runs(
+        [
+            # session 1, two workers side by side: 10:00:00 to 10:00:30
+            (10.0, "2026-11-22T10:00:10Z"),
+            (20.0, "2026-11-22T10:00:30Z"),
+            (15.0, "2026-11-22T10:00:25Z"),
+            (5.0, "2026-11-22T10:00:30Z"),
+            # resumed an hour later: 11:00:00 to 11:00:12
+            (12.0, "2026-11-22T11:00:12Z"),
+            (4.0, "2026-11-22T11:00:04Z"),
+        ]
+    )
     took = compute_time(runs)
     assert took.sessions == 2
     assert took.elapsed_s == 30.0 + 12.0

@@ -24,8 +24,9 @@ SYNTHETIC = REPO / "data" / "specimens"
 
 def bwbench(*args, cwd):
     """The installed command, as a user types it, from ``cwd``."""
-    return subprocess.run([sys.executable, "-m", "bwbench.cli", *map(str, args)], cwd=cwd, capture_output=True,
-                          text=True, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "bwbench.cli", *map(str, args)], cwd=cwd, capture_output=True, text=True, timeout=600
+    )
 
 
 def runs(db) -> list:
@@ -41,8 +42,15 @@ def lab(tmp_path_factory):
     (folder / "tests").mkdir()
     for name in ("pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1"):
         shutil.copy(SYNTHETIC / f"{name}.csv", folder / "tests" / f"{name}.csv")
-    mr_damper.write_test(folder / "tests" / "mr_damper_2hz.csv", amplitude_mm=25.0, frequency_hz=2.0, rate_hz=500.0,
-                         cycles=2, peak_force_N=1200.0, rng=7)
+    mr_damper.write_test(
+        folder / "tests" / "mr_damper_2hz.csv",
+        amplitude_mm=25.0,
+        frequency_hz=2.0,
+        rate_hz=500.0,
+        cycles=2,
+        peak_force_N=1200.0,
+        rng=7,
+    )
     return folder
 
 
@@ -50,8 +58,20 @@ def test_compare_and_report_on_own_files_with_no_manifest_from_another_folder(la
     work = tmp_path / "elsewhere"
     work.mkdir()
     files = [lab / "tests" / "pom-mt24u01_0.01MPa_r1.csv", lab / "tests" / "mr_damper_2hz.csv"]
-    result = bwbench("compare", "--specimens", *files, "--optimizers", "cmaes,random", "--seeds", "2",
-                     "--budget", "150", "--workers", "1", cwd=work)
+    result = bwbench(
+        "compare",
+        "--specimens",
+        *files,
+        "--optimizers",
+        "cmaes,random",
+        "--seeds",
+        "2",
+        "--budget",
+        "150",
+        "--workers",
+        "1",
+        cwd=work,
+    )
     assert result.returncode == 0, result.stderr
     db = work / "study.sqlite"  # the default database is in the current folder
     assert db.is_file() and not (REPO / "study.sqlite").exists()
@@ -72,7 +92,8 @@ def test_a_toml_with_files_resolves_paths_against_its_folder(lab, tmp_path):
     study = lab / "studies"
     study.mkdir(exist_ok=True)
     toml = study / "mine.toml"
-    toml.write_text("""
+    toml.write_text(
+        """
 [study]
 name = "mine"
 seed = 1
@@ -82,15 +103,22 @@ seeds = 1
 files = ["../tests/pom-*.csv"]
 [optimizers]
 random = {}
-""", encoding="utf-8")
+""",
+        encoding="utf-8",
+    )
     result = bwbench("compare", "--config", toml, "--workers", "1", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert (study / "mine.sqlite").is_file()  # the default database is next to the TOML
     assert {r[0] for r in runs(study / "mine.sqlite")} == {"pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1"}
     # an equivalent spelling of the same files is the same study
     other = study / "same.toml"
-    other.write_text(toml.read_text().replace('"../tests/pom-*.csv"', f'"{(lab / "studies" / ".." / "tests").as_posix()}/'
-                                              'pom-mt24u01_0.01MPa_r1.csv", "../tests/pom-mt24u01_0.09MPa_r1.csv"'))
+    other.write_text(
+        toml.read_text().replace(
+            '"../tests/pom-*.csv"',
+            f'"{(lab / "studies" / ".." / "tests").as_posix()}/'
+            'pom-mt24u01_0.01MPa_r1.csv", "../tests/pom-mt24u01_0.09MPa_r1.csv"',
+        )
+    )
     assert load_study_config(other).config_hash == load_study_config(toml).config_hash
 
 
@@ -104,8 +132,21 @@ def test_a_study_is_extended_and_edited_data_are_refused(lab, tmp_path):
     assert runs(data / "study.sqlite") == [("a", "random", 0, "ok")]
     before = runs(data / "study.sqlite")
     # more seeds, another backend and another specimen: only the new runs run
-    more = bwbench("compare", "--specimens", "a.csv", "b.csv", "--budget", "60", "--workers", "1",
-                   "--optimizers", "random,cmaes", "--seeds", "2", cwd=data)
+    more = bwbench(
+        "compare",
+        "--specimens",
+        "a.csv",
+        "b.csv",
+        "--budget",
+        "60",
+        "--workers",
+        "1",
+        "--optimizers",
+        "random,cmaes",
+        "--seeds",
+        "2",
+        cwd=data,
+    )
     assert more.returncode == 0, more.stderr
     assert "extends the study" in more.stderr and "1 already in" in more.stderr
     after = runs(data / "study.sqlite")
@@ -121,22 +162,28 @@ def test_a_study_is_extended_and_edited_data_are_refused(lab, tmp_path):
     assert runs(data / "study.sqlite") == after  # nothing written
 
 
-@pytest.mark.parametrize("body, message", [
-    ('[specimens]\nfiles = ["nope/*.csv"]', "matches no file"),
-    ('[specimens]\nfiles = ["missing.csv"]', "missing.csv: no such file"),
-    ('[specimens]\nfiles = []', "must be a non-empty list"),
-    ('[specimens]\nfiles = ["a.csv"]\nrepeat = [1]', "remove [study] data and the manifest filters"),
-    ('[specimens]\nfiles = ["a.csv"]\n[bounds]\n"n+" = [0.0, 3.0]', "lower must be > 0"),
-    ('[specimens]\nfiles = ["a.csv"]\n[bounds]\n"wn+" = [3.0, 1.0]', "lower 3 must be below upper 1"),
-    ('[specimens]\nfiles = ["a.csv"]\n[bounds]\nomega = [1.0, 2.0]', "unknown parameter 'omega'"),
-    ("", "no specimens: list them with [specimens] files"),
-])
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ('[specimens]\nfiles = ["nope/*.csv"]', "matches no file"),
+        ('[specimens]\nfiles = ["missing.csv"]', "missing.csv: no such file"),
+        ("[specimens]\nfiles = []", "must be a non-empty list"),
+        ('[specimens]\nfiles = ["a.csv"]\nrepeat = [1]', "remove [study] data and the manifest filters"),
+        ('[specimens]\nfiles = ["a.csv"]\n[bounds]\n"n+" = [0.0, 3.0]', "lower must be > 0"),
+        ('[specimens]\nfiles = ["a.csv"]\n[bounds]\n"wn+" = [3.0, 1.0]', "lower 3 must be below upper 1"),
+        ('[specimens]\nfiles = ["a.csv"]\n[bounds]\nomega = [1.0, 2.0]', "unknown parameter 'omega'"),
+        ("", "no specimens: list them with [specimens] files"),
+    ],
+)
 def test_bad_specimen_lists_and_bounds_are_one_line(tmp_path, body, message):
     shutil.copy(SYNTHETIC / "pom-mt24u01_0.01MPa_r1.csv", tmp_path / "a.csv")
     toml = tmp_path / "bad.toml"
     toml.write_text(f'[study]\nname = "x"\nseed = 1\nbudget = 10\nseeds = 1\n[optimizers]\nrandom = {{}}\n{body}\n')
-    with pytest.raises(UserError, match=r"bad\.toml: .*" + message.replace("[", r"\[").replace("]", r"\]")
-                       .replace("(", r"\(").replace("+", r"\+")):
+    with pytest.raises(
+        UserError,
+        match=r"bad\.toml: .*"
+        + message.replace("[", r"\[").replace("]", r"\]").replace("(", r"\(").replace("+", r"\+"),
+    ):
         load_study_config(toml)
 
 
@@ -155,8 +202,22 @@ def test_two_files_of_one_name_and_a_bad_file_are_refused_before_any_run(tmp_pat
 def test_bounds_file_sets_the_box_of_a_study(tmp_path):
     shutil.copy(SYNTHETIC / "pom-mt24u01_0.01MPa_r1.csv", tmp_path / "a.csv")
     (tmp_path / "box.json").write_text('{"xi-": [-30.0, -25.0], "A+": [0.02, 0.021]}', encoding="utf-8")
-    result = bwbench("compare", "--specimens", "a.csv", "--optimizers", "random", "--seeds", "1", "--budget", "50",
-                     "--bounds", "box.json", "--workers", "1", cwd=tmp_path)
+    result = bwbench(
+        "compare",
+        "--specimens",
+        "a.csv",
+        "--optimizers",
+        "random",
+        "--seeds",
+        "1",
+        "--budget",
+        "50",
+        "--bounds",
+        "box.json",
+        "--workers",
+        "1",
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     with closing(sqlite3.connect(tmp_path / "study.sqlite")) as conn:
         params = json.loads(conn.execute("SELECT params_json FROM runs").fetchone()[0])

@@ -55,9 +55,23 @@ def plugin_env(tmp_path_factory):
     for name in ("problem_plugin", "model_plugin"):
         shutil.copytree(ROOT / "examples" / name, sources / name)  # the build writes into the source tree
     site = tmp_path_factory.mktemp("site")
-    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
-                    "--target", str(site), str(sources / "problem_plugin"), str(sources / "model_plugin")],
-                   check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "--target",
+            str(site),
+            str(sources / "problem_plugin"),
+            str(sources / "model_plugin"),
+        ],
+        check=True,
+        capture_output=True,
+    )
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(site), env.get("PYTHONPATH", "")])
     return env
@@ -68,8 +82,14 @@ def cluster(plugin_env, tmp_path_factory):
     """A local Dask cluster (2 worker processes) started where the plug-ins are installed; its address."""
     script = tmp_path_factory.mktemp("cluster") / "cluster.py"
     script.write_text(CLUSTER, encoding="utf-8")
-    process = subprocess.Popen([sys.executable, str(script)], env=plugin_env, stdin=subprocess.PIPE,
-                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    process = subprocess.Popen(
+        [sys.executable, str(script)],
+        env=plugin_env,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
     try:
         address = process.stdout.readline().strip()
         assert address.startswith("tcp://"), "the local cluster did not start"
@@ -85,8 +105,14 @@ def cluster(plugin_env, tmp_path_factory):
 
 
 def bwbench(env, *args, cwd=None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bwbench.cli", *map(str, args)], env=env, cwd=cwd,
-                          capture_output=True, text=True, timeout=HANG)
+    return subprocess.run(
+        [sys.executable, "-m", "bwbench.cli", *map(str, args)],
+        env=env,
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=HANG,
+    )
 
 
 def check_toy_study(db: Path, env, out: Path) -> set:
@@ -134,12 +160,24 @@ def test_a_dask_cluster_without_the_plugin_is_refused_before_any_run(plugin_env,
     db = tmp_path / "toy.sqlite"
     # This test's process has no plug-in installed: neither have the workers it spawns.
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0") as bare:
-        run = bwbench(plugin_env, "compare", "--config", "toy.toml", "--db", db, "--scheduler", bare.scheduler_address,
-                      cwd=tmp_path)
+        run = bwbench(
+            plugin_env,
+            "compare",
+            "--config",
+            "toy.toml",
+            "--db",
+            db,
+            "--scheduler",
+            bare.scheduler_address,
+            cwd=tmp_path,
+        )
     assert run.returncode == 2, run.stderr
     last = run.stderr.strip().splitlines()[-1]
-    assert last.startswith("error: the Dask worker tcp://") and f"of the scheduler at {bare.scheduler_address} " \
-        "cannot load problem 'toy-decay' (unknown problem 'toy-decay'" in last
+    assert (
+        last.startswith("error: the Dask worker tcp://")
+        and f"of the scheduler at {bare.scheduler_address} cannot load problem 'toy-decay' (unknown problem 'toy-decay'"
+        in last
+    )
     assert last.endswith("install the plug-in package on every worker") and "Traceback" not in run.stderr
     with closing(sqlite3.connect(db)) as conn:
         assert conn.execute("SELECT COUNT(*) FROM runs").fetchone() == (0,)
@@ -173,9 +211,11 @@ def damper_specimen(tmp_path_factory) -> Path:
     v = 5.0 * np.pi * np.cos(np.pi * t)
     f = C_TRUE * v + K_TRUE * x
     path = tmp_path_factory.mktemp("damper") / "damper.csv"
-    path.write_text("time_s,displacement_mm,velocity_mm_s,force_N\n"
-                    + "".join(f"{a:.2f},{b:.17g},{c:.17g},{d:.17g}\n" for a, b, c, d in zip(t, x, v, f)),
-                    encoding="utf-8")
+    path.write_text(
+        "time_s,displacement_mm,velocity_mm_s,force_N\n"
+        + "".join(f"{a:.2f},{b:.17g},{c:.17g},{d:.17g}\n" for a, b, c, d in zip(t, x, v, f)),
+        encoding="utf-8",
+    )
     return path
 
 
@@ -184,8 +224,19 @@ def test_installed_model_plugin_is_listed_and_fitted(plugin_env, damper_specimen
     assert listing.returncode == 0, listing.stderr
     assert "linear-damper: linear viscous damper and spring (example plug-in)" in listing.stdout
     assert "direct parameters: c (N·s/mm), k (N/mm)" in listing.stdout
-    fit = bwbench(plugin_env, "fit", damper_specimen, "--model", "linear-damper", "--optimizer", "lsq-trf",
-                  "--budget", "200", "--out", tmp_path / "fit.json")
+    fit = bwbench(
+        plugin_env,
+        "fit",
+        damper_specimen,
+        "--model",
+        "linear-damper",
+        "--optimizer",
+        "lsq-trf",
+        "--budget",
+        "200",
+        "--out",
+        tmp_path / "fit.json",
+    )
     assert fit.returncode == 0, fit.stderr
     result = strict_json.loads((tmp_path / "fit.json").read_text(encoding="utf-8"))
     assert result["model"] == "linear-damper"
@@ -195,8 +246,9 @@ def test_installed_model_plugin_is_listed_and_fitted(plugin_env, damper_specimen
 
 
 @pytest.mark.parametrize("where", ["workers", "dask"])
-def test_installed_model_plugin_is_compared_on_spawned_and_dask_workers(plugin_env, cluster, damper_specimen,
-                                                                       tmp_path, where):
+def test_installed_model_plugin_is_compared_on_spawned_and_dask_workers(
+    plugin_env, cluster, damper_specimen, tmp_path, where
+):
     """``model = [...]`` with a plugged-in model beside a built-in one: every run of both finishes in
     the workers, and least squares gives the damper's exact coefficients back."""
     shutil.copy(damper_specimen, tmp_path / "damper.csv")
@@ -236,17 +288,22 @@ def test_a_model_registered_in_this_process_only_is_refused_for_other_processes(
     registry.register(module.MODEL)
 
     def task(model):
-        return Task("ranking", "random", 0, 1, 10, {}, "switched-bouc-wen", {"model": model},
-                    SpecimenEntry("s", "s.csv"))
+        return Task(
+            "ranking", "random", 0, 1, 10, {}, "switched-bouc-wen", {"model": model}, SpecimenEntry("s", "s.csv")
+        )
 
     assert registry.only_in_this_process("linear-damper") and not registry.only_in_this_process("spencer")
     assert missing_plugins([("problem", "switched-bouc-wen"), ("model", "linear-damper")]) == []
-    with pytest.raises(UserError, match=r"^model 'linear-damper' is registered in this process only \(register\(\)\), "
-                                        r"so 2 workers cannot load it: .*'bwbench.models'"):
+    with pytest.raises(
+        UserError,
+        match=r"^model 'linear-damper' is registered in this process only \(register\(\)\), "
+        r"so 2 workers cannot load it: .*'bwbench.models'",
+    ):
         refuse_plugins_only_here([task("spencer"), task("linear-damper")], "2 workers")
     refuse_plugins_only_here([task("spencer"), task("no-such-model")], "2 workers")  # built in; unknown: the run says
     assert missing_plugins([("model", "no-such-model")])[0].startswith(
-        "model 'no-such-model' (unknown model 'no-such-model'")
+        "model 'no-such-model' (unknown model 'no-such-model'"
+    )
 
 
 def test_a_broken_plugin_is_one_line_and_breaks_only_itself(plugin_env, damper_specimen, tmp_path):
@@ -255,24 +312,52 @@ def test_a_broken_plugin_is_one_line_and_breaks_only_itself(plugin_env, damper_s
     info = tmp_path / "site" / "broken_plugin-0.1.dist-info"
     info.mkdir(parents=True)
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: broken-plugin\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text("[bwbench.problems]\nbroken-problem = no_such_module:PROBLEM_TYPE\n\n"
-                                           "[bwbench.models]\nbroken-model = no_such_module:MODEL\n")
+    (info / "entry_points.txt").write_text(
+        "[bwbench.problems]\nbroken-problem = no_such_module:PROBLEM_TYPE\n\n"
+        "[bwbench.models]\nbroken-model = no_such_module:MODEL\n"
+    )
     env = {**plugin_env, "PYTHONPATH": os.pathsep.join([str(tmp_path / "site"), plugin_env["PYTHONPATH"]])}
-    (tmp_path / "b.toml").write_text('[study]\nname = "b"\nproblem = "broken-problem"\nseed = 1\nbudget = 10\n'
-                                     'seeds = 1\n[optimizers]\nrandom = {}\n')
+    (tmp_path / "b.toml").write_text(
+        '[study]\nname = "b"\nproblem = "broken-problem"\nseed = 1\nbudget = 10\nseeds = 1\n[optimizers]\nrandom = {}\n'
+    )
     run = bwbench(env, "compare", "--config", "b.toml", "--db", "b.sqlite", cwd=tmp_path)
     assert run.returncode == 2 and run.stderr == (
         "error: problem plug-in 'broken-problem' (entry point 'no_such_module:PROBLEM_TYPE' of group "
-        "'bwbench.problems') failed to load: ModuleNotFoundError: No module named 'no_such_module'\n")
+        "'bwbench.problems') failed to load: ModuleNotFoundError: No module named 'no_such_module'\n"
+    )
     assert not (tmp_path / "b.sqlite").exists()
-    fit = bwbench(env, "fit", damper_specimen, "--model", "broken-model", "--optimizer", "random", "--budget", "10",
-                  "--out", tmp_path / "f.json")
+    fit = bwbench(
+        env,
+        "fit",
+        damper_specimen,
+        "--model",
+        "broken-model",
+        "--optimizer",
+        "random",
+        "--budget",
+        "10",
+        "--out",
+        tmp_path / "f.json",
+    )
     assert fit.returncode == 2 and len(fit.stderr.splitlines()) == 1
-    assert fit.stderr == ("error: model plug-in 'broken-model' (entry point 'no_such_module:MODEL' of group "
-                          "'bwbench.models') failed to load: ModuleNotFoundError: No module named 'no_such_module'\n")
+    assert fit.stderr == (
+        "error: model plug-in 'broken-model' (entry point 'no_such_module:MODEL' of group "
+        "'bwbench.models') failed to load: ModuleNotFoundError: No module named 'no_such_module'\n"
+    )
     listing = bwbench(env, "models")
     assert listing.returncode == 0 and "linear-damper:" in listing.stdout and "spencer:" in listing.stdout
     assert listing.stderr.startswith("warning: model plug-in 'broken-model' (entry point")
-    good = bwbench(env, "fit", damper_specimen, "--model", "linear-damper", "--optimizer", "lsq-trf", "--budget", "50",
-                   "--out", tmp_path / "g.json")
+    good = bwbench(
+        env,
+        "fit",
+        damper_specimen,
+        "--model",
+        "linear-damper",
+        "--optimizer",
+        "lsq-trf",
+        "--budget",
+        "50",
+        "--out",
+        tmp_path / "g.json",
+    )
     assert good.returncode == 0, good.stderr

@@ -34,8 +34,9 @@ budget = 5000
 
 
 def test_several_samplers_each_get_their_posterior_options_and_a_run(tmp_path):
-    config = load_study_config(write(tmp_path, 'optimizer = ["nested", "emcee"]\n'
-                                                'options = { emcee = { n_walkers = 32 } }'))
+    config = load_study_config(
+        write(tmp_path, 'optimizer = ["nested", "emcee"]\noptions = { emcee = { n_walkers = 32 } }')
+    )
     backends = dict(config.posterior.backends)
     assert list(backends) == ["nested", "emcee"]
     assert backends["emcee"]["n_walkers"] == 32 and backends["emcee"]["start"] == "optima"  # on top of the defaults
@@ -54,11 +55,17 @@ def test_one_sampler_is_stored_as_before(tmp_path):
 
 
 def test_a_study_comparing_models_samples_every_model_with_every_sampler(tmp_path):
-    config = load_study_config(write(tmp_path, 'optimizer = ["nested", "emcee"]',
-                                     'model = ["switched-bouc-wen", "spencer", "bouc-wen"]\n'
-                                     'formulation = "identifiable"'))
+    config = load_study_config(
+        write(
+            tmp_path,
+            'optimizer = ["nested", "emcee"]',
+            'model = ["switched-bouc-wen", "spencer", "bouc-wen"]\nformulation = "identifiable"',
+        )
+    )
     posterior = [t.optimizer for t in plan_tasks(config) if t.kind == "posterior"]
-    assert posterior == [f"{s} [{m}]" for m in ("switched-bouc-wen", "spencer", "bouc-wen") for s in ("nested", "emcee")]
+    assert posterior == [
+        f"{s} [{m}]" for m in ("switched-bouc-wen", "spencer", "bouc-wen") for s in ("nested", "emcee")
+    ]
     assert planned_runs(config) == 3 + 6
     from bwbench.store.plan import planned_from_config  # a stored configuration counts the same
 
@@ -66,23 +73,33 @@ def test_a_study_comparing_models_samples_every_model_with_every_sampler(tmp_pat
 
 
 def test_a_model_in_two_formulations_is_sampled_in_the_last_one(tmp_path):
-    config = load_study_config(write(tmp_path, "", 'model = ["spencer", "bouc-wen"]\n'
-                                                   'formulation = ["direct", "identifiable"]'))
+    config = load_study_config(
+        write(tmp_path, "", 'model = ["spencer", "bouc-wen"]\nformulation = ["direct", "identifiable"]')
+    )
     posterior = [t.optimizer for t in plan_tasks(config) if t.kind == "posterior"]
     assert posterior == ["nested [spencer identifiable]", "nested [bouc-wen identifiable]"]
 
 
-@pytest.mark.parametrize("posterior, message", [
-    ('optimizer = ["nested", "nested"]', r"\[posterior\] optimizer names a backend twice"),
-    ('optimizer = []', r"\[posterior\] optimizer must be a backend name or a non-empty list"),
-    ('optimizer = ["nested", 3]', r"\[posterior\] optimizer must be a backend name or a non-empty list"),
-    ('optimizer = ["nested", "emce"]', r"\[posterior\] optimizer: unknown optimiser 'emce'"),
-    ('optimizer = ["nested", "emcee"]\noptions = { runs = 2 }', r"\[posterior\] options: with several samplers, one "
-                                                                r"table per sampler"),
-    ('optimizer = ["nested", "emcee"]\noptions = { cmaes = {} }', r"\[posterior\] options: 'cmaes' is not one of the "
-                                                                  r"samplers \(nested, emcee\)"),
-    ('optimizer = ["nested", "emcee"]\noptions = { nested = { runz = 2 } }', r"\[posterior\] options nested"),
-])
+@pytest.mark.parametrize(
+    "posterior, message",
+    [
+        ('optimizer = ["nested", "nested"]', r"\[posterior\] optimizer names a backend twice"),
+        ("optimizer = []", r"\[posterior\] optimizer must be a backend name or a non-empty list"),
+        ('optimizer = ["nested", 3]', r"\[posterior\] optimizer must be a backend name or a non-empty list"),
+        ('optimizer = ["nested", "emce"]', r"\[posterior\] optimizer: unknown optimiser 'emce'"),
+        (
+            'optimizer = ["nested", "emcee"]\noptions = { runs = 2 }',
+            r"\[posterior\] options: with several samplers, one "
+            r"table per sampler",
+        ),
+        (
+            'optimizer = ["nested", "emcee"]\noptions = { cmaes = {} }',
+            r"\[posterior\] options: 'cmaes' is not one of the "
+            r"samplers \(nested, emcee\)",
+        ),
+        ('optimizer = ["nested", "emcee"]\noptions = { nested = { runz = 2 } }', r"\[posterior\] options nested"),
+    ],
+)
 def test_bad_samplers_name_the_file_and_the_key(tmp_path, posterior, message):
     with pytest.raises(UserError, match=r"s\.toml: " + message):
         load_study_config(write(tmp_path, posterior))

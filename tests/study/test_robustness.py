@@ -34,6 +34,7 @@ from robustness_helpers import (
 
 # ------------------------------------------------------------------------------ 1. no orphans
 
+
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM], ids=["SIGKILL", "SIGTERM"])
 def test_a_killed_study_leaves_no_process_behind_and_resumes(tmp_path, sig):
     config = write_config(tmp_path / "kill.toml")
@@ -62,8 +63,9 @@ def test_a_killed_study_leaves_no_process_behind_and_resumes(tmp_path, sig):
     assert not [p.pid for p in psutil.process_iter() if alive(p) and str(db) in " ".join(_cmdline(p))]
     if sig == signal.SIGTERM:
         assert process.returncode == 128 + signal.SIGTERM
-        assert stderr.splitlines()[-1] == (f"terminated (SIGTERM): finished runs are in {db}; "
-                                           "run the same command again to resume")
+        assert stderr.splitlines()[-1] == (
+            f"terminated (SIGTERM): finished runs are in {db}; run the same command again to resume"
+        )
         assert "Traceback" not in stderr and "leaked" not in stderr
         assert not lock_path(db).exists()  # a clean exit removes its lock file
     else:
@@ -122,23 +124,30 @@ time.sleep(600)
 
 # ------------------------------------------------------------------------------ 2. one writer
 
+
 def test_a_second_compare_on_a_database_being_written_is_refused(tmp_path):
     # A posterior run far longer than this test comes first: the study holds the database all along.
-    config = write_config(tmp_path / "lock.toml", seeds=1, optimizers="random = {}", underpressures="[0.01]",
-                          extra='[posterior]\nspecimens = ["pom-mt24u01_0.01MPa_r1"]\noptimizer = "random"\n'
-                                'budget = 100000000\n')
+    config = write_config(
+        tmp_path / "lock.toml",
+        seeds=1,
+        optimizers="random = {}",
+        underpressures="[0.01]",
+        extra='[posterior]\nspecimens = ["pom-mt24u01_0.01MPa_r1"]\noptimizer = "random"\nbudget = 100000000\n',
+    )
     db = tmp_path / "lock.sqlite"
     first = start_compare("--config", config, "--db", db, "--workers", "1")
     try:
-        wait_for(lambda: lock_path(db).is_file() and lock_path(db).read_text().strip() == str(first.pid),
-                 first, "lock file")
+        wait_for(
+            lambda: lock_path(db).is_file() and lock_path(db).read_text().strip() == str(first.pid), first, "lock file"
+        )
         wait_for(lambda: db.is_file() and count_runs(db) == 0 and _has_study(db), first, "database")
         before = db.read_bytes()
         second = run_compare("--config", config, "--db", db, "--workers", "1")
         assert second.returncode == 2
         assert second.stderr.splitlines() == [
             f"error: {db}: another bwbench compare (pid {first.pid}) is writing this study; "
-            "wait for it or pass another --db"]
+            "wait for it or pass another --db"
+        ]
         assert db.read_bytes() == before  # nothing written
         assert first.poll() is None  # and the first study goes on
         first.kill()  # SIGKILL: the lock must die with it
@@ -175,6 +184,7 @@ def test_the_lock_is_exclusive_within_one_process_too(tmp_path):
 
 # ------------------------------------------------------------------------------ 7. a lost Dask scheduler
 
+
 def test_a_lost_dask_scheduler_ends_with_one_line_and_the_study_resumes(tmp_path):
     from distributed import LocalCluster
 
@@ -196,8 +206,10 @@ def test_a_lost_dask_scheduler_ends_with_one_line_and_the_study_resumes(tmp_path
     assert process.returncode == 1, stderr
     lines = stderr.splitlines()
     assert lines[0] == f"study tiny: 24 runs, 0 already in {db}, 24 to run on the Dask cluster at {address}"
-    assert lines[-1] == (f"error: lost the Dask scheduler at {address}: the connection closed; finished runs are "
-                         f"in {db}, run the same command again to resume")
+    assert lines[-1] == (
+        f"error: lost the Dask scheduler at {address}: the connection closed; finished runs are "
+        f"in {db}, run the same command again to resume"
+    )
     # A LocalCluster retires its workers before its scheduler: a run in flight may be reported lost first.
     progress = re.compile(r"tiny: \d+/24 runs \(\d+%\), .* errors?(, \d+ not finished \(retried on the next call\))?$")
     assert all(progress.match(line) for line in lines[1:-1]), stderr  # nothing else: no traceback, no logging
@@ -209,14 +221,20 @@ def test_a_lost_dask_scheduler_ends_with_one_line_and_the_study_resumes(tmp_path
 
 # ------------------------------------------------------------------------------ 8. a closed pipe
 
+
 def test_output_into_a_closed_pipe_is_not_an_error(tiny_db, tmp_path):
     """``compare ... | head -1``: the reader leaves early; the study is recorded, nothing is printed
     about the pipe, and the exit status is the study's."""
     config, reference = tiny_db
     db = tmp_path / "copy.sqlite"
     db.write_bytes(reference.read_bytes())
-    process = subprocess.Popen([sys.executable, str(RUN_COMPARE), "--config", str(config), "--db", str(db)],
-                               cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen(
+        [sys.executable, str(RUN_COMPARE), "--config", str(config), "--db", str(db)],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     process.stdout.close()  # the reader is gone before the first line
     _, stderr = process.communicate(timeout=HANG)
     assert process.returncode == 0, stderr

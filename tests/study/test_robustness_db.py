@@ -32,12 +32,17 @@ from robustness_helpers import (
 
 # ------------------------------------------------------------------------------ helpers for 3.
 
+
 def test_failures_summary_groups_errors_with_counts_and_keys():
     key = ("ranking", "s1", "pso", 0)
     lines = failures.summarize(
-        [(key, "ValueError: bad"), (("ranking", "s1", "pso", 1), "ValueError: bad"),
-         (("posterior", "s2", "emcee", 0), "FloatingPointError: overflow")],
-        [(("ranking", "s2", "de", 3), "BrokenProcessPool: a worker died")])
+        [
+            (key, "ValueError: bad"),
+            (("ranking", "s1", "pso", 1), "ValueError: bad"),
+            (("posterior", "s2", "emcee", 0), "FloatingPointError: overflow"),
+        ],
+        [(("ranking", "s2", "de", 3), "BrokenProcessPool: a worker died")],
+    )
     assert lines == [
         "error: 4 runs failed:",
         '  2 runs: "ValueError: bad", recorded as an error, not retried (it would fail the same way): '
@@ -45,21 +50,33 @@ def test_failures_summary_groups_errors_with_counts_and_keys():
         '  1 run: "FloatingPointError: overflow", recorded as an error, not retried (it would fail the same way): '
         "posterior (s2, emcee, seed 0)",
         '  1 run: "BrokenProcessPool: a worker died", not recorded (a fault of the environment; run the same '
-        "command again to retry): (s2, de, seed 3)"]
+        "command again to retry): (s2, de, seed 3)",
+    ]
     assert failures.summarize([], []) == []
 
 
-@pytest.mark.parametrize("err, transient", [
-    (ValueError("x"), False), (FloatingPointError("x"), False), (RuntimeError("x"), False),
-    (ZeroDivisionError("x"), False), (OSError("x"), True), (FileNotFoundError("x"), True),
-    (PermissionError("x"), True), (TimeoutError("x"), True), (MemoryError(), True),
-    (ModuleNotFoundError("nlopt"), True)])
+@pytest.mark.parametrize(
+    "err, transient",
+    [
+        (ValueError("x"), False),
+        (FloatingPointError("x"), False),
+        (RuntimeError("x"), False),
+        (ZeroDivisionError("x"), False),
+        (OSError("x"), True),
+        (FileNotFoundError("x"), True),
+        (PermissionError("x"), True),
+        (TimeoutError("x"), True),
+        (MemoryError(), True),
+        (ModuleNotFoundError("nlopt"), True),
+    ],
+)
 def test_environment_faults_are_transient_and_the_rest_deterministic(err, transient):
     assert failures.is_transient(err) is transient
     assert failures.is_transient_text(failures.one_line(err)) is transient
 
 
 # ------------------------------------------------------------------------------ 3. failed runs
+
 
 @pytest.fixture
 def flaky_backends(monkeypatch):
@@ -83,30 +100,42 @@ def flaky_backends(monkeypatch):
 
 
 def test_deterministic_errors_are_listed_exit_1_and_are_not_retried(flaky_backends, tmp_path, capsys):
-    config = write_config(tmp_path / "raises.toml", budget=50, seeds=2, underpressures="[0.01]",
-                          optimizers="test-raises = {}\nrandom = {}")
+    config = write_config(
+        tmp_path / "raises.toml",
+        budget=50,
+        seeds=2,
+        underpressures="[0.01]",
+        optimizers="test-raises = {}\nrandom = {}",
+    )
     db = tmp_path / "raises.sqlite"
     argv = ["--config", str(config), "--db", str(db), "--workers", "1"]
     expected = [
         "error: 2 runs failed:",
         '  2 runs: "ValueError: boom second line", recorded as an error, not retried (it would fail the same '
-        "way): (pom-mt24u01_0.01MPa_r1, test-raises, seed 0), (pom-mt24u01_0.01MPa_r1, test-raises, seed 1)"]
+        "way): (pom-mt24u01_0.01MPa_r1, test-raises, seed 0), (pom-mt24u01_0.01MPa_r1, test-raises, seed 1)",
+    ]
     assert run_cli(argv) == 1
     err = capsys.readouterr().err.splitlines()
     assert err[-2:] == expected and "4 to run" in err[0]
     with closing(sqlite3.connect(db)) as conn:
         assert conn.execute("SELECT optimizer, status, COUNT(*) FROM runs GROUP BY optimizer, status").fetchall() == [
-            ("random", "ok", 2), ("test-raises", "error", 2)]
+            ("random", "ok", 2),
+            ("test-raises", "error", 2),
+        ]
     assert run_cli(argv) == 1  # the study still has failed runs: still 1, and the same list
     err = capsys.readouterr().err.splitlines()
     assert err[0] == f"study tiny: all 4 runs already in {db}" and err[-2:] == expected
 
 
-@pytest.mark.parametrize("fault", [OSError(5, "Input/output error"), MemoryError(), PermissionError(13, "denied")],
-                         ids=["OSError", "MemoryError", "PermissionError"])
+@pytest.mark.parametrize(
+    "fault",
+    [OSError(5, "Input/output error"), MemoryError(), PermissionError(13, "denied")],
+    ids=["OSError", "MemoryError", "PermissionError"],
+)
 def test_a_transient_error_is_not_recorded_and_the_next_call_retries_it(flaky_backends, tmp_path, capsys, fault):
-    config = write_config(tmp_path / "flaky.toml", budget=50, seeds=2, underpressures="[0.01]",
-                          optimizers="test-flaky = {}\nrandom = {}")
+    config = write_config(
+        tmp_path / "flaky.toml", budget=50, seeds=2, underpressures="[0.01]", optimizers="test-flaky = {}\nrandom = {}"
+    )
     db = tmp_path / "flaky.sqlite"
     argv = ["--config", str(config), "--db", str(db), "--workers", "1"]
     flaky_backends["raise"] = fault
@@ -116,7 +145,8 @@ def test_a_transient_error_is_not_recorded_and_the_next_call_retries_it(flaky_ba
     assert err[-2:] == [
         "error: 2 runs failed:",
         f'  2 runs: "{text}", not recorded (a fault of the environment; run the same command again to retry): '
-        "(pom-mt24u01_0.01MPa_r1, test-flaky, seed 0), (pom-mt24u01_0.01MPa_r1, test-flaky, seed 1)"]
+        "(pom-mt24u01_0.01MPa_r1, test-flaky, seed 0), (pom-mt24u01_0.01MPa_r1, test-flaky, seed 1)",
+    ]
     assert [r[2] for r in rows(db)] == ["random", "random"]  # the failed runs are not in the database
 
     flaky_backends["raise"] = None  # the environment is fixed
@@ -125,7 +155,11 @@ def test_a_transient_error_is_not_recorded_and_the_next_call_retries_it(flaky_ba
     assert "4 runs, 2 already in" in err and "failed" not in err
     with closing(sqlite3.connect(db)) as conn:
         assert conn.execute("SELECT optimizer, status, nfev FROM runs ORDER BY optimizer, replicate").fetchall() == [
-            ("random", "ok", 50), ("random", "ok", 50), ("test-flaky", "ok", 5), ("test-flaky", "ok", 5)]
+            ("random", "ok", 50),
+            ("random", "ok", 50),
+            ("test-flaky", "ok", 5),
+            ("test-flaky", "ok", 5),
+        ]
 
 
 def test_an_old_transient_error_row_is_retried_and_replaced(tmp_path):
@@ -137,11 +171,16 @@ def test_an_old_transient_error_row_is_retried_and_replaced(tmp_path):
     key = ("ranking", "pom-mt24u01_0.05MPa_r1", "random", 0)
     where = "kind = ? AND specimen = ? AND optimizer = ? AND replicate = ?"
     with closing(sqlite3.connect(db)) as conn:
-        conn.execute(f"UPDATE runs SET status = 'error', error = 'OSError: [Errno 5] Input/output error', "
-                     f"nfev = NULL, mse = NULL WHERE {where}", key)
+        conn.execute(
+            f"UPDATE runs SET status = 'error', error = 'OSError: [Errno 5] Input/output error', "
+            f"nfev = NULL, mse = NULL WHERE {where}",
+            key,
+        )
         conn.execute(f"DELETE FROM traces WHERE {where}", key)
-        conn.execute("UPDATE runs SET status = 'error', error = 'ValueError: stays' WHERE specimen = ?",
-                     ("pom-mt24u01_0.09MPa_r1",))
+        conn.execute(
+            "UPDATE runs SET status = 'error', error = 'ValueError: stays' WHERE specimen = ?",
+            ("pom-mt24u01_0.09MPa_r1",),
+        )
         conn.commit()
     outcome = run_study(config, db, workers=1, log=io.StringIO())
     assert (outcome.already, outcome.recorded) == (2, 1)
@@ -153,6 +192,7 @@ def test_an_old_transient_error_row_is_retried_and_replaced(tmp_path):
 
 # ------------------------------------------------------------------------------ 4. storage per run
 
+
 def _vacuumed_size(db) -> int:
     with closing(sqlite3.connect(db)) as conn:
         conn.execute("VACUUM")
@@ -162,10 +202,16 @@ def _vacuumed_size(db) -> int:
 def test_ranking_runs_store_no_chain_and_take_under_20_kb_each(tmp_path):
     # The paper's budget, so emcee's trace is as long as in a real study; a short posterior run to
     # check that posterior runs still keep their chain.
-    config = load_study_config(write_config(
-        tmp_path / "size.toml", budget=4100, seeds=1, underpressures="[0.01, 0.05, 0.09]",
-        optimizers="emcee = {}\nrandom = {}",
-        extra='[posterior]\nspecimens = ["pom-mt24u01_0.01MPa_r1"]\noptimizer = "emcee"\nbudget = 600\n'))
+    config = load_study_config(
+        write_config(
+            tmp_path / "size.toml",
+            budget=4100,
+            seeds=1,
+            underpressures="[0.01, 0.05, 0.09]",
+            optimizers="emcee = {}\nrandom = {}",
+            extra='[posterior]\nspecimens = ["pom-mt24u01_0.01MPa_r1"]\noptimizer = "emcee"\nbudget = 600\n',
+        )
+    )
     db = tmp_path / "size.sqlite"
     open_database(db, config, planned_runs=7).close()
     empty = _vacuumed_size(db)
@@ -192,8 +238,18 @@ def test_ranking_runs_store_no_chain_and_take_under_20_kb_each(tmp_path):
 
 # ------------------------------------------------------------------------------ 5. database faults
 
-@pytest.mark.parametrize("case", ["not a database", "directory", "parent is a file", "csv is a directory",
-                                  "csv is the database", "csv folder is a file"])
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        "not a database",
+        "directory",
+        "parent is a file",
+        "csv is a directory",
+        "csv is the database",
+        "csv folder is a file",
+    ],
+)
 def test_a_database_or_csv_that_cannot_be_used_is_one_line_before_any_run(tmp_path, capsys, case):
     config = write_config(tmp_path / "c.toml")
     db, csv = tmp_path / "study.sqlite", None
@@ -270,12 +326,21 @@ def test_a_read_only_folder_or_database_file_is_one_line_and_leaves_the_runs(tin
     read_only_folder.chmod(0o666)
     read_only_folder.parent.chmod(0o555)
     env = {**os.environ, "NUMBA_CACHE_DIR": str(shared_tmp / "numba")}  # the repository's cache is root's
-    for db, expected in [(read_only_file, "the study database is read-only"),
-                         (read_only_folder, f"the folder {read_only_folder.parent} is not writable"),
-                         (new_in_read_only_folder, f"the folder {read_only_folder.parent} is not writable")]:
-        result = subprocess.run(_as_unprivileged([sys.executable, str(RUN_COMPARE), "--config", str(config),
-                                                  "--db", str(db), "--workers", "1"]),
-                                cwd=REPO, capture_output=True, text=True, timeout=HANG, env=env)
+    for db, expected in [
+        (read_only_file, "the study database is read-only"),
+        (read_only_folder, f"the folder {read_only_folder.parent} is not writable"),
+        (new_in_read_only_folder, f"the folder {read_only_folder.parent} is not writable"),
+    ]:
+        result = subprocess.run(
+            _as_unprivileged(
+                [sys.executable, str(RUN_COMPARE), "--config", str(config), "--db", str(db), "--workers", "1"]
+            ),
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=HANG,
+            env=env,
+        )
         assert result.returncode == 2, result.stderr
         one_error_line(result.stderr, f"{db}: {expected}")
     assert read_only_file.read_bytes() == read_only_folder.read_bytes() == reference.read_bytes()
@@ -298,8 +363,10 @@ def test_a_full_disk_mid_study_stops_with_one_line_and_what_was_committed_resume
     argv = ["--config", str(config), "--db", str(db), "--workers", "1"]
     assert run_cli(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err[-1] == (f"error: {db}: the disk is full (database or disk is full); finished runs are in {db}, "
-                       "run the same command again to resume")
+    assert err[-1] == (
+        f"error: {db}: the disk is full (database or disk is full); finished runs are in {db}, "
+        "run the same command again to resume"
+    )
     assert not any("Traceback" in line for line in err)
     committed = rows(db)
     assert 1 <= len(committed) < 24, "the disk must fill part-way for this test to mean anything"
@@ -316,6 +383,7 @@ def test_a_full_disk_mid_study_stops_with_one_line_and_what_was_committed_resume
 
 # ------------------------------------------------------------------------------ 6. provisional reports
 
+
 def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_path):
     from bwbench.report.build import build_report
     from bwbench.store import reader as results
@@ -327,8 +395,10 @@ def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_p
     with closing(sqlite3.connect(db)) as conn:
         assert conn.execute("SELECT value FROM study WHERE key = 'planned_runs'").fetchone() == ("6",)
         for table in ("runs", "timings", "traces"):  # as if the study had stopped before these runs
-            conn.execute(f"DELETE FROM {table} WHERE specimen = 'pom-mt24u01_0.09MPa_r1' OR "
-                         "(specimen = 'pom-mt24u01_0.05MPa_r1' AND optimizer = 'firefly')")
+            conn.execute(
+                f"DELETE FROM {table} WHERE specimen = 'pom-mt24u01_0.09MPa_r1' OR "
+                "(specimen = 'pom-mt24u01_0.05MPa_r1' AND optimizer = 'firefly')"
+            )
         conn.commit()
     assert results.load_study(db).provisional == "provisional: 3 of 6 runs"
     build_report(db, tmp_path / "report", profile_params=0, log=io.StringIO())
@@ -350,8 +420,12 @@ def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_p
 def test_planned_runs_are_counted_from_a_stored_configuration_when_possible():
     from bwbench.store.plan import planned_from_config
 
-    config = {"study": {"seeds": 5}, "specimens": {"files": ["a", "b", "c"]}, "optimizers": {"x": {}, "y": {}},
-              "posterior": {"specimens": ["a"], "seeds": 2}}
+    config = {
+        "study": {"seeds": 5},
+        "specimens": {"files": ["a", "b", "c"]},
+        "optimizers": {"x": {}, "y": {}},
+        "posterior": {"specimens": ["a"], "seeds": 2},
+    }
     assert planned_from_config(config) == 5 * 3 * 2 + 2
     assert planned_from_config({**config, "posterior": None}) == 30
     assert planned_from_config({**config, "specimens": {"filters": {}}}) is None  # cannot tell: say nothing
@@ -359,6 +433,7 @@ def test_planned_runs_are_counted_from_a_stored_configuration_when_possible():
 
 
 # ------------------------------------------------------------------------------ 8. other mistakes
+
 
 def test_csv_into_a_missing_folder_is_written_there(tiny_db, tmp_path, capsys):
     config, reference = tiny_db
@@ -372,5 +447,7 @@ def test_csv_into_a_missing_folder_is_written_there(tiny_db, tmp_path, capsys):
 def test_a_bad_scheduler_address_is_one_line(tiny_db, tmp_path, capsys):
     config, _ = tiny_db
     assert run_cli(["--config", str(config), "--db", str(tmp_path / "s.sqlite"), "--scheduler", "nonsense://x:1"]) == 2
-    one_error_line(capsys.readouterr().err.splitlines()[-1],
-                    "cannot connect to the Dask scheduler at nonsense://x:1: unknown address scheme 'nonsense'")
+    one_error_line(
+        capsys.readouterr().err.splitlines()[-1],
+        "cannot connect to the Dask scheduler at nonsense://x:1: unknown address scheme 'nonsense'",
+    )

@@ -116,8 +116,9 @@ def test_one_two_workers_and_a_dask_cluster_give_identical_rows(tiny, tmp_path):
 
 def test_a_run_does_not_depend_on_the_other_runs_of_the_study(tiny, tmp_path):
     _, reference = tiny
-    config = load_study_config(write_config(tmp_path / "one.toml", seeds=1, optimizers="random = {}",
-                                            underpressures="[0.05]"))
+    config = load_study_config(
+        write_config(tmp_path / "one.toml", seeds=1, optimizers="random = {}", underpressures="[0.05]")
+    )
     db = tmp_path / "one.sqlite"
     run_study(config, db, workers=1, log=io.StringIO())
     (row,) = rows(db)
@@ -127,9 +128,13 @@ def test_a_run_does_not_depend_on_the_other_runs_of_the_study(tiny, tmp_path):
 def test_task_seed_depends_on_the_key_only():
     a = task_seed(11, "ranking", "s", "random", 0).generate_state(4)
     assert (a == task_seed(11, "ranking", "s", "random", 0).generate_state(4)).all()
-    for other in [task_seed(12, "ranking", "s", "random", 0), task_seed(11, "posterior", "s", "random", 0),
-                  task_seed(11, "ranking", "t", "random", 0), task_seed(11, "ranking", "s", "pso", 0),
-                  task_seed(11, "ranking", "s", "random", 1)]:
+    for other in [
+        task_seed(12, "ranking", "s", "random", 0),
+        task_seed(11, "posterior", "s", "random", 0),
+        task_seed(11, "ranking", "t", "random", 0),
+        task_seed(11, "ranking", "s", "pso", 0),
+        task_seed(11, "ranking", "s", "random", 1),
+    ]:
         assert (other.generate_state(4) != a).any()
 
 
@@ -182,38 +187,51 @@ def test_unknown_backend_exits_2_with_one_line_listing_the_available(tmp_path):
 @pytest.fixture
 def raising_backend(monkeypatch):
     """A test-only backend that raises ValueError after a few evaluations (in this process only)."""
+
     def minimize(objective, *, rng):
         objective.batch(rng.random((5, objective.dim)))
         raise ValueError("boom\nsecond line")
 
     registry.available()  # load the built-ins first, so this entry is removed cleanly afterwards
-    monkeypatch.setitem(registry.REGISTRY.items, "test-raises",
-                        registry.Backend("test-raises", "test", "raises", minimize, {}))
+    monkeypatch.setitem(
+        registry.REGISTRY.items, "test-raises", registry.Backend("test-raises", "test", "raises", minimize, {})
+    )
     return "test-raises"
 
 
 def test_a_run_that_raises_is_recorded_and_the_study_goes_on(raising_backend, tmp_path):
-    config = load_study_config(write_config(
-        tmp_path / "raises.toml", budget=100, underpressures="[0.01]",
-        optimizers=f"{raising_backend} = {{}}\nrandom = {{}}"))
+    config = load_study_config(
+        write_config(
+            tmp_path / "raises.toml",
+            budget=100,
+            underpressures="[0.01]",
+            optimizers=f"{raising_backend} = {{}}\nrandom = {{}}",
+        )
+    )
     db = tmp_path / "raises.sqlite"
     outcome = run_study(config, db, workers=1, log=io.StringIO())
     assert outcome.complete and (outcome.recorded, outcome.errors) == (4, 2)
     with closing(sqlite3.connect(db)) as conn:
         got = conn.execute(f"SELECT optimizer, status, error, nfev, mse FROM runs {KEY_ORDER}").fetchall()
-    assert got == [("random", "ok", None, 100, got[0][4]), ("random", "ok", None, 100, got[1][4]),
-                   ("test-raises", "error", "ValueError: boom second line", None, None),
-                   ("test-raises", "error", "ValueError: boom second line", None, None)]
+    assert got == [
+        ("random", "ok", None, 100, got[0][4]),
+        ("random", "ok", None, 100, got[1][4]),
+        ("test-raises", "error", "ValueError: boom second line", None, None),
+        ("test-raises", "error", "ValueError: boom second line", None, None),
+    ]
     # Errors are finished runs: a rerun does not retry them.
     assert run_study(config, db, workers=1, log=io.StringIO()).recorded == 0
 
 
-@pytest.mark.parametrize("body, message", [
-    ("budget = 0", r"bad\.toml: \[study\] budget must be a positive integer"),
-    ("budget = true", r"bad\.toml: \[study\] budget must be a positive integer"),
-    ("budget = 10\nstate = 'both'", r"bad\.toml: \[study\] state must be one of 'shared', 'split'"),
-    ("budget = 10\nbudgett = 3", r"bad\.toml: \[study\] unknown key 'budgett'"),
-])
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ("budget = 0", r"bad\.toml: \[study\] budget must be a positive integer"),
+        ("budget = true", r"bad\.toml: \[study\] budget must be a positive integer"),
+        ("budget = 10\nstate = 'both'", r"bad\.toml: \[study\] state must be one of 'shared', 'split'"),
+        ("budget = 10\nbudgett = 3", r"bad\.toml: \[study\] unknown key 'budgett'"),
+    ],
+)
 def test_bad_study_values_name_the_file_and_key(tmp_path, body, message):
     path = tmp_path / "bad.toml"
     path.write_text(f'[study]\nname = "x"\nseed = 1\nseeds = 1\n{body}\n[optimizers]\nrandom = {{}}\n')
@@ -222,15 +240,23 @@ def test_bad_study_values_name_the_file_and_key(tmp_path, body, message):
 
 
 def test_filters_and_posterior_are_resolved(tmp_path):
-    config = load_study_config(write_config(tmp_path / "p.toml", extra="""
+    config = load_study_config(
+        write_config(
+            tmp_path / "p.toml",
+            extra="""
 [posterior]
 specimens = ["pom-c9021_0.05MPa_r2"]
 optimizer = "random"
 budget = 50
-"""))
+""",
+        )
+    )
     tasks = plan_tasks(config)
     assert [s.name for s in config.specimens] == [
-        "pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.05MPa_r1", "pom-mt24u01_0.09MPa_r1"]
+        "pom-mt24u01_0.01MPa_r1",
+        "pom-mt24u01_0.05MPa_r1",
+        "pom-mt24u01_0.09MPa_r1",
+    ]
     assert len(tasks) == 13 and tasks[0].kind == "posterior" and tasks[0].budget == 50
     assert config.optimizers["random"] == {"batch_size": 100}  # defaults merged in
 
@@ -243,8 +269,9 @@ def test_workers_must_be_positive(tmp_path, capsys):
 def test_a_database_from_before_the_generic_columns_resumes_and_reads(tmp_path):
     from bwbench.store import reader as results_db
 
-    config = load_study_config(write_config(tmp_path / "old.toml", budget=50, seeds=1, optimizers="random = {}",
-                                            underpressures="[0.01, 0.05]"))
+    config = load_study_config(
+        write_config(tmp_path / "old.toml", budget=50, seeds=1, optimizers="random = {}", underpressures="[0.01, 0.05]")
+    )
     db = tmp_path / "old.sqlite"
     run_study(config, db, workers=1, log=io.StringIO())
     with closing(sqlite3.connect(db)) as conn:  # make it look like an old database, one run short
@@ -275,10 +302,14 @@ def test_a_worker_runs_each_task_on_one_thread(monkeypatch, tmp_path):
         objective.batch(rng.random((3, objective.dim)))
 
     registry.available()
-    monkeypatch.setitem(registry.REGISTRY.items, "test-threads",
-                        registry.Backend("test-threads", "test", "records its threads", minimize, {}))
-    config = load_study_config(write_config(tmp_path / "t.toml", budget=3, seeds=1, optimizers="test-threads = {}",
-                                            underpressures="[0.01]"))
+    monkeypatch.setitem(
+        registry.REGISTRY.items,
+        "test-threads",
+        registry.Backend("test-threads", "test", "records its threads", minimize, {}),
+    )
+    config = load_study_config(
+        write_config(tmp_path / "t.toml", budget=3, seeds=1, optimizers="test-threads = {}", underpressures="[0.01]")
+    )
     before = [pool["num_threads"] for pool in threadpool_info()]
     outcome = run_study(config, tmp_path / "t.sqlite", workers=1, log=io.StringIO())
     assert outcome.complete and outcome.errors == 0

@@ -19,20 +19,53 @@ from bwbench.study.config import load_study_config
 def damper(tmp_path_factory):
     folder = tmp_path_factory.mktemp("held")
     for i, (name, amplitude, frequency) in enumerate((("a", 25.0, 1.0), ("b", 10.0, 2.5), ("h", 20.0, 1.5))):
-        mr_damper.write_test(folder / f"{name}.csv", amplitude_mm=amplitude, frequency_hz=frequency, voltage=1.0,
-                             rate_hz=250.0, cycles=2, peak_force_N=None, rng=i, velocity=True, velocity_noise_mm_s=0.5)
+        mr_damper.write_test(
+            folder / f"{name}.csv",
+            amplitude_mm=amplitude,
+            frequency_hz=frequency,
+            voltage=1.0,
+            rate_hz=250.0,
+            cycles=2,
+            peak_force_N=None,
+            rng=i,
+            velocity=True,
+            velocity_noise_mm_s=0.5,
+        )
     return folder
 
 
 def bwbench_cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "bwbench.cli", *args], cwd=cwd, capture_output=True, text=True,
-                          env={**os.environ, "BWBENCH_PROGRESS": "0"})
+    return subprocess.run(
+        [sys.executable, "-m", "bwbench.cli", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "BWBENCH_PROGRESS": "0"},
+    )
 
 
 def test_the_report_ranks_by_held_out_error_with_the_stored_coefficients(damper, tmp_path):
-    run = bwbench_cli("compare", "--specimens", str(damper / "a.csv"), str(damper / "b.csv"), "--optimizers",
-                      "lsq-trf,random", "--seeds", "1", "--budget", "100", "--formulation", "paper,identifiable", "--validate", str(damper / "h.csv"), "--db", "s.sqlite",
-                      "--workers", "2", cwd=tmp_path)
+    run = bwbench_cli(
+        "compare",
+        "--specimens",
+        str(damper / "a.csv"),
+        str(damper / "b.csv"),
+        "--optimizers",
+        "lsq-trf,random",
+        "--seeds",
+        "1",
+        "--budget",
+        "100",
+        "--formulation",
+        "paper,identifiable",
+        "--validate",
+        str(damper / "h.csv"),
+        "--db",
+        "s.sqlite",
+        "--workers",
+        "2",
+        cwd=tmp_path,
+    )
     assert run.returncode == 0, run.stderr
     report = bwbench_cli("report", "--db", "s.sqlite", "--out", "rep", "--profiles", "0", cwd=tmp_path)
     assert report.returncode == 0, report.stderr
@@ -45,14 +78,26 @@ def test_the_report_ranks_by_held_out_error_with_the_stored_coefficients(damper,
     study = bwbench.load_study(tmp_path / "s.sqlite")
     runs = study.runs[study.runs["kind"] == "ranking"]
     for _, row in runs.iterrows():
-        fit = {"params": json.loads(row["params_json"]), "model": row["model"], "formulation": row["formulation"],
-               "state": row["state"], "excitation": row["excitation"]}
+        fit = {
+            "params": json.loads(row["params_json"]),
+            "model": row["model"],
+            "formulation": row["formulation"],
+            "state": row["state"],
+            "excitation": row["excitation"],
+        }
         (tmp_path / "r.json").write_text(json.dumps(fit))
-        assert main(["predict", "--fit", str(tmp_path / "r.json"), str(damper / "h.csv"),
-                     "--out", str(tmp_path / "p.json")]) == 0
+        assert (
+            main(
+                ["predict", "--fit", str(tmp_path / "r.json"), str(damper / "h.csv"), "--out", str(tmp_path / "p.json")]
+            )
+            == 0
+        )
         predicted = json.loads((tmp_path / "p.json").read_text())["predictions"][0]
-        mine = held[(held["label"] == row["optimizer"]) & (held["specimen"] == row["specimen"])
-                    & (held["replicate"] == row["replicate"])].iloc[0]
+        mine = held[
+            (held["label"] == row["optimizer"])
+            & (held["specimen"] == row["specimen"])
+            & (held["replicate"] == row["replicate"])
+        ].iloc[0]
         assert mine["nrmse"] == pytest.approx(predicted["nrmse"], rel=1e-6)
     # the paper's box cannot fit an MR damper: its fits predict the held-out test far worse
     median = held.groupby("label")["nrmse"].median()
@@ -63,8 +108,10 @@ def test_the_report_ranks_by_held_out_error_with_the_stored_coefficients(damper,
 
 def test_a_toml_holds_its_held_out_files_and_refuses_a_training_one(damper, tmp_path):
     toml = tmp_path / "s.toml"
-    head = (f'[study]\nname = "v"\nseed = 1\nbudget = 20\nseeds = 1\nmodel = "spencer"\n'
-            f'[specimens]\nfiles = ["{damper / "a.csv"}"]\n[optimizers]\nrandom = {{}}\n')
+    head = (
+        f'[study]\nname = "v"\nseed = 1\nbudget = 20\nseeds = 1\nmodel = "spencer"\n'
+        f'[specimens]\nfiles = ["{damper / "a.csv"}"]\n[optimizers]\nrandom = {{}}\n'
+    )
     toml.write_text(head + f'[validation]\nfiles = ["{damper / "h.csv"}"]\n')
     config = load_study_config(toml)
     assert [e.name for e in config.validation] == ["h"]
@@ -79,6 +126,9 @@ def test_a_toml_holds_its_held_out_files_and_refuses_a_training_one(damper, tmp_
     with pytest.raises(UserError, match="fix_mass must be"):
         load_study_config(toml)
     toml.write_text(head.replace('model = "spencer"\n', 'model = "spencer"\nfix_mass = 0.0\n'))
-    with pytest.raises(UserError, match=r"\[study\] fix_mass applies to the identifiable formulation of a model with a "
-                                        "mass term: no variant of this study \\(spencer\\) has one"):
+    with pytest.raises(
+        UserError,
+        match=r"\[study\] fix_mass applies to the identifiable formulation of a model with a "
+        "mass term: no variant of this study \\(spencer\\) has one",
+    ):
         load_study_config(toml)

@@ -47,9 +47,14 @@ def log_losses(runs: pd.DataFrame) -> pd.DataFrame:
         value = np.log10(loss.where(np.isfinite(loss), np.inf).clip(lower=1e-300))
     finite = value.where(np.isfinite(value))
     worst = finite.groupby(runs["specimen"]).transform("max").fillna(0.0) + 1.0
-    return pd.DataFrame({"specimen": runs["specimen"].to_numpy(), "optimizer": runs["optimizer"].to_numpy(),
-                         "replicate": runs["replicate"].to_numpy(),
-                         "value": np.where(np.isfinite(value), value, worst)})
+    return pd.DataFrame(
+        {
+            "specimen": runs["specimen"].to_numpy(),
+            "optimizer": runs["optimizer"].to_numpy(),
+            "replicate": runs["replicate"].to_numpy(),
+            "value": np.where(np.isfinite(value), value, worst),
+        }
+    )
 
 
 def blocks(values: pd.DataFrame, label: str) -> dict:
@@ -66,10 +71,14 @@ def _common(a: dict, b: dict) -> list:
 def method_name(n_specimens: int) -> str:
     """The name of the test ``two_sample`` runs with this many specimens."""
     if n_specimens <= 1:
-        return ("the unpaired Mann–Whitney U test (one specimen: the seeds of each label an independent sample, "
-                "nothing to pair them by)")
-    return ("van Elteren's stratified Wilcoxon–Mann–Whitney test (specimens as blocks, the seeds of each label "
-            "independent repeats within a block; normal approximation)")
+        return (
+            "the unpaired Mann–Whitney U test (one specimen: the seeds of each label an independent sample, "
+            "nothing to pair them by)"
+        )
+    return (
+        "van Elteren's stratified Wilcoxon–Mann–Whitney test (specimens as blocks, the seeds of each label "
+        "independent repeats within a block; normal approximation)"
+    )
 
 
 def van_elteren(a: dict, b: dict) -> tuple[float, float]:
@@ -134,8 +143,9 @@ def hodges_lehmann(a: dict, b: dict) -> float:
     return float(np.median(_differences(a, b, common))) if common else math.nan
 
 
-def hl_interval(a: dict, b: dict, rng: np.random.Generator, resamples: int = BOOTSTRAP,
-                level: float = LEVEL) -> tuple[float, float]:
+def hl_interval(
+    a: dict, b: dict, rng: np.random.Generator, resamples: int = BOOTSTRAP, level: float = LEVEL
+) -> tuple[float, float]:
     """Percentile bootstrap interval of ``hodges_lehmann``: the seeds of each label resampled with
     replacement within each block, ``resamples`` times."""
     common = _common(a, b)
@@ -167,18 +177,44 @@ def compare(values: pd.DataFrame, a: str, b: str) -> dict:
     statistic, p = two_sample(x, y)
     shift = hodges_lehmann(x, y)
     low, high = hl_interval(x, y, generator(a, b))
-    return {"a": a, "b": b, "specimens": len(common), "runs_a": int(sum(len(x[s]) for s in common)),
-            "runs_b": int(sum(len(y[s]) for s in common)), "statistic": statistic, "p": p,
-            "min_p": smallest_p(x, y), "shift": shift, "shift_low": low, "shift_high": high,
-            "ratio": 10.0**shift, "ratio_low": 10.0**low, "ratio_high": 10.0**high}
+    return {
+        "a": a,
+        "b": b,
+        "specimens": len(common),
+        "runs_a": int(sum(len(x[s]) for s in common)),
+        "runs_b": int(sum(len(y[s]) for s in common)),
+        "statistic": statistic,
+        "p": p,
+        "min_p": smallest_p(x, y),
+        "shift": shift,
+        "shift_low": low,
+        "shift_high": high,
+        "ratio": 10.0**shift,
+        "ratio_low": 10.0**low,
+        "ratio_high": 10.0**high,
+    }
 
 
 def family(values: pd.DataFrame, pairs, name: str, alpha: float) -> pd.DataFrame:
     """``compare`` for each (a, b) of ``pairs``, Holm-corrected over exactly these comparisons:
     columns of ``compare`` plus ``family`` (= ``name``), ``p_holm`` and ``significant``."""
     rows = [compare(values, a, b) for a, b in pairs]
-    columns = ["a", "b", "specimens", "runs_a", "runs_b", "statistic", "p", "min_p", "shift", "shift_low",
-               "shift_high", "ratio", "ratio_low", "ratio_high"]
+    columns = [
+        "a",
+        "b",
+        "specimens",
+        "runs_a",
+        "runs_b",
+        "statistic",
+        "p",
+        "min_p",
+        "shift",
+        "shift_low",
+        "shift_high",
+        "ratio",
+        "ratio_low",
+        "ratio_high",
+    ]
     out = pd.DataFrame(rows, columns=columns)
     out.insert(0, "family", name)
     out["p_holm"] = holm(out["p"].to_numpy()) if len(out) else []

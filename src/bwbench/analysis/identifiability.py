@@ -129,8 +129,13 @@ class Sensitivity:
         b = np.concatenate([hi - self.u, self.u - lo])
         for i in range(self.u.size):
             for j, sign in ((0, 1.0), (1, -1.0)):
-                res = linprog(sign * null[i], A_ub=A, b_ub=np.maximum(b, 0.0), bounds=[(None, None)] * null.shape[1],
-                              method="highs")
+                res = linprog(
+                    sign * null[i],
+                    A_ub=A,
+                    b_ub=np.maximum(b, 0.0),
+                    bounds=[(None, None)] * null.shape[1],
+                    method="highs",
+                )
                 if res.status == 0:
                     out[i, j] = self.u[i] + null[i] @ res.x
         return out
@@ -141,9 +146,14 @@ class Sensitivity:
         for j in range(len(self.singular_values) - 1, max(len(self.singular_values) - 1 - k, -1), -1):
             v = self.directions[j]
             v = v if v[np.argmax(np.abs(v))] > 0 else -v
-            out.append({"sigma": float(self.singular_values[j]), "ratio": float(self.ratios[j]),
-                        "weights": {n: float(w) for n, w in zip(self.names, v)},
-                        "text": describe_direction(v, self.labels)})
+            out.append(
+                {
+                    "sigma": float(self.singular_values[j]),
+                    "ratio": float(self.ratios[j]),
+                    "weights": {n: float(w) for n, w in zip(self.names, v)},
+                    "text": describe_direction(v, self.labels),
+                }
+            )
         return out
 
     def poorly_determined(self, threshold: float = POOR_SE) -> list[str]:
@@ -166,8 +176,9 @@ def sensitivity(residual, u, names, labels=None, step: float = STEP, bounds=(0.0
     return Sensitivity(names, tuple(labels or names), u, float(r0 @ r0), r0.size, s, vt)
 
 
-def follow_invariance(residual, u, direction, scale: float, length: float = 0.1, steps: int = 5,
-                      step: float = STEP, bounds=(0.0, 1.0)) -> dict:
+def follow_invariance(
+    residual, u, direction, scale: float, length: float = 0.1, steps: int = 5, step: float = STEP, bounds=(0.0, 1.0)
+) -> dict:
     """Follow the near-null ``direction`` from ``u`` over a finite path and say whether it is an
     invariance of the model to round-off, not just a flat spot at one point.
 
@@ -226,8 +237,9 @@ def follow_invariance(residual, u, direction, scale: float, length: float = 0.1,
 PROFILE_MAXITER = 300  # L-BFGS-B iterations per start of a profile point: enough to converge here
 
 
-def profile(loss_batch, u_best, index: int, grid, maxiter: int = PROFILE_MAXITER, step: float = STEP,
-            on_point=None) -> pd.DataFrame:
+def profile(
+    loss_batch, u_best, index: int, grid, maxiter: int = PROFILE_MAXITER, step: float = STEP, on_point=None
+) -> pd.DataFrame:
     """Profile of the loss along coordinate ``index``: at each grid value (unit coordinates) the
     other coordinates are re-optimised by scipy's L-BFGS-B on [0, 1], and the lowest loss found
     is kept.
@@ -272,11 +284,12 @@ def profile(loss_batch, u_best, index: int, grid, maxiter: int = PROFILE_MAXITER
             if losses[0] < best[0]:
                 best = (float(losses[0]), x.copy())
             logs = np.log(np.maximum(losses, 1e-300))  # an exact fit (loss 0) must not give −inf
-            grad = (logs[1:1 + free.size] - logs[1 + free.size:]) / np.diag(hi - lo)
+            grad = (logs[1 : 1 + free.size] - logs[1 + free.size :]) / np.diag(hi - lo)
             return float(logs[0]), np.where(np.isfinite(grad), grad, 0.0)
 
-        res = minimize(fun, start, jac=True, method="L-BFGS-B", bounds=[(0.0, 1.0)] * free.size,
-                       options={"maxiter": maxiter})
+        res = minimize(
+            fun, start, jac=True, method="L-BFGS-B", bounds=[(0.0, 1.0)] * free.size, options={"maxiter": maxiter}
+        )
         converged = bool(res.success and res.nit < maxiter and np.isfinite(best[0]) and res.fun < 700.0)
         return best[0], best[1], converged, int(res.nit), count
 
@@ -290,8 +303,15 @@ def profile(loss_batch, u_best, index: int, grid, maxiter: int = PROFILE_MAXITER
                 results.append(search(value, u_best[free]))
             loss, x, converged, iterations, _ = min(results, key=lambda r: r[0])
             warm = x
-            rows.append({"unit": float(value), "loss": loss, "converged": converged, "iterations": iterations,
-                         "evaluations": sum(r[4] for r in results)})
+            rows.append(
+                {
+                    "unit": float(value),
+                    "loss": loss,
+                    "converged": converged,
+                    "iterations": iterations,
+                    "evaluations": sum(r[4] for r in results),
+                }
+            )
             if on_point is not None:
                 on_point()
     return pd.DataFrame(rows).sort_values("unit").reset_index(drop=True)
@@ -306,6 +326,10 @@ def strongest_pairs(corr: pd.DataFrame, k: int = 4) -> list[tuple[str, str, floa
     """The ``k`` most correlated pairs (by |r|), as (name, name, r)."""
     names = list(corr.index)
     values = corr.to_numpy()
-    pairs = [(names[i], names[j], float(values[i, j])) for i in range(len(names)) for j in range(i + 1, len(names))
-             if np.isfinite(values[i, j])]
+    pairs = [
+        (names[i], names[j], float(values[i, j]))
+        for i in range(len(names))
+        for j in range(i + 1, len(names))
+        if np.isfinite(values[i, j])
+    ]
     return sorted(pairs, key=lambda p: -abs(p[2]))[:k]

@@ -43,8 +43,9 @@ def stuck_walkers(samples: np.ndarray, log_prob: np.ndarray | None = None, burn:
     return moved < 0.2 * np.median(moved)
 
 
-def chain_diagnostics(samples: np.ndarray, acceptance_fraction: float | None = None,
-                      log_prob: np.ndarray | None = None) -> dict:
+def chain_diagnostics(
+    samples: np.ndarray, acceptance_fraction: float | None = None, log_prob: np.ndarray | None = None
+) -> dict:
     """Diagnostics of an ensemble chain of shape (steps, walkers, dim).
 
     ``tau`` per dimension (``emcee.autocorr.integrated_time``, quiet), ``tau_max``, effective
@@ -65,17 +66,29 @@ def chain_diagnostics(samples: np.ndarray, acceptance_fraction: float | None = N
     warnings = []
     if not np.isfinite(tau_max) or steps < 50 * tau_max:
         need = f"{50 * tau_max:.0f}" if np.isfinite(tau_max) else "?"
-        warnings.append(f"chain of {steps} steps is shorter than 50·τ = {need} steps: τ and the "
-                        f"posterior summaries are not reliable; run it longer")
+        warnings.append(
+            f"chain of {steps} steps is shorter than 50·τ = {need} steps: τ and the "
+            f"posterior summaries are not reliable; run it longer"
+        )
     if np.isfinite(acceptance_fraction) and not 0.2 <= acceptance_fraction <= 0.5:
         warnings.append(f"acceptance fraction {acceptance_fraction:.2f} is outside the usual 0.2–0.5")
     stuck = int(stuck_walkers(samples, log_prob).sum())
     if stuck:
-        warnings.append(f"{stuck} of {walkers} walkers are stuck far from the bulk (left out of the posterior "
-                        "figures and correlations)")
-    return {"steps": steps, "walkers": walkers, "dim": dim, "acceptance_fraction": float(acceptance_fraction),
-            "tau": [float(t) for t in tau], "tau_max": tau_max, "ess": float(ess), "stuck": stuck,
-            "warnings": warnings}
+        warnings.append(
+            f"{stuck} of {walkers} walkers are stuck far from the bulk (left out of the posterior "
+            "figures and correlations)"
+        )
+    return {
+        "steps": steps,
+        "walkers": walkers,
+        "dim": dim,
+        "acceptance_fraction": float(acceptance_fraction),
+        "tau": [float(t) for t in tau],
+        "tau_max": tau_max,
+        "ess": float(ess),
+        "stuck": stuck,
+        "warnings": warnings,
+    }
 
 
 def convergence(samples: np.ndarray, names, burn: int | None = None) -> "pd.DataFrame":
@@ -93,8 +106,7 @@ def convergence(samples: np.ndarray, names, burn: int | None = None) -> "pd.Data
     kept = np.swapaxes(samples[burn:], 0, 1)  # (chain, draw, dim)
     with warnings.catch_warnings():  # "more chains than draws": each walker is a chain, by design
         warnings.simplefilter("ignore", UserWarning)
-        data = az.convert_to_dataset({"theta": kept}, dims={"theta": ["parameter"]},
-                                     coords={"parameter": list(names)})
+        data = az.convert_to_dataset({"theta": kept}, dims={"theta": ["parameter"]}, coords={"parameter": list(names)})
     rhat = az.rhat(data)["theta"].values
     bulk = az.ess(data, method="bulk")["theta"].values
     tail = az.ess(data, method="tail")["theta"].values
@@ -193,8 +205,11 @@ def why_not_converged(samples: np.ndarray, diagnostics, labels=None, burn: int |
         early, late = np.median(kept[:quarter, :, j]), np.median(kept[-quarter:, :, j])
         lo, hi = np.quantile(kept[:, :, j], [0.05, 0.95])
         if hi > lo and abs(late - early) > 0.2 * (hi - lo):
-            where = " towards the upper edge of the box" if late > early and late > 0.9 else (
-                " towards the lower edge of the box" if late < early and late < 0.1 else "")
+            where = (
+                " towards the upper edge of the box"
+                if late > early and late > 0.9
+                else (" towards the lower edge of the box" if late < early and late < 0.1 else "")
+            )
             reason = f"still drifting {'up' if late > early else 'down'}{where}"
         else:
             reason = "the walkers disagree or mix slowly (no net drift)"
@@ -224,7 +239,16 @@ def assess(samples: np.ndarray, log_prob: np.ndarray | None, ensembles: int, nam
         why += [prefix + text for text in why_not_converged(part, table, burn=burn)]
     text = ""
     if len(found) > 1:
-        text = (f", {len(found)} modes (ensembles "
-                + " | ".join(", ".join(str(e + 1) for e in m.ensembles) for m in found) + ")")
-    return {"converged": bool(tables) and all(converged(t) for t in tables), "modes": found, "diagnostics": tables,
-            "why": why, "modes_text": text, "steps": int(samples.shape[0])}
+        text = (
+            f", {len(found)} modes (ensembles "
+            + " | ".join(", ".join(str(e + 1) for e in m.ensembles) for m in found)
+            + ")"
+        )
+    return {
+        "converged": bool(tables) and all(converged(t) for t in tables),
+        "modes": found,
+        "diagnostics": tables,
+        "why": why,
+        "modes_text": text,
+        "steps": int(samples.shape[0]),
+    }

@@ -83,8 +83,11 @@ def find_modes(draws: np.ndarray, log_prob: np.ndarray) -> tuple[list[Mode], flo
     tree = cKDTree(X[picked])
     near = tree.query(X[picked], k=2)[0][:, 1]
     cut = GAP * float(np.median(near[near > 0])) if np.any(near > 0) else 1e-9
-    labels_picked = fcluster(linkage(X[picked], method="single"), t=cut, criterion="distance") if len(picked) > 1 \
+    labels_picked = (
+        fcluster(linkage(X[picked], method="single"), t=cut, criterion="distance")
+        if len(picked) > 1
         else np.ones(1, dtype=int)
+    )
     labels = labels_picked[tree.query(X, k=1)[1]]
     # tails: groups below MIN_MASS join the group of their nearest draw in a big group
     counts = {g: int(np.sum(labels == g)) for g in np.unique(labels)}
@@ -135,8 +138,16 @@ def masses_agree(modes: list[Mode], draws_per_run: int) -> tuple[bool, float]:
     return p >= AGREE_P, p
 
 
-def assess(draws: np.ndarray, log_prob: np.ndarray, log_z, log_z_err, names, complete=None,
-           runs_asked: int | None = None, best_fit=None) -> dict:
+def assess(
+    draws: np.ndarray,
+    log_prob: np.ndarray,
+    log_z,
+    log_z_err,
+    names,
+    complete=None,
+    runs_asked: int | None = None,
+    best_fit=None,
+) -> dict:
     """The verdict on draws (n, runs, d) of independent runs (see the module's docstring).
 
     ``best_fit``: (unit point, log-likelihood, label) of the best fit found otherwise (e.g. the ranking's):
@@ -164,8 +175,11 @@ def assess(draws: np.ndarray, log_prob: np.ndarray, log_z, log_z_err, names, com
     ess = np.asarray(table["ess_bulk"], float)
     if runs < 2:
         failed.append("fewer than 2 runs: R̂ needs independent runs")
-    bad = [f"{name} (R̂ {r:.3f}, bulk ESS {e:.0f})" for name, r, e in zip(names, worst, ess)
-           if not (r <= mcmc.R_HAT_MAX and e >= mcmc.ESS_MIN)]
+    bad = [
+        f"{name} (R̂ {r:.3f}, bulk ESS {e:.0f})"
+        for name, r, e in zip(names, worst, ess)
+        if not (r <= mcmc.R_HAT_MAX and e >= mcmc.ESS_MIN)
+    ]
     if n < MIN_DRAWS:
         failed.append(f"only {n} equal-weight draw{'s' if n != 1 else ''} per run: too few for R̂ and ESS")
     elif bad:
@@ -173,15 +187,22 @@ def assess(draws: np.ndarray, log_prob: np.ndarray, log_z, log_z_err, names, com
             bad = bad[:4] + [f"and {len(bad) - 4} more"]
         failed.append(f"R̂ ≤ {mcmc.R_HAT_MAX:g} and bulk ESS ≥ {mcmc.ESS_MIN}: " + ", ".join(bad))
     if not ev["agree"]:
-        failed.append(f"the runs' ln Z disagree beyond their errors ({', '.join(f'{z:.2f}' for z in log_z)}; "
-                      f"χ² p = {ev['p']:.2g})")
+        failed.append(
+            f"the runs' ln Z disagree beyond their errors ({', '.join(f'{z:.2f}' for z in log_z)}; "
+            f"χ² p = {ev['p']:.2g})"
+        )
     if not agree:
-        failed.append("the runs put different masses in the modes (" + "; ".join(
-            f"mode {i + 1}: " + ", ".join(f"{m:.2f}" for m in mode.run_mass) for i, mode in enumerate(modes))
-            + f"; χ² p = {p_mass:.2g})")
+        failed.append(
+            "the runs put different masses in the modes ("
+            + "; ".join(
+                f"mode {i + 1}: " + ", ".join(f"{m:.2f}" for m in mode.run_mass) for i, mode in enumerate(modes)
+            )
+            + f"; χ² p = {p_mass:.2g})"
+        )
     if complete is not None and not all(complete):
-        failed.append(f"{sum(not c for c in complete)} of {len(complete)} runs cut by the budget before their "
-                      "stopping rule")
+        failed.append(
+            f"{sum(not c for c in complete)} of {len(complete)} runs cut by the budget before their stopping rule"
+        )
     if runs_asked is not None and runs < runs_asked:
         failed.append(f"only {runs} of {runs_asked} runs had budget to start")
     place = None
@@ -189,16 +210,34 @@ def assess(draws: np.ndarray, log_prob: np.ndarray, log_z, log_z_err, names, com
         point, like, label = best_fit
         place = locate(point, like, draws, log_prob, {"scale": unit, "cut": cut, "modes": modes})
         if place["where"] == "missed":
-            failed.append(f"the sampler missed a mode at least as probable as {label} (log-likelihood {like:.1f}, "
-                          f"where no draw goes; the draws' best {np.nanmax(log_prob):.1f})")
+            failed.append(
+                f"the sampler missed a mode at least as probable as {label} (log-likelihood {like:.1f}, "
+                f"where no draw goes; the draws' best {np.nanmax(log_prob):.1f})"
+            )
     converged = not failed
-    text = (f"{runs} runs, {n:,} equal-weight draws each; ln Z = {ev['log_z']:.2f} ± {ev['err']:.2f}; "
-            f"{len(modes)} mode{'s' if len(modes) > 1 else ''} (masses "
-            + ", ".join(f"{m.mass:.2f} ± {m.spread:.2f}" for m in modes) + "); ")
-    text += ("converged: R̂ ≤ 1.01 and bulk ESS ≥ 400 for every parameter, the runs agree on ln Z and on "
-             "the mode masses" if converged else "not converged: " + "; ".join(failed))
-    return {"converged": converged, "failed": failed, "diagnostics": table, "evidence": ev, "modes": modes,
-            "masses_p": p_mass, "cut": cut, "scale": unit, "message": text, "best_fit_place": place}
+    text = (
+        f"{runs} runs, {n:,} equal-weight draws each; ln Z = {ev['log_z']:.2f} ± {ev['err']:.2f}; "
+        f"{len(modes)} mode{'s' if len(modes) > 1 else ''} (masses "
+        + ", ".join(f"{m.mass:.2f} ± {m.spread:.2f}" for m in modes)
+        + "); "
+    )
+    text += (
+        "converged: R̂ ≤ 1.01 and bulk ESS ≥ 400 for every parameter, the runs agree on ln Z and on the mode masses"
+        if converged
+        else "not converged: " + "; ".join(failed)
+    )
+    return {
+        "converged": converged,
+        "failed": failed,
+        "diagnostics": table,
+        "evidence": ev,
+        "modes": modes,
+        "masses_p": p_mass,
+        "cut": cut,
+        "scale": unit,
+        "message": text,
+        "best_fit_place": place,
+    }
 
 
 def locate(point, log_like: float, draws: np.ndarray, log_prob: np.ndarray, assessment: dict) -> dict:

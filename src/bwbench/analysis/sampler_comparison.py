@@ -54,18 +54,20 @@ def mode_shares(reference_draws: np.ndarray, verdict: dict, draws: np.ndarray) -
     X = np.asarray(draws, dtype=float).reshape(-1, d)
     X = X[np.all(np.isfinite(X), axis=1)]
     if not len(X):
-        return ModeShares(np.zeros(len(modes)), 1.0, np.array([m.mass for m in modes]),
-                          np.array([m.spread for m in modes]))
+        return ModeShares(
+            np.zeros(len(modes)), 1.0, np.array([m.mass for m in modes]), np.array([m.spread for m in modes])
+        )
     distance, nearest = cKDTree(ref / verdict["scale"]).query(X / verdict["scale"], k=1)
     inside = distance <= verdict["cut"]
     which = np.where(inside, label[nearest], -1)
     shares = np.array([np.mean(which == k) for k in range(len(modes))])
-    return ModeShares(shares, float(np.mean(which == -1)), np.array([m.mass for m in modes]),
-                      np.array([m.spread for m in modes]))
+    return ModeShares(
+        shares, float(np.mean(which == -1)), np.array([m.mass for m in modes]), np.array([m.spread for m in modes])
+    )
 
 
 def mass_text(shares: ModeShares) -> str:
-    """"mode 1: 1.00 (reference 0.70 ± 0.02); mode 2: 0.00 (reference 0.30 ± 0.02)" (and the share
+    """ "mode 1: 1.00 (reference 0.70 ± 0.02); mode 2: 0.00 (reference 0.30 ± 0.02)" (and the share
     outside every mode when there is one)."""
     parts = []
     for k, (s, r, e) in enumerate(zip(shares.shares, shares.reference, shares.spread)):
@@ -77,7 +79,7 @@ def mass_text(shares: ModeShares) -> str:
 
 
 def found_text(shares: ModeShares) -> str:
-    """"yes (2 of 2)" or "no: misses mode 2 (1 of 2)"."""
+    """ "yes (2 of 2)" or "no: misses mode 2 (1 of 2)"."""
     found = shares.found
     count = f"{int(found.sum())} of {len(found)}"
     if found.all():

@@ -55,9 +55,17 @@ def decompose(fits, fits_log_prob, draws, draws_log_prob, names) -> tuple[pd.Dat
         out = ~inside[:, j]
         early, other = int(np.sum(out & ~reached)), int(np.sum(out & reached))
         scatter = "the data" if not out.any() else ("the optimiser" if early >= other else "another mode")
-        rows.append({"parameter": name, "fits_spread": float(np.ptp(fits[:, j])) if len(fits) else np.nan,
-                     "posterior_width": float(hi[j] - lo[j]), "inside": int(np.sum(inside[:, j])),
-                     "stopped_early": early, "elsewhere": other, "scatter": scatter})
+        rows.append(
+            {
+                "parameter": name,
+                "fits_spread": float(np.ptp(fits[:, j])) if len(fits) else np.nan,
+                "posterior_width": float(hi[j] - lo[j]),
+                "inside": int(np.sum(inside[:, j])),
+                "stopped_early": early,
+                "elsewhere": other,
+                "scatter": scatter,
+            }
+        )
     kind = np.where(~reached, EARLY, np.where(np.all(inside, axis=1), DATA, ELSEWHERE))
     return pd.DataFrame(rows), kind
 

@@ -70,9 +70,21 @@ def runtimes(runs: pd.DataFrame, traces: pd.DataFrame, taus=TOLERANCES, best=Non
             evals = np.where(hit < mse.size, counts[np.minimum(hit, mse.size - 1)], np.inf)
         else:
             evals = np.where(final[k] <= targets, nfev, np.inf)
-        frames.append(pd.DataFrame({"kind": key[0], "specimen": key[1], "optimizer": key[2], "replicate": key[3],
-                                    "tau": taus, "target_mse": targets, "evals": evals, "nfev": nfev,
-                                    "reached": np.isfinite(evals)}))
+        frames.append(
+            pd.DataFrame(
+                {
+                    "kind": key[0],
+                    "specimen": key[1],
+                    "optimizer": key[2],
+                    "replicate": key[3],
+                    "tau": taus,
+                    "target_mse": targets,
+                    "evals": evals,
+                    "nfev": nfev,
+                    "reached": np.isfinite(evals),
+                }
+            )
+        )
     columns = ["kind", "specimen", "optimizer", "replicate", "tau", "target_mse", "evals", "nfev", "reached"]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=columns)
 
@@ -96,9 +108,15 @@ def success_and_ert(rt: pd.DataFrame, by=("optimizer", "tau")) -> pd.DataFrame:
     rows = []
     for key, g in rt.groupby(list(by), sort=False):
         key = key if isinstance(key, tuple) else (key,)
-        rows.append({**dict(zip(by, key)), "runs": len(g), "successes": int(g["reached"].sum()),
-                     "success_rate": float(g["reached"].mean()),
-                     "ert": ert(g["evals"], g["nfev"], g["reached"])})
+        rows.append(
+            {
+                **dict(zip(by, key)),
+                "runs": len(g),
+                "successes": int(g["reached"].sum()),
+                "success_rate": float(g["reached"].mean()),
+                "ert": ert(g["evals"], g["nfev"], g["reached"]),
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -149,8 +167,13 @@ def friedman(table: pd.DataFrame) -> Friedman:
     mean_ranks = ranks.mean(axis=0).sort_values(kind="stable")
     k, n = table.shape[1], table.shape[0]
     if k < 3 or n < 2:
-        return Friedman(np.nan, np.nan, mean_ranks, n,
-                        f"Friedman test not applicable: needs ≥ 3 backends and ≥ 2 specimens (have {k} and {n})")
+        return Friedman(
+            np.nan,
+            np.nan,
+            mean_ranks,
+            n,
+            f"Friedman test not applicable: needs ≥ 3 backends and ≥ 2 specimens (have {k} and {n})",
+        )
     if np.all(ranks.to_numpy() == ranks.to_numpy()[:, :1]):
         return Friedman(0.0, 1.0, mean_ranks, n, "every backend ties on every specimen")
     stat, p = scipy.stats.friedmanchisquare(*ranks.to_numpy().T)
@@ -180,12 +203,16 @@ def ranking_table(runs: pd.DataFrame, traces: pd.DataFrame, order=None) -> tuple
         wall = ranking.loc[mask, "wall_s"].astype(float) if "wall_s" in ranking else pd.Series(dtype=float)
         nfev = ranking.loc[mask, "nfev"].astype(float)
         timed = wall.notna() & nfev.gt(0)
-        row = {"optimizer": optimizer, "runs": int(mask.sum()),
-               "errors": int((ranking.loc[mask, "status"] != "ok").sum()),
-               "median_rmse_N": float(np.median(rmse)), "best_rmse_N": float(np.min(rmse)),
-               "median_ratio": float(np.median(ratio[mask])),
-               "median_wall_s": float(wall.median()) if len(wall) else np.nan,
-               "s_per_eval": float(wall[timed].sum() / nfev[timed].sum()) if timed.any() else np.nan}
+        row = {
+            "optimizer": optimizer,
+            "runs": int(mask.sum()),
+            "errors": int((ranking.loc[mask, "status"] != "ok").sum()),
+            "median_rmse_N": float(np.median(rmse)),
+            "best_rmse_N": float(np.min(rmse)),
+            "median_ratio": float(np.median(ratio[mask])),
+            "median_wall_s": float(wall.median()) if len(wall) else np.nan,
+            "s_per_eval": float(wall[timed].sum() / nfev[timed].sum()) if timed.any() else np.nan,
+        }
         for tau in TOLERANCES:
             s = se[(se["optimizer"] == optimizer) & (se["tau"] == tau)].iloc[0]
             row[f"success_{tau:.0%}"] = s["success_rate"]
@@ -207,6 +234,7 @@ def success_by_specimen(runs: pd.DataFrame, traces: pd.DataFrame, tau: float) ->
 
 # ------------------------------------------------- one specimen: labels as independent samples
 
+
 @dataclass(frozen=True)
 class KruskalWallis:
     statistic: float
@@ -223,8 +251,12 @@ def kruskal_wallis(runs: pd.DataFrame) -> KruskalWallis:
     groups = [g["value"].to_numpy() for _, g in values.groupby("optimizer", sort=False)]
     groups = [g for g in groups if len(g)]
     if len(groups) < 2 or sum(len(g) for g in groups) <= len(groups):
-        return KruskalWallis(np.nan, np.nan, len(groups), "Kruskal–Wallis test not applicable: needs ≥ 2 backends "
-                             "with more runs than backends")
+        return KruskalWallis(
+            np.nan,
+            np.nan,
+            len(groups),
+            "Kruskal–Wallis test not applicable: needs ≥ 2 backends with more runs than backends",
+        )
     if np.ptp(np.concatenate(groups)) == 0:
         return KruskalWallis(0.0, 1.0, len(groups), "every run has the same final MSE")
     stat, p = scipy.stats.kruskal(*groups)
@@ -253,9 +285,20 @@ def compare_backends(runs: pd.DataFrame) -> Comparison:
     if n_specimens >= 2:
         fr = friedman(median_table(ranking))
         return Comparison(
-            "Friedman test", f"{fr.n_blocks} specimens (blocks) and {ranking['optimizer'].nunique()} labels "
+            "Friedman test",
+            f"{fr.n_blocks} specimens (blocks) and {ranking['optimizer'].nunique()} labels "
             f"(treatments), value = median log10 final loss across seeds, losses within {TIE:.0%} sharing a rank",
-            fr, method_name(n_specimens), n_specimens, seeds)
+            fr,
+            method_name(n_specimens),
+            n_specimens,
+            seeds,
+        )
     kw = kruskal_wallis(ranking)
-    return Comparison("Kruskal–Wallis test", f"{kw.n_groups} labels, the seeds of each an independent sample", kw,
-                      method_name(n_specimens), n_specimens, seeds)
+    return Comparison(
+        "Kruskal–Wallis test",
+        f"{kw.n_groups} labels, the seeds of each an independent sample",
+        kw,
+        method_name(n_specimens),
+        n_specimens,
+        seeds,
+    )

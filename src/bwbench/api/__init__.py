@@ -28,15 +28,39 @@ from bwbench.problems.hysteresis.fit_notes import FitWarning
 from bwbench.problems.hysteresis.fit_result import FitResult
 from bwbench.problems.hysteresis.fitted_model import FittedModel, Prediction
 
-__all__ = ["fit", "load_fit", "load_study", "compare", "FitResult", "FittedModel", "Prediction", "Study",
-           "UserError", "FitWarning"]
+__all__ = [
+    "fit",
+    "load_fit",
+    "load_study",
+    "compare",
+    "FitResult",
+    "FittedModel",
+    "Prediction",
+    "Study",
+    "UserError",
+    "FitWarning",
+]
 
 
-def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, model: str | None = None,
-        formulation: str | None = None, state: str | None = None, excitation: str = "measured",
-        fix_mass="auto", offsets: str | None = None, weighting: str = "equal",
-        bounds: dict | str | Path | None = None, options: dict | None = None, threads: int = 1,
-        name: str | None = None, stop: str = "agreed", workers: int = 1) -> FitResult:
+def fit(
+    *data,
+    optimizer: str = "lsq-trf",
+    budget: int = 4100,
+    seed: int = 0,
+    model: str | None = None,
+    formulation: str | None = None,
+    state: str | None = None,
+    excitation: str = "measured",
+    fix_mass="auto",
+    offsets: str | None = None,
+    weighting: str = "equal",
+    bounds: dict | str | Path | None = None,
+    options: dict | None = None,
+    threads: int = 1,
+    name: str | None = None,
+    stop: str = "agreed",
+    workers: int = 1,
+) -> FitResult:
     """Fit one test, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
     ``data``: one or more tests, each a specimen CSV's path, a ``Specimen`` or a pandas DataFrame with
@@ -93,8 +117,16 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
     if stop not in ("agreed", "budget"):
         raise UserError(f"--stop must be 'agreed' or 'budget', got {stop!r}")
     options = backends.resolve_options(optimizer, dict(options or {}))
-    settings = settings_of(model=model, formulation=formulation, state=state, excitation=excitation,
-                           fix_mass=fix_mass, offsets=offsets, weighting=weighting, bounds=bounds)
+    settings = settings_of(
+        model=model,
+        formulation=formulation,
+        state=state,
+        excitation=excitation,
+        fix_mass=fix_mass,
+        offsets=offsets,
+        weighting=weighting,
+        bounds=bounds,
+    )
     refuse_same_file([d.path if isinstance(d, Specimen) else d for d in items])
     loaded = [as_specimen(d, name) for d in items]
     plausibility.screen(loaded)  # data check's checks: a dead channel or no force refused, the rest warned
@@ -110,15 +142,27 @@ def fit(*data, optimizer: str = "lsq-trf", budget: int = 4100, seed: int = 0, mo
     if not result.success:
         import warnings
 
-        warnings.warn(f"none of the {result.nfev} evaluations gave a finite force: the model blows up everywhere "
-                      "in the search box on these data (check the units: mm, N, s; and the bounds)",
-                      fit_notes.FitWarning, stacklevel=2)
+        warnings.warn(
+            f"none of the {result.nfev} evaluations gave a finite force: the model blows up everywhere "
+            "in the search box on these data (check the units: mm, N, s; and the bounds)",
+            fit_notes.FitWarning,
+            stacklevel=2,
+        )
     fit_notes.issue(result)
     return result
 
 
-def settings_of(*, model=None, formulation=None, state=None, excitation="measured", fix_mass="auto",
-                offsets=None, weighting="equal", bounds=None) -> dict:
+def settings_of(
+    *,
+    model=None,
+    formulation=None,
+    state=None,
+    excitation="measured",
+    fix_mass="auto",
+    offsets=None,
+    weighting="equal",
+    bounds=None,
+) -> dict:
     """The problem settings of a fit's keywords, each checked (``UserError`` with the CLI's wording)."""
     from bwbench.data import bounds as bounds_mod
     from bwbench.problems.hysteresis.formulations import bound_names

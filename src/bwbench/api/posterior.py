@@ -39,7 +39,7 @@ def _draws(posterior, thin: int) -> dict:
     """{name: (walkers, kept steps) array in physical units}: every sampled and solved parameter after
     burn-in, every ``thin``-th step."""
     chain, problem = posterior.chain, posterior.problem
-    kept = chain.samples[posterior.burn::thin]  # (steps, walkers, d), unit coordinates
+    kept = chain.samples[posterior.burn :: thin]  # (steps, walkers, d), unit coordinates
     steps, walkers, d = kept.shape
     P = problem.from_unit(kept.reshape(-1, d))
     out = {n: P[:, j] for j, n in enumerate(posterior.names)}
@@ -60,8 +60,10 @@ def frame(study, specimen: str, thin: int | None = None):
     thin = _check_thin(posterior, thin)
     draws = _draws(posterior, thin)
     walkers, steps = next(iter(draws.values())).shape
-    index = {"walker": np.repeat(np.arange(walkers), steps),
-             "step": np.tile(posterior.burn + np.arange(steps) * thin, walkers)}
+    index = {
+        "walker": np.repeat(np.arange(walkers), steps),
+        "step": np.tile(posterior.burn + np.arange(steps) * thin, walkers),
+    }
     out = pd.DataFrame({**index, **{n: v.ravel() for n, v in draws.items()}})
     out.attrs["units"] = units(posterior.problem, list(draws))
     return out
@@ -77,10 +79,16 @@ def inference_data(study, specimen: str, thin: int | None = None):
     draws = _draws(posterior, thin)
     stats = {}
     if posterior.chain.log_prob is not None:
-        stats["lp"] = np.asarray(posterior.chain.log_prob[posterior.burn::thin], dtype=float).T
-    data = az.from_dict(posterior=draws, sample_stats=stats or None,
-                        attrs={"specimen": specimen, "sampler": str(posterior.run.get("optimizer", "")),
-                               "burn_in_steps": posterior.burn})
+        stats["lp"] = np.asarray(posterior.chain.log_prob[posterior.burn :: thin], dtype=float).T
+    data = az.from_dict(
+        posterior=draws,
+        sample_stats=stats or None,
+        attrs={
+            "specimen": specimen,
+            "sampler": str(posterior.run.get("optimizer", "")),
+            "burn_in_steps": posterior.burn,
+        },
+    )
     data.posterior.attrs["units"] = str(units(posterior.problem, list(draws)))
     return data
 

@@ -66,8 +66,9 @@ class Study:
         from bwbench.render.labels import split_label
 
         runs = self._stored.runs.copy()
-        runs.insert(runs.columns.get_loc("optimizer") + 1, "backend",
-                    [split_label(label)[0] for label in runs["optimizer"]])
+        runs.insert(
+            runs.columns.get_loc("optimizer") + 1, "backend", [split_label(label)[0] for label in runs["optimizer"]]
+        )
         for column in ("nfev", "budget"):
             runs[column] = runs[column].round().astype("Int64")
         runs["finished"] = (runs["status"] == "ok") & runs["mse"].map(lambda m: math.isfinite(float(m)))
@@ -91,8 +92,15 @@ class Study:
         table, _ = statistics.ranking_table(s.runs, s.traces, s.optimizers)
         tests = statistics.compare_backends(s.runs)
         success = statistics.success_by_specimen(s.runs, s.traces, TARGET)
-        rec = recommend(table, success, comparisons.log_losses(s.ranking), tests, s.settings.get("budget", "?"),
-                        s.problem_type.residual_unit, variant_noun(s.settings))
+        rec = recommend(
+            table,
+            success,
+            comparisons.log_losses(s.ranking),
+            tests,
+            s.settings.get("budget", "?"),
+            s.problem_type.residual_unit,
+            variant_noun(s.settings),
+        )
         table = table.set_index("optimizer").loc[rec["order"]].reset_index()
         return table, rec
 
@@ -129,8 +137,15 @@ class Study:
         model = _one(runs, "model")
         found = re.search(r"\*\*Use.*?\.(?=\s+[A-Z*]|\s*$)", text, re.S)
         use = found.group(0) if found else text
-        return Recommendation(label, split_label(label)[0], formulation, model,
-                              int(budget) if isinstance(budget, (int, float)) else None, _plain(use), text)
+        return Recommendation(
+            label,
+            split_label(label)[0],
+            formulation,
+            model,
+            int(budget) if isinstance(budget, (int, float)) else None,
+            _plain(use),
+            text,
+        )
 
     # -- outputs ----------------------------------------------------------------------------------
     def report(self, out_dir, *, data_dir=None, profiles: int = 2, log=None) -> Path:
@@ -143,8 +158,13 @@ class Study:
         with untouched():
             from bwbench.report.build import build_report
 
-            return build_report(self._stored.path, out_dir, data_dir=data_dir, profile_params=profiles,
-                                log=io.StringIO() if log is None else log)
+            return build_report(
+                self._stored.path,
+                out_dir,
+                data_dir=data_dir,
+                profile_params=profiles,
+                log=io.StringIO() if log is None else log,
+            )
 
     def posterior(self, specimen: str, thin: int | None = None):
         """The posterior draws of ``specimen`` as a DataFrame in physical units (``walker``, ``step``, one
@@ -168,8 +188,10 @@ class Study:
         ranking = runs[runs["kind"] == "ranking"]
         labels = ranking["optimizer"].nunique()
         specimens = ranking["specimen"].nunique()
-        return (f"{len(runs)} runs ({int(runs['finished'].sum())} finished): {labels} labels on {specimens} "
-                f"specimen{'s' if specimens != 1 else ''}")
+        return (
+            f"{len(runs)} runs ({int(runs['finished'].sum())} finished): {labels} labels on {specimens} "
+            f"specimen{'s' if specimens != 1 else ''}"
+        )
 
     def __repr__(self) -> str:
         return f"<Study {self._stored.name} at {self._stored.path}: {self._counts()}; .ranking(), .recommendation>"
@@ -184,10 +206,12 @@ class Study:
         for label, g in runs.groupby("optimizer", sort=True):
             done = g[g["finished"]]
             rows.append((label, len(g), len(done), f"{done['rmse_N'].median():.4g}" if len(done) else "–"))
-        return (f"<div><b>Study</b> {html.escape(self._stored.name)} ({html.escape(str(self._stored.path))}): "
-                f"{html.escape(self._counts())}"
-                + table_html(rows, ["label", "runs", "finished", "median RMSE (N)"])
-                + "<small>.ranking() and .recommendation apply the report's rule</small></div>")
+        return (
+            f"<div><b>Study</b> {html.escape(self._stored.name)} ({html.escape(str(self._stored.path))}): "
+            f"{html.escape(self._counts())}"
+            + table_html(rows, ["label", "runs", "finished", "median RMSE (N)"])
+            + "<small>.ranking() and .recommendation apply the report's rule</small></div>"
+        )
 
 
 def _one(runs, column):
@@ -205,10 +229,29 @@ def load(db, data_dir=None) -> Study:
     return Study(load_study(db, data_dir))
 
 
-def compare(config=None, *, specimens=None, optimizers=None, seeds: int = 5, budget: int = 4100, seed: int = 0,
-            model=None, formulation=None, state=None, excitation: str = "measured", bounds=None,
-            fix_mass="auto", offsets: str = "branch", validate=None, name: str = "study", db=None,
-            workers: int | None = 1, threads: int = 1, data=None, log=None) -> Study:
+def compare(
+    config=None,
+    *,
+    specimens=None,
+    optimizers=None,
+    seeds: int = 5,
+    budget: int = 4100,
+    seed: int = 0,
+    model=None,
+    formulation=None,
+    state=None,
+    excitation: str = "measured",
+    bounds=None,
+    fix_mass="auto",
+    offsets: str = "branch",
+    validate=None,
+    name: str = "study",
+    db=None,
+    workers: int | None = 1,
+    threads: int = 1,
+    data=None,
+    log=None,
+) -> Study:
     """Run (or resume) a study as ``bwbench compare`` does and return its ``Study``.
 
     Either ``config``: a study TOML, or ``specimens``: specimen CSV paths (or globs) with
@@ -223,14 +266,53 @@ def compare(config=None, *, specimens=None, optimizers=None, seeds: int = 5, bud
     command line's message for bad input; runs that failed are in ``runs`` (``finished`` False).
     """
     with untouched():  # the study code imports the report's figure modules (Agg, a theme)
-        return _compare(config, specimens=specimens, optimizers=optimizers, seeds=seeds, budget=budget, seed=seed,
-                        model=model, formulation=formulation, state=state, excitation=excitation, bounds=bounds,
-                        fix_mass=fix_mass, offsets=offsets, validate=validate, name=name, db=db, workers=workers,
-                        threads=threads, data=data, log=log)
+        return _compare(
+            config,
+            specimens=specimens,
+            optimizers=optimizers,
+            seeds=seeds,
+            budget=budget,
+            seed=seed,
+            model=model,
+            formulation=formulation,
+            state=state,
+            excitation=excitation,
+            bounds=bounds,
+            fix_mass=fix_mass,
+            offsets=offsets,
+            validate=validate,
+            name=name,
+            db=db,
+            workers=workers,
+            threads=threads,
+            data=data,
+            log=log,
+        )
 
 
-def _compare(config, *, specimens, optimizers, seeds, budget, seed, model, formulation, state, excitation, bounds,
-             fix_mass, offsets, validate, name, db, workers, threads, data, log) -> Study:
+def _compare(
+    config,
+    *,
+    specimens,
+    optimizers,
+    seeds,
+    budget,
+    seed,
+    model,
+    formulation,
+    state,
+    excitation,
+    bounds,
+    fix_mass,
+    offsets,
+    validate,
+    name,
+    db,
+    workers,
+    threads,
+    data,
+    log,
+) -> Study:
     import bwbench.threads as threads_mod
     from bwbench.api.arguments import count as check_count
     from bwbench.data.output_paths import refuse_inputs
@@ -245,8 +327,18 @@ def _compare(config, *, specimens, optimizers, seeds, budget, seed, model, formu
     if workers is not None:
         check_count("workers", workers, "a positive integer")
     if config is not None:
-        given = [k for k, v in (("optimizers", optimizers), ("model", model), ("formulation", formulation),
-                                ("state", state), ("bounds", bounds), ("validate", validate)) if v is not None]
+        given = [
+            k
+            for k, v in (
+                ("optimizers", optimizers),
+                ("model", model),
+                ("formulation", formulation),
+                ("state", state),
+                ("bounds", bounds),
+                ("validate", validate),
+            )
+            if v is not None
+        ]
         if given:
             raise UserError(f"{given[0]}= goes with specimens=; with config= the TOML says it")
         study_config = load_study_config(config, data=data)
@@ -257,14 +349,28 @@ def _compare(config, *, specimens, optimizers, seeds, budget, seed, model, formu
             raise UserError("specimens= needs optimizers= (backend names, e.g. ['cmaes', 'random'])")
         files = [specimens] if isinstance(specimens, (str, Path)) else list(specimens)
         if not all(isinstance(f, (str, Path)) for f in files):
-            raise UserError("specimens= takes CSV paths (a study reads its files again in every worker and report): "
-                            "write a DataFrame with frame.to_csv(path, index=False) first")
+            raise UserError(
+                "specimens= takes CSV paths (a study reads its files again in every worker and report): "
+                "write a DataFrame with frame.to_csv(path, index=False) first"
+            )
         study_config = config_from_arguments(
-            [str(f) for f in files], _names(optimizers), seeds, budget, name=name, seed=seed, state=state,
-            excitation=excitation, bounds_file=None if bounds is None else str(bounds),
-            formulation=_names(formulation), model=_names(model), fix_mass=fix_mass, offsets=offsets,
-            validate=None if validate is None else [str(v) for v in ([validate] if isinstance(validate, (str, Path))
-                                                                    else validate)])
+            [str(f) for f in files],
+            _names(optimizers),
+            seeds,
+            budget,
+            name=name,
+            seed=seed,
+            state=state,
+            excitation=excitation,
+            bounds_file=None if bounds is None else str(bounds),
+            formulation=_names(formulation),
+            model=_names(model),
+            fix_mass=fix_mass,
+            offsets=offsets,
+            validate=None
+            if validate is None
+            else [str(v) for v in ([validate] if isinstance(validate, (str, Path)) else validate)],
+        )
     path = Path(db) if db is not None else study_config.default_db
     refuse_inputs({"db": path}, study_inputs(study_config, bounds))
     refuse_blowing_box(study_config, bounds)

@@ -73,8 +73,9 @@ def summary_table(db, problem_type=None) -> str:
     if runs.empty:
         return "no ranking runs recorded"
     if problem_type is None:
-        problem_type = problems.get(str(runs["problem"].dropna().iloc[0]) if runs["problem"].notna().any()
-                                    else problems.DEFAULT)
+        problem_type = problems.get(
+            str(runs["problem"].dropna().iloc[0]) if runs["problem"].notna().any() else problems.DEFAULT
+        )
     unit = problem_type.residual_unit
     number = "{:.3g}" if unit != "N" else "{:.3f}"
     all_runs = read_runs(db)
@@ -83,8 +84,9 @@ def summary_table(db, problem_type=None) -> str:
     ratio = final / runs["specimen"].map(best).astype(float)
     reached = final <= runs["specimen"].map(best).astype(float) * (1 + TARGET)
     n_specimens = runs["specimen"].nunique()
-    rmse_name = f"median RMSE ({unit})" if n_specimens == 1 else \
-        f"median RMSE ({unit}), range over {n_specimens} specimens"
+    rmse_name = (
+        f"median RMSE ({unit})" if n_specimens == 1 else f"median RMSE ({unit}), range over {n_specimens} specimens"
+    )
     stats = []
     for optimizer, group in runs.groupby("optimizer", sort=False):
         mse = group["mse"].astype(float)
@@ -92,16 +94,28 @@ def summary_table(db, problem_type=None) -> str:
         rmse = np.sqrt(ok["mse"].astype(float))
         medians = rmse.groupby(ok["specimen"]).median()
         median_ratio = float(ratio[group.index].median())
-        stats.append((median_ratio, optimizer, {
-            "runs": str(len(group)),
-            "finished": str(len(ok)),
-            f"within {TARGET:.0%} of best": f"{int(reached[group.index].sum())}",
-            "median loss / best known": (f"{median_ratio:.4g}" if math.isfinite(median_ratio) else "-"),
-            rmse_name: ("-" if not len(ok) else number.format(medians.iloc[0]) if n_specimens == 1 else
-                        f"{number.format(medians.min())}–{number.format(medians.max())}"),
-            "median evaluations": f"{ok['nfev'].median():.0f}" if len(ok) else "-",
-            "errors": str(int((group["status"] == "error").sum())),
-            **problem_type.summary_columns(group)}))
+        stats.append(
+            (
+                median_ratio,
+                optimizer,
+                {
+                    "runs": str(len(group)),
+                    "finished": str(len(ok)),
+                    f"within {TARGET:.0%} of best": f"{int(reached[group.index].sum())}",
+                    "median loss / best known": (f"{median_ratio:.4g}" if math.isfinite(median_ratio) else "-"),
+                    rmse_name: (
+                        "-"
+                        if not len(ok)
+                        else number.format(medians.iloc[0])
+                        if n_specimens == 1
+                        else f"{number.format(medians.min())}–{number.format(medians.max())}"
+                    ),
+                    "median evaluations": f"{ok['nfev'].median():.0f}" if len(ok) else "-",
+                    "errors": str(int((group["status"] == "error").sum())),
+                    **problem_type.summary_columns(group),
+                },
+            )
+        )
     stats.sort(key=lambda r: (r[0], r[1]))
     header = ("label", *stats[0][2])
     lines = [(optimizer, *cells.values()) for _, optimizer, cells in stats]
@@ -111,8 +125,10 @@ def summary_table(db, problem_type=None) -> str:
         padded = (c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True)))
         return "  ".join(padded)
 
-    note = (f"per label, summed over its specimens; 'finished': a finite loss, no error; 'within {TARGET:.0%} of best': "
-            f"final loss within {TARGET:.0%} of the best known loss of its specimen (the report's target)")
+    note = (
+        f"per label, summed over its specimens; 'finished': a finite loss, no error; 'within {TARGET:.0%} of best': "
+        f"final loss within {TARGET:.0%} of the best known loss of its specimen (the report's target)"
+    )
     return "\n".join([fmt(header), *map(fmt, lines), note])
 
 
@@ -137,6 +153,7 @@ def recommendation_line(db) -> str:
 
 # ------------------------------------------------------------------------------------ entry point
 
+
 def main(args) -> int:
     """``bwbench compare``: run (or resume) a study, print the ranking, optionally export CSV.
 
@@ -160,14 +177,16 @@ def main(args) -> int:
             screened = screen_specimens(config)
             if args.csv:
                 check_csv_path(args.csv, db)
-            outcome = run_study(config, db, workers=args.workers, scheduler=args.scheduler,
-                                threads=getattr(args, "threads", 1))
+            outcome = run_study(
+                config, db, workers=args.workers, scheduler=args.scheduler, threads=getattr(args, "threads", 1)
+            )
             if args.csv:
                 try:
                     export_csv(db, args.csv)
                 except OSError as err:
-                    raise UserError(f"{args.csv}: cannot write the CSV: {err.strerror or err} "
-                                    f"(the runs are in {db})") from None
+                    raise UserError(
+                        f"{args.csv}: cannot write the CSV: {err.strerror or err} (the runs are in {db})"
+                    ) from None
             _print_results(config, db, outcome, args.csv)
             from bwbench.data import plausibility
 
@@ -218,8 +237,21 @@ def check_csv_path(csv, db) -> None:
     try_writing(path)  # changes nothing; written for real once the runs are done
 
 
-OWN_FLAGS = ("optimizers", "seeds", "budget", "seed", "name", "model", "state", "excitation", "formulation", "bounds",
-             "fix_mass", "offsets", "validate")
+OWN_FLAGS = (
+    "optimizers",
+    "seeds",
+    "budget",
+    "seed",
+    "name",
+    "model",
+    "state",
+    "excitation",
+    "formulation",
+    "bounds",
+    "fix_mass",
+    "offsets",
+    "validate",
+)
 
 
 def study_config(args):
@@ -227,18 +259,31 @@ def study_config(args):
     if args.config is not None:
         own = [f"--{flag.replace('_', '-')}" for flag in OWN_FLAGS if getattr(args, flag, None) is not None]
         if own:
-            raise UserError(f"{own[0]} goes with --specimens; with --config the TOML says it (edit "
-                            f"{args.config}, or pass --db with another path to run a variant)")
+            raise UserError(
+                f"{own[0]} goes with --specimens; with --config the TOML says it (edit "
+                f"{args.config}, or pass --db with another path to run a variant)"
+            )
         return load_study_config(args.config, data=getattr(args, "data", None))
     if args.optimizers is None:
         raise UserError("--specimens needs --optimizers NAME,NAME (see `bwbench optimizers`)")
     if getattr(args, "data", None) is not None:
         raise UserError("--data goes with --config; with --specimens the files are given")
-    return config_from_arguments(args.specimens, args.optimizers, _given(args.seeds, 5), _given(args.budget, 4100),
-                                 name=_given(args.name, "study"), seed=_given(args.seed, 0), state=args.state,
-                                 excitation=_given(args.excitation, "measured"), bounds_file=args.bounds,
-                                 formulation=args.formulation, model=args.model, fix_mass=_given(args.fix_mass, "auto"),
-                                 offsets=_given(args.offsets, "branch"), validate=args.validate)
+    return config_from_arguments(
+        args.specimens,
+        args.optimizers,
+        _given(args.seeds, 5),
+        _given(args.budget, 4100),
+        name=_given(args.name, "study"),
+        seed=_given(args.seed, 0),
+        state=args.state,
+        excitation=_given(args.excitation, "measured"),
+        bounds_file=args.bounds,
+        formulation=args.formulation,
+        model=args.model,
+        fix_mass=_given(args.fix_mass, "auto"),
+        offsets=_given(args.offsets, "branch"),
+        validate=args.validate,
+    )
 
 
 def _given(value, default):

@@ -23,16 +23,20 @@ def check(args) -> int:
             status = 2
         else:
             rate = (spec.n_samples - 1) / spec.duration_s
-            print(f"ok: {path}: {spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s, displacement "
-                  f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N")
+            print(
+                f"ok: {path}: {spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s, displacement "
+                f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N"
+            )
             print(f"  {signals_text(spec)}")
             ramps = ramps_text(spec)
             if ramps:
                 print(f"  {ramps}")
             texts = plausibility.all_warnings(spec, synthetic=manifest.is_synthetic(path))
             for text in texts:
-                print(text if text.startswith("note:") else f"warning: {path}: {text}",
-                      file=sys.stdout if text.startswith("note:") else sys.stderr)
+                print(
+                    text if text.startswith("note:") else f"warning: {path}: {text}",
+                    file=sys.stdout if text.startswith("note:") else sys.stderr,
+                )
     return status
 
 
@@ -48,8 +52,10 @@ def ramps_text(spec) -> str:
     steady = steady_part(spec.t, spec.x)
     if not steady.ramped:
         return ""
-    return (f"ramps: {steady.describe()}; steady part t = {spec.t[steady.start]:.4g} … {spec.t[steady.stop - 1]:.4g} s "
-            "(the inertia rule judges the excitation there; fit figures draw the ramp cycles lighter)")
+    return (
+        f"ramps: {steady.describe()}; steady part t = {spec.t[steady.start]:.4g} … {spec.t[steady.stop - 1]:.4g} s "
+        "(the inertia rule judges the excitation there; fit figures draw the ramp cycles lighter)"
+    )
 
 
 def signals_text(spec) -> str:
@@ -58,16 +64,22 @@ def signals_text(spec) -> str:
     from bwbench.models import derivatives
 
     if spec.v is not None:
-        return ("signals: displacement and velocity measured (velocity_mm_s), acceleration "
-                + ("measured (acceleration_mm_s2)" if spec.a is not None else "estimated from the velocity"))
+        return "signals: displacement and velocity measured (velocity_mm_s), acceleration " + (
+            "measured (acceleration_mm_s2)" if spec.a is not None else "estimated from the velocity"
+        )
     estimate = derivatives.estimate(spec.t, spec.x)
     error = derivatives.velocity_error(spec.t, spec.x, estimate)
-    estimated = ("velocity estimated from it, acceleration measured (acceleration_mm_s2)" if spec.a is not None
-                 else "velocity and acceleration estimated from it")
-    return (f"signals: displacement measured, {estimated} ({derivatives.SPLINE_NAME}; displacement noise "
-            f"{estimate.noise * 1e3:.3g} µm): expected velocity error {error:.2g} mm/s rms, a force error of "
-            f"{error * REFERENCE_VISCOUS:.2g} N rms per {REFERENCE_VISCOUS:g} N·s/mm of viscous coefficient ∂F/∂ẋ; "
-            "a recorded velocity column (velocity_mm_s) removes it")
+    estimated = (
+        "velocity estimated from it, acceleration measured (acceleration_mm_s2)"
+        if spec.a is not None
+        else "velocity and acceleration estimated from it"
+    )
+    return (
+        f"signals: displacement measured, {estimated} ({derivatives.SPLINE_NAME}; displacement noise "
+        f"{estimate.noise * 1e3:.3g} µm): expected velocity error {error:.2g} mm/s rms, a force error of "
+        f"{error * REFERENCE_VISCOUS:.2g} N rms per {REFERENCE_VISCOUS:g} N·s/mm of viscous coefficient ∂F/∂ẋ; "
+        "a recorded velocity column (velocity_mm_s) removes it"
+    )
 
 
 def generate(args) -> int:
@@ -84,10 +96,17 @@ def generate(args) -> int:
         names = mr_dataset.file_names() if args.mr_damper else synthetic.file_names()
         there = [name for name in names if (Path(out) / name).exists()]
         if there:
-            shown = (", ".join(there[:3]) + f" and {len(there) - 3} more" if len(there) > 3
-                     else " and ".join([", ".join(there[:-1]), there[-1]]) if len(there) > 1 else there[0])
-            raise UserError(f"--out {out} holds {shown}, which this command would replace: choose an empty folder, "
-                            "or add --force to replace them")
+            shown = (
+                ", ".join(there[:3]) + f" and {len(there) - 3} more"
+                if len(there) > 3
+                else " and ".join([", ".join(there[:-1]), there[-1]])
+                if len(there) > 1
+                else there[0]
+            )
+            raise UserError(
+                f"--out {out} holds {shown}, which this command would replace: choose an empty folder, "
+                "or add --force to replace them"
+            )
     with writing(out):
         written = mr_dataset.generate(out) if args.mr_damper else synthetic.generate(out)
     print(f"wrote {len(written) - 1} specimens and {manifest.MANIFEST} to {out}")
@@ -97,19 +116,30 @@ def generate(args) -> int:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="data_command", required=True, metavar="SUBCOMMAND")
     text = argparse.RawDescriptionHelpFormatter
-    p = sub.add_parser("check", help="validate specimen CSV files", formatter_class=text,
-                       description="Validate specimen CSV files: exit 0 if every file is valid, else 2 with one\n"
-                                   "line per bad file; say which signals are measured and which estimated.",
-                       epilog="example:\n  bwbench data check mytest.csv data/mr_damper/*.csv")
+    p = sub.add_parser(
+        "check",
+        help="validate specimen CSV files",
+        formatter_class=text,
+        description="Validate specimen CSV files: exit 0 if every file is valid, else 2 with one\n"
+        "line per bad file; say which signals are measured and which estimated.",
+        epilog="example:\n  bwbench data check mytest.csv data/mr_damper/*.csv",
+    )
     p.add_argument("files", nargs="+", help="specimen CSV files")
     p.set_defaults(func=check)
-    p = sub.add_parser("generate", help="rebuild a synthetic dataset, byte-identical", formatter_class=text,
-                       description="Rebuild a shipped synthetic dataset, byte for byte, from its generator.",
-                       epilog="example:\n  bwbench data generate --out /tmp/specimens\n"
-                              "  bwbench data generate --mr-damper --out /tmp/mr_damper")
-    p.add_argument("--mr-damper", action="store_true",
-                   help="the MR-damper dataset (Spencer et al. 1997's model, data/mr_damper) instead of the "
-                        "paper's VPP specimens (data/specimens)")
+    p = sub.add_parser(
+        "generate",
+        help="rebuild a synthetic dataset, byte-identical",
+        formatter_class=text,
+        description="Rebuild a shipped synthetic dataset, byte for byte, from its generator.",
+        epilog="example:\n  bwbench data generate --out /tmp/specimens\n"
+        "  bwbench data generate --mr-damper --out /tmp/mr_damper",
+    )
+    p.add_argument(
+        "--mr-damper",
+        action="store_true",
+        help="the MR-damper dataset (Spencer et al. 1997's model, data/mr_damper) instead of the "
+        "paper's VPP specimens (data/specimens)",
+    )
     p.add_argument("--out", help="output folder (default: the dataset's folder in the repository)")
     p.add_argument("--force", action="store_true", help="replace files of the same names in --out")
     p.set_defaults(func=generate)

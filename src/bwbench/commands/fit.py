@@ -79,16 +79,20 @@ def fit(args) -> int:
         if hasattr(problem, "box_probe_s"):
             extra["box_probe_s"] = problem.box_probe_s  # not in wall_s, the backend's own time
     with threads.for_workers(problem, max(workers, args.threads)):
-        fitted = run_fit(problem, args.optimizer, args.budget, args.seed, options, synthetic, extra=extra,
-                         stop=args.stop)
+        fitted = run_fit(
+            problem, args.optimizer, args.budget, args.seed, options, synthetic, extra=extra, stop=args.stop
+        )
     result, checks = fitted.result, fitted.checks
     with writing(args.out):
         fitted.write_json(args.out)
     where = " + ".join(args.specimen)
     if not math.isfinite(result.mse):
-        print(f"error: {where}: none of the {result.nfev} evaluations gave a finite force: the model blows "
-              "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
-              f"{args.out} written with null values", file=sys.stderr)
+        print(
+            f"error: {where}: none of the {result.nfev} evaluations gave a finite force: the model blows "
+            "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
+            f"{args.out} written with null values",
+            file=sys.stderr,
+        )
         return 1
     if args.plot:
         with writing(args.plot):
@@ -96,14 +100,18 @@ def fit(args) -> int:
     joint = len(fitted.files) > 1
     probe = f" (+ {problem.box_probe_s:.1f} s probing the --bounds box)" if hasattr(problem, "box_probe_s") else ""
     accuracy = "" if joint else f", {_nrmse_text(fitted.files[0])}"
-    print(f"{args.optimizer}: {'loss' if joint else 'MSE'} {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE "
-          f"{result.rmse_N:.3g} N{accuracy}) in {result.nfev} evaluations{' of every file' if joint else ''}, "
-          f"{result.wall_s:.2f} s{probe} -> {args.out}")
+    print(
+        f"{args.optimizer}: {'loss' if joint else 'MSE'} {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE "
+        f"{result.rmse_N:.3g} N{accuracy}) in {result.nfev} evaluations{' of every file' if joint else ''}, "
+        f"{result.wall_s:.2f} s{probe} -> {args.out}"
+    )
     if result.nfev < args.budget:
         print(f"  {result.message} ({result.nfev} of {args.budget} evaluations)")
     if result.extras.get("step_budget_stops"):
-        print(f"  {result.extras['step_budget_stops']} evaluations stopped at the simulation's step budget (stiff "
-              "corners of the search box): loss +inf")
+        print(
+            f"  {result.extras['step_budget_stops']} evaluations stopped at the simulation's step budget (stiff "
+            "corners of the search box): loss +inf"
+        )
     for row in fitted.files if joint else ():
         print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, {_nrmse_text(row)} (weight {row['weight']:.3g})")
     for note in getattr(problem, "notes", []):
@@ -112,7 +120,9 @@ def fit(args) -> int:
         print(f"  {line}")
     for line in checks.findings if checks else []:
         print(f"  finding: {line}")
-    for text in fitting.edge_warnings(problem, result, checks.explained if checks else ()) + (checks.warnings if checks else []):
+    for text in fitting.edge_warnings(problem, result, checks.explained if checks else ()) + (
+        checks.warnings if checks else []
+    ):
         print(f"warning: {where}: {text}", file=sys.stderr)
     for text in worse_than_zero(problem, fitted.files):
         print(f"warning: {text}", file=sys.stderr)
@@ -126,7 +136,7 @@ def fit(args) -> int:
 
 def _nrmse_text(row: dict) -> str:
     """Both NRMSEs of a file's row, the literature's named (``fit_result.NRMSE_DEFINITIONS``)."""
-    return (f"NRMSE {row['nrmse_max_F']:.4g} (RMSE/max F, the literature's; {row['nrmse']:.4g} RMSE/max|F|)")
+    return f"NRMSE {row['nrmse_max_F']:.4g} (RMSE/max F, the literature's; {row['nrmse']:.4g} RMSE/max|F|)"
 
 
 def worse_than_zero(problem, files) -> list[str]:
@@ -139,12 +149,17 @@ def worse_than_zero(problem, files) -> list[str]:
     for part, row in zip(getattr(problem, "parts", None) or [problem], files):
         rms = float(np.sqrt(np.mean(np.square(part.specimen.f))))
         if row["rmse_N"] > rms:
-            hint = ("try --formulation identifiable (its box is scaled from the data), or another --model "
-                    "(`bwbench models`)" if part.formulation != "identifiable" else
-                    "try another --model (`bwbench models`), or check the units and sign of the force")
-            out.append(f"{part.specimen.path}: the fit is worse than a force of zero (RMSE {row['rmse_N']:.4g} N, "
-                       f"the measured force's own RMS {rms:.4g} N): {part.model.name} in the {part.formulation} "
-                       f"formulation probably does not suit these data; {hint}")
+            hint = (
+                "try --formulation identifiable (its box is scaled from the data), or another --model "
+                "(`bwbench models`)"
+                if part.formulation != "identifiable"
+                else "try another --model (`bwbench models`), or check the units and sign of the force"
+            )
+            out.append(
+                f"{part.specimen.path}: the fit is worse than a force of zero (RMSE {row['rmse_N']:.4g} N, "
+                f"the measured force's own RMS {rms:.4g} N): {part.model.name} in the {part.formulation} "
+                f"formulation probably does not suit these data; {hint}"
+            )
     return out
 
 
@@ -160,10 +175,15 @@ def _plot(problem, fitted, path, synthetic: bool) -> None:
     model = fitted.model
     predictions = [model.predict(spec) for spec in problem.specimens]
     nrmse = ", ".join(f"{row['nrmse_max_F']:.3g}" for row in fitted.files)
-    plot_predictions(predictions, path, f"joint fit of {len(predictions)} tests: {model.describe()}\n"
-                                        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file; "
-                                        f"NRMSE (RMSE/max F) {nrmse}",
-                     what="fitted", synthetic=synthetic)
+    plot_predictions(
+        predictions,
+        path,
+        f"joint fit of {len(predictions)} tests: {model.describe()}\n"
+        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file; "
+        f"NRMSE (RMSE/max F) {nrmse}",
+        what="fitted",
+        synthetic=synthetic,
+    )
 
 
 def add_list_arguments(parser: argparse.ArgumentParser) -> None:
@@ -173,36 +193,72 @@ def add_list_arguments(parser: argparse.ArgumentParser) -> None:
 def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
     from bwbench.commands.simulate import add_fit_options, add_model_options
 
-    parser.add_argument("specimen", nargs="+", help="specimen CSV; several: one joint fit of them all (one parameter "
-                                                    "set; one evaluation simulates every file)")
-    parser.add_argument("--optimizer", default="lsq-trf",
-                        help="backend name (default lsq-trf, as bwbench.fit; see `bwbench optimizers`)")
-    parser.add_argument("--budget", type=int, default=4100,
-                        help="evaluations (default 4100, the paper's GA); one evaluation simulates every file once")
+    parser.add_argument(
+        "specimen",
+        nargs="+",
+        help="specimen CSV; several: one joint fit of them all (one parameter "
+        "set; one evaluation simulates every file)",
+    )
+    parser.add_argument(
+        "--optimizer",
+        default="lsq-trf",
+        help="backend name (default lsq-trf, as bwbench.fit; see `bwbench optimizers`)",
+    )
+    parser.add_argument(
+        "--budget",
+        type=int,
+        default=4100,
+        help="evaluations (default 4100, the paper's GA); one evaluation simulates every file once",
+    )
     parser.add_argument("--seed", type=int, default=0, help="random seed, a non-negative integer (default 0)")
-    parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                        help="backend option, repeatable; VALUE is read as JSON (3, 0.5, true, null, [0.5, 1]), "
-                        "else as a string (see `bwbench optimizers` for each backend's options and ranges)")
-    add_model_options(parser, formulation_advice="; for data that are not the paper's, use identifiable: the "
-                      "paper's box fits no other amplitudes or force levels")
+    parser.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="backend option, repeatable; VALUE is read as JSON (3, 0.5, true, null, [0.5, 1]), "
+        "else as a string (see `bwbench optimizers` for each backend's options and ranges)",
+    )
+    add_model_options(
+        parser,
+        formulation_advice="; for data that are not the paper's, use identifiable: the "
+        "paper's box fits no other amplitudes or force levels",
+    )
     add_fit_options(parser)
-    parser.add_argument("--weighting", choices=["equal", "samples"], default="equal",
-                        help="joint fit: equal (default) gives each file's MSE the same weight whatever its length; "
-                             "samples gives every sample the same weight")
-    parser.add_argument("--bounds", metavar="FILE.json", help="a JSON object of name -> [lower, upper]: searched "
-                        "parameters set the search box (names left out keep the default range), solved coefficients "
-                        "(m, c+, f-, c1, ...) bound the linear solve")
-    parser.add_argument("--stop", choices=["agreed", "budget"], default="agreed",
-                        help="agreed (default): a backend that restarts local searches (lsq-trf) stops before the "
-                             "budget once 3 of them (after at least 9) ended at the best optimum (MSE within 1%%, and the "
-                             "parameters within 2%% of the box or the fitted curves within 5%% of the residual RMS), "
-                             "and says so; budget: spend the whole budget, as a study does")
+    parser.add_argument(
+        "--weighting",
+        choices=["equal", "samples"],
+        default="equal",
+        help="joint fit: equal (default) gives each file's MSE the same weight whatever its length; "
+        "samples gives every sample the same weight",
+    )
+    parser.add_argument(
+        "--bounds",
+        metavar="FILE.json",
+        help="a JSON object of name -> [lower, upper]: searched "
+        "parameters set the search box (names left out keep the default range), solved coefficients "
+        "(m, c+, f-, c1, ...) bound the linear solve",
+    )
+    parser.add_argument(
+        "--stop",
+        choices=["agreed", "budget"],
+        default="agreed",
+        help="agreed (default): a backend that restarts local searches (lsq-trf) stops before the "
+        "budget once 3 of them (after at least 9) ended at the best optimum (MSE within 1%%, and the "
+        "parameters within 2%% of the box or the fitted curves within 5%% of the residual RMS), "
+        "and says so; budget: spend the whole budget, as a study does",
+    )
     parser.add_argument("--out", required=True, help="result JSON")
     parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
-    parser.add_argument("--threads", type=int, default=1,
-                        help="numba/BLAS threads (default 1: many more are slower on a busy machine)")
-    parser.add_argument("--workers", type=int, default=1,
-                        help="threads for the independent parts of one evaluation: the files of a joint fit, "
-                             "else the points of a batch (a Jacobian by differences); the result is the same "
-                             "as with 1 (default 1: on a busy machine more are slower)")
+    parser.add_argument(
+        "--threads", type=int, default=1, help="numba/BLAS threads (default 1: many more are slower on a busy machine)"
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="threads for the independent parts of one evaluation: the files of a joint fit, "
+        "else the points of a batch (a Jacobian by differences); the result is the same "
+        "as with 1 (default 1: on a busy machine more are slower)",
+    )
     parser.set_defaults(func=fit)

@@ -18,16 +18,21 @@ def list_models(args) -> int:
         print(f"  reference: {model.reference}")
         if model.states:
             print(f"  state conventions: {', '.join(model.states)} (default {model.states[0]})")
-        formulations = ", ".join(f + (" (default)" if f == model.default_formulation else "")
-                                 for f in model.formulations)
+        formulations = ", ".join(
+            f + (" (default)" if f == model.default_formulation else "") for f in model.formulations
+        )
         print(f"  formulations: {formulations}")
         state = model.states[0] if model.states else None
         print(f"  {model.direct_name} parameters: " + ", ".join(p.text for p in model.direct_parameters(state)))
         if model.has_linear_part:
             layout = model.linear_layout(state)
-            print("  identifiable: searched " + ", ".join(p.text for p in model.hysteretic_parameters(state))
-                  + "; solved " + ", ".join(f"{n} ({layout.units[n]})" for n in layout.names)
-                  + (" per branch (ẋ ≥ 0, ẋ < 0)" if layout.branched else ""))
+            print(
+                "  identifiable: searched "
+                + ", ".join(p.text for p in model.hysteretic_parameters(state))
+                + "; solved "
+                + ", ".join(f"{n} ({layout.units[n]})" for n in layout.names)
+                + (" per branch (ẋ ≥ 0, ẋ < 0)" if layout.branched else "")
+            )
     return 0
 
 

@@ -42,25 +42,43 @@ def stored_model(args, path):
     if data is None:
         return None
     fitted = FittedModel.from_result(data, str(path))
-    given = {"--model": getattr(args, "model", None), "--formulation": getattr(args, "formulation", None),
-             "--state": getattr(args, "state", None), "--excitation": getattr(args, "excitation", None)}
+    given = {
+        "--model": getattr(args, "model", None),
+        "--formulation": getattr(args, "formulation", None),
+        "--state": getattr(args, "state", None),
+        "--excitation": getattr(args, "excitation", None),
+    }
     if given["--formulation"] is not None:
-        given["--formulation"] = resolve_formulation(registry.get(given["--model"] or fitted.model),
-                                                     given["--formulation"])
-    stored = {"--model": fitted.model, "--formulation": fitted.formulation, "--state": fitted.state,
-              "--excitation": fitted.excitation}
+        given["--formulation"] = resolve_formulation(
+            registry.get(given["--model"] or fitted.model), given["--formulation"]
+        )
+    stored = {
+        "--model": fitted.model,
+        "--formulation": fitted.formulation,
+        "--state": fitted.state,
+        "--excitation": fitted.excitation,
+    }
     for flag, value in given.items():
         if value is not None and value != stored[flag]:
-            raise UserError(f"{path} is a fit of {fitted.describe()}: {flag} {value} does not match it (drop "
-                            f"{flag}: a fit result is evaluated as it was fitted, every coefficient as stored)")
+            raise UserError(
+                f"{path} is a fit of {fitted.describe()}: {flag} {value} does not match it (drop "
+                f"{flag}: a fit result is evaluated as it was fitted, every coefficient as stored)"
+            )
     return fitted
 
 
 def evaluate_stored(args, fitted) -> int:
     """``bwbench evaluate --params FIT.json``: the errors of the stored model on ``--specimen``."""
     prediction = fitted.predict(args.specimen)
-    out = {"mse": prediction.mse, "f_err": -prediction.mse, "rmse_N": prediction.rmse_N, "nrmse": prediction.nrmse,
-           "n": prediction.n, "specimen": prediction.specimen, **_described(fitted, args.params)}
+    out = {
+        "mse": prediction.mse,
+        "f_err": -prediction.mse,
+        "rmse_N": prediction.rmse_N,
+        "nrmse": prediction.nrmse,
+        "n": prediction.n,
+        "specimen": prediction.specimen,
+        **_described(fitted, args.params),
+    }
     print(strict_json.dumps(out, why=BLOWS_UP, indent=2))
     return _blown_up(args.specimen, args.params, prediction.mse)
 
@@ -76,21 +94,39 @@ def simulate_stored(args, fitted) -> int:
     error = frame["force_model_N"] - frame["force_measured_N"]
     mse = float((error**2).mean()) if error.notna().all() else math.inf
     mse = mse if math.isfinite(mse) else math.inf
-    print(strict_json.dumps({"out": str(args.out), "mse": mse, "f_err": -mse, "rmse_N": math.sqrt(mse),
-                             "n": len(frame), **_described(fitted, args.params)}, why=BLOWS_UP))
+    print(
+        strict_json.dumps(
+            {
+                "out": str(args.out),
+                "mse": mse,
+                "f_err": -mse,
+                "rmse_N": math.sqrt(mse),
+                "n": len(frame),
+                **_described(fitted, args.params),
+            },
+            why=BLOWS_UP,
+        )
+    )
     return _blown_up(args.specimen, args.params, mse)
 
 
 def _described(fitted, source) -> dict:
-    return {"model": fitted.model, "formulation": fitted.formulation, "state": fitted.state,
-            "excitation": fitted.excitation, "coefficients": f"as stored in {source}: nothing refitted"}
+    return {
+        "model": fitted.model,
+        "formulation": fitted.formulation,
+        "state": fitted.state,
+        "excitation": fitted.excitation,
+        "coefficients": f"as stored in {source}: nothing refitted",
+    }
 
 
 def _blown_up(specimen, params, mse: float) -> int:
     if math.isfinite(mse):
         return 0
-    print(f"error: {specimen}: the model blows up with the parameters of {params} (force not finite); "
-          "the JSON says null", file=sys.stderr)
+    print(
+        f"error: {specimen}: the model blows up with the parameters of {params} (force not finite); the JSON says null",
+        file=sys.stderr,
+    )
     return 1
 
 
@@ -102,8 +138,10 @@ def predict(args) -> int:
 
     check_outputs({"--out": args.out, "--plot": args.plot}, [args.fit, *args.data])
     if read_fit(args.fit) is None:
-        raise UserError(f"{args.fit}: not a fit result (no \"params\" and \"formulation\"): give the JSON that "
-                        "`bwbench fit --out` wrote")
+        raise UserError(
+            f'{args.fit}: not a fit result (no "params" and "formulation"): give the JSON that '
+            "`bwbench fit --out` wrote"
+        )
     fitted = stored_model(args, args.fit)
     specimens = [read_specimen(p) for p in args.data]  # every file checked before any is predicted
     from bwbench.data import plausibility
@@ -111,8 +149,11 @@ def predict(args) -> int:
     plausibility.screen(specimens, force_needed=False, warn=False)  # a dead channel refused before any work
     predictions = [fitted.predict(s) for s in specimens]
     if args.out:
-        document = {"fit": str(args.fit), **_described(fitted, args.fit),
-                    "predictions": [p.metrics() for p in predictions]}
+        document = {
+            "fit": str(args.fit),
+            **_described(fitted, args.fit),
+            "predictions": [p.metrics() for p in predictions],
+        }
         with writing(args.out):
             strict_json.write(args.out, document, why=BLOWS_UP)
     if args.plot:
@@ -122,13 +163,18 @@ def predict(args) -> int:
         with writing(args.plot):
             from pathlib import Path
 
-            plot_predictions(predictions, args.plot, f"prediction by {fitted.describe()}\n"
-                                                     f"every coefficient as stored in {Path(args.fit).name}",
-                             synthetic=all(manifest.is_synthetic(p) for p in args.data))
+            plot_predictions(
+                predictions,
+                args.plot,
+                f"prediction by {fitted.describe()}\nevery coefficient as stored in {Path(args.fit).name}",
+                synthetic=all(manifest.is_synthetic(p) for p in args.data),
+            )
     # Printed after every file is written: a reader that stops early (``| head -1``) loses no output.
     for p in predictions:
-        print(f"{p.specimen}: RMSE {p.rmse_N:.4g} N, NRMSE {p.nrmse:.4g} (RMSE / max|F| = {p.rmse_N:.4g} / "
-              f"{float(max(abs(p.measured_N))):.4g} N), {p.n} samples")
+        print(
+            f"{p.specimen}: RMSE {p.rmse_N:.4g} N, NRMSE {p.nrmse:.4g} (RMSE / max|F| = {p.rmse_N:.4g} / "
+            f"{float(max(abs(p.measured_N))):.4g} N), {p.n} samples"
+        )
     print(f"predicted by {fitted.describe()} of {args.fit}: every coefficient as stored, nothing refitted")
     plausibility.print_warnings(specimens)  # data check's words, once every refusal is behind
     blown = [p.specimen for p in predictions if not math.isfinite(p.mse)]
@@ -139,7 +185,9 @@ def predict(args) -> int:
 
 def add_arguments(parser) -> None:
     parser.add_argument("data", nargs="+", help="specimen CSV(s) to predict")
-    parser.add_argument("--fit", required=True, metavar="FIT.json", help="a result of `bwbench fit` (one file or joint)")
+    parser.add_argument(
+        "--fit", required=True, metavar="FIT.json", help="a result of `bwbench fit` (one file or joint)"
+    )
     parser.add_argument("--out", help="JSON with each file's RMSE (N) and NRMSE (RMSE / max|F|)")
     parser.add_argument("--plot", help="PNG of predicted against measured loops and the residual over time")
     parser.set_defaults(func=predict)

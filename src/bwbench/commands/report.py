@@ -10,8 +10,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--db", required=True, help="study database (SQLite, written by bwbench compare)")
     parser.add_argument("--out", required=True, help="output folder, e.g. reports/NAME")
     parser.add_argument("--data", help="folder with the study's data files (default: where the study last found them)")
-    parser.add_argument("--profiles", type=int, default=2,
-                        help="profile likelihoods of this many parameters on the first specimen (default 2; 0 = none)")
+    parser.add_argument(
+        "--profiles",
+        type=int,
+        default=2,
+        help="profile likelihoods of this many parameters on the first specimen (default 2; 0 = none)",
+    )
     parser.set_defaults(func=cli_main)
 
 
@@ -25,7 +29,12 @@ def cli_main(args) -> int:
     if args.profiles < 0:
         raise UserError(f"--profiles must be 0 or more, got {args.profiles}")
     with writing(args.out):  # a full disk names the report's folder
-        path = build_report(args.db, args.out, data_dir=getattr(args, "data", None),
-                            profile_params=getattr(args, "profiles", 2), announce=sys.stdout)
+        path = build_report(
+            args.db,
+            args.out,
+            data_dir=getattr(args, "data", None),
+            profile_params=getattr(args, "profiles", 2),
+            announce=sys.stdout,
+        )
     print(path)
     return 0

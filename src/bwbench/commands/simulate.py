@@ -23,14 +23,23 @@ WALK_BLOWS_UP = "the walk along this direction reached parameters where the mode
 
 def add_model_options(p, formulation_advice: str = "") -> None:
     p.add_argument("--model", help="the model (default switched-bouc-wen; see `bwbench models`)")
-    p.add_argument("--state", choices=["shared", "split"],
-                   help="hysteretic state convention of the switched model (default: shared)")
-    p.add_argument("--excitation", choices=["measured", "sine"],
-                   help="measured: the specimen's own displacement (default); sine: the paper's fit")
-    p.add_argument("--formulation", choices=["paper", "direct", "identifiable"],
-                   help="paper/direct: the model's own parameters in its box; identifiable: symmetry-free "
-                        "parameters in a box scaled from the data, linear coefficients solved (default: the "
-                        "model's own: paper for the switched model, identifiable for the others)" + formulation_advice)
+    p.add_argument(
+        "--state",
+        choices=["shared", "split"],
+        help="hysteretic state convention of the switched model (default: shared)",
+    )
+    p.add_argument(
+        "--excitation",
+        choices=["measured", "sine"],
+        help="measured: the specimen's own displacement (default); sine: the paper's fit",
+    )
+    p.add_argument(
+        "--formulation",
+        choices=["paper", "direct", "identifiable"],
+        help="paper/direct: the model's own parameters in its box; identifiable: symmetry-free "
+        "parameters in a box scaled from the data, linear coefficients solved (default: the "
+        "model's own: paper for the switched model, identifiable for the others)" + formulation_advice,
+    )
 
 
 def model_settings(args) -> dict:
@@ -40,13 +49,19 @@ def model_settings(args) -> dict:
 
 def add_fit_options(p) -> None:
     """The options of a fit that a study shares (``fit`` and ``compare``): the mass and the weights."""
-    p.add_argument("--fix-mass", metavar="VALUE",
-                   help="identifiable formulation: the inertia m in N·s²/mm (1 = 1 t): a number fixes it, 'fit' "
-                        "always fits it (within [0, 1] unless --bounds says otherwise), 'auto' (default) fits it "
-                        "only where the data separate it from the stiffness (never on one sine test)")
-    p.add_argument("--offsets", choices=["branch", "continuous"],
-                   help="identifiable formulation, switched model: a constant force per branch (branch, default: "
-                        "a friction-like force that switches at a reversal) or one for both (continuous: no jump)")
+    p.add_argument(
+        "--fix-mass",
+        metavar="VALUE",
+        help="identifiable formulation: the inertia m in N·s²/mm (1 = 1 t): a number fixes it, 'fit' "
+        "always fits it (within [0, 1] unless --bounds says otherwise), 'auto' (default) fits it "
+        "only where the data separate it from the stiffness (never on one sine test)",
+    )
+    p.add_argument(
+        "--offsets",
+        choices=["branch", "continuous"],
+        help="identifiable formulation, switched model: a constant force per branch (branch, default: "
+        "a friction-like force that switches at a reversal) or one for both (continuous: no jump)",
+    )
 
 
 def problem_from_args(args):
@@ -81,8 +96,11 @@ def problem_from_args(args):
         import time
 
         start = time.perf_counter()
-        print(f"probing the search box of --bounds {args.bounds} ({bounds_mod.PROBE_CORNERS} corners, one "
-              f"evaluation each) …", flush=True)
+        print(
+            f"probing the search box of --bounds {args.bounds} ({bounds_mod.PROBE_CORNERS} corners, one "
+            f"evaluation each) …",
+            flush=True,
+        )
         bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
         problem.box_probe_s = time.perf_counter() - start
         print(f"probing the search box: done in {problem.box_probe_s:.1f} s", flush=True)
@@ -154,10 +172,16 @@ def simulate(args) -> int:
     params = read_for(args.params, problem)
     force = problem.simulate(params)
     s = problem.signal
-    frame = pd.DataFrame({
-        "time_s": s.t, "displacement_mm": s.x, "velocity_mm_s": s.v,
-        "acceleration_mm_s2": s.a, "force_model_N": force, "force_measured_N": problem.specimen.f,
-    })
+    frame = pd.DataFrame(
+        {
+            "time_s": s.t,
+            "displacement_mm": s.x,
+            "velocity_mm_s": s.v,
+            "acceleration_mm_s2": s.a,
+            "force_model_N": force,
+            "force_measured_N": problem.specimen.f,
+        }
+    )
     with writing(args.out):
         frame.to_csv(args.out, index=False, float_format="%.6g")
     mse = float(problem.loss_batch(params[None, :])[0])
@@ -176,8 +200,11 @@ def evaluate(args) -> int:
     params = read_for(args.params, problem)
     mse = float(problem.loss_batch(params[None, :])[0])
     extra = {"linear_coefficients": SOLVED} if problem.formulation == "identifiable" else {}
-    print(strict_json.dumps({**fit_metrics(mse, problem.specimen.n_samples), **problem.info, **extra}, why=BLOWS_UP,
-                            indent=2))
+    print(
+        strict_json.dumps(
+            {**fit_metrics(mse, problem.specimen.n_samples), **problem.info, **extra}, why=BLOWS_UP, indent=2
+        )
+    )
     return _not_finite(args, mse)
 
 
@@ -187,14 +214,21 @@ def _not_finite(args, mse: float) -> int:
         return 0
     import sys
 
-    print(f"error: {args.specimen}: the model blows up with the parameters of {args.params} (force not finite); "
-          "the JSON above says null", file=sys.stderr)
+    print(
+        f"error: {args.specimen}: the model blows up with the parameters of {args.params} (force not finite); "
+        "the JSON above says null",
+        file=sys.stderr,
+    )
     return 1
 
 
 def add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", required=True, help="a fit result (its model, formulation and every coefficient "
-                        "as stored), or a parameters JSON (names -> values, in the formulation the flags say)")
+    parser.add_argument(
+        "--params",
+        required=True,
+        help="a fit result (its model, formulation and every coefficient "
+        "as stored), or a parameters JSON (names -> values, in the formulation the flags say)",
+    )
     parser.add_argument("--specimen", required=True, help="specimen CSV")
     add_model_options(parser)
     parser.add_argument("--out", required=True, help="output CSV")
@@ -202,8 +236,12 @@ def add_simulate_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_evaluate_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--params", required=True, help="a fit result (its model, formulation and every coefficient "
-                        "as stored), or a parameters JSON (names -> values, in the formulation the flags say)")
+    parser.add_argument(
+        "--params",
+        required=True,
+        help="a fit result (its model, formulation and every coefficient "
+        "as stored), or a parameters JSON (names -> values, in the formulation the flags say)",
+    )
     parser.add_argument("--specimen", required=True, help="specimen CSV")
     add_model_options(parser)
     parser.set_defaults(func=evaluate)
@@ -214,8 +252,13 @@ def add_identifiability_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--params", required=True, help="parameters JSON (the 14 names, or a fit result)")
     add_model_options(parser)
     parser.add_argument("--bounds", metavar="FILE.json", help="search box: a JSON object of name -> [lower, upper]")
-    parser.add_argument("--profile", action="append", default=[], metavar="NAME",
-                        help="also profile this parameter (repeatable; e.g. wn-)")
+    parser.add_argument(
+        "--profile",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="also profile this parameter (repeatable; e.g. wn-)",
+    )
     parser.add_argument("--grid", type=int, default=9, help="profile grid points over the range (default 9)")
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     parser.set_defaults(func=identifiability)
@@ -231,7 +274,9 @@ def _settings_from_fit(args) -> None:
     if fitted is None:
         return
     args.model = args.model or fitted.model
-    args.formulation = args.formulation or ("paper" if fitted.formulation in ("paper", "direct") else fitted.formulation)
+    args.formulation = args.formulation or (
+        "paper" if fitted.formulation in ("paper", "direct") else fitted.formulation
+    )
     args.state = args.state or fitted.state
     args.excitation = args.excitation or fitted.excitation
 
@@ -251,9 +296,17 @@ def identifiability(args) -> int:
     params = read_for(args.params, problem)
     box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
     settings = model_settings(args)
-    result = analyse(args.specimen, params, settings["state"], settings["excitation"],
-                     formulation=settings["formulation"], model=settings["model"], bounds=box,
-                     profile_names=args.profile, grid=args.grid)
+    result = analyse(
+        args.specimen,
+        params,
+        settings["state"],
+        settings["excitation"],
+        formulation=settings["formulation"],
+        model=settings["model"],
+        bounds=box,
+        profile_names=args.profile,
+        grid=args.grid,
+    )
     if args.json:  # strict JSON, whole or nothing: a value that is not finite is null
         sys.stdout.write(strict_json.dumps(result, why={"null_directions": WALK_BLOWS_UP}, indent=2) + "\n")
     else:

@@ -29,19 +29,31 @@ def validate(table, names, where: str) -> dict:
     for name, pair in table.items():
         if name not in names:
             raise InputFileError(where, None, f"unknown parameter {name!r} in bounds; names: {' '.join(names)}")
-        ok = (isinstance(pair, (list, tuple)) and len(pair) == 2
-              and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in pair))
+        ok = (
+            isinstance(pair, (list, tuple))
+            and len(pair) == 2
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in pair)
+        )
         if not ok:
-            raise InputFileError(where, None, f"bounds of {name} must be [lower, upper], two finite numbers, got {pair!r}")
+            raise InputFileError(
+                where, None, f"bounds of {name} must be [lower, upper], two finite numbers, got {pair!r}"
+            )
         lower, upper = float(pair[0]), float(pair[1])
         if not lower < upper:
             raise InputFileError(where, None, f"bounds of {name}: lower {lower:g} must be below upper {upper:g}")
         if not math.isfinite(upper - lower):  # the unit cube maps to lower + u·(upper − lower)
-            raise InputFileError(where, None, f"bounds of {name}: the width {upper:g} − ({lower:g}) overflows to "
-                                              "infinity; give a box of physical size")
+            raise InputFileError(
+                where,
+                None,
+                f"bounds of {name}: the width {upper:g} − ({lower:g}) overflows to "
+                "infinity; give a box of physical size",
+            )
         if name in POSITIVE and lower <= 0:
-            raise InputFileError(where, None, f"bounds of {name}: lower must be > 0 (|z|^n is infinite at z = 0 "
-                                              f"for n ≤ 0), got {lower:g}")
+            raise InputFileError(
+                where,
+                None,
+                f"bounds of {name}: lower must be > 0 (|z|^n is infinite at z = 0 for n ≤ 0), got {lower:g}",
+            )
         out[name] = (lower, upper)
     return out
 
@@ -64,8 +76,10 @@ def refuse_if_blows_up(problem, where: str, corners: int = PROBE_CORNERS) -> Non
         return
     centre = float(problem.loss_batch(problem.from_unit(np.full((1, problem.dim), 0.5)))[0])
     inside = "" if not math.isfinite(centre) else " (its centre is finite: the box is far too wide)"
-    raise UserError(f"{where}: the model blows up (force not finite) at every one of {corners} corners of this "
-                    f"search box{inside} on {problem.info.get('specimen', 'this specimen')}; shrink it")
+    raise UserError(
+        f"{where}: the model blows up (force not finite) at every one of {corners} corners of this "
+        f"search box{inside} on {problem.info.get('specimen', 'this specimen')}; shrink it"
+    )
 
 
 def apply(lower, upper, names, bounds: dict) -> tuple[np.ndarray, np.ndarray]:

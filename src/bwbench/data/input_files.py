@@ -14,8 +14,13 @@ from pathlib import Path
 import bwbench.limits as limits
 from bwbench.errors import InputFileError
 
-_KINDS = ((stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a character device"),
-          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"), (stat.S_ISDIR, "a directory"))
+_KINDS = (
+    (stat.S_ISFIFO, "a named pipe (FIFO)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISDIR, "a directory"),
+)
 
 
 def not_regular(mode: int) -> str | None:
@@ -67,9 +72,13 @@ def read_bytes(path, limit_variable: str = "BWBENCH_MAX_INPUT_MB") -> bytes:
     except OSError as err:
         raise InputFileError(path, None, f"cannot read file: {err.strerror or err}") from None
     if size > limit or len(data) > limit:
-        raise InputFileError(path, None, f"{max(size, len(data)) / 2**20:.0f} MiB, above the limit of {limit_mb} "
-                                         f"MiB for this kind of file; if you mean it, raise the limit: "
-                                         f"{limit_variable}=<MiB> bwbench ...")
+        raise InputFileError(
+            path,
+            None,
+            f"{max(size, len(data)) / 2**20:.0f} MiB, above the limit of {limit_mb} "
+            f"MiB for this kind of file; if you mean it, raise the limit: "
+            f"{limit_variable}=<MiB> bwbench ...",
+        )
     return data
 
 

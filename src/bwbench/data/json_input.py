@@ -1,4 +1,5 @@
 """Reading a user's JSON file (bounds, parameters): one line naming the file and line on error."""
+
 from __future__ import annotations
 
 import json

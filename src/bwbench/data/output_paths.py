@@ -41,8 +41,10 @@ def refuse_inputs(outputs: dict, inputs) -> None:
         for source in sources:
             if same_file(path, source):
                 spelled = "" if source == path else f" (= {source})"
-                raise UserError(f"{flag} {path} is an input of this command{spelled}: it would be overwritten; "
-                                "choose another file name")
+                raise UserError(
+                    f"{flag} {path} is an input of this command{spelled}: it would be overwritten; "
+                    "choose another file name"
+                )
 
 
 def check_writable(*paths) -> None:
@@ -92,11 +94,12 @@ def check_outputs(outputs: dict, inputs=()) -> None:
     given = {flag: Path(p) for flag, p in outputs.items() if p is not None}
     for flag, path in given.items():
         if flag == "--plot" and path.suffix.lower() not in FIGURE_FORMATS:
-            raise UserError(f"--plot {path}: the figure format comes from the extension; use one of "
-                            f"{', '.join(FIGURE_FORMATS)}")
+            raise UserError(
+                f"--plot {path}: the figure format comes from the extension; use one of {', '.join(FIGURE_FORMATS)}"
+            )
     flags = list(given)
     for i, first in enumerate(flags):
-        if any(same_file(given[first], given[second]) for second in flags[i + 1:]):
+        if any(same_file(given[first], given[second]) for second in flags[i + 1 :]):
             raise UserError("two outputs name the same file: " + ", ".join(f"{f} {p}" for f, p in given.items()))
     check_writable(*given.values())
 
@@ -110,8 +113,10 @@ def refuse_inputs_in_folder(flag: str, folder, inputs, suffixes) -> None:
         if same_file(folder, source):
             raise UserError(f"{flag} {folder} is an input of this command: it needs a folder for its output")
         if source.suffix.lower() in suffixes and same_file(source.parent, folder):
-            raise UserError(f"{flag} {folder} holds {source.name}, an input of this command, and it writes "
-                            f"{'/'.join(suffixes)} files there: choose another folder")
+            raise UserError(
+                f"{flag} {folder} holds {source.name}, an input of this command, and it writes "
+                f"{'/'.join(suffixes)} files there: choose another folder"
+            )
 
 
 @contextmanager

@@ -48,8 +48,11 @@ def time_unit_warnings(spec) -> list[str]:
     period = spec.duration_s / cycles if cycles >= 0.5 else None
     if step <= SPARSEST_STEP_S and (period is None or period <= SLOWEST_CYCLE_S):
         return []
-    what = (f"samples are {step:.4g} s apart ({1 / step:.3g} Hz)" if step > SPARSEST_STEP_S else
-            f"one loading cycle takes {period:.4g} s ({cycles:.3g} cycles in {spec.duration_s / 3600:.3g} h)")
+    what = (
+        f"samples are {step:.4g} s apart ({1 / step:.3g} Hz)"
+        if step > SPARSEST_STEP_S
+        else f"one loading cycle takes {period:.4g} s ({cycles:.3g} cycles in {spec.duration_s / 3600:.3g} h)"
+    )
     return [f"{what}: is time_s in milliseconds? the header promises seconds (divide by 1000 if so)"]
 
 
@@ -60,8 +63,10 @@ def force_warnings(spec) -> list[str]:
     if size == 0.0:
         return ["force_N is 0 in every row: no force was recorded (load cell off, or an empty column?)"]
     if span <= FLAT_FORCE_FRACTION * size:
-        return [f"force_N is flat ({float(f.mean()):.6g} N, varying by {span:.3g} N): no loop to fit "
-                "(load cell off, or the wrong column?)"]
+        return [
+            f"force_N is flat ({float(f.mean()):.6g} N, varying by {span:.3g} N): no loop to fit "
+            "(load cell off, or the wrong column?)"
+        ]
     return []
 
 
@@ -70,26 +75,36 @@ def warnings(spec, synthetic: bool = False) -> list[str]:
     out = [*time_unit_warnings(spec), *force_warnings(spec), *dead_channels(spec)]
     peak = float(np.abs(spec.f).max())
     if peak > MAX_PLAUSIBLE_FORCE_N:
-        out.append(f"force_N reaches {peak:.3g} N, above {MAX_PLAUSIBLE_FORCE_N:.0e} N: no test machine records "
-                   "that (a unit or export error?)")
+        out.append(
+            f"force_N reaches {peak:.3g} N, above {MAX_PLAUSIBLE_FORCE_N:.0e} N: no test machine records "
+            "that (a unit or export error?)"
+        )
     amplitude = 0.5 * float(spec.x.max() - spec.x.min())
     low, high = AMPLITUDE_RANGE_MM
     if amplitude < low:
-        out.append(f"displacement amplitude {amplitude:.3g} mm is below {low:g} mm: is the displacement in metres? "
-                   "the header promises mm")
+        out.append(
+            f"displacement amplitude {amplitude:.3g} mm is below {low:g} mm: is the displacement in metres? "
+            "the header promises mm"
+        )
     elif amplitude > high:
-        out.append(f"displacement amplitude {amplitude:.3g} mm is above {high:g} mm: is the displacement in µm? "
-                   "the header promises mm")
+        out.append(
+            f"displacement amplitude {amplitude:.3g} mm is above {high:g} mm: is the displacement in µm? "
+            "the header promises mm"
+        )
     per_cycle, cycles = loop_work(spec.x, spec.f)
     scale = 2.0 * amplitude * float(spec.f.max() - spec.f.min())
     if cycles >= 0.5 and scale > 0 and per_cycle < -LOOP_SIGN_FRACTION * scale:
         if synthetic:
-            out.append(f"note: the loop runs clockwise (∮F·dx = {per_cycle:.3g} N·mm per cycle), as the paper's "
-                       "identified parameters make it (a synthetic specimen)")
+            out.append(
+                f"note: the loop runs clockwise (∮F·dx = {per_cycle:.3g} N·mm per cycle), as the paper's "
+                "identified parameters make it (a synthetic specimen)"
+            )
         else:
-            out.append(f"the loop runs clockwise (∮F·dx = {per_cycle:.3g} N·mm per cycle): a passive specimen "
-                       "dissipates energy (∮F·dx > 0 with force positive in tension and displacement positive in "
-                       "elongation), so force or displacement is probably flipped")
+            out.append(
+                f"the loop runs clockwise (∮F·dx = {per_cycle:.3g} N·mm per cycle): a passive specimen "
+                "dissipates energy (∮F·dx > 0 with force positive in tension and displacement positive in "
+                "elongation), so force or displacement is probably flipped"
+            )
     return out
 
 
@@ -130,9 +145,11 @@ def signal_warnings(spec) -> list[str]:
         coef, misfit = _fit_displacement(columns, x)
         gain = float(coef[-1])
         if misfit > SIGNAL_MISFIT * span:  # the shape is wrong: no gain can fix it
-            out.append(f"column {column} does not follow the displacement: its integral leaves {misfit:.3g} mm rms "
-                       f"({misfit / span:.0%} of the displacement range) unexplained (another channel, or shifted in "
-                       f"time?); bwbench drives the model with the recorded {what}")
+            out.append(
+                f"column {column} does not follow the displacement: its integral leaves {misfit:.3g} mm rms "
+                f"({misfit / span:.0%} of the displacement range) unexplained (another channel, or shifted in "
+                f"time?); bwbench drives the model with the recorded {what}"
+            )
         elif not SIGNAL_GAIN_RANGE[0] <= gain <= SIGNAL_GAIN_RANGE[1]:
             factor = 1.0 / gain if gain != 0 else np.inf
             hint = "the opposite sign convention" if factor < 0 else ""
@@ -141,12 +158,17 @@ def signal_warnings(spec) -> list[str]:
                     slipped = f"{unit} instead of the header's unit"
                     if slip == 1000.0:  # the time column first: in ms it makes every rate look 1000× too small
                         rate = (spec.n_samples - 1) / spec.duration_s
-                        slipped = (f"time_s in milliseconds (the test would then last {spec.duration_s / 1000:.4g} s, "
-                                   f"sampled at {rate * 1000:.4g} Hz), or the {what} in {unit}")
+                        slipped = (
+                            f"time_s in milliseconds (the test would then last {spec.duration_s / 1000:.4g} s, "
+                            f"sampled at {rate * 1000:.4g} Hz), or the {what} in {unit}"
+                        )
                     hint = (hint + " and " if hint else "") + slipped
-            out.append(f"column {column} does not match the displacement: the {what} recorded is "
-                       f"{factor:.3g} × the one the displacement implies" + (f" ({hint}?)" if hint else "")
-                       + f"; bwbench drives the model with the recorded {what}")
+            out.append(
+                f"column {column} does not match the displacement: the {what} recorded is "
+                f"{factor:.3g} × the one the displacement implies"
+                + (f" ({hint}?)" if hint else "")
+                + f"; bwbench drives the model with the recorded {what}"
+            )
     return out
 
 
@@ -157,8 +179,10 @@ def dead_channels(spec) -> list[str]:
     for column, values, what in (("velocity_mm_s", spec.v, "velocity"), ("acceleration_mm_s2", spec.a, "acceleration")):
         if values is None or float(values.max() - values.min()) > 0.0:
             continue
-        out.append(f"column {column} is {float(values[0]):.6g} in every row while the displacement moves: a dead "
-                   f"channel (remove the column and bwbench estimates the {what} from the displacement)")
+        out.append(
+            f"column {column} is {float(values[0]):.6g} in every row while the displacement moves: a dead "
+            f"channel (remove the column and bwbench estimates the {what} from the displacement)"
+        )
     return out
 
 
@@ -185,8 +209,10 @@ def unusable(spec, force_needed: bool = True) -> str | None:
         return flat[0]
     peak = float(np.abs(spec.f).max())
     if peak > MAX_PLAUSIBLE_FORCE_N:
-        return (f"force_N reaches {peak:.3g} N, above {MAX_PLAUSIBLE_FORCE_N:.0e} N: no test machine records that "
-                "(a unit or export error?)")
+        return (
+            f"force_N reaches {peak:.3g} N, above {MAX_PLAUSIBLE_FORCE_N:.0e} N: no test machine records that "
+            "(a unit or export error?)"
+        )
     return None
 
 

@@ -85,8 +85,12 @@ def read_specimen(path) -> Specimen:
         raise InputFileError(path, 1, "empty file: expected the header " + ",".join(COLUMNS))
 
     if "\r" in text.partition("\n")[0].rstrip("\r"):  # a CR inside the first line: lines end in CR only
-        raise InputFileError(path, 1, "lines end in a carriage return (CR) only, as old Mac exports do: save the "
-                                      "file with LF or CRLF line endings")
+        raise InputFileError(
+            path,
+            1,
+            "lines end in a carriage return (CR) only, as old Mac exports do: save the "
+            "file with LF or CRLF line endings",
+        )
     header, _, rest = text.partition("\n")
     sep, order, n_columns = _parse_header(path, header)
     if not rest or rest.isspace():
@@ -95,7 +99,7 @@ def read_specimen(path) -> Specimen:
     # Fast path: the C parser over the bytes after the header. It is only an optimisation: if it
     # fails or yields anything non-finite, the line-by-line pass below decides what is wrong and
     # on which line (it also accepts the rare valid file the C parser refuses).
-    values = _fast_parse(data[data.index(b"\n") + 1:], sep, n_columns)
+    values = _fast_parse(data[data.index(b"\n") + 1 :], sep, n_columns)
     line_nos = None
     if values is None or not np.isfinite(values).all():
         values, line_nos = _slow_parse(path, text, sep)
@@ -155,14 +159,19 @@ def _parse_header(path: str, header: str) -> tuple[str, list, int]:
         found = found if len(found) <= 60 else found[:57] + "..."
         which = ", ".join(repr(c) for c in missing)
         raise InputFileError(
-            path, 1,
+            path,
+            1,
             f"missing column{'s' if len(missing) > 1 else ''} {which} in header "
             f"(expected {','.join(COLUMNS)}, found {found!r})",
         )
     extra = [n for n in names if n not in COLUMNS + OPTIONAL_COLUMNS]
     if extra:
-        raise InputFileError(path, 1, f"unexpected column {extra[0]!r} in header (expected {','.join(COLUMNS)}, "
-                                      f"optionally also {' and '.join(OPTIONAL_COLUMNS)})")
+        raise InputFileError(
+            path,
+            1,
+            f"unexpected column {extra[0]!r} in header (expected {','.join(COLUMNS)}, "
+            f"optionally also {' and '.join(OPTIONAL_COLUMNS)})",
+        )
     dup = next((n for n in names if names.count(n) > 1), None)
     if dup is not None:
         raise InputFileError(path, 1, f"column {dup!r} appears twice in header")
@@ -175,8 +184,7 @@ def _fast_parse(body: bytes, sep: str, n_columns: int) -> np.ndarray | None:
     # numpy's C reader (not pandas: importing pandas alone costs ~0.5 s of every command); a quoted
     # number or a comment is refused by the slow pass too, so none is accepted here.
     try:
-        values = np.loadtxt(io.BytesIO(body), delimiter=sep, dtype=np.float64, ndmin=2, comments=None,
-                            encoding="utf-8")
+        values = np.loadtxt(io.BytesIO(body), delimiter=sep, dtype=np.float64, ndmin=2, comments=None, encoding="utf-8")
     except ValueError:
         return None
     return values if values.ndim == 2 and values.shape[1] == n_columns else None
@@ -199,7 +207,9 @@ def _slow_parse(path: str, text: str, sep: str) -> tuple[np.ndarray, np.ndarray]
             if not raw.strip():
                 continue  # blank line
             raise InputFileError(
-                path, line_no, f"{len(cells)} cell{'s' if len(cells) != 1 else ''} on this row, "
+                path,
+                line_no,
+                f"{len(cells)} cell{'s' if len(cells) != 1 else ''} on this row, "
                 f"expected {len(header)} separated by {sep!r}",
             )
         try:
@@ -244,9 +254,7 @@ def _check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         i = int(bad[0]) + 1
-        raise InputFileError(
-            path, line_of(i), f"time not strictly increasing: {t[i]:.9g} s after {t[i - 1]:.9g} s"
-        )
+        raise InputFileError(path, line_of(i), f"time not strictly increasing: {t[i]:.9g} s after {t[i - 1]:.9g} s")
     if t.size < MIN_SAMPLES:
         raise InputFileError(path, line_of(t.size - 1), f"too few samples: {t.size}, need at least {MIN_SAMPLES}")
     dt = np.diff(t)
@@ -255,14 +263,16 @@ def _check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
     if uneven.size:
         i = int(uneven[0]) + 1
         raise InputFileError(
-            path, line_of(i),
+            path,
+            line_of(i),
             f"time step {dt[i - 1]:.6g} s here, but the file is sampled every {step:.6g} s: bwbench needs "
             "uniformly sampled data (resample it first, e.g. numpy.interp onto an even time grid)",
         )
     span = float(x.max() - x.min())
     if span < MIN_DISPLACEMENT_RANGE_MM:
         raise InputFileError(
-            path, line_of(0),
+            path,
+            line_of(0),
             f"no motion: displacement_mm stays at {x[0]:.9g} mm (range {span:.3g} mm, "
             f"need at least {MIN_DISPLACEMENT_RANGE_MM:g} mm)",
         )

@@ -37,12 +37,16 @@ def from_frame(frame, name: str | None = None):
     columns = [str(c).strip() for c in frame.columns]
     missing = [c for c in COLUMNS if c not in columns]
     if missing:
-        raise UserError(f"{where}: no column {', '.join(missing)}; the columns are {', '.join(COLUMNS)} "
-                        f"(optionally {', '.join(OPTIONAL_COLUMNS)}), got {', '.join(columns) or 'none'}")
+        raise UserError(
+            f"{where}: no column {', '.join(missing)}; the columns are {', '.join(COLUMNS)} "
+            f"(optionally {', '.join(OPTIONAL_COLUMNS)}), got {', '.join(columns) or 'none'}"
+        )
     other = [c for c in columns if c not in COLUMNS + OPTIONAL_COLUMNS]
     if other:
-        raise UserError(f"{where}: unknown column {other[0]!r}; the columns are {', '.join(COLUMNS)} "
-                        f"(optionally {', '.join(OPTIONAL_COLUMNS)})")
+        raise UserError(
+            f"{where}: unknown column {other[0]!r}; the columns are {', '.join(COLUMNS)} "
+            f"(optionally {', '.join(OPTIONAL_COLUMNS)})"
+        )
     values = {}
     for column, original in zip(columns, frame.columns):
         try:
@@ -51,7 +55,9 @@ def from_frame(frame, name: str | None = None):
             raise UserError(f"{where}: column {column} is not numeric") from None
         bad = np.flatnonzero(~np.isfinite(array))
         if bad.size:
-            raise UserError(f"{where}, row {int(bad[0])}: {column} is {float(array[bad[0]])}: every value must be finite")
+            raise UserError(
+                f"{where}, row {int(bad[0])}: {column} is {float(array[bad[0]])}: every value must be finite"
+            )
         array = np.ascontiguousarray(array)
         array.flags.writeable = False
         values[column] = array
@@ -66,5 +72,12 @@ def from_frame(frame, name: str | None = None):
         if getattr(err, "line", None) is not None:
             text = f"{where}, row {err.line}: {err.problem}"  # type: ignore[attr-defined]
         raise UserError(text) from None
-    return Specimen(path=where, name=name, t=values["time_s"], x=values["displacement_mm"], f=values["force_N"],
-                    v=values.get("velocity_mm_s"), a=values.get("acceleration_mm_s2"))
+    return Specimen(
+        path=where,
+        name=name,
+        t=values["time_s"],
+        x=values["displacement_mm"],
+        f=values["force_N"],
+        v=values.get("velocity_mm_s"),
+        a=values.get("acceleration_mm_s2"),
+    )

@@ -50,8 +50,10 @@ class SteadyPart:
     def describe(self) -> str:
         """E.g. "ramp-in 1 cycle (0.5 s), ramp-out 1 cycle (0.5 s)"; "" when there are none."""
         parts = []
-        for name, cycles, seconds in (("ramp-in", self.ramp_in_cycles, self.ramp_in_s),
-                                      ("ramp-out", self.ramp_out_cycles, self.ramp_out_s)):
+        for name, cycles, seconds in (
+            ("ramp-in", self.ramp_in_cycles, self.ramp_in_s),
+            ("ramp-out", self.ramp_out_cycles, self.ramp_out_s),
+        ):
             if cycles > 0:
                 parts.append(f"{name} {cycles:g} cycle{'s' if cycles != 1 else ''} ({seconds:.3g} s)")
         return ", ".join(parts)
@@ -85,7 +87,7 @@ def steady_part(t, x) -> SteadyPart:
     low = peaks < (1.0 - RAMP_TOLERANCE) * steady
     first = int(np.argmax(~low))
     last = len(peaks) - 1 - int(np.argmax(~low[::-1]))
-    middle = peaks[first:last + 1]
+    middle = peaks[first : last + 1]
     if len(middle) < MIN_STEADY or np.any(np.abs(middle - steady) > RAMP_TOLERANCE * steady):
         return whole  # not a constant-amplitude test: no steady part to speak of
     if first == 0 and last == len(peaks) - 1:
@@ -93,9 +95,14 @@ def steady_part(t, x) -> SteadyPart:
     # The steady part runs from the crossing before its first half-cycle to the one after its last.
     start = _crossing_before(x, mid, int(edges[first])) if first > 0 else 0
     stop = _crossing_before(x, mid, int(edges[last + 1])) + 1 if last < len(peaks) - 1 else len(x)
-    return SteadyPart(start, stop, first / 2.0, (len(peaks) - 1 - last) / 2.0,
-                      float(t[start] - t[0]) if first > 0 else 0.0,
-                      float(t[-1] - t[stop - 1]) if last < len(peaks) - 1 else 0.0)
+    return SteadyPart(
+        start,
+        stop,
+        first / 2.0,
+        (len(peaks) - 1 - last) / 2.0,
+        float(t[start] - t[0]) if first > 0 else 0.0,
+        float(t[-1] - t[stop - 1]) if last < len(peaks) - 1 else 0.0,
+    )
 
 
 def _crossing_before(x, mid, index: int) -> int:

@@ -89,6 +89,7 @@ def write(path, value, *, why: str | dict | None = None, indent: int | None = 2)
 def loads(text: str):
     """Parse strict JSON: ``ValueError`` on a NaN, Infinity or -Infinity token (which ``json.loads``
     accepts). For tests and for reading what another tool wrote."""
+
     def refuse(token):
         raise ValueError(f"not strict JSON: {token} token")
 

@@ -60,8 +60,19 @@ import numpy as np
 
 # Spencer et al. (1997) identified values, in the paper's units: N, cm, s, V (see module docstring).
 SPENCER_1997 = {
-    "c0a": 21.0, "c0b": 3.50, "k0": 46.9, "c1a": 283.0, "c1b": 2.95, "k1": 5.00, "x0": 14.3,
-    "alpha_a": 140.0, "alpha_b": 695.0, "gamma": 363.0, "beta": 363.0, "A": 301.0, "n": 2.0,
+    "c0a": 21.0,
+    "c0b": 3.50,
+    "k0": 46.9,
+    "c1a": 283.0,
+    "c1b": 2.95,
+    "k1": 5.00,
+    "x0": 14.3,
+    "alpha_a": 140.0,
+    "alpha_b": 695.0,
+    "gamma": 363.0,
+    "beta": 363.0,
+    "A": 301.0,
+    "n": 2.0,
     "eta": 190.0,
 }
 MM_PER_CM = 10.0
@@ -105,8 +116,7 @@ def _rates(t, y, z, X, w, c0, c1, k0, alpha, gamma, beta, A, n):
 
 
 @numba.njit(cache=True)
-def _integrate(t_start, h_warm, n_warm, h, m, n_samples, X, w, c0, c1, k0, k1, x0,
-               alpha, gamma, beta, A, n):
+def _integrate(t_start, h_warm, n_warm, h, m, n_samples, X, w, c0, c1, k0, k1, x0, alpha, gamma, beta, A, n):
     """Classical RK4 from rest: n_warm steps of h_warm, then m steps of h between samples.
 
     Returns the unscaled force (N) at t_start + k·m·h, k = 0..n_samples−1.
@@ -137,13 +147,15 @@ def _integrate(t_start, h_warm, n_warm, h, m, n_samples, X, w, c0, c1, k0, k1, x
 
 def _coefficients(voltage: float, p: dict) -> dict:
     return {
-        "c0": p["c0a"] + p["c0b"] * voltage, "c1": p["c1a"] + p["c1b"] * voltage,
+        "c0": p["c0a"] + p["c0b"] * voltage,
+        "c1": p["c1a"] + p["c1b"] * voltage,
         "alpha": p["alpha_a"] + p["alpha_b"] * voltage,
     }
 
 
-def default_substeps(amplitude_mm: float, frequency_hz: float, rate_hz: float, voltage: float,
-                     params: dict = SPENCER_1997) -> int:
+def default_substeps(
+    amplitude_mm: float, frequency_hz: float, rate_hz: float, voltage: float, params: dict = SPENCER_1997
+) -> int:
     """RK4 steps per sample interval so that h·λ ≤ 0.25 for a bound λ (1/s) on the stiffness.
 
     λ: the pre-yield relaxation of z through the dashpots, (A·α + k0)/(c0 + c1), plus the yield
@@ -157,9 +169,15 @@ def default_substeps(amplitude_mm: float, frequency_hz: float, rate_hz: float, v
     return max(1, math.ceil(lam / (rate_hz * _H_LAMBDA)))
 
 
-def damper_force(amplitude_mm: float = 25.0, frequency_hz: float = 1.0, voltage: float = 1.0,
-                 rate_hz: float = 500.0, cycles: int = 3, substeps: int | None = None,
-                 params: dict = SPENCER_1997) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+def damper_force(
+    amplitude_mm: float = 25.0,
+    frequency_hz: float = 1.0,
+    voltage: float = 1.0,
+    rate_hz: float = 500.0,
+    cycles: int = 3,
+    substeps: int | None = None,
+    params: dict = SPENCER_1997,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Noise-free, unscaled test: times (s, from 0), displacement (mm), Spencer's force (N), substeps.
 
     ``cycles`` whole cycles after one warm-up cycle; round(cycles·rate_hz/frequency_hz) + 1
@@ -174,19 +192,46 @@ def damper_force(amplitude_mm: float = 25.0, frequency_hz: float = 1.0, voltage:
     h = 1.0 / (rate_hz * m)
     n_warm = math.ceil(period / h)  # warm-up on its own step so recording starts exactly at x = 0
     X, w = amplitude_mm / MM_PER_CM, 2 * math.pi * frequency_hz
-    force = _integrate(period, period / n_warm, n_warm, h, m, n_samples, X, w, c["c0"], c["c1"],
-                       p["k0"], p["k1"], p["x0"], c["alpha"], p["gamma"], p["beta"], p["A"], p["n"])
+    force = _integrate(
+        period,
+        period / n_warm,
+        n_warm,
+        h,
+        m,
+        n_samples,
+        X,
+        w,
+        c["c0"],
+        c["c1"],
+        p["k0"],
+        p["k1"],
+        p["x0"],
+        c["alpha"],
+        p["gamma"],
+        p["beta"],
+        p["A"],
+        p["n"],
+    )
     t = np.arange(n_samples) / rate_hz
     x = amplitude_mm * np.sin(w * (period + t))  # = X·sin(wt): the recording starts at phase 0
     return t, x, force, m
 
 
-def sine_test(amplitude_mm: float = 25.0, frequency_hz: float = 1.0, voltage: float = 1.0,
-              rate_hz: float = 500.0, cycles: int = 3, peak_force_N: float | None = 1200.0,
-              force_noise_frac: float = 0.005, displacement_noise_mm: float = 0.001,
-              force_offset_N: float = 8.0, rng: np.random.Generator | int | None = 0,
-              substeps: int | None = None, params: dict = SPENCER_1997,
-              velocity_noise_mm_s: float = 0.0) -> SineTest:
+def sine_test(
+    amplitude_mm: float = 25.0,
+    frequency_hz: float = 1.0,
+    voltage: float = 1.0,
+    rate_hz: float = 500.0,
+    cycles: int = 3,
+    peak_force_N: float | None = 1200.0,
+    force_noise_frac: float = 0.005,
+    displacement_noise_mm: float = 0.001,
+    force_offset_N: float = 8.0,
+    rng: np.random.Generator | int | None = 0,
+    substeps: int | None = None,
+    params: dict = SPENCER_1997,
+    velocity_noise_mm_s: float = 0.0,
+) -> SineTest:
     """A recorded sine test (s, mm, N). ``peak_force_N=None`` keeps Spencer's damper unscaled.
 
     ``rng``: a ``numpy.random.Generator`` or a seed for ``numpy.random.default_rng``.
@@ -202,8 +247,7 @@ def sine_test(amplitude_mm: float = 25.0, frequency_hz: float = 1.0, voltage: fl
     v = amplitude_mm * w * np.cos(w * t)
     if velocity_noise_mm_s > 0:
         v = v + rng.normal(0.0, velocity_noise_mm_s, t.shape)
-    return SineTest(t=t, x=x, f=f, x_true=x_true, f_true=f_true, scale=scale, peak_unscaled_N=peak,
-                    substeps=m, v=v)
+    return SineTest(t=t, x=x, f=f, x_true=x_true, f_true=f_true, scale=scale, peak_unscaled_N=peak, substeps=m, v=v)
 
 
 def render(test: SineTest, velocity: bool = False) -> str:

@@ -30,7 +30,12 @@ SOURCE = "Spencer et al. (1997)'s phenomenological MR-damper model"
 NOTE = f"synthetic data generated from {SOURCE} (not measured)"
 SEED = 1997
 TESTS = (  # amplitude (mm), frequency (Hz), voltage (V)
-    (25.0, 0.5, 1.0), (25.0, 1.0, 0.0), (25.0, 1.0, 2.25), (10.0, 2.0, 1.0), (5.0, 5.0, 2.25), (10.0, 5.0, 0.0),
+    (25.0, 0.5, 1.0),
+    (25.0, 1.0, 0.0),
+    (25.0, 1.0, 2.25),
+    (10.0, 2.0, 1.0),
+    (5.0, 5.0, 2.25),
+    (10.0, 5.0, 0.0),
 )
 
 
@@ -52,16 +57,25 @@ def truth(test: mr_damper.SineTest, voltage: float, settings: Settings) -> dict:
     p, c, s = mr_damper.SPENCER_1997, mr_damper._coefficients(voltage, mr_damper.SPENCER_1997), test.scale
     k1 = p["k1"] / mr_damper.MM_PER_CM * s  # N/cm → N/mm, then the scale
     x0 = p["x0"] * mr_damper.MM_PER_CM - settings.force_offset_N / k1
-    return {"c0": c["c0"] / mr_damper.MM_PER_CM * s, "c1": c["c1"] / mr_damper.MM_PER_CM * s,
-            "k0": p["k0"] / mr_damper.MM_PER_CM * s, "k1": k1, "x0": x0,
-            "alpha": c["alpha"] / mr_damper.MM_PER_CM * s,
-            "beta": p["beta"] / mr_damper.MM_PER_CM**p["n"], "gamma": p["gamma"] / mr_damper.MM_PER_CM**p["n"],
-            "A": p["A"], "n": p["n"]}
+    return {
+        "c0": c["c0"] / mr_damper.MM_PER_CM * s,
+        "c1": c["c1"] / mr_damper.MM_PER_CM * s,
+        "k0": p["k0"] / mr_damper.MM_PER_CM * s,
+        "k1": k1,
+        "x0": x0,
+        "alpha": c["alpha"] / mr_damper.MM_PER_CM * s,
+        "beta": p["beta"] / mr_damper.MM_PER_CM ** p["n"],
+        "gamma": p["gamma"] / mr_damper.MM_PER_CM ** p["n"],
+        "A": p["A"],
+        "n": p["n"],
+    }
 
 
 def file_names() -> list[str]:
     """The names of the files ``generate`` writes (tests, then the manifest), without writing any."""
-    return [f"mr_{amplitude:g}mm_{frequency:g}Hz_{voltage:g}V.csv" for amplitude, frequency, voltage in TESTS] + [MANIFEST]
+    return [f"mr_{amplitude:g}mm_{frequency:g}Hz_{voltage:g}V.csv" for amplitude, frequency, voltage in TESTS] + [
+        MANIFEST
+    ]
 
 
 def generate(out_dir=DATASET_DIR, settings: Settings = Settings()) -> list[Path]:
@@ -71,28 +85,51 @@ def generate(out_dir=DATASET_DIR, settings: Settings = Settings()) -> list[Path]
     children = np.random.SeedSequence(settings.seed).spawn(len(TESTS))
     entries, written = [], []
     for (amplitude, frequency, voltage), child in zip(TESTS, children):
-        test = mr_damper.sine_test(amplitude_mm=amplitude, frequency_hz=frequency, voltage=voltage,
-                                   rate_hz=settings.rate_hz, cycles=settings.cycles,
-                                   peak_force_N=settings.peak_force_N, force_noise_frac=settings.force_noise_frac,
-                                   displacement_noise_mm=settings.displacement_noise_mm,
-                                   force_offset_N=settings.force_offset_N, rng=np.random.default_rng(child),
-                                   velocity_noise_mm_s=settings.velocity_noise_mm_s)
+        test = mr_damper.sine_test(
+            amplitude_mm=amplitude,
+            frequency_hz=frequency,
+            voltage=voltage,
+            rate_hz=settings.rate_hz,
+            cycles=settings.cycles,
+            peak_force_N=settings.peak_force_N,
+            force_noise_frac=settings.force_noise_frac,
+            displacement_noise_mm=settings.displacement_noise_mm,
+            force_offset_N=settings.force_offset_N,
+            rng=np.random.default_rng(child),
+            velocity_noise_mm_s=settings.velocity_noise_mm_s,
+        )
         name = f"mr_{amplitude:g}mm_{frequency:g}Hz_{voltage:g}V.csv"
         path = out_dir / name
         path.write_text(mr_damper.render(test, velocity=True), encoding="utf-8")
         written.append(path)
-        entries.append({
-            "file": name, "synthetic": True, "model": "spencer",
-            "amplitude_mm": amplitude, "frequency_Hz": frequency, "voltage_V": voltage,
-            "force_scale": round(test.scale, 6), "noise_force_N": round(settings.force_noise_frac * settings.peak_force_N, 6),
-            "truth": {k: float(f"{v:.10g}") for k, v in truth(test, voltage, settings).items()},
-        })
+        entries.append(
+            {
+                "file": name,
+                "synthetic": True,
+                "model": "spencer",
+                "amplitude_mm": amplitude,
+                "frequency_Hz": frequency,
+                "voltage_V": voltage,
+                "force_scale": round(test.scale, 6),
+                "noise_force_N": round(settings.force_noise_frac * settings.peak_force_N, 6),
+                "truth": {k: float(f"{v:.10g}") for k, v in truth(test, voltage, settings).items()},
+            }
+        )
     document = {
-        "note": NOTE, "source": SOURCE, "generator": "bwbench data generate --mr-damper (src/bwbench/datasets/mr_dataset.py)",
-        "settings": {**dataclasses.asdict(settings),
-                     "noise_force_N": settings.force_noise_frac * settings.peak_force_N},  # 1σ of the scaled force
-        "units": {"time": "s", "displacement": "mm", "velocity": "mm/s", "force": "N",
-                  "truth": "Spencer's direct parameters: c0, c1 N·s/mm; k0, k1, alpha N/mm; x0 mm; beta, gamma mm^-n"},
+        "note": NOTE,
+        "source": SOURCE,
+        "generator": "bwbench data generate --mr-damper (src/bwbench/datasets/mr_dataset.py)",
+        "settings": {
+            **dataclasses.asdict(settings),
+            "noise_force_N": settings.force_noise_frac * settings.peak_force_N,
+        },  # 1σ of the scaled force
+        "units": {
+            "time": "s",
+            "displacement": "mm",
+            "velocity": "mm/s",
+            "force": "N",
+            "truth": "Spencer's direct parameters: c0, c1 N·s/mm; k0, k1, alpha N/mm; x0 mm; beta, gamma mm^-n",
+        },
         "specimens": entries,
     }
     (out_dir / MANIFEST).write_text(json.dumps(document, indent=1) + "\n", encoding="utf-8")

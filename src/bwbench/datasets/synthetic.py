@@ -131,8 +131,11 @@ def _render_specimen(t, x, v, f) -> str:
 def file_names(paper=PAPER_PARAMETERS) -> list[str]:
     """The names of the files ``generate`` writes (specimens, then the manifest), without writing any."""
     rows = read_paper_parameters(paper)
-    return [specimen_filename(row["material"], float(row["underpressure_MPa"]), repeat)
-            for row in rows for repeat in (1, 2, 3)] + [MANIFEST]
+    return [
+        specimen_filename(row["material"], float(row["underpressure_MPa"]), repeat)
+        for row in rows
+        for repeat in (1, 2, 3)
+    ] + [MANIFEST]
 
 
 def generate(out_dir=SPECIMEN_DIR, settings: Settings = Settings(), paper=PAPER_PARAMETERS) -> list[Path]:
@@ -166,24 +169,33 @@ def generate(out_dir=SPECIMEN_DIR, settings: Settings = Settings(), paper=PAPER_
             path = out_dir / name
             path.write_text(_render_specimen(t, x_noisy, v_f[keep], f_noisy), encoding="utf-8")
             written.append(path)
-            manifest.append({
-                "file": name,
-                "material": row["material"],
-                "table": int(row["table"]),
-                "underpressure_MPa": round(underpressure, 2),
-                "repeat": repeat,
-                "synthetic": True,
-                "state": s.state,
-                "force_scale": round(1.0 + delta, 6),
-                "peak_force_N": round(float(np.max(np.abs(force))), 4),
-                "truth": {name_: float(f"{value:.6g}") for name_, value in zip(model.PARAM_NAMES, truth)},
-            })
+            manifest.append(
+                {
+                    "file": name,
+                    "material": row["material"],
+                    "table": int(row["table"]),
+                    "underpressure_MPa": round(underpressure, 2),
+                    "repeat": repeat,
+                    "synthetic": True,
+                    "state": s.state,
+                    "force_scale": round(1.0 + delta, 6),
+                    "peak_force_N": round(float(np.max(np.abs(force))), 4),
+                    "truth": {name_: float(f"{value:.6g}") for name_, value in zip(model.PARAM_NAMES, truth)},
+                }
+            )
     document = {
         "note": SYNTHETIC_NOTE,
         "generator": "bwbench data generate (src/bwbench/datasets/synthetic.py)",
         "settings": dataclasses.asdict(s),
-        "units": {"time": "s", "displacement": "mm", "velocity": "mm/s (commanded, exact)", "force": "N",
-                  "noise_force_N": "N (1 sigma)", "noise_displacement_mm": "mm (1 sigma)", "reversal_s": "s"},
+        "units": {
+            "time": "s",
+            "displacement": "mm",
+            "velocity": "mm/s (commanded, exact)",
+            "force": "N",
+            "noise_force_N": "N (1 sigma)",
+            "noise_displacement_mm": "mm (1 sigma)",
+            "reversal_s": "s",
+        },
         "specimens": manifest,
     }
     strict_json.write(out_dir / MANIFEST, document, indent=1)

@@ -81,8 +81,10 @@ class Box:
 
     def _ends(self):
         with np.errstate(divide="ignore", invalid="ignore"):
-            return (np.where(self.log, np.log10(np.where(self.log, self.lower, 1.0)), self.lower),
-                    np.where(self.log, np.log10(np.where(self.log, self.upper, 1.0)), self.upper))
+            return (
+                np.where(self.log, np.log10(np.where(self.log, self.lower, 1.0)), self.lower),
+                np.where(self.log, np.log10(np.where(self.log, self.upper, 1.0)), self.upper),
+            )
 
 
 @dataclass(frozen=True)

@@ -24,22 +24,36 @@ from bwbench.models import switched_bouc_wen as switched
 from bwbench.models.base import Box, LinearLayout, Model, Parameter, amplitude
 
 DIRECT = (
-    Parameter("A", "-", "A"), Parameter("n", "-", "n"), Parameter("alpha", "-", "α"),
-    Parameter("beta", "mm⁻ⁿ", "β"), Parameter("gamma", "mm⁻ⁿ", "γ"), Parameter("xi", "-", "ξ"),
+    Parameter("A", "-", "A"),
+    Parameter("n", "-", "n"),
+    Parameter("alpha", "-", "α"),
+    Parameter("beta", "mm⁻ⁿ", "β"),
+    Parameter("gamma", "mm⁻ⁿ", "γ"),
+    Parameter("xi", "-", "ξ"),
     Parameter("wn", "rad/s", "ωn"),
 )
 HYSTERETIC = (
-    Parameter("xy", "mm", "x_y", "yield displacement z_s/A"), Parameter("n", "-", "n", "smoothness of the yield"),
+    Parameter("xy", "mm", "x_y", "yield displacement z_s/A"),
+    Parameter("n", "-", "n", "smoothness of the yield"),
     Parameter("eta", "-", "η", "unloading ratio (β − γ)/(β + γ)"),
 )
 LAYOUT = LinearLayout(
     names=("m", "c", "k", "h", "f"),
     units={"m": "N·s²/mm", "c": "N·s/mm", "k": "N/mm", "h": "N", "f": "N"},
-    fixed=(("c", "v"), ("k", "x"), ("f", "1")), varying="h", mass="m",
+    fixed=(("c", "v"), ("k", "x"), ("f", "1")),
+    varying="h",
+    mass="m",
 )
 # Table 5's tension ranges (docs/design.md#parameters), the paper's box for eq 1.
-TABLE5_PLUS = {"A": (0.001, 0.025), "n": (0.43, 10.75), "alpha": (0.07, 1.75), "beta": (0.1, 2.5),
-               "gamma": (0.3, 7.5), "xi": (20.0, 500.0), "wn": (0.3, 7.5)}
+TABLE5_PLUS = {
+    "A": (0.001, 0.025),
+    "n": (0.43, 10.75),
+    "alpha": (0.07, 1.75),
+    "beta": (0.1, 2.5),
+    "gamma": (0.3, 7.5),
+    "xi": (20.0, 500.0),
+    "wn": (0.3, 7.5),
+}
 # As the switched model's identifiable box (bwbench.models.switched_identifiable), except η: an MR
 # damper's sharp reversals want η well below −1 (β < 0, unloading faster than loading: −11.5 on a
 # measured-like Spencer damper test, where the old floor −2 ended on its edge), so as Spencer's box.
@@ -51,9 +65,11 @@ ETA_RANGE = (-50.0, 1.0)
 class ClassicBoucWen(Model):
     name = "bouc-wen"
     title = "classic symmetric Bouc-Wen model"
-    reference = ("R. Bouc, Forced vibration of mechanical systems with hysteresis, Proc. 4th Conf. on "
-                 "Nonlinear Oscillation, Prague, 1967; Y.-K. Wen, Method for random vibration of hysteretic "
-                 "systems, J. Eng. Mech. Div. 102(2):249-263, 1976")
+    reference = (
+        "R. Bouc, Forced vibration of mechanical systems with hysteresis, Proc. 4th Conf. on "
+        "Nonlinear Oscillation, Prague, 1967; Y.-K. Wen, Method for random vibration of hysteretic "
+        "systems, J. Eng. Mech. Div. 102(2):249-263, 1976"
+    )
     default_formulation = "identifiable"
 
     def direct_parameters(self, state=None) -> tuple:
@@ -61,8 +77,12 @@ class ClassicBoucWen(Model):
 
     def direct_box(self, signal, f, state=None) -> Box:
         names = tuple(p.name for p in DIRECT)
-        return Box(names, np.array([TABLE5_PLUS[n][0] for n in names]), np.array([TABLE5_PLUS[n][1] for n in names]),
-                   np.zeros(7, dtype=bool))
+        return Box(
+            names,
+            np.array([TABLE5_PLUS[n][0] for n in names]),
+            np.array([TABLE5_PLUS[n][1] for n in names]),
+            np.zeros(7, dtype=bool),
+        )
 
     def force_batch(self, P, signal, state=None) -> np.ndarray:
         P = np.atleast_2d(np.asarray(P, dtype=float))
@@ -79,8 +99,12 @@ class ClassicBoucWen(Model):
 
     def hysteretic_box(self, signal, f, state=None) -> Box:
         a = amplitude(signal.x)
-        return Box(("xy", "n", "eta"), np.array([XY_RANGE[0] * a, N_RANGE[0], ETA_RANGE[0]]),
-                   np.array([XY_RANGE[1] * a, N_RANGE[1], ETA_RANGE[1]]), np.array([True, True, False]))
+        return Box(
+            ("xy", "n", "eta"),
+            np.array([XY_RANGE[0] * a, N_RANGE[0], ETA_RANGE[0]]),
+            np.array([XY_RANGE[1] * a, N_RANGE[1], ETA_RANGE[1]]),
+            np.array([True, True, False]),
+        )
 
     def linear_layout(self, state=None) -> LinearLayout:
         return LAYOUT
@@ -107,9 +131,14 @@ class ClassicBoucWen(Model):
 
         xy, n, eta = np.asarray(theta, dtype=float)
         half = np.array([1.0 / xy, n, (1 + eta) / (2 * xy), (1 - eta) / (2 * xy)])
-        dhalf = np.array([[-1.0 / xy**2, 0.0, 0.0], [0.0, 1.0, 0.0],
-                          [-(1 + eta) / (2 * xy**2), 0.0, 1.0 / (2 * xy)],
-                          [-(1 - eta) / (2 * xy**2), 0.0, -1.0 / (2 * xy)]])
+        dhalf = np.array(
+            [
+                [-1.0 / xy**2, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [-(1 + eta) / (2 * xy**2), 0.0, 1.0 / (2 * xy)],
+                [-(1 - eta) / (2 * xy**2), 0.0, -1.0 / (2 * xy)],
+            ]
+        )
         s = signal
         return hysteretic_sensitivity(np.concatenate([half, half]), np.vstack([dhalf, dhalf]), s.t, s.x, s.v)
 
@@ -151,24 +180,37 @@ class ClassicBoucWen(Model):
         return theta, {"m": 1.0, "c": 2 * xi * wn, "k": alpha * wn**2, "h": (1 - alpha) * wn**2 * z_s, "f": 0.0}
 
     def coefficient_limits(self, state=None) -> dict:
-        return {"k": (0.0, np.inf, "k ≥ 0: the spring in parallel with the hysteretic element pushes back"),
-                "h": (0.0, np.inf, "h ≥ 0: the hysteretic force lags the motion and so dissipates")}
+        return {
+            "k": (0.0, np.inf, "k ≥ 0: the spring in parallel with the hysteretic element pushes back"),
+            "h": (0.0, np.inf, "h ≥ 0: the hysteretic force lags the motion and so dissipates"),
+        }
 
     def parameter_limits(self, state=None) -> dict:
-        return {"eta": {"upper": "η = 1 is γ = 0, the model's limit (beyond it unloading runs away from "
-                                 "saturation)"}}
+        return {"eta": {"upper": "η = 1 is γ = 0, the model's limit (beyond it unloading runs away from saturation)"}}
 
     def plausibility(self, values: dict, signal, state=None) -> list:
         """[(name, value, unit, meaning, verdict)] of the identifiable fit's parameters (``Model.plausibility``)."""
         a = amplitude(signal.x)
         rows = []
         table = (
-            ("xy", "mm", "displacement over which the element yields",
-             lambda v: f"x_y > the amplitude {a:.3g} mm: no yield within the stroke (n and η not determined)"
-             if v > a else ""),
+            (
+                "xy",
+                "mm",
+                "displacement over which the element yields",
+                lambda v: (
+                    f"x_y > the amplitude {a:.3g} mm: no yield within the stroke (n and η not determined)"
+                    if v > a
+                    else ""
+                ),
+            ),
             ("n", "-", "smoothness of the yield", lambda v: ""),
-            ("eta", "-", "unloading ratio (β − γ)/(β + γ); below −1 (β < 0) the force unloads faster after a "
-                         "reversal than it loads, as an MR damper's", lambda v: ""),
+            (
+                "eta",
+                "-",
+                "unloading ratio (β − γ)/(β + γ); below −1 (β < 0) the force unloads faster after a "
+                "reversal than it loads, as an MR damper's",
+                lambda v: "",
+            ),
             ("c", "N·s/mm", "viscous damping (≥ 0)", lambda v: ""),
             ("k", "N/mm", "stiffness in parallel with the hysteresis (≥ 0)", lambda v: ""),
             ("h", "N", "force of the saturated hysteretic element (its yield force, ≥ 0)", lambda v: ""),

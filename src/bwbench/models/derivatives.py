@@ -46,7 +46,10 @@ SPLINE_NAME = "quintic smoothing spline"
 WHOLE_RECORD = 40_000
 WINDOW = 4_000
 CALIBRATION_WINDOWS = 10
-LOG_LAMBDA_RANGE = (-8.0, 12.0)  # log10 λ searched; 10^12: a kernel of ~100 samples; far beyond, Cholesky fails in float64
+LOG_LAMBDA_RANGE = (
+    -8.0,
+    12.0,
+)  # log10 λ searched; 10^12: a kernel of ~100 samples; far beyond, Cholesky fails in float64
 REFLECTED = 16  # samples of point reflection beyond each end of the interpolating spline
 PIECE = 1_000_000  # samples per interpolating-spline evaluation: Ctrl-C is seen between pieces
 
@@ -104,7 +107,7 @@ def _smooth(y: np.ndarray, lam: float) -> np.ndarray:
     ab = np.zeros((q + 1, n))  # upper banded form: row q the diagonal, row q - o the o-th superdiagonal
     for i in range(q + 1):  # row r of D_q adds d_i*d_j at (r + i, r + j)
         for j in range(i, q + 1):
-            ab[q - (j - i), j:n - q + j] += lam * d[i] * d[j]
+            ab[q - (j - i), j : n - q + j] += lam * d[i] * d[j]
     ab[q] += 1.0
     return solveh_banded(ab, y, check_finite=False)
 
@@ -122,9 +125,8 @@ def _padded_smooth(y: np.ndarray, lam: float) -> np.ndarray:
     s = np.arange(fit, dtype=float) / fit  # local abscissa, scaled for a well-conditioned fit
     ahead = np.arange(1, pad + 1, dtype=float) / fit
     head = np.polynomial.polynomial.polyval(-ahead[::-1], np.polynomial.polynomial.polyfit(s, y[:fit], 3))
-    tail = np.polynomial.polynomial.polyval(1.0 - 1.0 / fit + ahead,
-                                            np.polynomial.polynomial.polyfit(s, y[-fit:], 3))
-    return _smooth(np.concatenate([head, y, tail]), lam)[pad:pad + y.size]
+    tail = np.polynomial.polynomial.polyval(1.0 - 1.0 / fit + ahead, np.polynomial.polynomial.polyfit(s, y[-fit:], 3))
+    return _smooth(np.concatenate([head, y, tail]), lam)[pad : pad + y.size]
 
 
 def _windows(n: int) -> list[slice]:
@@ -169,13 +171,13 @@ def _reflected_spline(t: np.ndarray, z: np.ndarray, k: int):
     head_t = t[0] - step * np.arange(m, 0, -1)
     tail_t = t[-1] + step * np.arange(1, m + 1)
     head = 2.0 * z[0] - z[m:0:-1]
-    tail = 2.0 * z[-1] - z[-2:-m - 2:-1]
+    tail = 2.0 * z[-1] - z[-2 : -m - 2 : -1]
     return make_interp_spline(np.concatenate([head_t, t, tail_t]), np.concatenate([head, z, tail]), k=k)
 
 
 def _evaluate(spline, t: np.ndarray, nu: int) -> np.ndarray:
     """``spline(t, nu)`` in pieces of PIECE samples (each piece is a short C call: Ctrl-C is seen)."""
-    return np.concatenate([spline(t[i:i + PIECE], nu) for i in range(0, t.size, PIECE)])
+    return np.concatenate([spline(t[i : i + PIECE], nu) for i in range(0, t.size, PIECE)])
 
 
 def estimate(t, y, sigma: float | None = None, *, smoothing: float | None = None) -> Derivatives:
@@ -239,8 +241,7 @@ def velocity_error(t, y, estimated: Derivatives | None = None) -> float:
     windows = _windows(y.size)
     for _ in range(BOOTSTRAP_REPLICATES):
         for w in windows:
-            again = estimate(t[w], e.x[w] + rng.normal(0.0, e.noise, e.x[w].shape), e.noise,
-                             smoothing=e.smoothing).v
+            again = estimate(t[w], e.x[w] + rng.normal(0.0, e.noise, e.x[w].shape), e.noise, smoothing=e.smoothing).v
             keep = slice(None) if len(windows) == 1 else slice(WINDOW // 4, 3 * WINDOW // 4)
             spread.append((again - e.v[w])[keep])
     return float(np.sqrt(np.mean(np.square(np.concatenate(spread)))))

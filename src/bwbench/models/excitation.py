@@ -120,8 +120,15 @@ def fit_sine(t, x) -> SineFit:
 def sine(t, x) -> Excitation:
     """The paper's sine approximation of the displacement record, sampled at ``t``."""
     xs, v, a = fit_sine(t, x).evaluate(t)
-    return Excitation("sine", np.asarray(t, dtype=float), xs, v, a, {"velocity": SINE, "acceleration": SINE},
-                      x_recorded=np.asarray(x, dtype=float))
+    return Excitation(
+        "sine",
+        np.asarray(t, dtype=float),
+        xs,
+        v,
+        a,
+        {"velocity": SINE, "acceleration": SINE},
+        x_recorded=np.asarray(x, dtype=float),
+    )
 
 
 def build(kind: str, t, x, v=None, a=None) -> Excitation:

@@ -188,8 +188,9 @@ def _simulate_into(p, u2, h, steps_per_sample, warmup_steps, out):
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _quadratic(u0, uh, u1, theta):
     """The parabola through (0, u0), (½, uh), (1, u1) at theta."""
-    return (u0 * (1.0 - theta) * (1.0 - 2.0 * theta) + 4.0 * uh * theta * (1.0 - theta)
-            + u1 * theta * (2.0 * theta - 1.0))
+    return (
+        u0 * (1.0 - theta) * (1.0 - 2.0 * theta) + 4.0 * uh * theta * (1.0 - theta) + u1 * theta * (2.0 * theta - 1.0)
+    )
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -241,8 +242,9 @@ class UpsampledInput:
         return 1.0 / (SAMPLE_RATE_HZ * self.steps_per_sample)
 
 
-def upsample_periodic(u_period, steps_per_sample: int = STEPS_PER_SAMPLE,
-                      warmup_samples: int = WARMUP_SAMPLES) -> UpsampledInput:
+def upsample_periodic(
+    u_period, steps_per_sample: int = STEPS_PER_SAMPLE, warmup_samples: int = WARMUP_SAMPLES
+) -> UpsampledInput:
     """One period of a periodic input (750 Hz), upsampled exactly band-limited (FFT zero-padding).
 
     The warm-up is the last ``warmup_samples`` of the period (repeated if longer than a period),
@@ -256,7 +258,7 @@ def upsample_periodic(u_period, steps_per_sample: int = STEPS_PER_SAMPLE,
     fine = sps.resample(u_period, n * factor)
     warm = 2 * warmup_samples * steps_per_sample
     reps = -(-warm // fine.size)
-    tail = np.tile(fine, reps)[fine.size * reps - warm:] if warm else fine[:0]
+    tail = np.tile(fine, reps)[fine.size * reps - warm :] if warm else fine[:0]
     u2 = np.ascontiguousarray(np.concatenate([tail, fine, fine[:1]]))
     return UpsampledInput(u2, steps_per_sample, warmup_samples * steps_per_sample, n)
 
@@ -305,7 +307,6 @@ def _as_params(params) -> np.ndarray:
     return p
 
 
-
 def identifiable_combinations(params) -> dict:
     """What the data determine: m, c, k, α, ν and the products βγ, βδ (β, γ, δ alone are not).
 
@@ -314,8 +315,13 @@ def identifiable_combinations(params) -> dict:
     """
     m, c, k, alpha, beta, gamma, delta, nu = (float(v) for v in _as_params(params))
     return {
-        "m": m, "c": c, "k": k, "alpha": alpha, "nu": nu,
-        "beta_gamma": beta * gamma, "beta_delta": beta * delta,
-        "beta_gamma_plus_delta": beta * (gamma + delta), "beta_gamma_minus_delta": beta * (gamma - delta),
+        "m": m,
+        "c": c,
+        "k": k,
+        "alpha": alpha,
+        "nu": nu,
+        "beta_gamma": beta * gamma,
+        "beta_delta": beta * delta,
+        "beta_gamma_plus_delta": beta * (gamma + delta),
+        "beta_gamma_minus_delta": beta * (gamma - delta),
     }
-

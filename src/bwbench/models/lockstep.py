@@ -141,15 +141,35 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                         if msub[lane] != -1 or bstate[lane] == _DONE:
                             continue
                         z_new, st, blo[lane], bhi[lane], bfhi[lane], bit[lane] = _implicit_round(
-                            bstate[lane], zarg[lane], pw[lane], zc[lane], bh, cA[lane], cn[lane], cbg[lane],
-                            cbm[lane], batt[lane], blo[lane], bhi[lane], bfhi[lane], bit[lane])
+                            bstate[lane],
+                            zarg[lane],
+                            pw[lane],
+                            zc[lane],
+                            bh,
+                            cA[lane],
+                            cn[lane],
+                            cbg[lane],
+                            cbm[lane],
+                            batt[lane],
+                            blo[lane],
+                            bhi[lane],
+                            bfhi[lane],
+                            bit[lane],
+                        )
                         if st == _NEWTON:
                             zarg[lane] = z_new
                             bstate[lane] = _NEWTON
                             continue
                         if np.isnan(z_new):  # no bracket: not stiff after all; RK4 over what is left
-                            z_new = _rk_fallback(zc[lane], bh * (_IMPLICIT_SUBSTEPS - bdone[lane]), direction,
-                                                 cA[lane], cn[lane], cbg[lane], cbm[lane])
+                            z_new = _rk_fallback(
+                                zc[lane],
+                                bh * (_IMPLICIT_SUBSTEPS - bdone[lane]),
+                                direction,
+                                cA[lane],
+                                cn[lane],
+                                cbg[lane],
+                                cbm[lane],
+                            )
                             bdone[lane] = _IMPLICIT_SUBSTEPS
                         else:
                             bdone[lane] += 1
@@ -289,14 +309,14 @@ def _serial(H, order, K, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas,
     zbuf = np.empty((x.shape[0], K))
     fbuf = np.empty(x.shape[0])
     for lo in range(0, order.shape[0], K):
-        _run_group(H, order[lo:lo + K], dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf)
+        _run_group(H, order[lo : lo + K], dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf)
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
 def _parallel(H, order, K, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out):
     n_groups = (order.shape[0] + K - 1) // K
     for g in numba.prange(n_groups):
-        rows = order[g * K:(g + 1) * K]
+        rows = order[g * K : (g + 1) * K]
         zbuf = np.empty((x.shape[0], K))
         fbuf = np.empty(x.shape[0])
         _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, out, zbuf, fbuf)

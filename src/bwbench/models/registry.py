@@ -36,8 +36,7 @@ def _read(ep, loaded) -> str:
     return register(loaded.MODEL if isinstance(loaded, ModuleType) else loaded).name
 
 
-REGISTRY: plugins.Registry[Model] = plugins.Registry("model", ENTRY_POINT_GROUP, BUILTIN, attribute="MODEL",
-                                                      read=_read)
+REGISTRY: plugins.Registry[Model] = plugins.Registry("model", ENTRY_POINT_GROUP, BUILTIN, attribute="MODEL", read=_read)
 
 
 def broken() -> dict[str, str]:

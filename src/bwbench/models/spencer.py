@@ -64,8 +64,11 @@ HYSTERETIC = (
     Parameter("kappa0", "1/s", "κ₀", "k₀/c₁"),
 )
 LAYOUT = LinearLayout(
-    names=("c1", "k1", "f0"), units={"c1": "N·s/mm", "k1": "N/mm", "f0": "N"},
-    fixed=(("k1", "x"), ("f0", "1")), varying="c1", labels={"c1": "c₁", "k1": "k₁", "f0": "f₀"},
+    names=("c1", "k1", "f0"),
+    units={"c1": "N·s/mm", "k1": "N/mm", "f0": "N"},
+    fixed=(("k1", "x"), ("f0", "1")),
+    varying="c1",
+    labels={"c1": "c₁", "k1": "k₁", "f0": "f₀"},
 )
 GAUGE_A = 300.0  # the published fits' A (docs/design.md#models-as-plug-ins): the gauge of the direct parameters
 
@@ -94,10 +97,14 @@ COEFFICIENT_LIMITS = {
     "k1": (0.0, np.inf, "k1 ≥ 0: the accumulator is a gas spring, it pushes back"),
 }
 PARAMETER_LIMITS = {
-    "kappa0": {"lower": "κ₀ at its floor is k₀ = 0, no spring at large velocities: a physical limit (k₀ ≥ 0), "
-                        "not a search limit"},
-    "n": {"lower": "n = 1 is the model's limit (below it ż is not Lipschitz at z = 0): the data want a yield "
-                   "rounder than the model can make"},
+    "kappa0": {
+        "lower": "κ₀ at its floor is k₀ = 0, no spring at large velocities: a physical limit (k₀ ≥ 0), "
+        "not a search limit"
+    },
+    "n": {
+        "lower": "n = 1 is the model's limit (below it ż is not Lipschitz at z = 0): the data want a yield "
+        "rounder than the model can make"
+    },
     "eta": {"upper": "η = 1 is γ = 0, the model's limit (beyond it unloading runs away from saturation)"},
     "k0": {"lower": "k₀ = 0, no spring at large velocities: a physical limit (k₀ ≥ 0), not a search limit"},
 }
@@ -147,15 +154,29 @@ def direct_from_theta(theta, coef, gauge_A: float = GAUGE_A):
     c1, k1, f0 = np.asarray(coef, dtype=float)
     z_s = gauge_A * xy
     bg = gauge_A / z_s**n
-    return np.array([r0 * c1, c1, kappa0 * c1, k1, -f0 / k1 if k1 != 0.0 else 0.0, vy * c1 / z_s,
-                     bg * (1 + eta) / 2, bg * (1 - eta) / 2, gauge_A, n])
+    return np.array(
+        [
+            r0 * c1,
+            c1,
+            kappa0 * c1,
+            k1,
+            -f0 / k1 if k1 != 0.0 else 0.0,
+            vy * c1 / z_s,
+            bg * (1 + eta) / 2,
+            bg * (1 - eta) / 2,
+            gauge_A,
+            n,
+        ]
+    )
 
 
 class Spencer(Model):
     name = "spencer"
     title = "Spencer et al. (1997) phenomenological MR-damper model"
-    reference = ("B. F. Spencer Jr., S. J. Dyke, M. K. Sain, J. D. Carlson, Phenomenological model for "
-                 "magnetorheological dampers, J. Eng. Mech. 123(3):230-238, 1997")
+    reference = (
+        "B. F. Spencer Jr., S. J. Dyke, M. K. Sain, J. D. Carlson, Phenomenological model for "
+        "magnetorheological dampers, J. Eng. Mech. 123(3):230-238, 1997"
+    )
     default_formulation = "identifiable"
 
     def direct_parameters(self, state=None) -> tuple:
@@ -173,11 +194,16 @@ class Spencer(Model):
         k = F / a  # N/mm that makes the peak force at the amplitude
         k1_low = 0.0 if loop_work(signal.x, f)[0] > 0 else -10.0 * k
         rows = {
-            "c0": (1e-3 * c, 1e3 * c, True), "c1": (1e-3 * c, 1e3 * c, True),
-            "k0": (0.0, 10.0 * k, False), "k1": (k1_low, 10.0 * k, False),
+            "c0": (1e-3 * c, 1e3 * c, True),
+            "c1": (1e-3 * c, 1e3 * c, True),
+            "k0": (0.0, 10.0 * k, False),
+            "k1": (k1_low, 10.0 * k, False),
             "x0": (-2 * X0_STROKES * a, 2 * X0_STROKES * a, False),
-            "alpha": (1e-3 * k, 1e4 * k, True), "beta": (1e-6, 1e6, True), "gamma": (1e-6, 1e6, True),
-            "A": (10.0, 1000.0, True), "n": (*N_RANGE, False),
+            "alpha": (1e-3 * k, 1e4 * k, True),
+            "beta": (1e-6, 1e6, True),
+            "gamma": (1e-6, 1e6, True),
+            "A": (10.0, 1000.0, True),
+            "n": (*N_RANGE, False),
         }
         return _box(DIRECT, rows)
 
@@ -199,8 +225,11 @@ class Spencer(Model):
     def hysteretic_box(self, signal, f, state=None) -> Box:
         a, v = amplitude(signal.x), velocity_scale(signal)
         rows = {
-            "xy": (XY_RANGE[0] * a, XY_RANGE[1] * a, True), "n": (*N_RANGE, False), "eta": (*ETA_RANGE, False),
-            "vy": (VY_RANGE[0] * v, VY_RANGE[1] * v, True), "r0": (*R0_RANGE, True),
+            "xy": (XY_RANGE[0] * a, XY_RANGE[1] * a, True),
+            "n": (*N_RANGE, False),
+            "eta": (*ETA_RANGE, False),
+            "vy": (VY_RANGE[0] * v, VY_RANGE[1] * v, True),
+            "r0": (*R0_RANGE, True),
             "kappa0": (KAPPA0_FLOOR * v / a, KAPPA0_MAX * v / a, True),
         }
         return _box(HYSTERETIC, rows)
@@ -321,14 +350,20 @@ def initial_state(signal) -> str:
     k = int(preroll_end(np.ascontiguousarray(x), np.ascontiguousarray(v)))
     if k == 0:
         return "from rest (y = x, z = 0 at the first sample): the record has no full cycle to pre-roll"
-    return (f"in motion: the record starts moving, so the model starts from the state it reaches after one cycle "
-            f"of the record's own motion (pre-roll to t = {t[k]:.4g} s)")
+    return (
+        f"in motion: the record starts moving, so the model starts from the state it reaches after one cycle "
+        f"of the record's own motion (pre-roll to t = {t[k]:.4g} s)"
+    )
 
 
 def _box(parameters, rows: dict) -> Box:
     names = tuple(p.name for p in parameters)
-    return Box(names, np.array([rows[n][0] for n in names]), np.array([rows[n][1] for n in names]),
-               np.array([rows[n][2] for n in names]))
+    return Box(
+        names,
+        np.array([rows[n][0] for n in names]),
+        np.array([rows[n][1] for n in names]),
+        np.array([rows[n][2] for n in names]),
+    )
 
 
 MODEL = Spencer()

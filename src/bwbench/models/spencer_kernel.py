@@ -44,8 +44,12 @@ def _excitation(tau, h, x0, v0, v1, a0, a1):
     t3 = t2 * tau
     t4 = t3 * tau
     xd = (2 * t3 - 3 * t2 + 1) * v0 + (t3 - 2 * t2 + tau) * h * a0 + (-2 * t3 + 3 * t2) * v1 + (t3 - t2) * h * a1
-    x = x0 + h * ((tau - t3 + 0.5 * t4) * v0 + (0.5 * t2 - 2 * t3 / 3 + 0.25 * t4) * h * a0
-                  + (t3 - 0.5 * t4) * v1 + (0.25 * t4 - t3 / 3) * h * a1)
+    x = x0 + h * (
+        (tau - t3 + 0.5 * t4) * v0
+        + (0.5 * t2 - 2 * t3 / 3 + 0.25 * t4) * h * a0
+        + (t3 - 0.5 * t4) * v1
+        + (0.25 * t4 - t3 / 3) * h * a1
+    )
     return x, xd
 
 
@@ -179,7 +183,9 @@ def _run(p, t, x, v, a, y, w, stop, out, budget, tol):
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
-        y, w, h, steps = _interval(y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale, budget, tol)
+        y, w, h, steps = _interval(
+            y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale, budget, tol
+        )
         budget -= steps
         if not (np.isfinite(y) and np.isfinite(w)):
             return np.nan, np.nan, (budget if budget > 0 else -1)

@@ -26,21 +26,48 @@ def plausibility(values: dict, signal) -> list:
             rows.append((name, float(get(name)), unit, meaning, verdict))
 
     xy, n, eta, vy, r0, kappa0 = (get(k, np.nan) for k in ("xy", "n", "eta", "vy", "r0", "kappa0"))
-    row("xy", "mm", "relative displacement over which the damper yields",
+    row(
+        "xy",
+        "mm",
+        "relative displacement over which the damper yields",
         f"x_y > the amplitude {a:.3g} mm: the damper does not yield within the stroke (a viscoelastic element; "
-        "n and η are not determined)" if xy > a else "")
-    row("n", "-", "smoothness of the yield (the literature's fits: 1–4)",
-        "a sharper yield than the literature's fits (n > 4)" if n > 4 else "")
-    row("eta", "-", "unloading ratio (β − γ)/(β + γ) (Spencer's fits: 0); below −1 (β < 0) the force unloads "
-        "faster after a reversal than it loads")
-    row("vy", "mm/s", "relative velocity at which the damper reaches its yield force",
-        f"above the test's peak velocity {v:.3g} mm/s: the damper never yields in this test" if vy > v else "")
-    row("r0", "-", "c₀/c₁, post-yield over pre-yield damping (Spencer's damper: 0.07–0.10)",
-        "c₀ > c₁: the damping after the yield exceeds the pre-yield one (no low-velocity roll-off)" if r0 > 1 else "")
+        "n and η are not determined)"
+        if xy > a
+        else "",
+    )
+    row(
+        "n",
+        "-",
+        "smoothness of the yield (the literature's fits: 1–4)",
+        "a sharper yield than the literature's fits (n > 4)" if n > 4 else "",
+    )
+    row(
+        "eta",
+        "-",
+        "unloading ratio (β − γ)/(β + γ) (Spencer's fits: 0); below −1 (β < 0) the force unloads "
+        "faster after a reversal than it loads",
+    )
+    row(
+        "vy",
+        "mm/s",
+        "relative velocity at which the damper reaches its yield force",
+        f"above the test's peak velocity {v:.3g} mm/s: the damper never yields in this test" if vy > v else "",
+    )
+    row(
+        "r0",
+        "-",
+        "c₀/c₁, post-yield over pre-yield damping (Spencer's damper: 0.07–0.10)",
+        "c₀ > c₁: the damping after the yield exceeds the pre-yield one (no low-velocity roll-off)" if r0 > 1 else "",
+    )
     tau = (1.0 + r0) / kappa0 if kappa0 > 0 else np.inf
-    row("kappa0", "1/s", f"k₀/c₁; y relaxes towards x in (1 + r₀)/κ₀ = {tau:.3g} s",
+    row(
+        "kappa0",
+        "1/s",
+        f"k₀/c₁; y relaxes towards x in (1 + r₀)/κ₀ = {tau:.3g} s",
         f"relaxation in {tau:.3g} s, faster than a cycle: k₀ stiffens the loop rather than centring it"
-        if tau < duration / 100 else "")
+        if tau < duration / 100
+        else "",
+    )
     row("c1", "N·s/mm", "damping at low velocities (the series dashpot)")
     row("c0", "N·s/mm", "damping at large velocities")
     row("k0", "N/mm", "stiffness at large velocities")
@@ -48,9 +75,15 @@ def plausibility(values: dict, signal) -> list:
     row("alpha", "N/mm", "weight of the evolutionary variable z (gauge A = 300)")
     x0 = get("x0", 0.0)
     limit = X0_STROKES * 2 * a
-    row("x0", "mm", "accumulator offset x₀, from the force offset f₀ = −k₁·x₀",
+    row(
+        "x0",
+        "mm",
+        "accumulator offset x₀, from the force offset f₀ = −k₁·x₀",
         f"|x₀| > {X0_STROKES:g} strokes ({limit:.3g} mm): the force offset f₀ = {get('f0', np.nan):.4g} N is a preload "
-        "or the load cell's zero, not an offset the fitted k₁ can hold" if abs(x0) > limit else "")
+        "or the load cell's zero, not an offset the fitted k₁ can hold"
+        if abs(x0) > limit
+        else "",
+    )
     return rows
 
 

@@ -120,8 +120,9 @@ def _stage_sens(kSy, kSw, i, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _interval_sens(y, w, Sy, Sw, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol, kSy, kSw, fSy, fSw,
-                   tmp_y, tmp_w, gy, gw):
+def _interval_sens(
+    y, w, Sy, Sw, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol, kSy, kSw, fSy, fSw, tmp_y, tmp_w, gy, gw
+):
     """``spencer_kernel._interval`` with the sensitivities (Sy, Sw updated in place). Returns
     (y, w, h, steps, status); STATUS_STEP_BUDGET past ``allowance`` steps, STATUS_BLOW_UP on a state
     that is not finite. The state's arithmetic is the plain kernel's, stage for stage."""
@@ -215,8 +216,32 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget, tol):
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
-        y, w, h, steps, status = _interval_sens(y, w, Sy, Sw, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1],
-                                                p, h, y_scale, budget, tol, kSy, kSw, fSy, fSw, tmp_y, tmp_w, gy, gw)
+        y, w, h, steps, status = _interval_sens(
+            y,
+            w,
+            Sy,
+            Sw,
+            t[k],
+            t[k + 1],
+            x[k],
+            v[k],
+            v[k + 1],
+            a[k],
+            a[k + 1],
+            p,
+            h,
+            y_scale,
+            budget,
+            tol,
+            kSy,
+            kSw,
+            fSy,
+            fSw,
+            tmp_y,
+            tmp_w,
+            gy,
+            gw,
+        )
         budget -= steps
         if status != STATUS_OK:
             return np.nan, np.nan, budget, status

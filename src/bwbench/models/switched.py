@@ -19,7 +19,10 @@ from bwbench.models.base import Box, LinearLayout, Model, Parameter
 LAYOUT = LinearLayout(
     names=("m", "c", "k", "h", "f"),
     units={"m": "N·s²/mm", "c": "N·s/mm", "k": "N/mm", "h": "N", "f": "N"},
-    fixed=(("c", "v"), ("k", "x"), ("f", "1")), varying="h", branched=True, mass="m",
+    fixed=(("c", "v"), ("k", "x"), ("f", "1")),
+    varying="h",
+    branched=True,
+    mass="m",
 )
 LINEAR_NAMES = ("m", "c+", "k+", "h+", "f+", "c-", "k-", "h-", "f-")  # = coefficient_names(LAYOUT)
 LINEAR_TOLERANCE = 0.05  # see SwitchedBoucWen.linear_branches
@@ -28,8 +31,10 @@ LINEAR_TOLERANCE = 0.05  # see SwitchedBoucWen.linear_branches
 class SwitchedBoucWen(Model):
     name = "switched-bouc-wen"
     title = "switched (asymmetric) Bouc-Wen model"
-    reference = ("J. Zalewski et al., Parameter identification of Bouc-Wen model for vacuum packed particles "
-                 "based on genetic algorithm, Arch. Civ. Mech. Eng. 2019, eqs 2-5")
+    reference = (
+        "J. Zalewski et al., Parameter identification of Bouc-Wen model for vacuum packed particles "
+        "based on genetic algorithm, Arch. Civ. Mech. Eng. 2019, eqs 2-5"
+    )
     states = kernel.STATES
     direct_name = "paper"
     default_formulation = "paper"
@@ -60,8 +65,12 @@ class SwitchedBoucWen(Model):
         for branch, mask in ((P[:, :7], plus), (P[:, 7:], ~plus)):
             xi, wn, alpha = branch[:, 5:6], branch[:, 6:7], branch[:, 2:3]
             with np.errstate(invalid="ignore", over="ignore"):
-                force[:, mask] = (s.a[mask] + 2.0 * xi * wn * s.v[mask] + alpha * wn * wn * s.x[mask]
-                                  + (1.0 - alpha) * wn * wn * Z[:, mask])
+                force[:, mask] = (
+                    s.a[mask]
+                    + 2.0 * xi * wn * s.v[mask]
+                    + alpha * wn * wn * s.x[mask]
+                    + (1.0 - alpha) * wn * wn * Z[:, mask]
+                )
         return np.where(np.all(np.isfinite(force), axis=1)[:, None], force, np.inf)
 
     def mse_batch(self, P, signal, f, state=None) -> np.ndarray:
@@ -71,7 +80,9 @@ class SwitchedBoucWen(Model):
     def hysteretic_parameters(self, state=None) -> tuple:
         from bwbench.models import switched_identifiable as fm
 
-        return tuple(Parameter(n, fm.HYSTERETIC_UNITS[n], fm.LABELS[n]) for n in fm.hysteretic_names(self.check_state(state)))
+        return tuple(
+            Parameter(n, fm.HYSTERETIC_UNITS[n], fm.LABELS[n]) for n in fm.hysteretic_names(self.check_state(state))
+        )
 
     def hysteretic_box(self, signal, f, state=None) -> Box:
         from bwbench.models import switched_identifiable as fm
@@ -135,7 +146,6 @@ class SwitchedBoucWen(Model):
         theta, linear = fm.from_paper(P, self.check_state(state))
         return theta, dict(zip(LINEAR_NAMES, map(float, linear)))
 
-
     def viscous_coefficients(self, values: dict, state=None) -> dict | None:
         if "c+" in values:
             return {"+": values["c+"], "-": values["c-"]}
@@ -195,8 +205,10 @@ class SwitchedBoucWen(Model):
 
         if self.check_state(state) == "shared":
             return [("z → s·z in both branches", lambda s: scale_paper(params, s, s))]
-        return [("z₊ → s·z₊", lambda s: scale_paper(params, s, 1.0)),
-                ("z₋ → s·z₋", lambda s: scale_paper(params, 1.0, s))]
+        return [
+            ("z₊ → s·z₊", lambda s: scale_paper(params, s, 1.0)),
+            ("z₋ → s·z₋", lambda s: scale_paper(params, 1.0, s)),
+        ]
 
 
 MODEL = SwitchedBoucWen()

@@ -87,10 +87,10 @@ def scale_paper(params, s_plus: float, s_minus: float) -> np.ndarray:
     c = 2ξ·ωn kept (ωn² = k + h/s, α = k/ωn², ξ = c/(2ωn)). The force is unchanged."""
     p = np.array(params, dtype=float)
     for i, s in enumerate((s_plus, s_minus)):
-        A, n, alpha, beta, gamma, xi, wn = p[7 * i:7 * i + 7]
+        A, n, alpha, beta, gamma, xi, wn = p[7 * i : 7 * i + 7]
         k, h, c = alpha * wn**2, (1 - alpha) * wn**2 / s, 2 * xi * wn
         wn2 = np.sqrt(k + h)
-        p[7 * i:7 * i + 7] = [A * s, n, k / wn2**2, beta * s ** (1 - n), gamma * s ** (1 - n), c / (2 * wn2), wn2]
+        p[7 * i : 7 * i + 7] = [A * s, n, k / wn2**2, beta * s ** (1 - n), gamma * s ** (1 - n), c / (2 * wn2), wn2]
     return p
 
 
@@ -107,10 +107,9 @@ def kernel_hysteretic(theta, state: str = "shared") -> np.ndarray:
     rho = theta[:, 6] if state == "shared" else np.ones(len(theta))
     s_p = 1.0 / xp  # β' + γ' on '+'
     s_m = rho ** (1.0 - n_m) / xm  # β' + γ' on '−'
-    return np.column_stack([1.0 / xp, n_p, s_p * (1 + ep) / 2, s_p * (1 - ep) / 2,
-                            rho / xm, n_m, s_m * (1 + em) / 2, s_m * (1 - em) / 2])
-
-
+    return np.column_stack(
+        [1.0 / xp, n_p, s_p * (1 + ep) / 2, s_p * (1 - ep) / 2, rho / xm, n_m, s_m * (1 + em) / 2, s_m * (1 - em) / 2]
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,8 +137,10 @@ class Bounds:
 
     def _ends(self):
         """Box ends in search coordinates (log of the log-scaled ones)."""
-        return (np.where(self.log, np.log(np.where(self.log, self.lower, 1.0)), self.lower),
-                np.where(self.log, np.log(np.where(self.log, self.upper, 1.0)), self.upper))
+        return (
+            np.where(self.log, np.log(np.where(self.log, self.lower, 1.0)), self.lower),
+            np.where(self.log, np.log(np.where(self.log, self.upper, 1.0)), self.upper),
+        )
 
 
 def scaled_bounds(x, f, state: str = "shared") -> Bounds:
@@ -148,11 +149,21 @@ def scaled_bounds(x, f, state: str = "shared") -> Bounds:
     amplitude = 0.5 * float(np.ptp(np.asarray(x, dtype=float)))
     if not amplitude > 0:
         raise ValueError("the displacement does not move: no scale for x_y")
-    box = {"xy": (XY_RANGE[0] * amplitude, XY_RANGE[1] * amplitude, True), "n": (*N_RANGE, True),
-           "eta": (*ETA_RANGE, False), "rho": (*RHO_RANGE, True)}
+    box = {
+        "xy": (XY_RANGE[0] * amplitude, XY_RANGE[1] * amplitude, True),
+        "n": (*N_RANGE, True),
+        "eta": (*ETA_RANGE, False),
+        "rho": (*RHO_RANGE, True),
+    }
     rows = [box[name.rstrip("+-")] for name in names]
-    return Bounds(names, np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
-                  np.array([r[2] for r in rows]), amplitude, float(np.max(np.abs(f))))
+    return Bounds(
+        names,
+        np.array([r[0] for r in rows]),
+        np.array([r[1] for r in rows]),
+        np.array([r[2] for r in rows]),
+        amplitude,
+        float(np.max(np.abs(f))),
+    )
 
 
 def _branch_invariants(A, n, beta, gamma):
@@ -168,7 +179,7 @@ def from_paper(params, state: str = "shared"):
     hysteretic_names(state)
     z_s, theta, linear = [], [], np.zeros(len(LINEAR_NAMES))
     for i, b in enumerate("+-"):
-        A, n, alpha, beta, gamma, xi, wn = p[7 * i:7 * i + 7]
+        A, n, alpha, beta, gamma, xi, wn = p[7 * i : 7 * i + 7]
         zs, xy, eta = _branch_invariants(A, n, beta, gamma)
         z_s.append(zs)
         theta += [xy, n, eta]
@@ -188,8 +199,9 @@ def _branch_paper(z_s, s_h, xy, n, eta, c, k, h):
         S = np.exp(np.log(A) - n * np.log(z_s))
         w2 = k + h / s_h
         wn = np.sqrt(np.where(w2 > 0, w2, np.nan))
-        return np.stack([A, np.full_like(A, n), k / wn**2, S * (1 + eta) / 2, S * (1 - eta) / 2,
-                         c / (2 * wn), wn], axis=-1)
+        return np.stack(
+            [A, np.full_like(A, n), k / wn**2, S * (1 + eta) / 2, S * (1 - eta) / 2, c / (2 * wn), wn], axis=-1
+        )
 
 
 def _omega_interval(k, h):
@@ -219,8 +231,7 @@ def _gauge_search(paper_of_log_s, index, lo, hi, center):
     d = dist(grid)
     j = int(np.argmin(d))
     a, b = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
-    res = minimize_scalar(lambda q: float(dist(q)[0]), bounds=(a, b), method="bounded",
-                          options={"xatol": 1e-12})
+    res = minimize_scalar(lambda q: float(dist(q)[0]), bounds=(a, b), method="bounded", options={"xatol": 1e-12})
     return float(res.x) if res.fun <= d[j] else float(grid[j])
 
 

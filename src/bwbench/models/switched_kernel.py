@@ -14,8 +14,20 @@ import numba
 import numpy as np
 
 PARAM_NAMES = (
-    "A+", "n+", "alpha+", "beta+", "gamma+", "xi+", "wn+",
-    "A-", "n-", "alpha-", "beta-", "gamma-", "xi-", "wn-",
+    "A+",
+    "n+",
+    "alpha+",
+    "beta+",
+    "gamma+",
+    "xi+",
+    "wn+",
+    "A-",
+    "n-",
+    "alpha-",
+    "beta-",
+    "gamma-",
+    "xi-",
+    "wn-",
 )
 N_PARAMS = len(PARAM_NAMES)
 STATES = ("shared", "split")
@@ -168,8 +180,12 @@ def _reversal_pieces(t0, t1, x0, x1, v0, v1):
     dt = t1 - t0
     th2 = theta * theta
     th3 = th2 * theta
-    x_rev = ((2.0 * th3 - 3.0 * th2 + 1.0) * x0 + (th3 - 2.0 * th2 + theta) * dt * v0
-             + (-2.0 * th3 + 3.0 * th2) * x1 + (th3 - th2) * dt * v1)
+    x_rev = (
+        (2.0 * th3 - 3.0 * th2 + 1.0) * x0
+        + (th3 - 2.0 * th2 + theta) * dt * v0
+        + (-2.0 * th3 + 3.0 * th2) * x1
+        + (th3 - th2) * dt * v1
+    )
     return x_rev - x0, x1 - x_rev
 
 

@@ -14,10 +14,20 @@ from bwbench.models.switched_bouc_wen import PARAM_NAMES
 
 # Paper Table 5. ξ₋ is printed "−23 to −575"; stored as lower −575, upper −23 (docs/design.md#parameters).
 TABLE5 = {
-    "A+": (0.001, 0.025), "n+": (0.43, 10.75), "alpha+": (0.07, 1.75), "beta+": (0.1, 2.5),
-    "gamma+": (0.3, 7.5), "xi+": (20.0, 500.0), "wn+": (0.3, 7.5),
-    "A-": (0.05, 1.25), "n-": (0.2, 5.0), "alpha-": (0.0055, 0.1375), "beta-": (0.001, 0.025),
-    "gamma-": (0.2, 5.0), "xi-": (-575.0, -23.0), "wn-": (1.8, 45.0),
+    "A+": (0.001, 0.025),
+    "n+": (0.43, 10.75),
+    "alpha+": (0.07, 1.75),
+    "beta+": (0.1, 2.5),
+    "gamma+": (0.3, 7.5),
+    "xi+": (20.0, 500.0),
+    "wn+": (0.3, 7.5),
+    "A-": (0.05, 1.25),
+    "n-": (0.2, 5.0),
+    "alpha-": (0.0055, 0.1375),
+    "beta-": (0.001, 0.025),
+    "gamma-": (0.2, 5.0),
+    "xi-": (-575.0, -23.0),
+    "wn-": (1.8, 45.0),
 }
 LOWER = np.array([TABLE5[name][0] for name in PARAM_NAMES])
 UPPER = np.array([TABLE5[name][1] for name in PARAM_NAMES])
@@ -25,11 +35,25 @@ UPPER = np.array([TABLE5[name][1] for name in PARAM_NAMES])
 # Units with x and z in mm, t in s, F in N and the paper's implicit mass 1 N·s²/mm: ωn in rad/s, ξ, α,
 # A and n dimensionless (dz/dx = A − (β + γ·sign(z·dx))·|z|^n has no unit), so β and γ carry mm^-n of
 # their own branch's n (β₊ in mm^-n₊).
-UNITS = {name: ("rad/s" if name.startswith("wn") else f"mm^-n{name[-1]}" if name[:-1] in ("beta", "gamma") else "-")
-         for name in PARAM_NAMES}
+UNITS = {
+    name: ("rad/s" if name.startswith("wn") else f"mm^-n{name[-1]}" if name[:-1] in ("beta", "gamma") else "-")
+    for name in PARAM_NAMES
+}
 LABELS = {
-    "A+": "A₊", "n+": "n₊", "alpha+": "α₊", "beta+": "β₊", "gamma+": "γ₊", "xi+": "ξ₊", "wn+": "ωn₊",
-    "A-": "A₋", "n-": "n₋", "alpha-": "α₋", "beta-": "β₋", "gamma-": "γ₋", "xi-": "ξ₋", "wn-": "ωn₋",
+    "A+": "A₊",
+    "n+": "n₊",
+    "alpha+": "α₊",
+    "beta+": "β₊",
+    "gamma+": "γ₊",
+    "xi+": "ξ₊",
+    "wn+": "ωn₊",
+    "A-": "A₋",
+    "n-": "n₋",
+    "alpha-": "α₋",
+    "beta-": "β₋",
+    "gamma-": "γ₋",
+    "xi-": "ξ₋",
+    "wn-": "ωn₋",
 }
 
 

@@ -192,8 +192,9 @@ def _hysteretic_sens_into(H, cols, t, x, v, split, z, dZ):
             r = 4 * b
             minus = split and b == 1
             zz = z_minus if minus else z_plus
-            zz = _advance_z_sens(zz, S, 1 if minus else 0, dx, H[r], H[r + 1], H[r + 2], H[r + 3], z_s[b],
-                                 rate[b], cols[b], K)
+            zz = _advance_z_sens(
+                zz, S, 1 if minus else 0, dx, H[r], H[r + 1], H[r + 2], H[r + 3], z_s[b], rate[b], cols[b], K
+            )
             if minus:
                 z_minus = zz
             else:

@@ -38,4 +38,3 @@ def _box_span(lower, upper, log_scaled):
     lo = np.where(log_scaled, np.log10(np.where(log_scaled, lower, 1.0)), lower)
     hi = np.where(log_scaled, np.log10(np.where(log_scaled, upper, 1.0)), upper)
     return lo, hi
-

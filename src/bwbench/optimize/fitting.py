@@ -24,7 +24,8 @@ def run(problem, optimizer: str, budget: int, seed, options: dict | None = None)
     backend = registry.get(optimizer)
     opts = registry.resolve_options(optimizer, options)
     if not isinstance(seed, np.random.SeedSequence) and (
-            isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
+        isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0
+    ):
         raise UserError(f"the seed must be a non-negative integer, got {seed!r}")
     seed_seq = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(int(seed))
     rng = np.random.default_rng(seed_seq)
@@ -50,11 +51,20 @@ def run(problem, optimizer: str, budget: int, seed, options: dict | None = None)
         params = {name: float(v) for name, v in zip(problem.param_names, objective.best_params)}
     seed_value = seed if not isinstance(seed, np.random.SeedSequence) else int(seed.generate_state(1)[0])
     return Result(
-        optimizer=optimizer, seed=int(seed_value), budget=int(budget), nfev=objective.nfev,
-        params=params, mse=float(objective.best_mse), success=bool(np.isfinite(objective.best_mse)),
-        message=message, wall_s=wall, options=opts,
-        trace_nfev=tuple(objective.trace_nfev), trace_mse=tuple(objective.trace_mse),
-        problem=dict(problem.info), extras=extras,
+        optimizer=optimizer,
+        seed=int(seed_value),
+        budget=int(budget),
+        nfev=objective.nfev,
+        params=params,
+        mse=float(objective.best_mse),
+        success=bool(np.isfinite(objective.best_mse)),
+        message=message,
+        wall_s=wall,
+        options=opts,
+        trace_nfev=tuple(objective.trace_nfev),
+        trace_mse=tuple(objective.trace_mse),
+        problem=dict(problem.info),
+        extras=extras,
         units=problem.units(params) if hasattr(problem, "units") else {},
         at_bound=on_box_edge(problem, objective.best_params) if objective.best_u is not None else {},
     )
@@ -88,7 +98,9 @@ def edge_warnings(problem, result, explained=()) -> list[str]:
         i = list(problem.param_names).index(name)
         unit = result.units.get(name, "")
         unit = "" if unit in ("", "-") else f" {unit}"
-        out.append(f"{name} = {result.params[name]:.6g}{unit} ended on the {side} edge of its search box "
-                   f"[{problem.lower[i]:.6g}, {problem.upper[i]:.6g}]: the best fit may lie beyond it "
-                   "(widen it with --bounds, or see docs/models.md on the box)")
+        out.append(
+            f"{name} = {result.params[name]:.6g}{unit} ended on the {side} edge of its search box "
+            f"[{problem.lower[i]:.6g}, {problem.upper[i]:.6g}]: the best fit may lie beyond it "
+            "(widen it with --bounds, or see docs/models.md on the box)"
+        )
     return out

@@ -107,8 +107,10 @@ class Objective:
         """
         residual_batch = getattr(self.problem, "residual_batch", None)
         if not callable(residual_batch):
-            raise TypeError(f"{type(self.problem).__name__} has no residual_batch: "
-                            "only its loss can be evaluated (use batch or __call__)")
+            raise TypeError(
+                f"{type(self.problem).__name__} has no residual_batch: "
+                "only its loss can be evaluated (use batch or __call__)"
+            )
         U = np.asarray(U, dtype=float)
         single = U.ndim == 1
         U = np.atleast_2d(U)
@@ -130,7 +132,11 @@ class Objective:
     @property
     def jacobian_cost(self) -> int:
         """Evaluations one ``residual_jacobian`` is charged; 0 when the problem has no exact Jacobian."""
-        return int(getattr(self.problem, "jacobian_cost", 0)) if callable(getattr(self.problem, "residual_jacobian", None)) else 0
+        return (
+            int(getattr(self.problem, "jacobian_cost", 0))
+            if callable(getattr(self.problem, "residual_jacobian", None))
+            else 0
+        )
 
     def residual_jacobian(self, u):
         """(residual (n,), its Jacobian (n, d) in unit coordinates) of one point u (d,), exact (the

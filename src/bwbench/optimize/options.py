@@ -147,8 +147,11 @@ class Int(Option):
 
     def _normalise(self, value):
         value = _number(value, integer=True)
-        if value is _INVALID or (self.minimum is not None and value < self.minimum) or (
-                self.maximum is not None and value > self.maximum):
+        if (
+            value is _INVALID
+            or (self.minimum is not None and value < self.minimum)
+            or (self.maximum is not None and value > self.maximum)
+        ):
             return _INVALID
         return value
 
@@ -168,8 +171,16 @@ class Int(Option):
 class Float(Option):
     """A finite number in the interval the bounds give (each inclusive unless ``exclusive_...``)."""
 
-    def __init__(self, default, minimum: float | None = None, maximum: float | None = None,
-                 exclusive_minimum: bool = False, exclusive_maximum: bool = False, *, none=None):
+    def __init__(
+        self,
+        default,
+        minimum: float | None = None,
+        maximum: float | None = None,
+        exclusive_minimum: bool = False,
+        exclusive_maximum: bool = False,
+        *,
+        none=None,
+    ):
         self.minimum, self.maximum = minimum, maximum
         self.exclusive_minimum, self.exclusive_maximum = exclusive_minimum, exclusive_maximum
         super().__init__(default, none=none)
@@ -195,8 +206,10 @@ class Float(Option):
 
     def _edges(self) -> list:
         out = []
-        for bound, exclusive, inward in ((self.minimum, self.exclusive_minimum, 1.0),
-                                         (self.maximum, self.exclusive_maximum, -1.0)):
+        for bound, exclusive, inward in (
+            (self.minimum, self.exclusive_minimum, 1.0),
+            (self.maximum, self.exclusive_maximum, -1.0),
+        ):
             if bound is None:
                 out.append(-inward * LARGE_FLOAT)
                 continue
@@ -246,8 +259,9 @@ class FloatOrPair(Option):
     """A number, or a pair [lo, hi] with lo ≤ hi, each in the interval (e.g. scipy DE's ``mutation``:
     a constant, or a range to dither in). A pair is normalised to a list, as JSON and TOML give it."""
 
-    def __init__(self, default, minimum=None, maximum=None, exclusive_minimum=False, exclusive_maximum=False,
-                 *, none=None):
+    def __init__(
+        self, default, minimum=None, maximum=None, exclusive_minimum=False, exclusive_maximum=False, *, none=None
+    ):
         # checks one number; its default (None, hence none=) is never used
         self.number = Float(None, minimum, maximum, exclusive_minimum, exclusive_maximum, none="unused")
         super().__init__(default, none=none)

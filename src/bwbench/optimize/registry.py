@@ -97,18 +97,37 @@ class Backend:
 # imports only its module and the libraries it needs (emcee, scipy.optimize, nlopt and pyswarms cost
 # a second or more together). A test checks this table against what the modules register.
 BUILTIN = {
-    "random": "random_search", "paper-ga": "paper_ga", "firefly": "firefly", "pso": "pso",
-    "anneal": "anneal", "nlopt-bobyqa": "nlopt_local", "nlopt-sbplx": "nlopt_local",
-    "nlopt-neldermead": "nlopt_local", "cmaes": "cmaes", "de": "de", "emcee": "emcee_sampler",
-    "lsq-trf": "lsq_trf", "nested": "nested_sampler",
+    "random": "random_search",
+    "paper-ga": "paper_ga",
+    "firefly": "firefly",
+    "pso": "pso",
+    "anneal": "anneal",
+    "nlopt-bobyqa": "nlopt_local",
+    "nlopt-sbplx": "nlopt_local",
+    "nlopt-neldermead": "nlopt_local",
+    "cmaes": "cmaes",
+    "de": "de",
+    "emcee": "emcee_sampler",
+    "lsq-trf": "lsq_trf",
+    "nested": "nested_sampler",
 }
 REGISTRY: plugins.Registry[Backend] = plugins.Registry(
-    "optimiser", ENTRY_POINT_GROUP, {name: f"bwbench.optimizers.{module}" for name, module in BUILTIN.items()},
-    known="available")
+    "optimiser",
+    ENTRY_POINT_GROUP,
+    {name: f"bwbench.optimizers.{module}" for name, module in BUILTIN.items()},
+    known="available",
+)
 
 
-def register(name: str, *, family: str, description: str, options: dict | None = None,
-             defaults: dict | None = None, batched: bool = True):
+def register(
+    name: str,
+    *,
+    family: str,
+    description: str,
+    options: dict | None = None,
+    defaults: dict | None = None,
+    batched: bool = True,
+):
     """Decorator: register ``minimize`` under ``name``; a second backend of the same name is refused.
 
     ``options``: {name: declaration} (typed, checked before every run); ``defaults``: {name: value}
@@ -119,8 +138,10 @@ def register(name: str, *, family: str, description: str, options: dict | None =
     options = dict(options or {})
     for key, declaration in options.items():
         if not isinstance(declaration, Option):
-            raise TypeError(f"{name}: option {key!r} must be declared with bwbench.optimize.options "
-                            f"(Int, Float, Choice, Bool, ...), got {declaration!r}; plain defaults go in defaults=")
+            raise TypeError(
+                f"{name}: option {key!r} must be declared with bwbench.optimize.options "
+                f"(Int, Float, Choice, Bool, ...), got {declaration!r}; plain defaults go in defaults="
+            )
     if options:
         defaults = {key: declaration.default for key, declaration in options.items()}
 
@@ -175,10 +196,13 @@ def resolve_options(backend_name: str, given: dict | None = None, *, label: str 
     known = backend.options or backend.defaults
     unknown = sorted((key for key in given if key not in known), key=str)
     if unknown:
-        raise UserError(f"{label}: unknown option(s) {', '.join(map(str, unknown))}; "
-                        f"it takes {', '.join(known) or 'none'}")
+        raise UserError(
+            f"{label}: unknown option(s) {', '.join(map(str, unknown))}; it takes {', '.join(known) or 'none'}"
+        )
     if not backend.options:  # untyped (defaults=): names only, values unchecked, as before typed options
         return {**backend.defaults, **given}
     # The default goes through validate too: a fresh copy, so a backend may modify what it gets.
-    return {key: declaration.validate(given[key] if key in given else declaration.default, f"{label}: option {key}")
-            for key, declaration in backend.options.items()}
+    return {
+        key: declaration.validate(given[key] if key in given else declaration.default, f"{label}: option {key}")
+        for key, declaration in backend.options.items()
+    }

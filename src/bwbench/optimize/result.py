@@ -42,9 +42,17 @@ class Result:
     def to_record(self) -> dict:
         """A flat dict of scalars: one row of a tidy results table."""
         record = {
-            "optimizer": self.optimizer, "seed": self.seed, "budget": self.budget, "nfev": self.nfev,
-            "mse": self.mse, "f_err": self.f_err, "rmse_N": self.rmse_N, "success": self.success,
-            "message": self.message, "wall_s": self.wall_s, **self.problem,
+            "optimizer": self.optimizer,
+            "seed": self.seed,
+            "budget": self.budget,
+            "nfev": self.nfev,
+            "mse": self.mse,
+            "f_err": self.f_err,
+            "rmse_N": self.rmse_N,
+            "success": self.success,
+            "message": self.message,
+            "wall_s": self.wall_s,
+            **self.problem,
         }
         record.update({name: self.params.get(name, math.nan) for name in self.params})
         return record
@@ -52,10 +60,19 @@ class Result:
     def to_json_dict(self) -> dict:
         """The result JSON of docs/design.md#data-formats (plus the trace and options)."""
         out = {
-            "params": self.params, "mse": self.mse, "f_err": self.f_err, "rmse_N": self.rmse_N,
-            "nfev": self.nfev, "budget": self.budget, "optimizer": self.optimizer, "seed": self.seed,
-            "wall_s": self.wall_s, "success": self.success, "message": self.message,
-            "options": self.options, **self.problem,
+            "params": self.params,
+            "mse": self.mse,
+            "f_err": self.f_err,
+            "rmse_N": self.rmse_N,
+            "nfev": self.nfev,
+            "budget": self.budget,
+            "optimizer": self.optimizer,
+            "seed": self.seed,
+            "wall_s": self.wall_s,
+            "success": self.success,
+            "message": self.message,
+            "options": self.options,
+            **self.problem,
             "trace": {"nfev": list(self.trace_nfev), "mse": list(self.trace_mse)},
         }
         scalars = {k: v for k, v in self.extras.items() if isinstance(v, (int, float, str, bool))}

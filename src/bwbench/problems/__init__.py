@@ -23,8 +23,18 @@ from types import ModuleType
 import bwbench.plugins as plugins
 from bwbench.problems.base import Problem, ProblemSetup, ProblemType, SpecimenEntry
 
-__all__ = ["Problem", "ProblemSetup", "ProblemType", "SpecimenEntry", "DEFAULT", "ENTRY_POINT_GROUP", "get",
-           "names", "only_in_this_process", "register"]
+__all__ = [
+    "Problem",
+    "ProblemSetup",
+    "ProblemType",
+    "SpecimenEntry",
+    "DEFAULT",
+    "ENTRY_POINT_GROUP",
+    "get",
+    "names",
+    "only_in_this_process",
+    "register",
+]
 
 ENTRY_POINT_GROUP = "bwbench.problems"
 DEFAULT = "switched-bouc-wen"
@@ -45,16 +55,21 @@ def _read(ep, loaded) -> str:
     """The entry point's problem type registered (its name), or ``PluginError`` naming the entry point."""
     problem_type = loaded.PROBLEM_TYPE if isinstance(loaded, ModuleType) else loaded
     if not isinstance(problem_type, ProblemType):
-        raise plugins.failed(ep, "problem", f"gives {problem_type!r}, not a bwbench.problems.ProblemType instance "
-                             "(or a module with a PROBLEM_TYPE)")
+        raise plugins.failed(
+            ep,
+            "problem",
+            f"gives {problem_type!r}, not a bwbench.problems.ProblemType instance (or a module with a PROBLEM_TYPE)",
+        )
     if problem_type.name != ep.name:
-        raise plugins.failed(ep, "problem", f"gives a problem named {problem_type.name!r}: the entry point's name "
-                             "must be the problem's")
+        raise plugins.failed(
+            ep, "problem", f"gives a problem named {problem_type.name!r}: the entry point's name must be the problem's"
+        )
     return register(problem_type).name
 
 
-REGISTRY: plugins.Registry[ProblemType] = plugins.Registry("problem", ENTRY_POINT_GROUP, _BUILTIN,
-                                                           attribute="PROBLEM_TYPE", read=_read)
+REGISTRY: plugins.Registry[ProblemType] = plugins.Registry(
+    "problem", ENTRY_POINT_GROUP, _BUILTIN, attribute="PROBLEM_TYPE", read=_read
+)
 
 
 def names() -> list[str]:

@@ -176,6 +176,7 @@ class ProblemType:
 # Checks for ``configure`` implementations: ``fail`` raises a UserError naming the file.
 Fail = Callable[[str], NoReturn]
 
+
 def integer(fail, label, value, minimum=1, what="a positive integer") -> int:
     # bool is an int subclass: `budget = true` must not read as 1.
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:

@@ -77,8 +77,10 @@ class Document:
                 lines = [cells(frame.columns), "|" + "|".join("---" for _ in frame.columns) + "|"]
                 lines += [cells(row) for row in frame.itertuples(index=False)]
                 if csv:  # GitHub renders <details> in markdown too
-                    out.append(f"<details><summary>{html.escape(caption)} ({len(frame)} rows; data: {csv})</summary>"
-                               "\n\n" + "\n".join(lines) + "\n\n</details>")
+                    out.append(
+                        f"<details><summary>{html.escape(caption)} ({len(frame)} rows; data: {csv})</summary>"
+                        "\n\n" + "\n".join(lines) + "\n\n</details>"
+                    )
                 else:
                     out.append((f"*{caption}*\n\n" if caption else "") + "\n".join(lines))
             elif kind == "img":
@@ -109,40 +111,61 @@ class Document:
             elif kind == "ul":
                 body.append("<ul>" + "".join(f"<li>{self._inline(i)}</li>" for i in block[1]) + "</ul>")
             elif kind == "box":
-                body.append('<div class="answer"><ul>' + "".join(f"<li>{self._inline(i)}</li>" for i in block[1])
-                            + "</ul></div>")
+                body.append(
+                    '<div class="answer"><ul>'
+                    + "".join(f"<li>{self._inline(i)}</li>" for i in block[1])
+                    + "</ul></div>"
+                )
             elif kind == "table":
                 frame, caption, csv = block[1], block[2], block[3]
                 # text columns left, number columns right (decided per column, so a column reads as one)
                 # a column of long texts (backend options) wraps, so the table fits the page
-                align = ['' if all(_NUMBER.match(str(c)) for c in frame[col]) else
-                         ' class="text long"' if max(len(str(c)) for c in frame[col]) > 40 else ' class="text"'
-                         for col in frame.columns] if len(frame) else [''] * len(frame.columns)
+                align = (
+                    [
+                        ""
+                        if all(_NUMBER.match(str(c)) for c in frame[col])
+                        else ' class="text long"'
+                        if max(len(str(c)) for c in frame[col]) > 40
+                        else ' class="text"'
+                        for col in frame.columns
+                    ]
+                    if len(frame)
+                    else [""] * len(frame.columns)
+                )
                 head = "".join(f"<th{a}>{self._inline(str(c))}</th>" for a, c in zip(align, frame.columns))
-                rows = "".join("<tr>" + "".join(f"<td{a}>{self._inline(str(c))}</td>" for a, c in zip(align, row))
-                               + "</tr>" for row in frame.itertuples(index=False))
+                rows = "".join(
+                    "<tr>" + "".join(f"<td{a}>{self._inline(str(c))}</td>" for a, c in zip(align, row)) + "</tr>"
+                    for row in frame.itertuples(index=False)
+                )
                 # the caption outside the scrolling box: it wraps to the page, not to the table's width
                 cap = f'<p class="caption">{self._inline(caption)}</p>' if caption and not csv else ""
-                table = (f'{cap}<div class="scroll"><table><thead><tr>{head}</tr></thead>'
-                         f"<tbody>{rows}</tbody></table></div>")
+                table = (
+                    f'{cap}<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table></div>'
+                )
                 if csv:
                     link = f'<a href="{html.escape(csv)}">{html.escape(csv)}</a>'
-                    table = (f"<details><summary>{self._inline(caption)} ({len(frame)} rows; data: {link})</summary>"
-                             f"{table}</details>")
+                    table = (
+                        f"<details><summary>{self._inline(caption)} ({len(frame)} rows; data: {link})</summary>"
+                        f"{table}</details>"
+                    )
                 body.append(table)
             elif kind == "img":
                 png, caption = block[1], block[2]
                 data = base64.b64encode(png.read_bytes()).decode("ascii")
                 csv_name = html.escape(png.with_suffix(".csv").name)
-                body.append(f'<figure><div class="figure"><a href="{html.escape(png.name)}" title="full size">'
-                            f'<img alt="{html.escape(caption)}" src="data:image/png;base64,{data}"></a></div>'
-                            f"<figcaption>{self._inline(caption)} (data: <code>{csv_name}</code>)</figcaption>"
-                            "</figure>")
+                body.append(
+                    f'<figure><div class="figure"><a href="{html.escape(png.name)}" title="full size">'
+                    f'<img alt="{html.escape(caption)}" src="data:image/png;base64,{data}"></a></div>'
+                    f"<figcaption>{self._inline(caption)} (data: <code>{csv_name}</code>)</figcaption>"
+                    "</figure>"
+                )
             elif kind == "pre":
                 body.append(f"<pre>{html.escape(block[1])}</pre>")
-        head = (f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
-                '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
-                f"<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n")
+        head = (
+            f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+            '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+            f"<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n"
+        )
         return head + "<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"
 
 

@@ -79,37 +79,78 @@ def runtime_distributions(study, out_dir, order=None, noun: str | None = None, t
     for (variant, names), (left, right) in zip(groups.items(), axes):
         coloured, baselines, grey = highlighted(names)
         for rank, name in enumerate(grey + baselines + coloured[::-1]):
-            kw = ({"color": GREY, "lw": 1.0, "zorder": 2} if name in grey else
-                  look[name].line(lw=1.9, markers=True, ms=5, zorder=10 - min(rank, 8),
-                                  markevery=(7 + 29 * rank % 53, 60)))
+            kw = (
+                {"color": GREY, "lw": 1.0, "zorder": 2}
+                if name in grey
+                else look[name].line(
+                    lw=1.9, markers=True, ms=5, zorder=10 - min(rank, 8), markevery=(7 + 29 * rank % 53, 60)
+                )
+            )
             y = ecdf(rt.loc[rt["optimizer"] == name, "evals"], grid)
             left.step(grid, y, where="post", **kw)
             mine = np.sort(np.maximum(excess[(ranking["optimizer"] == name).to_numpy()], FLOOR))
             share = np.arange(1, mine.size + 1) / max(mine.size, 1)
             shown = np.isfinite(mine)
-            right.step(np.r_[FLOOR, mine[shown]], np.r_[0.0, share[shown]], where="post",
-                       **{**kw, "markevery": (1, max(1, mine.size // 6))} if name not in grey else kw)
+            right.step(
+                np.r_[FLOOR, mine[shown]],
+                np.r_[0.0, share[shown]],
+                where="post",
+                **{**kw, "markevery": (1, max(1, mine.size // 6))} if name not in grey else kw,
+            )
             drawn += [] if name in grey else [name]
-            rows.append(pd.DataFrame({"view": "fixed target", "variant": variant, "label": name, "x": grid,
-                                      "fraction": y, "highlighted": name not in grey}))
-            rows.append(pd.DataFrame({"view": "fixed budget", "variant": variant, "label": name, "x": mine,
-                                      "fraction": share, "highlighted": name not in grey}))
+            rows.append(
+                pd.DataFrame(
+                    {
+                        "view": "fixed target",
+                        "variant": variant,
+                        "label": name,
+                        "x": grid,
+                        "fraction": y,
+                        "highlighted": name not in grey,
+                    }
+                )
+            )
+            rows.append(
+                pd.DataFrame(
+                    {
+                        "view": "fixed budget",
+                        "variant": variant,
+                        "label": name,
+                        "x": mine,
+                        "fraction": share,
+                        "highlighted": name not in grey,
+                    }
+                )
+            )
         where = f"{variant} {noun or 'variant'}: " if variant is not None else ""
         left.set_title(f"{where}fixed target ({len(taus)} targets)", loc="left")
         right.set_title(f"{where}fixed budget ({budget:,.0f} evaluations)", loc="left")
         _axes(left, right, budget, high)
         if grey:
-            left.text(0.015, 0.97, "grey: " + ", ".join(split_label(n)[0] for n in grey), transform=left.transAxes,
-                      va="top", ha="left", fontsize=9, color="0.25", wrap=True,
-                      bbox={"fc": "white", "ec": "0.8", "boxstyle": "round"})
+            left.text(
+                0.015,
+                0.97,
+                "grey: " + ", ".join(split_label(n)[0] for n in grey),
+                transform=left.transAxes,
+                va="top",
+                ha="left",
+                fontsize=9,
+                color="0.25",
+                wrap=True,
+                bbox={"fc": "white", "ec": "0.8", "boxstyle": "round"},
+            )
     handles = [look[n].handle() for n in look if n in set(drawn)]
-    handles += [Line2D([], [], color="black", lw=1.0, ls=ls, label=f"final loss {tau:.0%} above the best known")
-                for tau, ls in zip(statistics.TOLERANCES, (":", "--"))]
+    handles += [
+        Line2D([], [], color="black", lw=1.0, ls=ls, label=f"final loss {tau:.0%} above the best known")
+        for tau, ls in zip(statistics.TOLERANCES, (":", "--"))
+    ]
     if any(highlighted(names)[2] for names in groups.values()):
         handles.append(Line2D([], [], color=GREY, lw=1.0, label="other labels (named in the panel)"))
     legend(fig, handles, ncol=3)
-    fig.suptitle("Runtime distributions: how often and how fast each label reaches the best known loss "
-                 "(labels in the report's order)")
+    fig.suptitle(
+        "Runtime distributions: how often and how fast each label reaches the best known loss "
+        "(labels in the report's order)"
+    )
     frame = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     return save(fig, out_dir, "ecdf", frame, study.problem_type.is_synthetic(study))
 
@@ -122,7 +163,7 @@ def excess_label(v, _=None) -> str:
     if percent < 1000:
         return f"{prefix}{percent:g} %"
     exponent = int(round(np.log10(percent)))
-    return f"{prefix}$10^{{{exponent}}}$ %" if np.isclose(percent, 10.0 ** exponent) else f"{prefix}{percent:.0e} %"
+    return f"{prefix}$10^{{{exponent}}}$ %" if np.isclose(percent, 10.0**exponent) else f"{prefix}{percent:.0e} %"
 
 
 def _axes(left, right, budget: float, high: float) -> None:

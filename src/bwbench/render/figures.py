@@ -63,8 +63,11 @@ def specimen_title(study, specimen: str) -> str:
     """``"0.05 MPa, repeat 1"`` when the runs give underpressure and repeat (``"POM C9021, 0.05 MPa,
     repeat 1"`` when the study has several materials), else the specimen's name."""
     row = study.runs[study.runs["specimen"] == specimen].head(1)
-    if len(row) and "underpressure_MPa" in row and np.isfinite(pd.to_numeric(row["underpressure_MPa"].iloc[0],
-                                                                              errors="coerce")):
+    if (
+        len(row)
+        and "underpressure_MPa" in row
+        and np.isfinite(pd.to_numeric(row["underpressure_MPa"].iloc[0], errors="coerce"))
+    ):
         text = f"{float(row['underpressure_MPa'].iloc[0]):g} MPa"
         if "material" in row and study.runs["material"].nunique() > 1:
             text = f"{row['material'].iloc[0]}, {text}"
@@ -74,6 +77,7 @@ def specimen_title(study, specimen: str) -> str:
 
 
 # --------------------------------------------------------------------------------- convergence
+
 
 def best_so_far(trace_nfev, trace_mse, grid) -> np.ndarray:
     """The step function of a best-so-far trace at evaluation counts ``grid``: +inf before the
@@ -123,17 +127,32 @@ def _convergence_panel(ax, curves: dict, look: dict, names: list, grid, budget: 
         if optimizer in grey:
             ax.plot(grid, median, color=GREY, lw=1.0, zorder=2)
         else:
-            ax.plot(grid, median, **style.line(markers=True, ms=5, markevery=(8 + 11 * rank % 37, 60)),
-                    zorder=3 + len(names) - rank)
+            ax.plot(
+                grid,
+                median,
+                **style.line(markers=True, ms=5, markevery=(8 + 11 * rank % 37, 60)),
+                zorder=3 + len(names) - rank,
+            )
             shown.append(median[grid >= budget / 10])
             drawn.append(optimizer)
         if optimizer in coloured[:bands]:
             ax.fill_between(grid, q25, q75, color=style.colour, alpha=0.13, lw=0, zorder=1)
             shown.append(q25[grid >= budget / 10])
             banded.add(optimizer)
-        rows.append(pd.DataFrame({"optimizer": optimizer, "nfev": grid, "median": median, "q25": q25, "q75": q75,
-                                  "runs": len(curves[optimizer]), "highlighted": optimizer not in grey,
-                                  "band": optimizer in coloured[:bands]}))
+        rows.append(
+            pd.DataFrame(
+                {
+                    "optimizer": optimizer,
+                    "nfev": grid,
+                    "median": median,
+                    "q25": q25,
+                    "q75": q75,
+                    "runs": len(curves[optimizer]),
+                    "highlighted": optimizer not in grey,
+                    "band": optimizer in coloured[:bands],
+                }
+            )
+        )
     values = np.concatenate(shown + [np.array([1.0])])
     values = values[np.isfinite(values) & (values > 0)]
     ax.set_yscale("log")
@@ -142,14 +161,24 @@ def _convergence_panel(ax, curves: dict, look: dict, names: list, grid, budget: 
     plain_log_axis(ax.yaxis, high / low)
     ax.set_xlim(0, budget * 1.01)
     if grey:
-        ax.text(0.99, 0.97, "grey: " + ", ".join(split_label(n)[0] for n in grey), transform=ax.transAxes,
-                va="top", ha="right", fontsize=9, color="0.25",
-                bbox={"fc": "white", "ec": "0.8", "boxstyle": "round"}, zorder=20)
+        ax.text(
+            0.99,
+            0.97,
+            "grey: " + ", ".join(split_label(n)[0] for n in grey),
+            transform=ax.transAxes,
+            va="top",
+            ha="right",
+            fontsize=9,
+            color="0.25",
+            bbox={"fc": "white", "ec": "0.8", "boxstyle": "round"},
+            zorder=20,
+        )
     return {"rows": rows, "drawn": drawn, "banded": banded, "grey": grey, "counts": counts}
 
 
-def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=None, order=None,
-                bands: int = BANDS) -> Path:
+def convergence(
+    study, out_dir, specimens=None, max_specimens: int = 4, floors=None, order=None, bands: int = BANDS
+) -> Path:
     """Best-so-far loss against evaluations (every label): the median across seeds as a line, the
     interquartile range as a band for the ``bands`` best labels only. First panel (when there are
     several specimens): all specimens pooled; then one panel per specimen of ``specimens`` (at most
@@ -169,19 +198,23 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
     look = styles(study, order)
     groups = by_variant([o for o in look if o in set(ranking["optimizer"])])
     columns = len(groups) if len(groups) > 1 else 1
-    specimens = specimen_order(study, list(specimens or study.specimens)[:max_specimens if columns == 1 else 2])
+    specimens = specimen_order(study, list(specimens or study.specimens)[: max_specimens if columns == 1 else 2])
     budget = float(np.nanmax(ranking["nfev"])) if len(ranking) else 1.0
     grid = _evaluation_grid(budget)
-    traces = {k: g for k, g in study.traces[study.traces["kind"] == "ranking"].groupby(
-        ["specimen", "optimizer", "replicate"])}
+    traces = {
+        k: g for k, g in study.traces[study.traces["kind"] == "ranking"].groupby(["specimen", "optimizer", "replicate"])
+    }
     # The pooled panel divides by each specimen's floor only if every specimen has one: a mix of
     # floors and best knowns would put different things at 1.
     pooled_floor = all(s in floors for s in study.specimens)
-    reference = {(s, pooled): floors[s][0] if s in floors and (pooled_floor or not pooled) else best[s]
-                 for s in study.specimens for pooled in (True, False)}
+    reference = {
+        (s, pooled): floors[s][0] if s in floors and (pooled_floor or not pooled) else best[s]
+        for s in study.specimens
+        for pooled in (True, False)
+    }
     panels = [("all specimens (pooled)", None)] if len(specimens) > 1 else []
     panels += [(specimen_title(study, s), s) for s in specimens]
-    cells = ([(p, v) for p in panels for v in groups] if columns > 1 else [(p, None) for p in panels])
+    cells = [(p, v) for p in panels for v in groups] if columns > 1 else [(p, None) for p in panels]
     ncols = columns if columns > 1 else (1 if len(panels) == 1 else 2)
     nrows = -(-len(cells) // ncols)
     fig, axes = figure(MAX_WIDTH_IN, 3.3 * nrows + 1.4, nrows=nrows, ncols=ncols, squeeze=False, sharex=True)
@@ -189,46 +222,66 @@ def convergence(study, out_dir, specimens=None, max_specimens: int = 4, floors=N
     for ax, ((title, specimen), variant) in zip(axes.flat, cells):
         names = groups[variant] if columns > 1 else [o for g in groups.values() for o in g]
         on_floor = pooled_floor if specimen is None else specimen in floors
-        curves = {optimizer: [best_so_far(g["nfev"].to_numpy(), g["mse"].to_numpy(), grid) / reference[s, specimen is None]
-                              for (s, o, _), g in traces.items() if o == optimizer and specimen in (None, s)]
-                  for optimizer in names}
+        curves = {
+            optimizer: [
+                best_so_far(g["nfev"].to_numpy(), g["mse"].to_numpy(), grid) / reference[s, specimen is None]
+                for (s, o, _), g in traces.items()
+                if o == optimizer and specimen in (None, s)
+            ]
+            for optimizer in names
+        }
         panel = _convergence_panel(ax, curves, look, [o for o in look if o in set(names)], grid, budget, bands)
         greyed |= bool(panel["grey"])
         drawn += panel["drawn"]
         banded |= panel["banded"]
-        rows += [frame.assign(panel=title, variant=variant, y="mse_over_floor" if on_floor else "mse_over_best_known")
-                 for frame in panel["rows"]]
-        floor_name = floors[specimen][1] if specimen is not None and on_floor else (
-            next(iter(floors.values()))[1] if on_floor else "best known")
+        rows += [
+            frame.assign(panel=title, variant=variant, y="mse_over_floor" if on_floor else "mse_over_best_known")
+            for frame in panel["rows"]
+        ]
+        floor_name = (
+            floors[specimen][1]
+            if specimen is not None and on_floor
+            else (next(iter(floors.values()))[1] if on_floor else "best known")
+        )
         ax.axhline(1.0, color="black", lw=1.1, ls=(0, (5, 3)) if on_floor else ":", zorder=2)
         ax.set_ylabel(f"MSE / {floor_name} (–)")
-        floor_text = (f"; {floor_name} {floors[specimen][0]:.3g} {study.loss_unit}"
-                      if specimen is not None and on_floor else "")
+        floor_text = (
+            f"; {floor_name} {floors[specimen][0]:.3g} {study.loss_unit}" if specimen is not None and on_floor else ""
+        )
         counts = panel["counts"]
         count_text = f" ({counts.pop()} runs per label)" if len(counts) == 1 else ""
         where = f"{variant}: " if variant is not None else ""
         # wrapped to the panel's width: side-by-side panels' titles would otherwise run into each other
-        ax.set_title(textwrap.fill(where + title + floor_text + count_text, width=int((MAX_WIDTH_IN / ncols - 0.8) * 12.5)),
-                     loc="left", fontsize=10)
-    for k, ax in enumerate(axes.flat[:len(cells)]):
+        ax.set_title(
+            textwrap.fill(where + title + floor_text + count_text, width=int((MAX_WIDTH_IN / ncols - 0.8) * 12.5)),
+            loc="left",
+            fontsize=10,
+        )
+    for k, ax in enumerate(axes.flat[: len(cells)]):
         if k + ncols >= len(cells):  # the lowest panel of its column carries the axis
             ax.xaxis.set_tick_params(labelbottom=True)
             ax.set_xlabel("evaluations")
-    for ax in axes.flat[len(cells):]:
+    for ax in axes.flat[len(cells) :]:
         ax.set_visible(False)
     columns_csv = ["panel", "variant", "optimizer", "nfev", "median", "q25", "q75", "runs", "highlighted", "band", "y"]
     frame = pd.concat(rows, ignore_index=True)[columns_csv] if rows else pd.DataFrame()
     handles = backend_handles(look, drawn)
     if banded:
         per_panel = max(len([o for o in g if o in banded]) for g in groups.values())
-        handles.append(Patch(color="0.6", alpha=0.5, label=f"interquartile range over seeds (best {per_panel}"
-                             + (" per column)" if columns > 1 else ")")))
+        handles.append(
+            Patch(
+                color="0.6",
+                alpha=0.5,
+                label=f"interquartile range over seeds (best {per_panel}" + (" per column)" if columns > 1 else ")"),
+            )
+        )
     if greyed:
         handles.append(Line2D([], [], color=GREY, lw=1.0, label="other labels (named in the panel)"))
     kinds = {pooled_floor if s is None else s in floors for (_, s), _ in cells}
     if True in kinds:
-        handles.append(Line2D([], [], color="black", lw=1.1, ls=(0, (5, 3)),
-                              label=f"{next(iter(floors.values()))[1]} = 1"))
+        handles.append(
+            Line2D([], [], color="black", lw=1.1, ls=(0, (5, 3)), label=f"{next(iter(floors.values()))[1]} = 1")
+        )
     if False in kinds:
         handles.append(Line2D([], [], color="black", lw=1.1, ls=":", label="best known = 1"))
     legend(fig, handles, ncol=4)

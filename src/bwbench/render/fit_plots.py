@@ -13,8 +13,14 @@ from typing import Any
 
 import numpy as np
 
-STYLE: Any = {"font.size": 9, "axes.grid": True, "grid.alpha": 0.3, "axes.spines.top": False,
-             "axes.spines.right": False, "legend.frameon": False}  # Any: matplotlib types the keys as literals
+STYLE: Any = {
+    "font.size": 9,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "legend.frameon": False,
+}  # Any: matplotlib types the keys as literals
 MEASURED = {"color": "0.35", "lw": 0.9, "label": "measured"}
 MODEL = {"color": "tab:red", "lw": 1.1, "label": "model"}
 PANELS = 4
@@ -34,15 +40,33 @@ def draw(prediction, axes) -> None:
     model = np.where(np.isfinite(p.force_N), p.force_N, np.nan)
     rmse = f"RMSE {p.rmse_N:.3g} N, NRMSE {p.nrmse:.3g}"
     panels = [
-        (lambda ax: (ax.plot(x, p.measured_N, **MEASURED), ax.plot(x, model, **MODEL)),
-         "displacement (mm)", "force (N)", f"{p.specimen}: {rmse}"),
-        (lambda ax: (ax.plot(v, p.measured_N, **MEASURED), ax.plot(v, model, **MODEL)),
-         "velocity (mm/s)", "force (N)", "force–velocity"),
-        (lambda ax: (ax.plot(t, p.measured_N, **MEASURED), ax.plot(t, model, **MODEL)),
-         "time (s)", "force (N)", "force against time"),
-        (lambda ax: (ax.plot(t, model - p.measured_N, color="tab:blue", lw=0.8, label="model − measured"),
-                     ax.axhline(0.0, color="0.5", lw=0.6)),
-         "time (s)", "residual (N)", "residual"),
+        (
+            lambda ax: (ax.plot(x, p.measured_N, **MEASURED), ax.plot(x, model, **MODEL)),
+            "displacement (mm)",
+            "force (N)",
+            f"{p.specimen}: {rmse}",
+        ),
+        (
+            lambda ax: (ax.plot(v, p.measured_N, **MEASURED), ax.plot(v, model, **MODEL)),
+            "velocity (mm/s)",
+            "force (N)",
+            "force–velocity",
+        ),
+        (
+            lambda ax: (ax.plot(t, p.measured_N, **MEASURED), ax.plot(t, model, **MODEL)),
+            "time (s)",
+            "force (N)",
+            "force against time",
+        ),
+        (
+            lambda ax: (
+                ax.plot(t, model - p.measured_N, color="tab:blue", lw=0.8, label="model − measured"),
+                ax.axhline(0.0, color="0.5", lw=0.6),
+            ),
+            "time (s)",
+            "residual (N)",
+            "residual",
+        ),
     ]
     for ax, (plot, xlabel, ylabel, title) in zip(axes, panels):
         plot(ax)

@@ -17,8 +17,18 @@ def number(x, digits: int = 4) -> str:
 
 def unit_of(setting: str) -> str:
     """Unit of a generator setting, from its name's suffix (amplitude_mm, speed_mm_per_min, ...)."""
-    for suffix, unit in (("_frac", "fraction"), ("_mm_per_min", "mm/min"), ("_mm_per_s", "mm/s"), ("_mm_s", "mm/s"), ("_mm", "mm"),
-                         ("_hz", "Hz"), ("_n_per_mm", "N/mm"), ("_s", "s"), ("_n", "N"), ("_v", "V")):
+    for suffix, unit in (
+        ("_frac", "fraction"),
+        ("_mm_per_min", "mm/min"),
+        ("_mm_per_s", "mm/s"),
+        ("_mm_s", "mm/s"),
+        ("_mm", "mm"),
+        ("_hz", "Hz"),
+        ("_n_per_mm", "N/mm"),
+        ("_s", "s"),
+        ("_n", "N"),
+        ("_v", "V"),
+    ):
         if setting.lower().endswith(suffix):
             return unit
     return ""

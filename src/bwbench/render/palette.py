@@ -46,19 +46,28 @@ MARKERS = ("o", "s", "^", "D", "v", "P", "<", ">", "p", "h", "*", "d")
 RANDOM_MARKER = "X"
 # Each built-in backend's colour and marker, by name: the same in every report.
 BACKEND_LOOK = {
-    "cmaes": ("#0072B2", "o"), "lsq-trf": ("#E69F00", "s"), "de": ("#009E73", "^"),
-    "paper-ga": ("#D55E00", "D"), "pso": ("#CC79A7", "v"), "nlopt-bobyqa": ("#56B4E9", "P"),
-    "firefly": ("#F0E442", ">"), "nlopt-sbplx": ("#882255", "<"), "nlopt-neldermead": ("#999933", "p"),
-    "anneal": ("#661100", "h"), "emcee": ("#117733", "*"),
+    "cmaes": ("#0072B2", "o"),
+    "lsq-trf": ("#E69F00", "s"),
+    "de": ("#009E73", "^"),
+    "paper-ga": ("#D55E00", "D"),
+    "pso": ("#CC79A7", "v"),
+    "nlopt-bobyqa": ("#56B4E9", "P"),
+    "firefly": ("#F0E442", ">"),
+    "nlopt-sbplx": ("#882255", "<"),
+    "nlopt-neldermead": ("#999933", "p"),
+    "anneal": ("#661100", "h"),
+    "emcee": ("#117733", "*"),
 }
 # Plug-in backends: Paul Tol's other colours, then the built-ins' again with other markers.
-EXTRA_LOOKS = tuple(zip(("#332288", "#88CCEE", "#AA4499", "#44AA99", "#DDCC77"), ("d", "8", "H", "X", "p"))) + \
-    tuple((colour, marker) for colour in OKABE_ITO for marker in ("d", "8"))
+EXTRA_LOOKS = tuple(zip(("#332288", "#88CCEE", "#AA4499", "#44AA99", "#DDCC77"), ("d", "8", "H", "X", "p"))) + tuple(
+    (colour, marker) for colour in OKABE_ITO for marker in ("d", "8")
+)
 # Formulations compared side by side: solid/filled for the identifiable one, dashed/open for the paper's.
 VARIANT_LOOK = {"identifiable": ("-", True), "paper": ("--", False)}
 # Other variants (models compared side by side), in name order: a line style and fill each.
 OTHER_VARIANT_LOOK = (("-", True), ("--", False), (":", True), ("-.", False), ("-.", True), (":", False))
 TRUTH: dict = {"color": "black", "marker": "x", "ls": "", "ms": 8, "mew": 2.0}
+
 
 @dataclass(frozen=True)
 class Style:
@@ -87,8 +96,16 @@ class Style:
         """``ax.plot`` keyword arguments for markers only; open markers keep a white fill so they
         stay open on top of other data."""
         edge = "0.35" if self.colour in LIGHT else self.colour
-        return {"color": self.colour, "ls": "", "marker": self.marker, "ms": ms, "mec": edge,
-                "mfc": self.colour if self.filled else "white", "mew": 1.2, **extra}
+        return {
+            "color": self.colour,
+            "ls": "",
+            "marker": self.marker,
+            "ms": ms,
+            "mec": edge,
+            "mfc": self.colour if self.filled else "white",
+            "mew": 1.2,
+            **extra,
+        }
 
     def handle(self, text: str | None = None, line: bool = True, marker: bool = True) -> Line2D:
         """A legend entry: line and marker, the marker alone (``line=False``) or the line alone
@@ -135,8 +152,9 @@ def styles_for(labels) -> dict[str, Style]:
         colour, marker = looks[base]
         linestyle, filled = "-", True
         if variant is not None:  # the formulation, not the backend, sets line style and fill
-            linestyle, filled = VARIANT_LOOK.get(variant) or OTHER_VARIANT_LOOK[
-                variants.index(variant) % len(OTHER_VARIANT_LOOK)]
+            linestyle, filled = (
+                VARIANT_LOOK.get(variant) or OTHER_VARIANT_LOOK[variants.index(variant) % len(OTHER_VARIANT_LOOK)]
+            )
         out[label] = Style(label, colour, linestyle, marker, filled)
     return out
 
@@ -145,8 +163,11 @@ def backend_looks(backends) -> dict[str, tuple[str, str]]:
     """Backend name → (colour, marker): random search dark grey, the built-ins from ``BACKEND_LOOK``,
     any other in name order the first look of ``EXTRA_LOOKS`` no backend here uses."""
     backends = sorted(set(backends))
-    looks = {b: (RANDOM_COLOUR, RANDOM_MARKER) if b == "random" else BACKEND_LOOK[b]
-             for b in backends if b == "random" or b in BACKEND_LOOK}
+    looks = {
+        b: (RANDOM_COLOUR, RANDOM_MARKER) if b == "random" else BACKEND_LOOK[b]
+        for b in backends
+        if b == "random" or b in BACKEND_LOOK
+    }
     free = [look for look in EXTRA_LOOKS if look not in looks.values()]
     for b in (b for b in backends if b not in looks):
         looks[b] = free.pop(0) if free else EXTRA_LOOKS[len(looks) % len(EXTRA_LOOKS)]
@@ -161,9 +182,19 @@ def palette(study, order=None) -> dict:
 def theme() -> None:
     """Seaborn's white grid with every text at least ``MIN_FONT_PT``."""
     sns.set_theme(style="whitegrid", context="notebook")
-    plt.rcParams.update({"font.size": 10, "axes.titlesize": 10.5, "axes.labelsize": 10, "xtick.labelsize": 9.5,
-                         "ytick.labelsize": 9.5, "legend.fontsize": 9.5, "legend.title_fontsize": 9.5,
-                         "figure.titlesize": 12, "lines.linewidth": 1.6})
+    plt.rcParams.update(
+        {
+            "font.size": 10,
+            "axes.titlesize": 10.5,
+            "axes.labelsize": 10,
+            "xtick.labelsize": 9.5,
+            "ytick.labelsize": 9.5,
+            "legend.fontsize": 9.5,
+            "legend.title_fontsize": 9.5,
+            "figure.titlesize": 12,
+            "lines.linewidth": 1.6,
+        }
+    )
 
 
 def figure(width: float, height: float, **kw):
@@ -182,8 +213,16 @@ def legend(fig, handles, ncol: int | None = None, title: str | None = None, loc:
     ncol = max(ncol or min(len(handles), 4), 1)
     if loc != "below":
         return fig.legend(handles=handles, loc=loc, ncol=ncol, title=title, frameon=False, handlelength=2.6)
-    leg = fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.0), ncol=ncol, title=title,
-                     frameon=False, columnspacing=1.4, handlelength=2.6)
+    leg = fig.legend(
+        handles=handles,
+        loc="lower center",
+        bbox_to_anchor=(0.5, 0.0),
+        ncol=ncol,
+        title=title,
+        frameon=False,
+        columnspacing=1.4,
+        handlelength=2.6,
+    )
     fig._bwbench_legend_below = leg  # noqa: SLF001  (read by save)
     return leg
 
@@ -215,8 +254,7 @@ def slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.]+", "-", str(text)).strip("-").lower()
 
 
-def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool | str,
-         rect=(0, 0.03, 1, 0.97)) -> Path:
+def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool | str, rect=(0, 0.03, 1, 0.97)) -> Path:
     """Write ``stem``.png and the CSV behind it (``frame``) into ``out_dir`` (see ``write_png``);
     return the PNG's path."""
     out_dir = Path(out_dir)

@@ -24,19 +24,28 @@ def table_html(rows, header=None) -> str:
 def fit_repr(fit) -> str:
     p, r = fit.problem, fit.result
     files = ", ".join(f"{f['specimen']} RMSE {_g(f['rmse_N'])} N" for f in fit.files)
-    return (f"<FitResult {p.model.name} {p.formulation} by {r.optimizer}, {r.nfev} evaluations: {files}; "
-            f"{len(fit.notes)} notes; .summary(), .report(), .plot()>")
+    return (
+        f"<FitResult {p.model.name} {p.formulation} by {r.optimizer}, {r.nfev} evaluations: {files}; "
+        f"{len(fit.notes)} notes; .summary(), .report(), .plot()>"
+    )
 
 
 def fit_html(fit) -> str:
     p, r = fit.problem, fit.result
-    title = (f"<b>FitResult</b>: {html.escape(p.model.name)} ({html.escape(p.formulation)} formulation), "
-             f"{html.escape(r.optimizer)}, {r.nfev} of {r.budget} evaluations")
-    files = table_html([(f["specimen"], f["n"], _g(f["rmse_N"]), _g(f["nrmse"], 3)) for f in fit.files],
-                       ["specimen", "samples", "RMSE (N)", "NRMSE"])
+    title = (
+        f"<b>FitResult</b>: {html.escape(p.model.name)} ({html.escape(p.formulation)} formulation), "
+        f"{html.escape(r.optimizer)}, {r.nfev} of {r.budget} evaluations"
+    )
+    files = table_html(
+        [(f["specimen"], f["n"], _g(f["rmse_N"]), _g(f["nrmse"], 3)) for f in fit.files],
+        ["specimen", "samples", "RMSE (N)", "NRMSE"],
+    )
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in fit.notes)
-    return f"<div>{title}{files}" + (f"<ul>{notes}</ul>" if notes else "") + \
-        "<small>.summary() for every parameter with its standard error</small></div>"
+    return (
+        f"<div>{title}{files}"
+        + (f"<ul>{notes}</ul>" if notes else "")
+        + "<small>.summary() for every parameter with its standard error</small></div>"
+    )
 
 
 def model_repr(model) -> str:
@@ -45,16 +54,23 @@ def model_repr(model) -> str:
 
 def model_html(model) -> str:
     rows = [(n, _g(v, 6), model.units.get(n, "")) for n, v in model.params.items() if n in model.needed()]
-    return f"<div><b>FittedModel</b>: {html.escape(model.describe())}" + \
-        table_html(rows, ["parameter", "value", "unit"]) + "</div>"
+    return (
+        f"<div><b>FittedModel</b>: {html.escape(model.describe())}"
+        + table_html(rows, ["parameter", "value", "unit"])
+        + "</div>"
+    )
 
 
 def prediction_repr(p) -> str:
-    return (f"<Prediction {p.specimen}: {p.n} samples, RMSE {_g(p.rmse_N)} N, NRMSE {_g(p.nrmse, 3)}; "
-            ".frame(), .plot()>")
+    return f"<Prediction {p.specimen}: {p.n} samples, RMSE {_g(p.rmse_N)} N, NRMSE {_g(p.nrmse, 3)}; .frame(), .plot()>"
 
 
 def prediction_html(p) -> str:
-    return (f"<div><b>Prediction</b> of {html.escape(p.specimen)}: "
-            + table_html([(p.n, _g(p.rmse_N), _g(p.nrmse, 3), _g(float(max(abs(p.measured_N))), 4))],
-                         ["samples", "RMSE (N)", "NRMSE", "max |F measured| (N)"]) + "</div>")
+    return (
+        f"<div><b>Prediction</b> of {html.escape(p.specimen)}: "
+        + table_html(
+            [(p.n, _g(p.rmse_N), _g(p.nrmse, 3), _g(float(max(abs(p.measured_N))), 4))],
+            ["samples", "RMSE (N)", "NRMSE", "max |F measured| (N)"],
+        )
+        + "</div>"
+    )

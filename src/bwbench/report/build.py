@@ -87,8 +87,15 @@ class Counter:
         from tqdm import tqdm
 
         if self.bar is None:
-            self.bar = tqdm(total=total, desc=self.what, unit=self.unit, file=self.log, disable=not self.interactive,
-                            dynamic_ncols=True, leave=False)
+            self.bar = tqdm(
+                total=total,
+                desc=self.what,
+                unit=self.unit,
+                file=self.log,
+                disable=not self.interactive,
+                dynamic_ncols=True,
+                leave=False,
+            )
         self.bar.update(done - self.bar.n)
         if not self.interactive and (done / total >= self.next or done == total):
             print(f"{self.what}: {done} of {total} {self.unit}s", file=self.log, flush=True)
@@ -109,8 +116,17 @@ def featured_specimens(study, k: int = 3) -> list[str]:
     return sorted(ordered, key=lambda s: s not in fitted)[:k]
 
 
-def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, profile_params: int = 2,
-                 profile_grid: int = 7, log=None, announce=None) -> Path:
+def build_report(
+    db,
+    out,
+    *,
+    data_dir=None,
+    identifiability_specimens: int = 3,
+    profile_params: int = 2,
+    profile_grid: int = 7,
+    log=None,
+    announce=None,
+) -> Path:
     """Write report.md, report.html, the figures and their CSVs into ``out``; return report.html's path.
 
     ``profile_params``: profile likelihoods of that many parameters (the widest free ranges) on the
@@ -138,18 +154,30 @@ def build_report(db, out, *, data_dir=None, identifiability_specimens: int = 3, 
     table, tests, rec = study_recommendation(study)
     provisional = study.provisional  # "provisional: 16 of 36 runs" for an unfinished study
     if provisional:
-        rec["text"] = (f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished (still running, "
-                       "or stopped part-way), so this recommendation may change when it completes. " + rec["text"])
-    report = Report(study, Document(out), out, log, table, tests, rec,
-                    featured_specimens(study, identifiability_specimens),
-                    {"profile_params": profile_params, "profile_grid": profile_grid})
+        rec["text"] = (
+            f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished (still running, "
+            "or stopped part-way), so this recommendation may change when it completes. " + rec["text"]
+        )
+    report = Report(
+        study,
+        Document(out),
+        out,
+        log,
+        table,
+        tests,
+        rec,
+        featured_specimens(study, identifiability_specimens),
+        {"profile_params": profile_params, "profile_grid": profile_grid},
+    )
     doc = report.doc
 
     title = f"{study.name} ({provisional})" if provisional else study.name
     doc.h(1, f"Optimiser comparison: {title}")
     if provisional:
-        doc.banner(f"{provisional[0].upper()}{provisional[1:]}: the study is unfinished (still running, or stopped "
-                   "part-way); its recommendation may change when it completes.")
+        doc.banner(
+            f"{provisional[0].upper()}{provisional[1:]}: the study is unfinished (still running, or stopped "
+            "part-way); its recommendation may change when it completes."
+        )
     synthetic = problem_type.is_synthetic(study)
     if synthetic:
         doc.banner(f"{synthetic if isinstance(synthetic, str) else 'SYNTHETIC DATA'} — not measured.")
@@ -179,9 +207,16 @@ def study_recommendation(study):
     table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
     tests = statistics.compare_backends(study.runs)
     success = statistics.success_by_specimen(study.runs, study.traces, TARGET)
-    rec = recommend(table, success, comparisons.log_losses(study.ranking), tests, study.settings.get("budget", "?"),
-                    study.problem_type.residual_unit, variant_noun(study.settings),
-                    times=time_noise.intervals(study.runs, study.traces))
+    rec = recommend(
+        table,
+        success,
+        comparisons.log_losses(study.ranking),
+        tests,
+        study.settings.get("budget", "?"),
+        study.problem_type.residual_unit,
+        variant_noun(study.settings),
+        times=time_noise.intervals(study.runs, study.traces),
+    )
     table = table.set_index("optimizer").loc[rec["order"]].reset_index()  # the rule's order, everywhere
     return table, tests, rec
 
@@ -195,8 +230,10 @@ def refuse_changed_data(study) -> None:
     for name in study.specimens:
         digest, path = stored.get(name), study.specimen_path(name)
         if isinstance(digest, str) and path.is_file() and files_sha256([path], [""]) != digest:
-            raise UserError(f"{path}: changed since the study ran (SHA-256 differs): the report would draw these "
-                            "data against fits made on others; restore the file, or point --data to the original")
+            raise UserError(
+                f"{path}: changed since the study ran (SHA-256 differs): the report would draw these "
+                "data against fits made on others; restore the file, or point --data to the original"
+            )
 
 
 def report_inputs(study) -> list[Path]:

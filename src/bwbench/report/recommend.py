@@ -36,8 +36,10 @@ def _charge_text() -> str:
 
     charges = {registry.get(name).title: registry.get(name).sensitivity_cost for name in registry.BUILTIN}
     listed = join([f"{cost} for the {title}" for title, cost in charges.items() if cost])
-    return ("An evaluation is one simulation of one parameter vector; an exact Jacobian (forward sensitivities "
-            f"integrated with the model's state) is charged the plain evaluations it costs, rounded up: {listed}.")
+    return (
+        "An evaluation is one simulation of one parameter vector; an exact Jacobian (forward sensitivities "
+        f"integrated with the model's state) is charged the plain evaluations it costs, rounded up: {listed}."
+    )
 
 
 def rule(test_name: str, noun: str | None = None) -> list[str]:
@@ -51,7 +53,8 @@ def rule(test_name: str, noun: str | None = None) -> list[str]:
         "measured seconds per evaluation (all wall time of the label's runs / all their evaluations, one core). "
         + _charge_text(),
         "**Baseline.** Random search, in whichever "
-        + (noun or "variant") + ", is the baseline: compared and described, never recommended.",
+        + (noun or "variant")
+        + ", is the baseline: compared and described, never recommended.",
         f"**Order.** Candidates by success rate at the {TARGET:.0%} target (higher first), then by the mean rank "
         f"over specimens of their median final loss (losses within {statistics.TIE:.0%} of each other share a "
         "rank), then by ERT in evaluations, then by name: quantities the seeds set, not the machine. The first "
@@ -74,12 +77,16 @@ def rule(test_name: str, noun: str | None = None) -> list[str]:
         f"with a {comparisons.LEVEL:.0%} bootstrap interval ({comparisons.BOOTSTRAP:,} resamples of the seeds within "
         f"each specimen, fixed seed); Holm's correction at α = {ALPHA:g} within each family of comparisons the "
         "rule uses (against the reference; against the baseline"
-        + (f"; each backend's {noun}s" if noun else "") + "). Significance qualifies a verdict, it never makes one.",
+        + (f"; each backend's {noun}s" if noun else "")
+        + "). Significance qualifies a verdict, it never makes one.",
     ]
     if noun:
-        items.insert(1, f"**{noun.capitalize()}s first.** Each backend run in several {noun}s: its final losses in "
-                        f"each {noun} against those in the recommended label's {noun}; then one (backend, {noun}) "
-                        "pair is recommended.")
+        items.insert(
+            1,
+            f"**{noun.capitalize()}s first.** Each backend run in several {noun}s: its final losses in "
+            f"each {noun} against those in the recommended label's {noun}; then one (backend, {noun}) "
+            "pair is recommended.",
+        )
     return items
 
 
@@ -111,33 +118,56 @@ def variant_text(verdict: Verdict, noun: str) -> str:
         better = g[g["ratio"] > 1]
         significant = better[better["significant"]]
         worse = g[g["ratio"] < 1]
-        text = (f"In the {winner} {noun}, {len(better)} of {len(g)} backends end at lower final losses than in the "
-                f"{loser} {noun} ({loser} over {winner}: Hodges–Lehmann ratio "
-                + (f"{_ratio(better['ratio'].min())} to {_ratio(better['ratio'].max())}" if len(better) else "–")
-                + f"), {len(significant)} of them significantly (Holm over the {len(g)} comparisons")
+        text = (
+            f"In the {winner} {noun}, {len(better)} of {len(g)} backends end at lower final losses than in the "
+            f"{loser} {noun} ({loser} over {winner}: Hodges–Lehmann ratio "
+            + (f"{_ratio(better['ratio'].min())} to {_ratio(better['ratio'].max())}" if len(better) else "–")
+            + f"), {len(significant)} of them significantly (Holm over the {len(g)} comparisons"
+        )
         quiet = better[~better["significant"]]
         if len(quiet):
-            text += "; not significant: " + join([f"{b}, ratio {ratio_text(r)}, Holm p = {p_text(r['p_holm'])}"
-                                                  for b, r in zip(quiet["backend"], quiet.to_dict("records"))])
+            text += "; not significant: " + join(
+                [
+                    f"{b}, ratio {ratio_text(r)}, Holm p = {p_text(r['p_holm'])}"
+                    for b, r in zip(quiet["backend"], quiet.to_dict("records"))
+                ]
+            )
         text += ")"
         if len(worse):
-            text += "; " + join([f"{b} ends lower in the {loser} {noun} (ratio {ratio_text(r)}"
-                                 f"{', significant' if r['significant'] else ''})"
-                                 for b, r in zip(worse["backend"], worse.to_dict("records"))])
+            text += "; " + join(
+                [
+                    f"{b} ends lower in the {loser} {noun} (ratio {ratio_text(r)}"
+                    f"{', significant' if r['significant'] else ''})"
+                    for b, r in zip(worse["backend"], worse.to_dict("records"))
+                ]
+            )
         parts.append(text + ".")
     return " ".join(parts)
 
 
-def recommend(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame, tests, budget,
-              unit: str = "N", noun: str | None = None, times: pd.DataFrame | None = None) -> dict:
+def recommend(
+    table: pd.DataFrame,
+    success: pd.DataFrame,
+    values: pd.DataFrame,
+    tests,
+    budget,
+    unit: str = "N",
+    noun: str | None = None,
+    times: pd.DataFrame | None = None,
+) -> dict:
     """Apply the rule to a study: ``table`` (``statistics.ranking_table``), ``success`` (per specimen,
     at ``TARGET``), ``values`` (``comparisons.log_losses`` of the ranking runs), ``tests``
     (``statistics.Comparison``), ``times`` (``time_noise.intervals``). Returns ``verdict``, ``best``
     (the reference), ``choice``, ``order`` and the paragraph ``text`` (markdown)."""
     verdict = decide(table, success, values, times)
     text = paragraph(verdict, table.set_index("optimizer"), tests, budget, noun)
-    return {"verdict": verdict, "best": verdict.reference or verdict.order[0], "choice": verdict.choice,
-            "order": verdict.order, "text": text}
+    return {
+        "verdict": verdict,
+        "best": verdict.reference or verdict.order[0],
+        "choice": verdict.choice,
+        "order": verdict.order,
+        "text": text,
+    }
 
 
 def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
@@ -152,46 +182,76 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     choice = verdict.choice
     row = table.loc[choice]
     named = f"**Use {_pair(choice, noun).replace('**', '')}** ({choice})" if noun else f"**Use {choice}**"
-    out.append(f"{named} at a budget of {budget_text} evaluations: it reached the {TARGET:.0%} target in "
-               f"{_success(table, choice)}, with ERT {evals_text(row[f'ert_{TARGET:.0%}'])} evaluations × "
-               f"{seconds_text(row['s_per_eval'])} per evaluation = "
-               f"{seconds_text(row[f'time_{TARGET:.0%}'])} expected time to the target; its median final loss is "
-               f"{_ratio(row['median_ratio'])} × the best known loss.")
+    out.append(
+        f"{named} at a budget of {budget_text} evaluations: it reached the {TARGET:.0%} target in "
+        f"{_success(table, choice)}, with ERT {evals_text(row[f'ert_{TARGET:.0%}'])} evaluations × "
+        f"{seconds_text(row['s_per_eval'])} per evaluation = "
+        f"{seconds_text(row[f'time_{TARGET:.0%}'])} expected time to the target; its median final loss is "
+        f"{_ratio(row['median_ratio'])} × the best known loss."
+    )
     out.append(per_variant_text(verdict, table, noun))
     if choice in verdict.avoid:
-        out.append(f"Even so, its final losses are significantly worse than random search's ({verdict.baselines[0]}): "
-                   "no backend in this study beats the baseline.")
+        out.append(
+            f"Even so, its final losses are significantly worse than random search's ({verdict.baselines[0]}): "
+            "no backend in this study beats the baseline."
+        )
     peers = [n for n in verdict.peers if n not in verdict.avoid]
     ref_rows = verdict.vs_reference.set_index("a") if verdict.vs_reference is not None else pd.DataFrame()
     if len(peers) > 1:
         alike = [n for n in peers if n != verdict.reference]
-        described = join([f"{n} (final losses {ratio_text(ref_rows.loc[n])}× the reference's, {_success(table, n)} on "
-                          "target)" for n in alike])
-        out.append(f"By the rule, {described} {'is' if len(alike) == 1 else 'are'} as good as the reference "
-                   f"{verdict.reference} ({_success(table, verdict.reference)} on target).")
+        described = join(
+            [
+                f"{n} (final losses {ratio_text(ref_rows.loc[n])}× the reference's, {_success(table, n)} on target)"
+                for n in alike
+            ]
+        )
+        out.append(
+            f"By the rule, {described} {'is' if len(alike) == 1 else 'are'} as good as the reference "
+            f"{verdict.reference} ({_success(table, verdict.reference)} on target)."
+        )
         out.append(tie_text(verdict, table))
     else:
-        out.append(f"No other backend is as good by the rule (final losses within {PRACTICAL:.0%} and success within "
-                   f"{SUCCESS_MARGIN * 100:.0f} points on every specimen).")
+        out.append(
+            f"No other backend is as good by the rule (final losses within {PRACTICAL:.0%} and success within "
+            f"{SUCCESS_MARGIN * 100:.0f} points on every specimen)."
+        )
     if verdict.less_reliable:
-        out.append(f"Final losses within {PRACTICAL:.0%} of the reference's, but less reliable at reaching the "
-                   f"target ({_success(table, verdict.reference)} for {verdict.reference}): "
-                   + join([_deficit_text(verdict, table, n) for n in verdict.less_reliable]) + ".")
+        out.append(
+            f"Final losses within {PRACTICAL:.0%} of the reference's, but less reliable at reaching the "
+            f"target ({_success(table, verdict.reference)} for {verdict.reference}): "
+            + join([_deficit_text(verdict, table, n) for n in verdict.less_reliable])
+            + "."
+        )
     if verdict.behind:
-        items = [f"{n} ({_ratio(ref_rows.loc[n, 'ratio'])}×{'*' if ref_rows.loc[n, 'significant'] else ''})"
-                 for n in verdict.behind]
-        out.append(f"Behind (final losses more than {PRACTICAL:.0%} above the reference's; Hodges–Lehmann ratio, "
-                   f"* = significant after Holm): {', '.join(items)}.")
+        items = [
+            f"{n} ({_ratio(ref_rows.loc[n, 'ratio'])}×{'*' if ref_rows.loc[n, 'significant'] else ''})"
+            for n in verdict.behind
+        ]
+        out.append(
+            f"Behind (final losses more than {PRACTICAL:.0%} above the reference's; Hodges–Lehmann ratio, "
+            f"* = significant after Holm): {', '.join(items)}."
+        )
     avoid = [n for n in verdict.avoid if n != choice]
     if avoid:
         base = verdict.vs_baseline.set_index("a")
-        items = [f"**{n}** ({_ratio(base.loc[n, 'ratio'])}× {verdict.baselines[0]}'s final losses, Holm p = "
-                 f"{p_text(base.loc[n, 'p_holm'])})" for n in avoid]
+        items = [
+            f"**{n}** ({_ratio(base.loc[n, 'ratio'])}× {verdict.baselines[0]}'s final losses, Holm p = "
+            f"{p_text(base.loc[n, 'p_holm'])})"
+            for n in avoid
+        ]
         out.append(f"Avoid {join(items)}: significantly worse than random search.")
     if verdict.baselines:
-        out.append("Random search is the baseline, never a candidate: " + join(
-            [f"{n} ends at a median {_ratio(table.loc[n, 'median_ratio'])} × the best known loss "
-             f"({_success(table, n)} on target)" for n in verdict.baselines]) + ".")
+        out.append(
+            "Random search is the baseline, never a candidate: "
+            + join(
+                [
+                    f"{n} ends at a median {_ratio(table.loc[n, 'median_ratio'])} × the best known loss "
+                    f"({_success(table, n)} on target)"
+                    for n in verdict.baselines
+                ]
+            )
+            + "."
+        )
     out.append(power_text(verdict, tests))
     return " ".join(t for t in out if t)
 
@@ -209,22 +269,38 @@ def box(verdict: Verdict, table, budget, noun: str | None, what: dict | None = N
     facts = (what or {}).get(choice, {})
     context = [f"model {facts['model']}"] if facts.get("model") else []
     context += [f"{facts['formulation']} formulation"] if facts.get("formulation") else []
-    items = [f"**Use {backend}**" + (f" ({', '.join(context)})" if context else "")
-             + f" at **{budget_text} evaluations** per run (label `{choice}`)."]
-    items.append(f"**Reaches the target** (within {TARGET:.0%} of the best known loss) in {_success(table, choice)}; "
-                 f"expected time {seconds_text(row[f'time_{TARGET:.0%}'])} ({evals_text(row[f'ert_{TARGET:.0%}'])} "
-                 f"evaluations × {seconds_text(row['s_per_eval'])} on the machine that ran it).")
+    items = [
+        f"**Use {backend}**"
+        + (f" ({', '.join(context)})" if context else "")
+        + f" at **{budget_text} evaluations** per run (label `{choice}`)."
+    ]
+    items.append(
+        f"**Reaches the target** (within {TARGET:.0%} of the best known loss) in {_success(table, choice)}; "
+        f"expected time {seconds_text(row[f'time_{TARGET:.0%}'])} ({evals_text(row[f'ert_{TARGET:.0%}'])} "
+        f"evaluations × {seconds_text(row['s_per_eval'])} on the machine that ran it)."
+    )
     if verdict.tied:
-        items.append("**Tied**: " + join([f"{n} ({evals_text(table.loc[n, f'ert_{tau:.0%}'])} evaluations)"
-                                          for n in verdict.tied])
-                     + f": as good by the rule and as fast within the noise; {choice} needs the fewest evaluations.")
+        items.append(
+            "**Tied**: "
+            + join([f"{n} ({evals_text(table.loc[n, f'ert_{tau:.0%}'])} evaluations)" for n in verdict.tied])
+            + f": as good by the rule and as fast within the noise; {choice} needs the fewest evaluations."
+        )
     else:
         others = [n for n in verdict.peers if n != choice and n not in verdict.avoid]
-        items.append("**Tied**: none" + (f"; as good but slower beyond the time noise: {join(others)}." if others else
-                                          "; no other label is as good by the rule."))
+        items.append(
+            "**Tied**: none"
+            + (
+                f"; as good but slower beyond the time noise: {join(others)}."
+                if others
+                else "; no other label is as good by the rule."
+            )
+        )
     avoid = [n for n in verdict.avoid if n != choice]
-    parts = [f"**Avoid** {join(avoid)} (worse than random search)." if avoid else
-             "**Avoid**: no label is worse than random search."]
+    parts = [
+        f"**Avoid** {join(avoid)} (worse than random search)."
+        if avoid
+        else "**Avoid**: no label is worse than random search."
+    ]
     if verdict.behind:
         parts.append(f"Behind (final losses > {PRACTICAL:.0%} higher): {join(verdict.behind)}.")
     if verdict.less_reliable:
@@ -243,8 +319,10 @@ def one_line(verdict: Verdict, table, budget) -> str:
     choice = verdict.choice
     budget_text = f"{budget:,}" if isinstance(budget, (int, float)) else str(budget)
     row = table.loc[choice]
-    text = (f"Recommendation: use {choice} at {budget_text} evaluations ({_success(table, choice)} within "
-            f"{TARGET:.0%} of the best known loss, expected time {seconds_text(row[f'time_{TARGET:.0%}'])})")
+    text = (
+        f"Recommendation: use {choice} at {budget_text} evaluations ({_success(table, choice)} within "
+        f"{TARGET:.0%} of the best known loss, expected time {seconds_text(row[f'time_{TARGET:.0%}'])})"
+    )
     if verdict.tied:
         text += f"; tied on time: {join(verdict.tied)} (broken by fewest evaluations to the target)"
     avoid = [n for n in verdict.avoid if n != choice]

@@ -43,23 +43,29 @@ def tie_text(verdict: Verdict, table) -> str:
     tau, choice = verdict.tie_target, verdict.choice
     if choice is None:
         return ""
-    noise = (f"{time_noise.LEVEL:.0%} bootstrap interval over the runs, widened by the ±{time_noise.LOAD:.0%} a "
-             "machine's load can move one label's times against another's")
+    noise = (
+        f"{time_noise.LEVEL:.0%} bootstrap interval over the runs, widened by the ±{time_noise.LOAD:.0%} a "
+        "machine's load can move one label's times against another's"
+    )
     parts = []
     if verdict.slower:
-        parts.append(f"Expected time to the {tau:.0%} target ({noise}): "
-                     + join([f"{n} {interval_text(verdict, table, n)}" for n in verdict.slower])
-                     + f" {'is' if len(verdict.slower) == 1 else 'are'} slower beyond the noise than **{choice}** "
-                     f"({interval_text(verdict, table, choice)}).")
+        parts.append(
+            f"Expected time to the {tau:.0%} target ({noise}): "
+            + join([f"{n} {interval_text(verdict, table, n)}" for n in verdict.slower])
+            + f" {'is' if len(verdict.slower) == 1 else 'are'} slower beyond the noise than **{choice}** "
+            f"({interval_text(verdict, table, choice)})."
+        )
     if verdict.tied:
         group = [choice, *verdict.tied]
         erts = join([f"{n} {evals_text(table.loc[n, f'ert_{tau:.0%}'])}" for n in group])
-        parts.append(f"{join(group)} are **tied** on time: their expected times to the {tau:.0%} target "
-                     + ("" if verdict.slower else f"({noise}) ")
-                     + "do not differ beyond the noise ("
-                     + ", ".join(f"{n} {interval_text(verdict, table, n)}" for n in group)
-                     + f"); the tie is broken by the deterministic key, ERT in evaluations (fewest first), then the "
-                     f"rule's order: **{choice}** (ERT {erts} evaluations).")
+        parts.append(
+            f"{join(group)} are **tied** on time: their expected times to the {tau:.0%} target "
+            + ("" if verdict.slower else f"({noise}) ")
+            + "do not differ beyond the noise ("
+            + ", ".join(f"{n} {interval_text(verdict, table, n)}" for n in group)
+            + f"); the tie is broken by the deterministic key, ERT in evaluations (fewest first), then the "
+            f"rule's order: **{choice}** (ERT {erts} evaluations)."
+        )
     elif not verdict.slower:
         parts.append(f"**{choice}** is recommended.")
     return " ".join(parts)
@@ -77,9 +83,11 @@ def per_variant_text(verdict: Verdict, table, noun) -> str:
             first[variant] = label
     if len(first) < 2:
         return ""
-    items = [f"{split_label(label)[0]} in the {variant} {noun} (median final loss "
-             f"{_ratio(table.loc[label, 'median_ratio'])} × the best known, {_success(table, label)} on target)"
-             for variant, label in first.items()]
+    items = [
+        f"{split_label(label)[0]} in the {variant} {noun} (median final loss "
+        f"{_ratio(table.loc[label, 'median_ratio'])} × the best known, {_success(table, label)} on target)"
+        for variant, label in first.items()
+    ]
     return f"If the {noun} is given, the backend to use in each, by the same rule: {join(items)}."
 
 
@@ -93,21 +101,28 @@ def power_text(verdict: Verdict, tests) -> str:
     """What the test actually run can show at this size: its name, the design, the smallest p it
     can give and that p times Holm's factor for the comparisons against the reference (or, with
     no other candidate, against the baseline)."""
-    families = [(verdict.vs_reference, "the reference"),
-                (verdict.vs_baseline, verdict.baselines[0] if verdict.baselines else "the baseline")]
+    families = [
+        (verdict.vs_reference, "the reference"),
+        (verdict.vs_baseline, verdict.baselines[0] if verdict.baselines else "the baseline"),
+    ]
     frame, against = next(((f, name) for f, name in families if f is not None and len(f)), (None, ""))
     if frame is None:
         return f"Test: {tests.test_name}."
     smallest = float(frame["min_p"].min())
     floor = comparisons.holm_floor(frame)
-    design = (f"{tests.n_specimens} specimen{'s' if tests.n_specimens != 1 else ''} × up to {tests.seeds} seeds "
-              "per label")
+    design = (
+        f"{tests.n_specimens} specimen{'s' if tests.n_specimens != 1 else ''} × up to {tests.seeds} seeds per label"
+    )
     comparisons_ = "comparison" if len(frame) == 1 else f"{len(frame)} comparisons"
-    text = (f"Power: every comparison uses {tests.test_name}; with {design} the smallest p it can give is "
-            f"{p_text(smallest)}, and {p_text(floor)} after Holm's factor for the {comparisons_} against {against}")
+    text = (
+        f"Power: every comparison uses {tests.test_name}; with {design} the smallest p it can give is "
+        f"{p_text(smallest)}, and {p_text(floor)} after Holm's factor for the {comparisons_} against {against}"
+    )
     if floor >= ALPHA:
-        return text + (f" ≥ α = {ALPHA:g}: no difference can be significant at this size, so the verdict rests on "
-                       "the effect sizes and success rates; more seeds (or specimens) would be needed to test it.")
+        return text + (
+            f" ≥ α = {ALPHA:g}: no difference can be significant at this size, so the verdict rests on "
+            "the effect sizes and success rates; more seeds (or specimens) would be needed to test it."
+        )
     return text + f" < α = {ALPHA:g}."
 
 
@@ -124,7 +139,9 @@ def effect_sentence(verdict: Verdict, noun: str | None) -> str:
         winner, count = (variant, lower_in_other) if lower_in_other > lower_in_ref else (ref, lower_in_ref)
         loser = ref if winner == variant else variant
         significant = int((g["significant"] & ((g["ratio"] < 1) if winner == variant else (g["ratio"] > 1))).sum())
-        parts.append(f"in the {winner} {noun} {count} of {len(g)} backends end at lower final losses than in the "
-                     f"{loser} {noun} ({significant} significantly, Holm)")
+        parts.append(
+            f"in the {winner} {noun} {count} of {len(g)} backends end at lower final losses than in the "
+            f"{loser} {noun} ({significant} significantly, Holm)"
+        )
     text = "; ".join(parts)
     return text[0].upper() + text[1:] + "."

@@ -37,8 +37,11 @@ def intervals(runs: pd.DataFrame, traces: pd.DataFrame, taus=statistics.TOLERANC
     NaN where the runs carry no wall time, inf where (a resample of) the runs never reach τ."""
     ranking = runs[runs["kind"] == "ranking"]
     rt = statistics.runtimes(ranking, traces, taus, statistics.best_known(runs))
-    wall = ranking.set_index(["specimen", "optimizer", "replicate"])["wall_s"].astype(float) \
-        if "wall_s" in ranking else None
+    wall = (
+        ranking.set_index(["specimen", "optimizer", "replicate"])["wall_s"].astype(float)
+        if "wall_s" in ranking
+        else None
+    )
     rng = np.random.default_rng(SEED)
     rows = []
     for (optimizer, tau), g in rt.groupby(["optimizer", "tau"], sort=True):
@@ -50,16 +53,23 @@ def intervals(runs: pd.DataFrame, traces: pd.DataFrame, taus=statistics.TOLERANC
         timed = np.isfinite(seconds) & (nfev > 0)
         point = _time(spent, reached, np.where(timed, seconds, 0.0), np.where(timed, nfev, 0.0))
         # resample the seeds within each specimen, as the comparisons do (specimens are the blocks)
-        picks = np.concatenate([rng.choice(np.flatnonzero(g["specimen"].to_numpy() == s), size=(RESAMPLES, n))
-                                for s, n in g["specimen"].value_counts(sort=False).items()], axis=1)
-        boot = _time(spent[picks], reached[picks], np.where(timed, seconds, 0.0)[picks],
-                     np.where(timed, nfev, 0.0)[picks])
+        picks = np.concatenate(
+            [
+                rng.choice(np.flatnonzero(g["specimen"].to_numpy() == s), size=(RESAMPLES, n))
+                for s, n in g["specimen"].value_counts(sort=False).items()
+            ],
+            axis=1,
+        )
+        boot = _time(
+            spent[picks], reached[picks], np.where(timed, seconds, 0.0)[picks], np.where(timed, nfev, 0.0)[picks]
+        )
         if not timed.any():
             low = high = np.nan
         else:
             low, high = np.quantile(boot, [(1 - LEVEL) / 2, (1 + LEVEL) / 2], method="inverted_cdf")
-        rows.append({"optimizer": optimizer, "tau": float(tau), "time": float(point), "low": float(low),
-                     "high": float(high)})
+        rows.append(
+            {"optimizer": optimizer, "tau": float(tau), "time": float(point), "low": float(low), "high": float(high)}
+        )
     return pd.DataFrame(rows, columns=["optimizer", "tau", "time", "low", "high"])
 
 

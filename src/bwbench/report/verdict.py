@@ -90,8 +90,12 @@ class Verdict:
             return "tied on time"
         if label in self.slower:
             return "as good, slower"
-        for name, group in (("as good", self.equal), ("avoid", self.avoid), ("less reliable", self.less_reliable),
-                            ("behind", self.behind)):
+        for name, group in (
+            ("as good", self.equal),
+            ("avoid", self.avoid),
+            ("less reliable", self.less_reliable),
+            ("behind", self.behind),
+        ):
             if label in group:
                 return name
         if label == self.reference:
@@ -127,8 +131,9 @@ def worst_deficit(success: pd.DataFrame, label: str, reference: str) -> tuple[st
     return specimen, float(gap[specimen])
 
 
-def decide(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame, times: pd.DataFrame | None = None
-           ) -> Verdict:
+def decide(
+    table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame, times: pd.DataFrame | None = None
+) -> Verdict:
     """Apply the rule. ``table``: ``statistics.ranking_table``; ``success``: its labels' success
     rates at ``TARGET`` per specimen (``statistics.success_by_specimen``); ``values``: log10 final
     losses per run (``comparisons.log_losses`` of the ranking runs); ``times``: the expected times'
@@ -140,11 +145,15 @@ def decide(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame, tim
     if not candidates:
         return verdict
     ref = verdict.reference
-    verdict.vs_reference = comparisons.family(values, [(c, ref) for c in candidates[1:]], "against the reference",
-                                              ALPHA)
-    verdict.vs_baseline = comparisons.family(values, [(c, baselines[0]) for c in candidates] if baselines else [],
-                                             f"against {baselines[0]}" if baselines else "against the baseline",
-                                             ALPHA)
+    verdict.vs_reference = comparisons.family(
+        values, [(c, ref) for c in candidates[1:]], "against the reference", ALPHA
+    )
+    verdict.vs_baseline = comparisons.family(
+        values,
+        [(c, baselines[0]) for c in candidates] if baselines else [],
+        f"against {baselines[0]}" if baselines else "against the baseline",
+        ALPHA,
+    )
     against_ref = verdict.vs_reference.set_index("a")
     against_base = verdict.vs_baseline.set_index("a")
     for label in candidates:
@@ -176,8 +185,11 @@ def decide(table: pd.DataFrame, success: pd.DataFrame, values: pd.DataFrame, tim
     verdict.time_bounds = bounds
     unknown = (math.nan, math.nan)
     # A peer stays in only if no other peer is faster beyond the noise.
-    kept = [n for n in peers if not any(clearly_faster(bounds.get(m, unknown), bounds.get(n, unknown))
-                                        for m in peers if m != n)]
+    kept = [
+        n
+        for n in peers
+        if not any(clearly_faster(bounds.get(m, unknown), bounds.get(n, unknown)) for m in peers if m != n)
+    ]
     verdict.choice = min(kept, key=tie_key(rows, order, tau))
     verdict.tied = [n for n in sorted(kept, key=tie_key(rows, order, tau)) if n != verdict.choice]
     verdict.slower = [n for n in peers if n not in kept]
@@ -202,8 +214,13 @@ def variant_effects(values: pd.DataFrame, labels, reference_variant: str | None)
     for label in labels:
         backend, variant = split_label(label)
         by_backend.setdefault(backend, {})[variant] = label
-    pairs = [(variants[v], variants[reference_variant]) for variants in by_backend.values()
-             if reference_variant in variants for v in variants if v != reference_variant]
+    pairs = [
+        (variants[v], variants[reference_variant])
+        for variants in by_backend.values()
+        if reference_variant in variants
+        for v in variants
+        if v != reference_variant
+    ]
     frame = comparisons.family(values, pairs, "variants", ALPHA)
     frame["backend"] = [split_label(a)[0] for a in frame["a"]]
     frame["variant"] = [split_label(a)[1] for a in frame["a"]]

@@ -20,8 +20,12 @@ def planned_from_config(config: dict) -> int | None:
         posterior = config.get("posterior")
         if posterior:
             samplers = posterior.get("optimizer")
-            planned += (_count(posterior["seeds"]) * len(posterior["specimens"]) * models
-                        * (len(samplers) if isinstance(samplers, list) else 1))
+            planned += (
+                _count(posterior["seeds"])
+                * len(posterior["specimens"])
+                * models
+                * (len(samplers) if isinstance(samplers, list) else 1)
+            )
     except (KeyError, TypeError, ValueError):
         return None
     return planned

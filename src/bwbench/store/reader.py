@@ -33,7 +33,8 @@ REQUIRED_TABLES = ("study", "runs", "traces")
 # ("OSError: ...", written by versions that recorded them) is not a finished run.
 TRANSIENT = (OSError, MemoryError, ImportError)
 TRANSIENT_NAMES = frozenset(
-    name for name, value in vars(builtins).items() if isinstance(value, type) and issubclass(value, TRANSIENT))
+    name for name, value in vars(builtins).items() if isinstance(value, type) and issubclass(value, TRANSIENT)
+)
 KEY = ["kind", "specimen", "optimizer", "replicate"]
 
 
@@ -68,8 +69,10 @@ class Chain:
         kept = self.samples[burn:] if walkers is None else self.samples[burn:, np.asarray(walkers, bool)]
         flat = kept.reshape(-1, self.samples.shape[2])
         if from_unit is None and flat.shape[1] != len(LOWER):
-            raise UserError(f"this chain samples {flat.shape[1]} coordinates, not the paper's 14: read it in physical "
-                            "units with bwbench.load_study(db).posterior(specimen), or pass from_unit=")
+            raise UserError(
+                f"this chain samples {flat.shape[1]} coordinates, not the paper's 14: read it in physical "
+                "units with bwbench.load_study(db).posterior(specimen), or pass from_unit="
+            )
         return LOWER + flat * (UPPER - LOWER) if from_unit is None else from_unit(flat)
 
 
@@ -131,8 +134,12 @@ class Study:
     @property
     def finished_runs(self) -> int:
         """Runs the runner counts as finished: every row but an old version's transient errors."""
-        return int(sum(not (status == "error" and is_transient_text(error))
-                       for status, error in zip(self.runs["status"], self.runs["error"], strict=True)))
+        return int(
+            sum(
+                not (status == "error" and is_transient_text(error))
+                for status, error in zip(self.runs["status"], self.runs["error"], strict=True)
+            )
+        )
 
     @property
     def provisional(self) -> str | None:
@@ -202,8 +209,9 @@ def read_meta(conn) -> tuple[dict, dict]:
         try:
             value = json.loads(text) if isinstance(text, str) and text else {}
         except json.JSONDecodeError as err:
-            raise ValueError(f"table study, key {key}: not JSON ({err.msg} at character {err.pos}): edited by "
-                             "hand?") from None
+            raise ValueError(
+                f"table study, key {key}: not JSON ({err.msg} at character {err.pos}): edited by hand?"
+            ) from None
         if not isinstance(value, dict):
             raise ValueError(f"table study, key {key}: a JSON {type(value).__name__}, not an object: edited by hand?")
     config = json.loads(meta.pop("config_json", "{}") or "{}")
@@ -229,17 +237,27 @@ def _numeric_columns(runs: pd.DataFrame, columns) -> None:
 def read_runs(conn) -> pd.DataFrame:
     tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
     if "timings" in tables:
-        query = ("SELECT runs.*, timings.wall_s, timings.worker, timings.finished_utc FROM runs "
-                 "LEFT JOIN timings USING (kind, specimen, optimizer, replicate)")
+        query = (
+            "SELECT runs.*, timings.wall_s, timings.worker, timings.finished_utc FROM runs "
+            "LEFT JOIN timings USING (kind, specimen, optimizer, replicate)"
+        )
     else:
         query = "SELECT * FROM runs"
     runs = pd.read_sql(query + " ORDER BY kind, specimen, optimizer, replicate", conn)
     # The switched model's 14 parameters were columns before parameters lived only in params_json.
     legacy = [c for c in PARAM_NAMES if c in runs]
-    _numeric_columns(runs, [c for c in ("nfev", "mse", "f_err", "rmse_N", "budget", "underpressure_MPa", *legacy,
-                                        "replicate") if c in runs])  # replicate last: it names the run
+    _numeric_columns(
+        runs,
+        [
+            c
+            for c in ("nfev", "mse", "f_err", "rmse_N", "budget", "underpressure_MPa", *legacy, "replicate")
+            if c in runs
+        ],
+    )  # replicate last: it names the run
     if runs["replicate"].isna().any():
-        raise ValueError(f"{_run_name(runs[runs['replicate'].isna()].iloc[0])}, column replicate: empty: edited by hand?")
+        raise ValueError(
+            f"{_run_name(runs[runs['replicate'].isna()].iloc[0])}, column replicate: empty: edited by hand?"
+        )
     runs["replicate"] = runs["replicate"].astype(int)
     if "problem" not in runs:  # written before the generic columns: a switched-model study
         runs["problem"] = problems.DEFAULT
@@ -276,15 +294,17 @@ def _json_cell(row, column) -> dict:
     try:
         value = json.loads(text)
     except json.JSONDecodeError as err:
-        raise ValueError(f"{_run_name(row)}, column {column}: not JSON ({err.msg} at character {err.pos}): edited by "
-                         "hand?") from None
+        raise ValueError(
+            f"{_run_name(row)}, column {column}: not JSON ({err.msg} at character {err.pos}): edited by hand?"
+        ) from None
     if not isinstance(value, dict):
-        raise ValueError(f"{_run_name(row)}, column {column}: a JSON {type(value).__name__}, not an object of "
-                         "name -> number: edited by hand?")
+        raise ValueError(
+            f"{_run_name(row)}, column {column}: a JSON {type(value).__name__}, not an object of "
+            "name -> number: edited by hand?"
+        )
     for name, number in value.items():
         if number is not None and (isinstance(number, bool) or not isinstance(number, (int, float))):
-            raise ValueError(f"{_run_name(row)}, column {column}: {name} is {number!r}, not a number: edited by "
-                             "hand?")
+            raise ValueError(f"{_run_name(row)}, column {column}: {name} is {number!r}, not a number: edited by hand?")
     return value
 
 
@@ -302,17 +322,30 @@ def read_chains(conn) -> tuple:
     out = []
     rows = conn.execute(
         "SELECT kind, specimen, optimizer, replicate, steps, walkers, dim, chain, log_prob, "
-        "acceptance_fraction, autocorr_json FROM chains ORDER BY kind, specimen, optimizer, replicate")
+        "acceptance_fraction, autocorr_json FROM chains ORDER BY kind, specimen, optimizer, replicate"
+    )
     evidence = {}
     if "evidence" in tables:
-        evidence = {tuple(r[:4]): json.loads(r[4]) for r in conn.execute(
-            "SELECT kind, specimen, optimizer, replicate, evidence_json FROM evidence")}
+        evidence = {
+            tuple(r[:4]): json.loads(r[4])
+            for r in conn.execute("SELECT kind, specimen, optimizer, replicate, evidence_json FROM evidence")
+        }
     for kind, specimen, optimizer, replicate, steps, walkers, dim, blob, lp_blob, acc, autocorr in rows.fetchall():
         samples = np.frombuffer(blob, dtype=np.float64).reshape(steps, walkers, dim)
         log_prob = None if lp_blob is None else np.frombuffer(lp_blob, dtype=np.float64).reshape(steps, walkers)
-        out.append(Chain(kind, specimen, optimizer, int(replicate), samples, log_prob,
-                         None if acc is None else float(acc), json.loads(autocorr) if autocorr else None,
-                         evidence.get((kind, specimen, optimizer, int(replicate)))))
+        out.append(
+            Chain(
+                kind,
+                specimen,
+                optimizer,
+                int(replicate),
+                samples,
+                log_prob,
+                None if acc is None else float(acc),
+                json.loads(autocorr) if autocorr else None,
+                evidence.get((kind, specimen, optimizer, int(replicate))),
+            )
+        )
     return tuple(out)
 
 
@@ -334,7 +367,8 @@ def load_study(path, data_dir=None) -> Study:
     if data_dir is None:  # the files where the runner last found them, while they are still there
         recorded = json.loads(meta.get("data_paths") or "{}")
         paths = {name: Path(p) for name, p in recorded.items() if Path(p).is_file()}
-    study = Study(path=path, meta=meta, config=config, runs=runs, traces=traces, chains=chains, data_dir=Path("."),
-                  paths=paths)
+    study = Study(
+        path=path, meta=meta, config=config, runs=runs, traces=traces, chains=chains, data_dir=Path("."), paths=paths
+    )
     folder = study.problem_type.data_dir(study, data_dir)
     return dataclasses.replace(study, data_dir=Path(folder) if folder is not None else Path("."))

@@ -5,6 +5,7 @@ elapsed time is not "last run end − first run start": the gaps between session
 stores its wall time and when it finished; the run intervals are merged, and merged intervals
 separated by more than ``IDLE_GAP_S`` are counted as separate sessions.
 """
+
 from __future__ import annotations
 
 import os

@@ -68,8 +68,10 @@ def _check_plugins(client, address: str, tasks) -> None:
     plugins = list(dict.fromkeys(plugin for task in tasks for plugin in plugins_of(task)))
     for worker, missing in sorted(client.run(missing_plugins, plugins).items()):
         if missing:
-            raise UserError(f"the Dask worker {worker} of the scheduler at {address} cannot load {missing[0]}; "
-                            "install the plug-in package on every worker")
+            raise UserError(
+                f"the Dask worker {worker} of the scheduler at {address} cannot load {missing[0]}; "
+                "install the plug-in package on every worker"
+            )
 
 
 def _lost_scheduler(client, future) -> str | None:

@@ -98,17 +98,29 @@ class StudyConfig:
         if self.posterior is not None:
             p = self.posterior
             several = len(p.backends) > 1  # one sampler: stored as before, so stored studies keep their hash
-            posterior = {"specimens": [s.name for s in p.specimens],
-                         "optimizer": [b for b, _ in p.backends] if several else p.optimizer,
-                         "budget": p.budget, "seeds": p.seeds,
-                         "options": dict(p.backends) if several else p.options}
+            posterior = {
+                "specimens": [s.name for s in p.specimens],
+                "optimizer": [b for b, _ in p.backends] if several else p.optimizer,
+                "budget": p.budget,
+                "seeds": p.seeds,
+                "options": dict(p.backends) if several else p.options,
+            }
             digests = {s.name: s.meta["sha256"] for s in p.specimens if "sha256" in s.meta}
             if digests:  # the data the posterior reads are part of the identity too
                 posterior["sha256"] = digests
-        study = {"name": self.name, "seed": self.seed, "budget": self.budget, "seeds": self.seeds,
-                 **self.setup.study_json}
-        out = {"study": study, "specimens": self.setup.specimens_json, "optimizers": self.optimizers,
-               "posterior": posterior}
+        study = {
+            "name": self.name,
+            "seed": self.seed,
+            "budget": self.budget,
+            "seeds": self.seeds,
+            **self.setup.study_json,
+        }
+        out = {
+            "study": study,
+            "specimens": self.setup.specimens_json,
+            "optimizers": self.optimizers,
+            "posterior": posterior,
+        }
         if self.validation:  # absent without held-out files: stored studies keep their hash
             out["validation"] = {e.name: e.meta.get("sha256") for e in self.validation}
         return out
@@ -180,8 +192,10 @@ def load_study_config(path, data=None) -> StudyConfig:
         fail("[optimizers] names no backend")
     for backend in optimizers_table:
         check_backend(fail, "[optimizers]", backend)
-    optimizers = {backend: resolve_backend_options(fail, f"[optimizers] {backend}", backend, options)
-                  for backend, options in optimizers_table.items()}
+    optimizers = {
+        backend: resolve_backend_options(fail, f"[optimizers] {backend}", backend, options)
+        for backend, options in optimizers_table.items()
+    }
 
     setup = problem_type.configure(fail, study, document, root, data)
     posterior = None
@@ -191,9 +205,22 @@ def load_study_config(path, data=None) -> StudyConfig:
     if "validation" in document:
         validation = held_out(fail, problem_type, document["validation"], root, setup)
         setup = with_locations(setup, validation)
-    return check_plan_size(fail, StudyConfig(path=where, root=root, name=name, seed=seed, budget=budget, seeds=seeds,
-                                             problem=problem_name, setup=setup, optimizers=optimizers,
-                                             posterior=posterior, validation=validation))
+    return check_plan_size(
+        fail,
+        StudyConfig(
+            path=where,
+            root=root,
+            name=name,
+            seed=seed,
+            budget=budget,
+            seeds=seeds,
+            problem=problem_name,
+            setup=setup,
+            optimizers=optimizers,
+            posterior=posterior,
+            validation=validation,
+        ),
+    )
 
 
 def held_out(fail, problem_type, table, base_dir, setup, label: str = "[validation] files") -> tuple:
@@ -201,7 +228,7 @@ def held_out(fail, problem_type, table, base_dir, setup, label: str = "[validati
     of ``--validate``: read and checked now; none may be a training specimen."""
     if label.startswith("[validation]"):
         if not isinstance(table, dict) or set(table) != {"files"}:
-            fail("[validation] must be a table with one key, files = [\"held_out/*.csv\", ...]")
+            fail('[validation] must be a table with one key, files = ["held_out/*.csv", ...]')
         table = table["files"]
     entries = problem_type.held_out_entries(fail, table, base_dir, label)
     training = {e.name for e in setup.specimens}
@@ -216,8 +243,9 @@ def with_locations(setup, validation):
     import dataclasses
 
     location = dict(setup.data_location) if isinstance(setup.data_location, dict) else {}
-    return dataclasses.replace(setup, data_location={**location, **{e.name: str(Path(e.path).resolve())
-                                                                   for e in validation}})
+    return dataclasses.replace(
+        setup, data_location={**location, **{e.name: str(Path(e.path).resolve()) for e in validation}}
+    )
 
 
 def planned_runs(config: StudyConfig) -> int:
@@ -234,9 +262,12 @@ def check_plan_size(fail, config: StudyConfig) -> StudyConfig:
     """``config``, or ``fail`` when it has more runs than ``BWBENCH_MAX_RUNS``: checked before the runs
     are listed, which for a mistyped seed count would take minutes and gigabytes."""
     variants = max(1, len(config.setup.variants))
-    shape = (f" ({config.seeds:,} seeds × {len(config.specimens)} specimens × {len(config.optimizers)} backends"
-             + (f" × {variants} formulations" if variants > 1 else "") + (" + posterior" if config.posterior else "")
-             + ")")
+    shape = (
+        f" ({config.seeds:,} seeds × {len(config.specimens)} specimens × {len(config.optimizers)} backends"
+        + (f" × {variants} formulations" if variants > 1 else "")
+        + (" + posterior" if config.posterior else "")
+        + ")"
+    )
     try:
         limits.check("the study's number of runs", planned_runs(config), "BWBENCH_MAX_RUNS", shape)
     except UserError as err:
@@ -261,16 +292,30 @@ def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
     return out
 
 
-def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *, name: str = "study", seed: int = 0,
-                          state: str | None = None, excitation: str = "measured", bounds_file=None,
-                          formulation: str | None = None, model: str | None = None, fix_mass="auto",
-                          offsets: str = "branch", validate=None) -> StudyConfig:
+def config_from_arguments(
+    specimens,
+    optimizers: str,
+    seeds: int,
+    budget: int,
+    *,
+    name: str = "study",
+    seed: int = 0,
+    state: str | None = None,
+    excitation: str = "measured",
+    bounds_file=None,
+    formulation: str | None = None,
+    model: str | None = None,
+    fix_mass="auto",
+    offsets: str = "branch",
+    validate=None,
+) -> StudyConfig:
     """A study over the files ``specimens`` (paths or globs, relative to the current folder) with no
     TOML and no manifest: ``bwbench compare --specimens ...``. ``model`` and ``formulation``: a name
     or comma-separated names (None: the switched model, and each model's own formulation);
     ``bounds_file``: a JSON search box, read by the problem type (it knows the parameter names);
     ``fix_mass``/``offsets``: the identifiable formulation's (read by the problem type); ``validate``:
     held-out files (paths or globs) every fit predicts."""
+
     def fail(message):
         raise UserError(message)
 
@@ -289,13 +334,35 @@ def config_from_arguments(specimens, optimizers: str, seeds: int, budget: int, *
     resolved = {backend: resolve_backend_options(fail, f"--optimizers {backend}", backend, {}) for backend in names}
     root = Path.cwd()
     problem_type = problems.get(problems.DEFAULT)
-    setup = problem_type.setup_from_files(fail, list(specimens), root, state=state, excitation=excitation,
-                                          bounds_file=bounds_file, formulation=formulation, model=model,
-                                          fix_mass=fix_mass, offsets=offsets)
+    setup = problem_type.setup_from_files(
+        fail,
+        list(specimens),
+        root,
+        state=state,
+        excitation=excitation,
+        bounds_file=bounds_file,
+        formulation=formulation,
+        model=model,
+        fix_mass=fix_mass,
+        offsets=offsets,
+    )
     validation = ()
     if validate:
         validation = held_out(fail, problem_type, list(validate), root, setup, "--validate")
         setup = with_locations(setup, validation)
-    return check_plan_size(fail, StudyConfig(path="--specimens", root=root, name=name, seed=seed, budget=budget,
-                                             seeds=seeds, problem=problems.DEFAULT, setup=setup,
-                                             optimizers=resolved, posterior=None, validation=validation))
+    return check_plan_size(
+        fail,
+        StudyConfig(
+            path="--specimens",
+            root=root,
+            name=name,
+            seed=seed,
+            budget=budget,
+            seeds=seeds,
+            problem=problems.DEFAULT,
+            setup=setup,
+            optimizers=resolved,
+            posterior=None,
+            validation=validation,
+        ),
+    )

@@ -51,8 +51,9 @@ class StudyOutcome:
         return self.already + self.recorded == self.total
 
 
-def run_study(config: StudyConfig, db, *, workers: int | None = None, scheduler: str | None = None,
-              log=None, threads: int = 1) -> StudyOutcome:
+def run_study(
+    config: StudyConfig, db, *, workers: int | None = None, scheduler: str | None = None, log=None, threads: int = 1
+) -> StudyOutcome:
     """Run every unfinished run of ``config`` and record it in the database ``db``.
 
     ``workers``: local processes (default ``os.cpu_count()``; 1 runs in this process);
@@ -66,8 +67,12 @@ def run_study(config: StudyConfig, db, *, workers: int | None = None, scheduler:
     if workers is not None and workers < 1:
         raise UserError(f"--workers must be at least 1, got {workers}")
     if workers is not None:
-        limits.check("--workers", workers, "BWBENCH_MAX_WORKERS",
-                     f" (4 per core: more processes only compete for the {os.cpu_count()} cores, ~0.15 GB each)")
+        limits.check(
+            "--workers",
+            workers,
+            "BWBENCH_MAX_WORKERS",
+            f" (4 per core: more processes only compete for the {os.cpu_count()} cores, ~0.15 GB each)",
+        )
     tasks = plan_tasks(config)
     if scheduler or (workers or os.cpu_count() or 1) > 1:  # other processes run the tasks: can they load them?
         refuse_plugins_only_here(tasks, f"the Dask cluster at {scheduler}" if scheduler else "its worker processes")
@@ -90,19 +95,28 @@ def _run_pending(config, db, conn, tasks, workers, scheduler, log, threads=1) ->
         print(f"study {config.name}: all {len(tasks)} runs already in {db}", file=log)
         return StudyOutcome(len(tasks), already, 0, 0, (), tuple(failed_runs(conn)))
     workers = min(workers or os.cpu_count() or 1, len(pending))
-    where = (f"the Dask cluster at {scheduler}" if scheduler
-             else "this process" if workers == 1 else f"{workers} local processes")
-    print(f"study {config.name}: {len(tasks)} runs, {already} already in {db}, "
-          f"{len(pending)} to run on {where}", file=log)
+    where = (
+        f"the Dask cluster at {scheduler}"
+        if scheduler
+        else "this process"
+        if workers == 1
+        else f"{workers} local processes"
+    )
+    print(
+        f"study {config.name}: {len(tasks)} runs, {already} already in {db}, {len(pending)} to run on {where}", file=log
+    )
     recorded = errors = 0
     lost = []
     # closing(): leaving early (an error, Ctrl-C, SIGTERM) stops the workers at once.
-    with closing(execute_tasks(pending, workers=workers, scheduler=scheduler, threads=threads)) as outcomes, \
-            _Progress(len(pending), config.name, log) as progress:
+    with (
+        closing(execute_tasks(pending, workers=workers, scheduler=scheduler, threads=threads)) as outcomes,
+        _Progress(len(pending), config.name, log) as progress,
+    ):
         for outcome in outcomes:
             if "retried" in outcome:  # not a result: its run is queued again
-                progress.note(f"a worker died ({outcome['retried']}) during run {_describe(outcome['key'])}; "
-                              "running it again")
+                progress.note(
+                    f"a worker died ({outcome['retried']}) during run {_describe(outcome['key'])}; running it again"
+                )
                 continue
             if "lost" in outcome:
                 lost.append((outcome["key"], outcome["lost"]))
@@ -140,8 +154,7 @@ class _Progress:
 
         self.total, self.name, self.log = total, name, log
         self.interactive = hasattr(log, "isatty") and log.isatty()
-        self.bar = tqdm(total=total, desc=name, unit="run", file=log, disable=not self.interactive,
-                        dynamic_ncols=True)
+        self.bar = tqdm(total=total, desc=name, unit="run", file=log, disable=not self.interactive, dynamic_ncols=True)
         self.count, self.next_line, self.started = 0, 0.1, time.monotonic()
 
     def __enter__(self):
@@ -169,9 +182,13 @@ class _Progress:
         elapsed = time.monotonic() - self.started
         rate = self.count / elapsed if elapsed > 0 else math.inf
         eta = (self.total - self.count) / rate if rate > 0 else math.inf
-        print(f"{self.name}: {self.count}/{self.total} runs ({fraction:.0%}), {rate:.2f} runs/s, "
-              f"ETA {_duration(eta)}, {errors} error{'s' if errors != 1 else ''}"
-              + (f", {lost} not finished (retried on the next call)" if lost else ""), file=self.log, flush=True)
+        print(
+            f"{self.name}: {self.count}/{self.total} runs ({fraction:.0%}), {rate:.2f} runs/s, "
+            f"ETA {_duration(eta)}, {errors} error{'s' if errors != 1 else ''}"
+            + (f", {lost} not finished (retried on the next call)" if lost else ""),
+            file=self.log,
+            flush=True,
+        )
 
 
 def _duration(seconds: float) -> str:
@@ -179,4 +196,3 @@ def _duration(seconds: float) -> str:
         return "?"
     seconds = int(round(seconds))
     return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
-

@@ -46,9 +46,10 @@ def summarize(recorded, transient) -> list[str]:
         return []
     n = len(recorded) + len(transient)
     lines = [f"error: {n} run{'s' if n != 1 else ''} failed:"]
-    for failures, what in ((recorded, "recorded as an error, not retried (it would fail the same way)"),
-                           (transient, "not recorded (a fault of the environment; run the same command "
-                                       "again to retry)")):
+    for failures, what in (
+        (recorded, "recorded as an error, not retried (it would fail the same way)"),
+        (transient, "not recorded (a fault of the environment; run the same command again to retry)"),
+    ):
         groups = defaultdict(list)
         for key, error in failures:
             groups[_first_line(error)].append(key)
@@ -63,4 +64,4 @@ def summarize(recorded, transient) -> list[str]:
 def _first_line(error: str | None) -> str:
     # Stored errors are one line (newlines collapsed): show its start, enough to tell errors apart.
     text = error.splitlines()[0] if error else "unknown error"
-    return text if len(text) <= SHOWN_TEXT else text[:SHOWN_TEXT - 3] + "..."
+    return text if len(text) <= SHOWN_TEXT else text[: SHOWN_TEXT - 3] + "..."

@@ -16,8 +16,12 @@ def study_inputs(config, bounds=None) -> list[Path]:
     from bwbench.data.manifest import MANIFEST
 
     files = [Path(p) for p in (None if config.path == "--specimens" else config.path, bounds) if p is not None]
-    entries = [*config.specimens, *config.setup.available.values(),
-               *(config.posterior.specimens if config.posterior else ()), *config.validation]
+    entries = [
+        *config.specimens,
+        *config.setup.available.values(),
+        *(config.posterior.specimens if config.posterior else ()),
+        *config.validation,
+    ]
     for entry in entries:
         path = Path(entry.path)
         if path.is_dir():

@@ -38,15 +38,18 @@ class StudyLock:
             try:
                 fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
             except OSError as err:
-                raise UserError(f"{self.path}: cannot create the lock file of {self.db.name}: "
-                                f"{err.strerror or err}") from None
+                raise UserError(
+                    f"{self.path}: cannot create the lock file of {self.db.name}: {err.strerror or err}"
+                ) from None
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
                 holder = _read_pid(fd)
                 os.close(fd)
-                raise UserError(f"{self.db}: another bwbench compare (pid {holder}) is writing this study; "
-                                "wait for it or pass another --db") from None
+                raise UserError(
+                    f"{self.db}: another bwbench compare (pid {holder}) is writing this study; "
+                    "wait for it or pass another --db"
+                ) from None
             except OSError as err:  # a file system without locks (some network mounts)
                 os.close(fd)
                 raise UserError(f"{self.path}: cannot lock: {err.strerror or err}") from None

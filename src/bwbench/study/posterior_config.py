@@ -17,9 +17,17 @@ POSTERIOR_KEYS = ("specimens", "optimizer", "budget", "seeds", "options")
 # shipped specimens and on others of the same kind (docs/posterior.md), not the backend's
 # defaults, which are a sampler used as an optimiser in the ranking (walkers uniform in the box, one
 # ensemble, the whole budget spent).
-POSTERIOR_OPTIONS = {"emcee": {"start": "optima", "moves": "de", "ensembles": 3, "n_walkers": None,
-                               "start_fraction": 0.05, "stop": "converged"},
-                     "nested": {}}  # its defaults are the posterior's: 4 independent runs of 100 live points
+POSTERIOR_OPTIONS = {
+    "emcee": {
+        "start": "optima",
+        "moves": "de",
+        "ensembles": 3,
+        "n_walkers": None,
+        "start_fraction": 0.05,
+        "stop": "converged",
+    },
+    "nested": {},
+}  # its defaults are the posterior's: 4 independent runs of 100 live points
 
 
 DEFAULT_POSTERIOR_OPTIMIZER = "nested"
@@ -69,7 +77,7 @@ def posterior_table(fail, table, setup: ProblemSetup) -> PosteriorConfig:
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
         fail("[posterior] specimens must be a non-empty list of specimen names (file stems)")
     if only is not None and names != only:
-        fail(f"[posterior] specimens: this study has one specimen, [\"{only[0]}\"] (or omit the key)")
+        fail(f'[posterior] specimens: this study has one specimen, ["{only[0]}"] (or omit the key)')
     for stem in names:
         if stem not in available:
             fail(f"[posterior] specimens: no specimen {stem!r} in this study's data")
@@ -81,10 +89,12 @@ def posterior_table(fail, table, setup: ProblemSetup) -> PosteriorConfig:
     return PosteriorConfig(
         specimens=tuple(available[stem] for stem in names),
         optimizer=samplers[0][0],
-        budget=bounded(fail, "[posterior] budget", integer(fail, "[posterior] budget", table["budget"]),
-                       "BWBENCH_MAX_BUDGET"),
-        seeds=bounded(fail, "[posterior] seeds", integer(fail, "[posterior] seeds", table.get("seeds", 1)),
-                      "BWBENCH_MAX_SEEDS"),
+        budget=bounded(
+            fail, "[posterior] budget", integer(fail, "[posterior] budget", table["budget"]), "BWBENCH_MAX_BUDGET"
+        ),
+        seeds=bounded(
+            fail, "[posterior] seeds", integer(fail, "[posterior] seeds", table.get("seeds", 1)), "BWBENCH_MAX_SEEDS"
+        ),
         options=samplers[0][1],
         samplers=samplers if len(samplers) > 1 else (),
     )
@@ -97,23 +107,36 @@ def _samplers(fail, table: dict) -> tuple:
     several = isinstance(optimizer, list)
     names = optimizer if several else [optimizer]
     if not names or not all(isinstance(n, str) for n in names):
-        fail("[posterior] optimizer must be a backend name or a non-empty list of them, e.g. [\"nested\", \"emcee\"]")
+        fail('[posterior] optimizer must be a backend name or a non-empty list of them, e.g. ["nested", "emcee"]')
     if len(set(names)) != len(names):
         fail("[posterior] optimizer names a backend twice")
     for name in names:
         check_backend(fail, "[posterior] optimizer", name)
     given = table.get("options", {})
     if not several:
-        return ((names[0], resolve_backend_options(fail, "[posterior] options", names[0],
-                                            _posterior_options(names[0], given))),)
+        return (
+            (
+                names[0],
+                resolve_backend_options(fail, "[posterior] options", names[0], _posterior_options(names[0], given)),
+            ),
+        )
     if not isinstance(given, dict) or not all(isinstance(v, dict) for v in given.values()):
-        fail("[posterior] options: with several samplers, one table per sampler, e.g. "
-             "options = { emcee = { n_walkers = 32 } }")
+        fail(
+            "[posterior] options: with several samplers, one table per sampler, e.g. "
+            "options = { emcee = { n_walkers = 32 } }"
+        )
     unknown = [k for k in given if k not in names]
     if unknown:
         fail(f"[posterior] options: {unknown[0]!r} is not one of the samplers ({', '.join(names)})")
-    return tuple((name, resolve_backend_options(fail, f"[posterior] options {name}", name,
-                                         _posterior_options(name, given.get(name, {})))) for name in names)
+    return tuple(
+        (
+            name,
+            resolve_backend_options(
+                fail, f"[posterior] options {name}", name, _posterior_options(name, given.get(name, {}))
+            ),
+        )
+        for name in names
+    )
 
 
 def _posterior_options(optimizer: str, given):

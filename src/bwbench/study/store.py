@@ -49,9 +49,27 @@ from bwbench.version import __version__
 
 GENERIC_COLUMNS = ("problem", "params_json", "metrics_json", "model", "formulation", "variant")  # any problem
 RUN_COLUMNS = (
-    "kind", "specimen", "optimizer", "replicate", "seed_entropy", "status", "error", "budget",
-    "nfev", "mse", "f_err", "rmse_N", "success", "message", "state", "excitation", "material",
-    "underpressure_MPa", "repeat", "options_json", *GENERIC_COLUMNS,
+    "kind",
+    "specimen",
+    "optimizer",
+    "replicate",
+    "seed_entropy",
+    "status",
+    "error",
+    "budget",
+    "nfev",
+    "mse",
+    "f_err",
+    "rmse_N",
+    "success",
+    "message",
+    "state",
+    "excitation",
+    "material",
+    "underpressure_MPa",
+    "repeat",
+    "options_json",
+    *GENERIC_COLUMNS,
 )
 _KEY_SQL = "kind TEXT, specimen TEXT, optimizer TEXT, replicate INTEGER"
 _PK_SQL = "PRIMARY KEY (kind, specimen, optimizer, replicate)"
@@ -102,8 +120,10 @@ def prepare_database_path(path) -> Path:
         raise UserError(f"{path}: cannot create its folder {folder}: {err.strerror or err}") from None
     # SQLite writes a journal next to the database on every commit: the folder must be writable too.
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise UserError(f"{path}: the folder {folder} is not writable (SQLite keeps its journal next to "
-                        "the database); pass --db with a writable path")
+        raise UserError(
+            f"{path}: the folder {folder} is not writable (SQLite keeps its journal next to "
+            "the database); pass --db with a writable path"
+        )
     if path.exists() and not os.access(path, os.R_OK):
         raise UserError(f"{path}: cannot read the study database (permission denied)")
     if path.exists() and not os.access(path, os.W_OK):
@@ -166,11 +186,16 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
             for statement in SCHEMA.split(";"):
                 if statement.strip():
                     conn.execute(statement)
-            conn.executemany("INSERT INTO study (key, value) VALUES (?, ?)", [
-                ("name", config.name), ("config_json", config.canonical_json()),
-                ("config_hash", config.config_hash), ("created_utc", utc_now()),
-                ("bwbench_version", __version__),
-            ])
+            conn.executemany(
+                "INSERT INTO study (key, value) VALUES (?, ?)",
+                [
+                    ("name", config.name),
+                    ("config_json", config.canonical_json()),
+                    ("config_hash", config.config_hash),
+                    ("created_utc", utc_now()),
+                    ("bwbench_version", __version__),
+                ],
+            )
         if planned_runs is not None:
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('planned_runs', ?)", (str(planned_runs),))
         conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('machine', ?)", (machine_description(),))
@@ -178,8 +203,9 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
         conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('backends', ?)", (backend_facts(config),))
         location = config.setup.data_location  # where the data are now: for the report, not the identity
         if isinstance(location, dict):
-            conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)",
-                         (canonical_json(location),))
+            conn.execute(
+                "INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)", (canonical_json(location),)
+            )
         elif location:
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_dir', ?)", (location,))
         conn.execute("COMMIT")
@@ -221,8 +247,10 @@ def _check_same_study(conn, path, config: StudyConfig) -> None:
     stored = dict(conn.execute("SELECT key, value FROM study"))
     if stored.get("config_hash") == config.config_hash:
         if stored.get("bwbench_version") != __version__:
-            print(f"note: {path} was started with bwbench {stored.get('bwbench_version')}, "
-                  f"this is {__version__}", file=sys.stderr)
+            print(
+                f"note: {path} was started with bwbench {stored.get('bwbench_version')}, this is {__version__}",
+                file=sys.stderr,
+            )
         return
     new = config.to_json_dict()
     try:
@@ -236,10 +264,14 @@ def _check_same_study(conn, path, config: StudyConfig) -> None:
             f"{config.path} differs from the study in {path} ({shown}): pass --db with another path "
             f"to keep both, or delete {path} to start over"
         )
-    conn.executemany("INSERT OR REPLACE INTO study (key, value) VALUES (?, ?)",
-                     [("config_json", config.canonical_json()), ("config_hash", config.config_hash)])
-    print(f"note: {config.path} extends the study in {path}: its finished runs are kept, only the new ones run",
-          file=sys.stderr)
+    conn.executemany(
+        "INSERT OR REPLACE INTO study (key, value) VALUES (?, ?)",
+        [("config_json", config.canonical_json()), ("config_hash", config.config_hash)],
+    )
+    print(
+        f"note: {config.path} extends the study in {path}: its finished runs are kept, only the new ones run",
+        file=sys.stderr,
+    )
 
 
 def extension_conflicts(old: dict, new: dict) -> list[str]:
@@ -262,8 +294,11 @@ def extension_conflicts(old: dict, new: dict) -> list[str]:
         missing = [s for s in old_specimens.get("files", []) if s not in new_specimens]
     else:
         missing = [s for s in old_specimens if s not in new_specimens]
-        out += [f"specimen {s}: its data changed (SHA-256 differs)" for s in old_specimens
-                if s in new_specimens and old_specimens[s] != new_specimens[s]]
+        out += [
+            f"specimen {s}: its data changed (SHA-256 differs)"
+            for s in old_specimens
+            if s in new_specimens and old_specimens[s] != new_specimens[s]
+        ]
     out += [f"specimen {s} removed" for s in missing]
     for name, options in old.get("optimizers", {}).items():
         if name not in new.get("optimizers", {}):
@@ -280,14 +315,19 @@ def extension_conflicts(old: dict, new: dict) -> list[str]:
 
 def finished_keys(conn) -> set:
     """Keys of the finished runs: those that succeeded or failed deterministically."""
-    return {tuple(r[:4]) for r in conn.execute("SELECT kind, specimen, optimizer, replicate, status, error FROM runs")
-            if not _retryable(r[4], r[5])}
+    return {
+        tuple(r[:4])
+        for r in conn.execute("SELECT kind, specimen, optimizer, replicate, status, error FROM runs")
+        if not _retryable(r[4], r[5])
+    }
 
 
 def failed_runs(conn) -> list:
     """[(key, error)] of the runs recorded as deterministic errors, by key."""
-    rows = conn.execute("SELECT kind, specimen, optimizer, replicate, error FROM runs WHERE status = 'error' "
-                        "ORDER BY kind, specimen, optimizer, replicate")
+    rows = conn.execute(
+        "SELECT kind, specimen, optimizer, replicate, error FROM runs WHERE status = 'error' "
+        "ORDER BY kind, specimen, optimizer, replicate"
+    )
     return [(tuple(r[:4]), r[4]) for r in rows if not _retryable("error", r[4])]
 
 
@@ -315,18 +355,30 @@ def record_run(conn, outcome: dict) -> bool:
                 return False
             for table in ("runs", "timings", "traces", "chains", "evidence"):
                 conn.execute(f"DELETE FROM {table} WHERE {where}", key)
-        conn.execute(f"INSERT INTO runs ({columns}) VALUES ({placeholders})",
-                     [outcome["row"][c] for c in RUN_COLUMNS])
+        conn.execute(f"INSERT INTO runs ({columns}) VALUES ({placeholders})", [outcome["row"][c] for c in RUN_COLUMNS])
         t = outcome["timing"]
-        conn.execute("INSERT OR REPLACE INTO timings VALUES (?, ?, ?, ?, ?, ?, ?)",
-                     (*key, t["wall_s"], t["worker"], t["finished_utc"]))
-        conn.executemany("INSERT INTO traces VALUES (?, ?, ?, ?, ?, ?)",
-                         [(*key, int(n), float(m)) for n, m in outcome["trace"]])
+        conn.execute(
+            "INSERT OR REPLACE INTO timings VALUES (?, ?, ?, ?, ?, ?, ?)",
+            (*key, t["wall_s"], t["worker"], t["finished_utc"]),
+        )
+        conn.executemany(
+            "INSERT INTO traces VALUES (?, ?, ?, ?, ?, ?)", [(*key, int(n), float(m)) for n, m in outcome["trace"]]
+        )
         c = outcome["chain"]
         if c is not None:
-            conn.execute("INSERT OR REPLACE INTO chains VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                         (*key, c["steps"], c["walkers"], c["dim"], c["chain"], c["log_prob"],
-                          c["acceptance_fraction"], c["autocorr_json"]))
+            conn.execute(
+                "INSERT OR REPLACE INTO chains VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (
+                    *key,
+                    c["steps"],
+                    c["walkers"],
+                    c["dim"],
+                    c["chain"],
+                    c["log_prob"],
+                    c["acceptance_fraction"],
+                    c["autocorr_json"],
+                ),
+            )
             if c.get("evidence_json"):
                 conn.execute("INSERT OR REPLACE INTO evidence VALUES (?, ?, ?, ?, ?)", (*key, c["evidence_json"]))
         conn.execute("COMMIT")

@@ -57,29 +57,52 @@ class Task:
 
 def task_seed(entropy: int, kind: str, specimen: str, optimizer: str, replicate: int) -> np.random.SeedSequence:
     """The seed of one run: a function of the study seed and the run's key only."""
-    spawn_key = (zlib.crc32(kind.encode()), zlib.crc32(specimen.encode()),
-                 zlib.crc32(optimizer.encode()), int(replicate))
+    spawn_key = (
+        zlib.crc32(kind.encode()),
+        zlib.crc32(specimen.encode()),
+        zlib.crc32(optimizer.encode()),
+        int(replicate),
+    )
     return np.random.SeedSequence(entropy=entropy, spawn_key=spawn_key)
 
 
 def plan_tasks(config: StudyConfig) -> list[Task]:
     """Every run of the study: posterior runs first (the longest), then the ranking, replicate by
     replicate, so a study stopped early has every backend on the same specimens."""
+
     def task(kind, entry, backend, replicate, budget, options, variant=("", None)):
         label, settings = variant
-        return Task(kind, run_label(backend, label), replicate, config.seed, budget, options, config.problem,
-                    settings or config.settings, entry, backend if label else "")
+        return Task(
+            kind,
+            run_label(backend, label),
+            replicate,
+            config.seed,
+            budget,
+            options,
+            config.problem,
+            settings or config.settings,
+            entry,
+            backend if label else "",
+        )
 
     variants = config.setup.variants or (("", config.settings),)
     tasks = []
     p = config.posterior
     if p is not None:  # each model's last variant (the identifiable formulation, when both are), every sampler
-        tasks += [task("posterior", entry, backend, r, p.budget, options, variant)
-                  for r in range(p.seeds) for entry in p.specimens for variant in posterior_variants(config.setup)
-                  for backend, options in p.backends]
-    tasks += [task("ranking", entry, optimizer, r, config.budget, options, variant)
-              for r in range(config.seeds) for entry in config.specimens
-              for variant in variants for optimizer, options in config.optimizers.items()]
+        tasks += [
+            task("posterior", entry, backend, r, p.budget, options, variant)
+            for r in range(p.seeds)
+            for entry in p.specimens
+            for variant in posterior_variants(config.setup)
+            for backend, options in p.backends
+        ]
+    tasks += [
+        task("ranking", entry, optimizer, r, config.budget, options, variant)
+        for r in range(config.seeds)
+        for entry in config.specimens
+        for variant in variants
+        for optimizer, options in config.optimizers.items()
+    ]
     return tasks
 
 
@@ -127,9 +150,11 @@ def refuse_plugins_only_here(tasks, where: str) -> None:
     needed = dict.fromkeys(plugin for task in tasks for plugin in plugins_of(task))
     for kind, name in needed:
         if only_here[kind](name):
-            raise UserError(f"{kind} {name!r} is registered in this process only (register()), so {where} cannot "
-                            f"load it: install it as a plug-in package (entry-point group {groups[kind]!r}; "
-                            "see examples/problem_plugin) or run the study in this process (--workers 1)")
+            raise UserError(
+                f"{kind} {name!r} is registered in this process only (register()), so {where} cannot "
+                f"load it: install it as a plug-in package (entry-point group {groups[kind]!r}; "
+                "see examples/problem_plugin) or run the study in this process (--workers 1)"
+            )
 
 
 def run_task(task: Task, threads: int = 1) -> dict:
@@ -145,13 +170,24 @@ def run_task(task: Task, threads: int = 1) -> dict:
     from bwbench.threads import limited
 
     row = dict.fromkeys(RUN_COLUMNS)
-    row.update(kind=task.kind, specimen=task.specimen, optimizer=task.optimizer, replicate=task.replicate,
-               seed_entropy=str(task.entropy), budget=task.budget, options_json=canonical_json(task.options),
-               success=0, problem=task.problem)
+    row.update(
+        kind=task.kind,
+        specimen=task.specimen,
+        optimizer=task.optimizer,
+        replicate=task.replicate,
+        seed_entropy=str(task.entropy),
+        budget=task.budget,
+        options_json=canonical_json(task.options),
+        success=0,
+        problem=task.problem,
+    )
     missing = missing_plugins(plugins_of(task))
     if missing:  # the study's process found them: this worker's environment lacks them
-        return {"key": task.key, "lost": f"cannot load {missing[0]} on worker host {socket.gethostname()}: "
-                                         "install the plug-in package where the workers run"}
+        return {
+            "key": task.key,
+            "lost": f"cannot load {missing[0]} on worker host {socket.gethostname()}: "
+            "install the plug-in package where the workers run",
+        }
     problem_type = problems.get(task.problem)
     _fill(row, problem_type.record_columns(task.settings, task.entry, None))
     trace, chain, transient = [], None, False
@@ -177,9 +213,16 @@ def run_task(task: Task, threads: int = 1) -> dict:
             row.update(status="error", error=failures.one_line(err))
         else:
             _fill(row, columns)
-            row.update(status="ok", nfev=result.nfev, mse=result.mse, f_err=result.f_err,
-                       success=int(result.success), message=result.message,
-                       params_json=params_json, metrics_json=metrics_json)
+            row.update(
+                status="ok",
+                nfev=result.nfev,
+                mse=result.mse,
+                f_err=result.f_err,
+                success=int(result.success),
+                message=result.message,
+                params_json=params_json,
+                metrics_json=metrics_json,
+            )
             trace = list(zip(result.trace_nfev, result.trace_mse, strict=True))
         finally:
             wall = time.perf_counter() - started
@@ -213,11 +256,13 @@ def _chain_columns(extras: dict) -> dict | None:
     steps, walkers, dim = chain.shape
     # a nested-sampling posterior: each run's ln Z with its error, evaluations and whether it ended by its
     # own rule (the chain holds each run's equal-weight draws side by side)
-    evidence = {k: extras[k] for k in ("log_z", "log_z_err", "run_nfev", "run_complete", "live_points")
-                if k in extras}
+    evidence = {k: extras[k] for k in ("log_z", "log_z_err", "run_nfev", "run_complete", "live_points") if k in extras}
     return {
         "evidence_json": canonical_json(evidence) if "log_z" in evidence else None,
-        "steps": steps, "walkers": walkers, "dim": dim, "chain": chain.tobytes(),
+        "steps": steps,
+        "walkers": walkers,
+        "dim": dim,
+        "chain": chain.tobytes(),
         "log_prob": None if log_prob is None else np.ascontiguousarray(log_prob, dtype=np.float64).tobytes(),
         "acceptance_fraction": None if acceptance is None else float(np.mean(acceptance)),
         "autocorr_json": None if autocorr is None else canonical_json(autocorr),

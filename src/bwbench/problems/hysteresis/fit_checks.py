@@ -76,8 +76,11 @@ def expected_force_error(problem, params) -> dict | None:
     c = np.where(signal.v >= 0, damping.get("+", damping.get("")), damping.get("-", damping.get("")))
     sensitivity = float(np.sqrt(np.nanmean(np.asarray(c, dtype=float) ** 2)))
     error = signal.velocity_error()
-    return {"velocity_error_mm_s": error, "sensitivity_N_s_per_mm": sensitivity,
-            "expected_force_error_N": sensitivity * error}
+    return {
+        "velocity_error_mm_s": error,
+        "sensitivity_N_s_per_mm": sensitivity,
+        "expected_force_error_N": sensitivity * error,
+    }
 
 
 def linear_branches(problem, params) -> dict:
@@ -111,20 +114,28 @@ def check(problem, params, synthetic: bool = False, at_bound: dict | None = None
     work, cycles, threshold = energy_per_cycle(problem, params)
     out.json["energy_per_cycle_Nmm"] = work
     if np.isfinite(work) and cycles >= 0.5:
-        out.notes.append(f"energy dissipated per cycle by the fitted model: ∮F·dx = {work:.4g} N·mm ({work / 1000:.3g} J)")
+        out.notes.append(
+            f"energy dissipated per cycle by the fitted model: ∮F·dx = {work:.4g} N·mm ({work / 1000:.3g} J)"
+        )
         if work < -threshold:
             if synthetic:
-                out.notes.append("note: the fitted loop runs clockwise (∮F·dx < 0), as the paper's identified "
-                                 "parameters make the synthetic specimens run")
+                out.notes.append(
+                    "note: the fitted loop runs clockwise (∮F·dx < 0), as the paper's identified "
+                    "parameters make the synthetic specimens run"
+                )
             else:
-                out.warnings.append(f"the fitted model generates energy (∮F·dx = {work:.4g} N·mm per cycle < 0): a "
-                                    "passive specimen dissipates it (force positive in tension, displacement positive "
-                                    "in elongation): is the force or the displacement flipped?")
+                out.warnings.append(
+                    f"the fitted model generates energy (∮F·dx = {work:.4g} N·mm per cycle < 0): a "
+                    "passive specimen dissipates it (force positive in tension, displacement positive "
+                    "in elongation): is the force or the displacement flipped?"
+                )
     for b, linear in linear_branches(problem, params).items():
         out.json.setdefault("linear_branches", {})[b] = linear
         if linear:
-            out.notes.append(f"branch {b} is linear (no yield within the stroke): n{b} and eta{b} are not determined "
-                             f"by these data, only h{b}/xy{b}")
+            out.notes.append(
+                f"branch {b} is linear (no yield within the stroke): n{b} and eta{b} are not determined "
+                f"by these data, only h{b}/xy{b}"
+            )
             if at_bound.get(f"xy{b}") == "upper":
                 out.explained.add(f"xy{b}")
     physical_limit_findings(problem, params, at_bound, out)
@@ -137,9 +148,11 @@ def check(problem, params, synthetic: bool = False, at_bound: dict | None = None
     error = expected_force_error(problem, params)
     if error is not None:
         out.json["velocity_estimate"] = error
-        out.notes.append(f"velocity estimated from the displacement: expected error {error['velocity_error_mm_s']:.2g} "
-                         f"mm/s rms × ∂F/∂ẋ {error['sensitivity_N_s_per_mm']:.4g} N·s/mm (rms of the fitted damping) "
-                         f"= {error['expected_force_error_N']:.3g} N rms of expected force error")
+        out.notes.append(
+            f"velocity estimated from the displacement: expected error {error['velocity_error_mm_s']:.2g} "
+            f"mm/s rms × ∂F/∂ẋ {error['sensitivity_N_s_per_mm']:.4g} N·s/mm (rms of the fitted damping) "
+            f"= {error['expected_force_error_N']:.3g} N rms of expected force error"
+        )
     return out
 
 
@@ -170,22 +183,38 @@ def physical_limit_findings(problem, params, at_bound: dict, out: FitChecks) -> 
         if name not in unbounded or lo <= unbounded[name] <= hi:
             continue
         unit = units.get(name, "")
-        why = (coefficient[name][2] if name in coefficient else
-               f"{name} ≥ 0: a dashpot cannot push the way it moves" if unit == VISCOUS_UNIT and lo == 0 else
-               f"{name} in [{lo:g}, {hi:g}] N·s²/mm: a negative mass is no mass, and no damper or specimen on a "
-               "test rig moves a tonne" if name == getattr(problem.model.linear_layout(problem.state), "mass", None)
-               else f"{name} bounded to [{lo:g}, {hi:g}]")
-        entry = {"value": solved.get(name), "unbounded": unbounded[name], "bound": [lo, hi],
-                 "rmse_N": rmse, "rmse_unbounded_N": rmse_free, "meaning": why}
+        why = (
+            coefficient[name][2]
+            if name in coefficient
+            else f"{name} ≥ 0: a dashpot cannot push the way it moves"
+            if unit == VISCOUS_UNIT and lo == 0
+            else f"{name} in [{lo:g}, {hi:g}] N·s²/mm: a negative mass is no mass, and no damper or specimen on a "
+            "test rig moves a tonne"
+            if name == getattr(problem.model.linear_layout(problem.state), "mass", None)
+            else f"{name} bounded to [{lo:g}, {hi:g}]"
+        )
+        entry = {
+            "value": solved.get(name),
+            "unbounded": unbounded[name],
+            "bound": [lo, hi],
+            "rmse_N": rmse,
+            "rmse_unbounded_N": rmse_free,
+            "meaning": why,
+        }
         out.json.setdefault("physical_limits", {})[name] = entry
         gain = 1.0 - rmse_free / rmse if rmse > 0 else 0.0
-        verdict = (f"the limit costs {gain:.1%} of the RMSE: the data barely ask for it ({name} is not determined "
-                   "by this test)" if gain < 0.01 else
-                   f"the limit costs {gain:.1%} of the RMSE: the model or the data want what the damper cannot do "
-                   "physically (model error, or a sign or offset in the data)")
-        out.findings.append(f"{name} = {solved.get(name, float('nan')):.4g} {unit} held on its physical limit — {why}; "
-                            f"the data alone would put it at {unbounded[name]:.4g} {unit} (RMSE {rmse:.4g} N → "
-                            f"{rmse_free:.4g} N): {verdict}")
+        verdict = (
+            f"the limit costs {gain:.1%} of the RMSE: the data barely ask for it ({name} is not determined "
+            "by this test)"
+            if gain < 0.01
+            else f"the limit costs {gain:.1%} of the RMSE: the model or the data want what the damper cannot do "
+            "physically (model error, or a sign or offset in the data)"
+        )
+        out.findings.append(
+            f"{name} = {solved.get(name, float('nan')):.4g} {unit} held on its physical limit — {why}; "
+            f"the data alone would put it at {unbounded[name]:.4g} {unit} (RMSE {rmse:.4g} N → "
+            f"{rmse_free:.4g} N): {verdict}"
+        )
 
 
 def failing_checks(problem, params, out: FitChecks) -> None:
@@ -203,22 +232,31 @@ def failing_checks(problem, params, out: FitChecks) -> None:
     energy = residual_checks.energy_split(signal.x, signal.v, force, measured)
     out.json["energy_check"] = energy
     if not energy["passed"]:
-        parts = ", ".join(f"{name} {part['mismatch']:.1%}" for name, part in energy["parts"].items()
-                          if part["mismatch"] > energy["tolerance"])
-        out.findings.append(f"energy check failed: the fitted model's work misses the measured one by {parts} of the "
-                            f"loop energy (tolerance {energy['tolerance']:.0%}): the loop's shape is wrong where the "
-                            "total ∮F·dx (which a least-squares fit matches closely) cannot tell")
+        parts = ", ".join(
+            f"{name} {part['mismatch']:.1%}"
+            for name, part in energy["parts"].items()
+            if part["mismatch"] > energy["tolerance"]
+        )
+        out.findings.append(
+            f"energy check failed: the fitted model's work misses the measured one by {parts} of the "
+            f"loop energy (tolerance {energy['tolerance']:.0%}): the loop's shape is wrong where the "
+            "total ∮F·dx (which a least-squares fit matches closely) cannot tell"
+        )
     else:
-        out.notes.append(f"energy check passed: work per branch and at the reversals within "
-                         f"{energy['worst_mismatch']:.2%} of the measured loop energy (tolerance {energy['tolerance']:.0%})")
+        out.notes.append(
+            f"energy check passed: work per branch and at the reversals within "
+            f"{energy['worst_mismatch']:.2%} of the measured loop energy (tolerance {energy['tolerance']:.0%})"
+        )
     _, cycles = loop_work(signal.x, measured)
     cycle_s = float(signal.t[-1] - signal.t[0]) / cycles if cycles >= 0.5 else None
     structure = residual_checks.residual_structure(signal.t, signal.x, force - measured, force_noise(measured), cycle_s)
     out.json["residual_structure"] = structure
-    text = (f"residual: RMSE {structure['rmse_N']:.3g} N = {structure['rmse_over_noise']:.2g} × the force noise "
-            f"{structure['noise_N']:.3g} N; {structure['reversal_error_share']:.0%} of the squared error at the reversals "
-            f"({structure['reversal_sample_share']:.0%} of the samples); autocorrelation {structure['autocorrelation']:.2f} "
-            f"at {structure['lag_samples']} sample{'s' if structure['lag_samples'] > 1 else ''}")
+    text = (
+        f"residual: RMSE {structure['rmse_N']:.3g} N = {structure['rmse_over_noise']:.2g} × the force noise "
+        f"{structure['noise_N']:.3g} N; {structure['reversal_error_share']:.0%} of the squared error at the reversals "
+        f"({structure['reversal_sample_share']:.0%} of the samples); autocorrelation {structure['autocorrelation']:.2f} "
+        f"at {structure['lag_samples']} sample{'s' if structure['lag_samples'] > 1 else ''}"
+    )
     if structure["reversals_missed"]:
         out.findings.append(f"{text}: the model misses the reversals")
     elif structure["model_error_dominates"]:
@@ -233,8 +271,10 @@ def plausibility_findings(problem, params, out: FitChecks) -> None:
     rows = problem.model.plausibility(values, problem.signal, problem.state) if hasattr(problem, "signal") else []
     if not rows:
         return
-    out.json["plausibility"] = {name: {"value": value, "unit": unit, "meaning": meaning, "flag": verdict or None}
-                                for name, value, unit, meaning, verdict in rows}
+    out.json["plausibility"] = {
+        name: {"value": value, "unit": unit, "meaning": meaning, "flag": verdict or None}
+        for name, value, unit, meaning, verdict in rows
+    }
     for name, value, unit, meaning, verdict in rows:
         if verdict:
             unit = "" if unit in ("-", "") else f" {unit}"

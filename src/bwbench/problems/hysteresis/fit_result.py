@@ -23,17 +23,32 @@ from bwbench.optimize.result import Result, finite_or_null
 # Two normalisations of the RMSE: by the largest force magnitude (bwbench's ``nrmse``, symmetric in the
 # sign of F) and by the largest force (``nrmse_max_F``), the one the MR-damper literature reports (e.g.
 # per-test fits of Spencer's model); they differ where the compression peak exceeds the tension peak.
-NRMSE_DEFINITIONS = {"nrmse": "RMSE / max|F measured| (bwbench's)",
-                     "nrmse_max_F": "RMSE / max F measured (the MR-damper literature's)"}
+NRMSE_DEFINITIONS = {
+    "nrmse": "RMSE / max|F measured| (bwbench's)",
+    "nrmse_max_F": "RMSE / max F measured (the MR-damper literature's)",
+}
 # Units of the result JSON's own numbers (the parameters' units come from the problem).
 METRIC_UNITS = {
-    "mse": "N²", "f_err": "N² (−MSE, the paper's eq 6)", "rmse_N": "N", "nrmse": "– (RMSE / max|F measured|)",
-    "nrmse_max_F": "– (RMSE / max F measured, the literature's)", "box_probe_s": "s",
+    "mse": "N²",
+    "f_err": "N² (−MSE, the paper's eq 6)",
+    "rmse_N": "N",
+    "nrmse": "– (RMSE / max|F measured|)",
+    "nrmse_max_F": "– (RMSE / max F measured, the literature's)",
+    "box_probe_s": "s",
     "inputs.size_bytes": "bytes",
-    "nfev": "evaluations (one evaluation = one simulation of every file)", "budget": "evaluations",
-    "wall_s": "s", "trace.nfev": "evaluations", "trace.mse": "N²", "energy_per_cycle_Nmm": "N·mm",
-    "files.n": "samples", "files.weight": "– (share of the loss)", "files.mse": "N²", "files.rmse_N": "N",
-    "files.nrmse": "–", "files.nrmse_max_F": "–", "bounds": "the unit of each parameter",
+    "nfev": "evaluations (one evaluation = one simulation of every file)",
+    "budget": "evaluations",
+    "wall_s": "s",
+    "trace.nfev": "evaluations",
+    "trace.mse": "N²",
+    "energy_per_cycle_Nmm": "N·mm",
+    "files.n": "samples",
+    "files.weight": "– (share of the loss)",
+    "files.mse": "N²",
+    "files.rmse_N": "N",
+    "files.nrmse": "–",
+    "files.nrmse_max_F": "–",
+    "bounds": "the unit of each parameter",
 }
 
 
@@ -80,8 +95,9 @@ class FitResult:
         from bwbench.problems.hysteresis.fitted_model import FittedModel
 
         p = self.problem
-        return FittedModel(p.model.name, p.formulation, dict(self.result.params), p.state, p.excitation,
-                           dict(self.result.units))
+        return FittedModel(
+            p.model.name, p.formulation, dict(self.result.params), p.state, p.excitation, dict(self.result.units)
+        )
 
     def predict(self, specimen):
         """``model.predict(specimen)``: the force on another test, nothing refitted (a ``Prediction``)."""
@@ -144,8 +160,9 @@ class FitResult:
         from bwbench.render import fit_plots
 
         model = self.model
-        title = (f"{model.describe()}: {self.result.optimizer}, {self.result.nfev} evaluations"
-                 + (" of every file" if len(self.files) > 1 else ""))
+        title = f"{model.describe()}: {self.result.optimizer}, {self.result.nfev} evaluations" + (
+            " of every file" if len(self.files) > 1 else ""
+        )
         return fit_plots.figure([model.predict(s) for s in self.specimens], title, ax)
 
     def __repr__(self) -> str:
@@ -218,13 +235,32 @@ def per_file(problem, result: Result) -> tuple:
         if np.all(np.isfinite(params)):
             rows = list(problem.per_file(params))
         else:
-            rows = [{"specimen": p.specimen.name, "n": p.n_data, "weight": float(w), "mse": math.inf,
-                     "rmse_N": math.inf, "nrmse": math.inf} for p, w in zip(problem.parts, problem.file_weight)]
-        return tuple({**row, "nrmse_max_F": _over_max_force(row["rmse_N"], spec.f)} for row, spec in zip(rows, specimens))
+            rows = [
+                {
+                    "specimen": p.specimen.name,
+                    "n": p.n_data,
+                    "weight": float(w),
+                    "mse": math.inf,
+                    "rmse_N": math.inf,
+                    "nrmse": math.inf,
+                }
+                for p, w in zip(problem.parts, problem.file_weight)
+            ]
+        return tuple(
+            {**row, "nrmse_max_F": _over_max_force(row["rmse_N"], spec.f)} for row, spec in zip(rows, specimens)
+        )
     peak = float(np.max(np.abs(problem.specimen.f)))
-    return ({"specimen": problem.specimen.name, "n": problem.n_data, "weight": 1.0, "mse": result.mse,
-             "rmse_N": result.rmse_N, "nrmse": result.rmse_N / peak if peak > 0 else math.inf,
-             "nrmse_max_F": _over_max_force(result.rmse_N, problem.specimen.f)},)
+    return (
+        {
+            "specimen": problem.specimen.name,
+            "n": problem.n_data,
+            "weight": 1.0,
+            "mse": result.mse,
+            "rmse_N": result.rmse_N,
+            "nrmse": result.rmse_N / peak if peak > 0 else math.inf,
+            "nrmse_max_F": _over_max_force(result.rmse_N, problem.specimen.f),
+        },
+    )
 
 
 def _over_max_force(rmse: float, f) -> float:
@@ -245,8 +281,14 @@ def provenance(specimens, bounds=None, argv=None) -> dict:
     for role, path in [("specimen", p) for p in specimens] + ([("bounds", bounds)] if bounds else []):
         p = Path(path)
         data = p.read_bytes()
-        inputs.append({"role": role, "path": str(p.resolve()), "size_bytes": len(data),
-                       "sha256": hashlib.sha256(data).hexdigest()})
+        inputs.append(
+            {
+                "role": role,
+                "path": str(p.resolve()),
+                "size_bytes": len(data),
+                "sha256": hashlib.sha256(data).hexdigest(),
+            }
+        )
     argv = sys.argv if argv is None else argv
     return {"inputs": inputs, "command_line": " ".join(shlex.quote(str(a)) for a in argv)}
 
@@ -255,8 +297,16 @@ def provenance(specimens, bounds=None, argv=None) -> dict:
 AGREEING_SEARCHES = 3
 
 
-def run_fit(problem, optimizer: str, budget: int, seed, options: dict | None = None,
-            synthetic: bool = False, extra: dict | None = None, stop: str = "budget") -> FitResult:
+def run_fit(
+    problem,
+    optimizer: str,
+    budget: int,
+    seed,
+    options: dict | None = None,
+    synthetic: bool = False,
+    extra: dict | None = None,
+    stop: str = "budget",
+) -> FitResult:
     """Fit ``problem`` with backend ``optimizer`` on at most ``budget`` evaluations (``fitting.run``),
     then its per-file errors and checks. ``stop``: "budget" spends the whole budget (a study's
     rule); "agreed" lets a backend with a ``stop_agree`` option (lsq-trf) stop once

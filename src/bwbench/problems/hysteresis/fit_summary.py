@@ -96,9 +96,9 @@ class _FreeVector:
 
     def split(self, v):
         v = np.asarray(v, dtype=float)
-        theta = self.problem.from_unit(v[:self.d])
+        theta = self.problem.from_unit(v[: self.d])
         coef = {n: self.params.get(n, np.nan) for n in getattr(self.problem, "linear_names", ())}
-        coef.update(zip(self.solved, map(float, v[self.d:] * self.scale)))
+        coef.update(zip(self.solved, map(float, v[self.d :] * self.scale)))
         for tied, source in self.tied.items():
             coef[tied] = coef[source]
         return theta, coef
@@ -110,8 +110,9 @@ class _FreeVector:
         from bwbench.problems.hysteresis.fitted_model import FittedModel
 
         p = self.problem
-        model = FittedModel(p.model.name, "identifiable", {**dict(zip(self.searched, map(float, theta))), **coef},
-                            p.state, p.excitation)
+        model = FittedModel(
+            p.model.name, "identifiable", {**dict(zip(self.searched, map(float, theta))), **coef}, p.state, p.excitation
+        )
         return np.concatenate([(model.force(signal) - f) * w for signal, f, w in self._parts])
 
     def derived(self, v) -> dict:
@@ -122,8 +123,12 @@ class _FreeVector:
             return out
         direct = self.problem.model.to_direct(theta, coef, self.problem.state)
         if direct is not None:
-            out.update(zip((q.name for q in self.problem.model.direct_parameters(self.problem.state)),
-                           map(float, np.asarray(direct, dtype=float))))
+            out.update(
+                zip(
+                    (q.name for q in self.problem.model.direct_parameters(self.problem.state)),
+                    map(float, np.asarray(direct, dtype=float)),
+                )
+            )
         return out
 
     def physical_scale(self) -> np.ndarray:
@@ -239,9 +244,18 @@ def summary(fit, unc: Uncertainty):
     rows = []
     for name, role in unc.roles.items():
         lo, hi = box.get(name, (math.nan, math.nan))
-        rows.append({"name": name, "value": float(fit.params.get(name, math.nan)), "stderr": unc.stderr.get(name),
-                     "unit": units.get(name, ""), "role": role, "at_edge": bool(edge.get(name, False)),
-                     "lower": lo, "upper": hi})
+        rows.append(
+            {
+                "name": name,
+                "value": float(fit.params.get(name, math.nan)),
+                "stderr": unc.stderr.get(name),
+                "unit": units.get(name, ""),
+                "role": role,
+                "at_edge": bool(edge.get(name, False)),
+                "lower": lo,
+                "upper": hi,
+            }
+        )
     frame = pd.DataFrame(rows).set_index("name")
     frame["stderr"] = frame["stderr"].astype(float)
     return frame
@@ -274,17 +288,19 @@ def report(fit, unc: Uncertainty, notes, min_correlation: float = 0.1) -> str:
     aic, bic = information_criteria(unc.chi2, unc.n, len(free))
     files = ", ".join(f"{f['specimen']} ({f['n']} samples)" for f in fit.files)
     state = f", {p.state} state" if p.state else ""
-    lines = ["[[Fit]]",
-             f"    model              = {p.model.name} ({p.formulation} formulation{state}, {p.excitation} excitation)",
-             f"    data               = {files}",
-             f"    optimizer          = {r.optimizer}, seed {r.seed}, {r.nfev} of {r.budget} evaluations",
-             "[[Fit Statistics]]",
-             f"    # data points      = {unc.n}",
-             f"    # variables        = {len(free)} ({int((free['role'] == 'searched').sum())} searched, "
-             f"{int((free['role'] == 'solved').sum())} solved)",
-             f"    chi-square         = {_number(unc.chi2)} N² (Σ residual²{', weighted' if len(fit.files) > 1 else ''})",
-             f"    reduced chi-square = {_number(unc.s2)} N²",
-             f"    RMSE               = {_number(fit.rmse_N)} N"]
+    lines = [
+        "[[Fit]]",
+        f"    model              = {p.model.name} ({p.formulation} formulation{state}, {p.excitation} excitation)",
+        f"    data               = {files}",
+        f"    optimizer          = {r.optimizer}, seed {r.seed}, {r.nfev} of {r.budget} evaluations",
+        "[[Fit Statistics]]",
+        f"    # data points      = {unc.n}",
+        f"    # variables        = {len(free)} ({int((free['role'] == 'searched').sum())} searched, "
+        f"{int((free['role'] == 'solved').sum())} solved)",
+        f"    chi-square         = {_number(unc.chi2)} N² (Σ residual²{', weighted' if len(fit.files) > 1 else ''})",
+        f"    reduced chi-square = {_number(unc.s2)} N²",
+        f"    RMSE               = {_number(fit.rmse_N)} N",
+    ]
     if len(fit.files) == 1:
         lines.append(f"    NRMSE              = {_number(fit.files[0]['nrmse'])} (RMSE / max|F measured|)")
     lines += [f"    Akaike info crit   = {_number(aic)}", f"    Bayesian info crit = {_number(bic)}", "[[Variables]]"]
@@ -303,8 +319,12 @@ def report(fit, unc: Uncertainty, notes, min_correlation: float = 0.1) -> str:
             text = f"{value}{unit} (+/- –) ({row['role']})"
         lines.append(f"    {name + ':':<{width}} {text}{' at the edge of its box' if row['at_edge'] else ''}")
     corr = unc.correlation()
-    pairs = [(abs(corr[i, j]), unc.free[i], unc.free[j], corr[i, j]) for i in range(len(unc.free))
-             for j in range(i + 1, len(unc.free)) if np.isfinite(corr[i, j]) and abs(corr[i, j]) >= min_correlation]
+    pairs = [
+        (abs(corr[i, j]), unc.free[i], unc.free[j], corr[i, j])
+        for i in range(len(unc.free))
+        for j in range(i + 1, len(unc.free))
+        if np.isfinite(corr[i, j]) and abs(corr[i, j]) >= min_correlation
+    ]
     if pairs:
         lines.append(f"[[Correlations]] (unreported correlations are < {min_correlation:.3f})")
         for _, a, b, c in sorted(pairs, reverse=True):
@@ -312,11 +332,14 @@ def report(fit, unc: Uncertainty, notes, min_correlation: float = 0.1) -> str:
     notes = list(notes)
     undetermined = unc.undetermined
     if undetermined:
-        text = (f"{len(undetermined)} of the {len(unc.free)} free parameters are not determined by these data "
-                f"({', '.join(undetermined)}): the residual does not change along some combination of them")
+        text = (
+            f"{len(undetermined)} of the {len(unc.free)} free parameters are not determined by these data "
+            f"({', '.join(undetermined)}): the residual does not change along some combination of them"
+        )
         if p.formulation != "identifiable" and "identifiable" in p.model.formulations:
-            text += ("; the identifiable formulation (formulation='identifiable') has none of the model's exact "
-                     "symmetries")
+            text += (
+                "; the identifiable formulation (formulation='identifiable') has none of the model's exact symmetries"
+            )
         notes.append(text)
     if notes:
         lines.append("[[Notes]]")

@@ -64,18 +64,35 @@ class Prediction:
 
     def metrics(self) -> dict:
         """The numbers of this prediction by name, and their units under ``units``."""
-        return {"specimen": self.specimen, "n": self.n, "mse": self.mse, "rmse_N": self.rmse_N,
-                "nrmse": self.nrmse, "max_abs_force_N": float(np.max(np.abs(self.measured_N))),
-                "units": {"mse": "N²", "rmse_N": "N", "nrmse": "– (RMSE / max|F measured|)",
-                          "max_abs_force_N": "N", "n": "samples"}}
+        return {
+            "specimen": self.specimen,
+            "n": self.n,
+            "mse": self.mse,
+            "rmse_N": self.rmse_N,
+            "nrmse": self.nrmse,
+            "max_abs_force_N": float(np.max(np.abs(self.measured_N))),
+            "units": {
+                "mse": "N²",
+                "rmse_N": "N",
+                "nrmse": "– (RMSE / max|F measured|)",
+                "max_abs_force_N": "N",
+                "n": "samples",
+            },
+        }
 
     def frame(self):
         """A pandas DataFrame: time_s, displacement_mm, force_measured_N, force_model_N, residual_N."""
         import pandas as pd
 
-        return pd.DataFrame({"time_s": self.time_s, "displacement_mm": self.displacement_mm,
-                             "force_measured_N": self.measured_N, "force_model_N": self.force_N,
-                             "residual_N": self.force_N - self.measured_N})
+        return pd.DataFrame(
+            {
+                "time_s": self.time_s,
+                "displacement_mm": self.displacement_mm,
+                "force_measured_N": self.measured_N,
+                "force_model_N": self.force_N,
+                "residual_N": self.force_N - self.measured_N,
+            }
+        )
 
     def plot(self, ax=None):
         """A matplotlib ``Figure``: loops F–x and F–v, force and residual against time, measured and
@@ -114,24 +131,31 @@ class FittedModel:
     def __post_init__(self):
         from bwbench.models import registry
 
-        for key, value, kind in (("model", self.model, str), ("formulation", self.formulation, str),
-                                 ("params", self.params, dict), ("units", self.units, dict),
-                                 ("excitation", self.excitation, str)):
+        for key, value, kind in (
+            ("model", self.model, str),
+            ("formulation", self.formulation, str),
+            ("params", self.params, dict),
+            ("units", self.units, dict),
+            ("excitation", self.excitation, str),
+        ):
             if not isinstance(value, kind) or (kind is str and not value):
-                raise UserError(f"\"{key}\" is {value!r}: it must be a {'name' if kind is str else 'JSON object'}")
+                raise UserError(f'"{key}" is {value!r}: it must be a {"name" if kind is str else "JSON object"}')
         if self.excitation not in EXCITATIONS:
-            raise UserError(f"\"excitation\" is {self.excitation!r}: it must be one of {', '.join(EXCITATIONS)}")
+            raise UserError(f'"excitation" is {self.excitation!r}: it must be one of {", ".join(EXCITATIONS)}')
         if self.state is not None and not isinstance(self.state, str):
-            raise UserError(f"\"state\" is {self.state!r}: it must be a name or null")
+            raise UserError(f'"state" is {self.state!r}: it must be a name or null')
         model = registry.get(self.model)
         if self.formulation not in model.formulations:
-            raise UserError(f"model {self.model!r} has no formulation {self.formulation!r}; it has "
-                            f"{', '.join(model.formulations)}")
+            raise UserError(
+                f"model {self.model!r} has no formulation {self.formulation!r}; it has {', '.join(model.formulations)}"
+            )
         object.__setattr__(self, "state", model.check_state(self.state) if model.states else None)
         missing = [n for n in self.needed() if not isinstance(self.params.get(n), (int, float))]
         if missing:
-            raise UserError(f"the {self.formulation} formulation of {self.model} needs {', '.join(missing)}: "
-                            "not in these parameters")
+            raise UserError(
+                f"the {self.formulation} formulation of {self.model} needs {', '.join(missing)}: "
+                "not in these parameters"
+            )
         self._check_domain()
 
     def _check_domain(self) -> None:
@@ -164,8 +188,9 @@ class FittedModel:
             return tuple(p.name for p in model.direct_parameters(self.state))
         from bwbench.problems.hysteresis.linear.columns import coefficient_names
 
-        return (tuple(p.name for p in model.hysteretic_parameters(self.state))
-                + coefficient_names(model.linear_layout(self.state)))
+        return tuple(p.name for p in model.hysteretic_parameters(self.state)) + coefficient_names(
+            model.linear_layout(self.state)
+        )
 
     @classmethod
     def from_result(cls, data: dict, source: str = "the fit result") -> "FittedModel":
@@ -174,22 +199,28 @@ class FittedModel:
         from bwbench.models import registry
 
         if not isinstance(data, dict) or not isinstance(data.get("params"), dict):
-            raise UserError(f"{source}: not a fit result (no \"params\" object)")
+            raise UserError(f'{source}: not a fit result (no "params" object)')
         if "formulation" not in data:
-            raise UserError(f"{source}: not a fit result (no \"formulation\"): give --formulation and --model "
-                            "to read it as a parameter file")
+            raise UserError(
+                f'{source}: not a fit result (no "formulation"): give --formulation and --model '
+                "to read it as a parameter file"
+            )
         name = data.get("model") or registry.DEFAULT
         # null is how strict JSON writes a coefficient the fit could not have (a branch without samples)
-        params = {k: math.nan if v is None else v for k, v in data["params"].items()
-                  if v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))}
+        params = {
+            k: math.nan if v is None else v
+            for k, v in data["params"].items()
+            if v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+        }
         try:
             units = data.get("units") or {}
             if not isinstance(units, dict):
-                raise UserError(f"\"units\" is a JSON {type(units).__name__}, not an object of name -> unit")
+                raise UserError(f'"units" is a JSON {type(units).__name__}, not an object of name -> unit')
             if not isinstance(name, str):
-                raise UserError(f"\"model\" is {name!r}: it must be a model name (see `bwbench models`)")
-            return cls(name, data["formulation"], params, data.get("state"), data.get("excitation", "measured"),
-                       dict(units))
+                raise UserError(f'"model" is {name!r}: it must be a model name (see `bwbench models`)')
+            return cls(
+                name, data["formulation"], params, data.get("state"), data.get("excitation", "measured"), dict(units)
+            )
         except UserError as err:
             raise UserError(f"{source}: {err}") from None
 
@@ -232,8 +263,10 @@ class FittedModel:
             coefficients[layout.varying] = self.params[f"{layout.varying}{b}"]
             unknown = [f"{n}{b}" for n, v in coefficients.items() if not math.isfinite(v)]
             if unknown:
-                raise UserError(f"the record moves in branch {b} (ẋ {'≥' if b == '+' else '<'} 0), whose "
-                                f"coefficients ({', '.join(unknown)}) the fit's data never had")
+                raise UserError(
+                    f"the record moves in branch {b} (ẋ {'≥' if b == '+' else '<'} 0), whose "
+                    f"coefficients ({', '.join(unknown)}) the fit's data never had"
+                )
             for name, source in layout.fixed:
                 F += coefficients[name] * signal_column(signal, source, mask)
             with np.errstate(invalid="ignore", over="ignore"):
@@ -245,8 +278,14 @@ class FittedModel:
         columns) against its measured one."""
         spec = _specimen(specimen)
         signal = self.signal(spec)
-        return Prediction(spec.name, np.asarray(spec.t, dtype=float), np.asarray(signal.x, dtype=float),
-                          self.force(signal), np.asarray(spec.f, dtype=float), np.asarray(signal.v, dtype=float))
+        return Prediction(
+            spec.name,
+            np.asarray(spec.t, dtype=float),
+            np.asarray(signal.x, dtype=float),
+            self.force(signal),
+            np.asarray(spec.f, dtype=float),
+            np.asarray(signal.v, dtype=float),
+        )
 
     def simulate(self, specimen):
         """``predict(specimen).frame()`` with the velocity and acceleration that drove the model: a
@@ -256,8 +295,16 @@ class FittedModel:
 
         spec = _specimen(specimen)
         s = self.signal(spec)
-        return pd.DataFrame({"time_s": s.t, "displacement_mm": s.x, "velocity_mm_s": s.v, "acceleration_mm_s2": s.a,
-                             "force_model_N": self.force(s), "force_measured_N": spec.f})
+        return pd.DataFrame(
+            {
+                "time_s": s.t,
+                "displacement_mm": s.x,
+                "velocity_mm_s": s.v,
+                "acceleration_mm_s2": s.a,
+                "force_model_N": self.force(s),
+                "force_measured_N": spec.f,
+            }
+        )
 
     def __repr__(self) -> str:
         from bwbench.render import reprs
@@ -271,8 +318,14 @@ class FittedModel:
 
     def to_dict(self) -> dict:
         """What a result JSON holds of this model: model, formulation, state, excitation, params, units."""
-        return {"model": self.model, "formulation": self.formulation, "state": self.state,
-                "excitation": self.excitation, "params": dict(self.params), "units": dict(self.units)}
+        return {
+            "model": self.model,
+            "formulation": self.formulation,
+            "state": self.state,
+            "excitation": self.excitation,
+            "params": dict(self.params),
+            "units": dict(self.units),
+        }
 
 
 def _specimen(specimen):

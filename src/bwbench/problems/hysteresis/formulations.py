@@ -27,8 +27,9 @@ def resolve_formulation(model, formulation: str | None) -> str:
     if formulation in ("paper", "direct"):
         return model.direct_name
     if formulation not in model.formulations:
-        raise UserError(f"model {model.name!r} has no formulation {formulation!r}; it has "
-                         f"{', '.join(model.formulations)}")
+        raise UserError(
+            f"model {model.name!r} has no formulation {formulation!r}; it has {', '.join(model.formulations)}"
+        )
     return formulation
 
 
@@ -45,10 +46,12 @@ def variants(models, formulations=None) -> list[tuple[str, str, str]]:
                 pairs.append(pair)
     several_models = len({m for m, _ in pairs}) > 1
     several_formulations = any(sum(m == n for n, _ in pairs) > 1 for m, _ in pairs)
+
     def label(m, f):
         if several_models and several_formulations:
             return f"{m} {f}"
         return m if several_models else f
+
     return [(label(m, f), m, f) for m, f in pairs]
 
 
@@ -72,8 +75,15 @@ def make_problem(specimen, settings: dict):
     problem: DirectProblem | IdentifiableProblem
     if formulation == "identifiable":
         solved = _solved_bounds(model, state, bounds)
-        problem = IdentifiableProblem(model, specimen, state, excitation, fix_mass=settings.get("fix_mass", "auto"),
-                                      offsets=settings.get("offsets", True), coefficient_bounds=solved)
+        problem = IdentifiableProblem(
+            model,
+            specimen,
+            state,
+            excitation,
+            fix_mass=settings.get("fix_mass", "auto"),
+            offsets=settings.get("offsets", True),
+            coefficient_bounds=solved,
+        )
     else:
         problem = DirectProblem(model, specimen, state, excitation)
     box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
@@ -96,8 +106,13 @@ def _joint_problem(specimens, settings: dict):
     parts = [make_problem(s, one) for s in specimens]
     model, state = parts[0].model, parts[0].state
     bounds = settings.get("bounds", {})
-    problem = JointProblem(parts, settings.get("weighting", "equal"), fix_mass=settings.get("fix_mass", "auto"),
-                           offsets=settings.get("offsets", True), coefficient_bounds=_solved_bounds(model, state, bounds))
+    problem = JointProblem(
+        parts,
+        settings.get("weighting", "equal"),
+        fix_mass=settings.get("fix_mass", "auto"),
+        offsets=settings.get("offsets", True),
+        coefficient_bounds=_solved_bounds(model, state, bounds),
+    )
     box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
     problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
     return problem

@@ -27,10 +27,23 @@ def _finite(x):
     return float(x) if math.isfinite(x) else None  # JSON has no infinity: null = not determined at all
 
 
-def analyse(specimen_path, params, state: str = "shared", excitation: str = "measured", *,
-            formulation: str = "paper", bounds: dict | None = None, profile_names=(), profile_widest: int = 0,
-            grid: int = 9, maxiter: int = PROFILE_MAXITER, step: float = STEP, weakest: int = 3,
-            model: str | None = None, progress=None) -> dict:
+def analyse(
+    specimen_path,
+    params,
+    state: str = "shared",
+    excitation: str = "measured",
+    *,
+    formulation: str = "paper",
+    bounds: dict | None = None,
+    profile_names=(),
+    profile_widest: int = 0,
+    grid: int = 9,
+    maxiter: int = PROFILE_MAXITER,
+    step: float = STEP,
+    weakest: int = 3,
+    model: str | None = None,
+    progress=None,
+) -> dict:
     """Identifiability of the parameters ``params`` (physical units, the formulation's coordinates)
     on one specimen.
 
@@ -79,10 +92,18 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
     mse = sens.residual_norm2 / sens.n_data
     params = problem.from_unit(u)
     out = {
-        "specimen": problem.specimen.name, "model": problem.model.name, "state": problem.state,
-        "excitation": excitation, "formulation": problem.formulation,
-        "n_data": sens.n_data, "mse": mse, "rmse_N": math.sqrt(mse), "params": dict(zip(names, map(float, params))),
-        "step_unit": step, "names": names, "labels": dict(zip(names, labels)),
+        "specimen": problem.specimen.name,
+        "model": problem.model.name,
+        "state": problem.state,
+        "excitation": excitation,
+        "formulation": problem.formulation,
+        "n_data": sens.n_data,
+        "mse": mse,
+        "rmse_N": math.sqrt(mse),
+        "params": dict(zip(names, map(float, params))),
+        "step_unit": step,
+        "names": names,
+        "labels": dict(zip(names, labels)),
         "units": {p.name: p.unit for p in problem.parameter_list},
         "singular_values": [float(s) for s in sens.singular_values],
         "relative_singular_values": [float(r) for r in sens.ratios],
@@ -93,8 +114,10 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
         "weakest": sens.weakest(weakest),
         **classify_null_space(problem, params, sens, residual, step),
         "free_range_unit": {n: float(hi - lo) for n, (lo, hi) in zip(names, free)},
-        "free_range": {n: [float(problem.from_unit(_at(u, i, lo))[i]), float(problem.from_unit(_at(u, i, hi))[i])]
-                       for i, (n, (lo, hi)) in enumerate(zip(names, free))},
+        "free_range": {
+            n: [float(problem.from_unit(_at(u, i, lo))[i]), float(problem.from_unit(_at(u, i, hi))[i])]
+            for i, (n, (lo, hi)) in enumerate(zip(names, free))
+        },
         "standard_error_unit": {n: float(x) for n, x in zip(names, se)},
         "standard_error": {n: float(x * w) for n, x, w in zip(names, se, span)},
         "poor_threshold_unit": POOR_SE,
@@ -113,12 +136,27 @@ def analyse(specimen_path, params, state: str = "shared", excitation: str = "mea
 
     for name in profiled:
         i = names.index(name)
-        frame = profile(lambda U: problem.loss_batch(problem.from_unit(U)), u, i, grids[name], maxiter=maxiter,
-                        step=step, on_point=point if progress is not None else None)
+        frame = profile(
+            lambda U: problem.loss_batch(problem.from_unit(U)),
+            u,
+            i,
+            grids[name],
+            maxiter=maxiter,
+            step=step,
+            on_point=point if progress is not None else None,
+        )
         frame["value"] = [problem.from_unit(_at(u, i, x))[i] for x in frame["unit"]]
-        out["profiles"][name] = [{"value": float(r.value), "unit": float(r.unit), "mse": _finite(r.loss),
-                                  "converged": bool(r.converged), "iterations": int(r.iterations),
-                                  "evaluations": int(r.evaluations)} for r in frame.itertuples()]
+        out["profiles"][name] = [
+            {
+                "value": float(r.value),
+                "unit": float(r.unit),
+                "mse": _finite(r.loss),
+                "converged": bool(r.converged),
+                "iterations": int(r.iterations),
+                "evaluations": int(r.evaluations),
+            }
+            for r in frame.itertuples()
+        ]
     out["profile_maxiter"] = maxiter
     return out
 
@@ -155,9 +193,14 @@ def classify_null_space(problem, params, sens, residual, step) -> dict:
             tangent = (problem.to_unit(orbit(1 + eps)) - problem.to_unit(orbit(1 - eps))) / (2 * eps)
             tangent /= np.linalg.norm(tangent)
             change = max(float(np.max(np.abs(problem.simulate(orbit(s)) - f0))) for s in (0.8, 0.9, 1.1, 1.25))
-            symmetries.append({"name": name, "max_force_change_N": change, "in_null_space": float(
-                np.linalg.norm(null @ tangent)) if len(null) else 0.0,
-                "direction": describe_direction(tangent, sens.labels)})
+            symmetries.append(
+                {
+                    "name": name,
+                    "max_force_change_N": change,
+                    "in_null_space": float(np.linalg.norm(null @ tangent)) if len(null) else 0.0,
+                    "direction": describe_direction(tangent, sens.labels),
+                }
+            )
             tangents.append(tangent)
     others = []
     if len(null) > len(tangents):
@@ -194,43 +237,66 @@ def format_text(result: dict) -> str:
     cond = result["condition_number"]
     lines.append(f"condition number: {cond:.3g}" if cond is not None else "condition number: infinite")
     if result["numerically_zero"]:
-        lines.append(f"{result['numerically_zero']} singular value(s) below {ZERO_RATIO:g} of the largest: "
-                     "combinations the force does not see at all")
+        lines.append(
+            f"{result['numerically_zero']} singular value(s) below {ZERO_RATIO:g} of the largest: "
+            "combinations the force does not see at all"
+        )
     lines += ["", "weakest directions (a unit step along them changes the force least):"]
     for w in result["weakest"]:
         lines.append(f"  σ/σmax = {w['ratio']:.2e}:  {w['text']}")
     for s in result["symmetries"]:
-        lines.append(f"exact symmetry {s['name']}: the force changes by at most {s['max_force_change_N']:.2g} N "
-                     f"along s ∈ [0.8, 1.25]; {s['in_null_space']:.0%} of its tangent ({s['direction']}) lies in the "
-                     "numerically zero directions above")
+        lines.append(
+            f"exact symmetry {s['name']}: the force changes by at most {s['max_force_change_N']:.2g} N "
+            f"along s ∈ [0.8, 1.25]; {s['in_null_space']:.0%} of its tangent ({s['direction']}) lies in the "
+            "numerically zero directions above"
+        )
     for d in result["null_directions"]:
-        kind = ("invariant to round-off along a finite path (an exact invariance at this point, not a symmetry of "
-                "the model everywhere)" if d["exact"] else "zero here only: weakly determined, not invariant")
-        lines.append(f"other numerically zero direction {d['direction']}: {kind} (largest σ/σmax along "
-                     f"{d['length']:.2g} of the unit range: {d['max_ratio']:.1e}; force change {d['change']:.1e} of "
-                     "its size)")
-    lines += ["", f"{result['undetermined_directions']} direction(s) undetermined: a step across the whole "
-                  f"range changes the force by less than the noise ({result['noise_rmse_N']:.3g} N RMSE)",
-              f"per parameter, as a fraction of its range in {box}: free range along those directions "
-              "(linearised, inside the box) and standard error:"]
+        kind = (
+            "invariant to round-off along a finite path (an exact invariance at this point, not a symmetry of "
+            "the model everywhere)"
+            if d["exact"]
+            else "zero here only: weakly determined, not invariant"
+        )
+        lines.append(
+            f"other numerically zero direction {d['direction']}: {kind} (largest σ/σmax along "
+            f"{d['length']:.2g} of the unit range: {d['max_ratio']:.1e}; force change {d['change']:.1e} of "
+            "its size)"
+        )
+    lines += [
+        "",
+        f"{result['undetermined_directions']} direction(s) undetermined: a step across the whole "
+        f"range changes the force by less than the noise ({result['noise_rmse_N']:.3g} N RMSE)",
+        f"per parameter, as a fraction of its range in {box}: free range along those directions "
+        "(linearised, inside the box) and standard error:",
+    ]
     for n in names:
         flag = "  poorly determined" if n in result["poorly_determined"] else ""
         lo, hi = result["free_range"][n]
-        lines.append(f"  {result.get('labels', {}).get(n) or label(n):<4} free {result['free_range_unit'][n]:6.1%} "
-                     f"[{lo:9.4g} – {hi:9.4g}]"
-                     f"   s.e. {_se_text(result['standard_error_unit'][n]):>8}{flag}")
+        lines.append(
+            f"  {result.get('labels', {}).get(n) or label(n):<4} free {result['free_range_unit'][n]:6.1%} "
+            f"[{lo:9.4g} – {hi:9.4g}]"
+            f"   s.e. {_se_text(result['standard_error_unit'][n]):>8}{flag}"
+        )
     poor = result["poorly_determined"]
     threshold = f"{result['poor_threshold_unit']:.0%}"
     if poor:
-        lines.append(f"poorly determined (free range or standard error > {threshold} of the range): "
-                     + ", ".join(result.get("labels", {}).get(n) or label(n) for n in poor))
+        lines.append(
+            f"poorly determined (free range or standard error > {threshold} of the range): "
+            + ", ".join(result.get("labels", {}).get(n) or label(n) for n in poor)
+        )
     else:
         lines.append(f"every parameter is determined to better than {threshold} of its range")
     for name, points in result["profiles"].items():
-        lines += ["", f"profile of {result.get('labels', {}).get(name) or label(name)} (others re-optimised, L-BFGS-B up to {result['profile_maxiter']} "
-                      "iterations): value -> MSE (N²), converged?"]
-        lines += [f"  {p['value']:12.5g}  {p['mse'] if p['mse'] is not None else math.inf:12.5g}  "
-                  f"{'converged' if p.get('converged') else 'NOT converged (an upper bound)'}" for p in points]
+        lines += [
+            "",
+            f"profile of {result.get('labels', {}).get(name) or label(name)} (others re-optimised, L-BFGS-B up to {result['profile_maxiter']} "
+            "iterations): value -> MSE (N²), converged?",
+        ]
+        lines += [
+            f"  {p['value']:12.5g}  {p['mse'] if p['mse'] is not None else math.inf:12.5g}  "
+            f"{'converged' if p.get('converged') else 'NOT converged (an upper bound)'}"
+            for p in points
+        ]
     return "\n".join(lines)
 
 

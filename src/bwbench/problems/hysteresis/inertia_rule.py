@@ -164,23 +164,35 @@ def inertia_check(signal, f, layout, offsets=True, m_ref: float = M_REF, kappa: 
     excited = m_ref * n_c >= kappa * sigma
     separable = m_ref * n_o >= kappa * sigma and n_o >= COLLINEAR * ni_c
     rms = 1.0 / np.sqrt(L)
-    head = (f"inertia force at m = {m_ref:g} N·s²/mm (= {m_ref:g} t): {m_ref * n_c * rms:.3g} N rms, "
-            f"{m_ref * n_o * rms:.3g} N rms outside the span of the other fixed columns; force noise {sigma:.3g} N")
+    head = (
+        f"inertia force at m = {m_ref:g} N·s²/mm (= {m_ref:g} t): {m_ref * n_c * rms:.3g} N rms, "
+        f"{m_ref * n_o * rms:.3g} N rms outside the span of the other fixed columns; force noise {sigma:.3g} N"
+    )
     records = getattr(signal, "segments", None) or (None,)
     if sines:
-        which = ("the record is a sine test" if len(records) == 1 else "every record is a sine test"
-                 if sines == len(records) else f"{sines} of {len(records)} records are sine tests")
+        which = (
+            "the record is a sine test"
+            if len(records) == 1
+            else "every record is a sine test"
+            if sines == len(records)
+            else f"{sines} of {len(records)} records are sine tests"
+        )
         head += f"; {which} (ẍ = −ω²·x)"
         if ramps:
-            head += (f", judged on its steady part ({'; '.join(ramps)} left out)" if len(records) == 1
-                     else f", {len(ramps)} judged on their steady part (ramp-in/out cycles left out)")
+            head += (
+                f", judged on its steady part ({'; '.join(ramps)} left out)"
+                if len(records) == 1
+                else f", {len(ramps)} judged on their steady part (ramp-in/out cycles left out)"
+            )
     fixed = f"m fixed at {M_UNFITTED:g}"
     if not excited:
         reason = f"inertia not excited ({head}): {fixed}"
     elif not separable:
-        reason = (f"inertia excited but not separable from the stiffness ({head}; "
-                  f"ã⊥/ã = {float(n_o) / max(float(ni_c), 1e-300):.2g}{', a sine confounds m with k' if sines else ''}): "
-                  f"{fixed}, k absorbs −m·ω² (fit tests at several frequencies together, or fix m with --fix-mass)")
+        reason = (
+            f"inertia excited but not separable from the stiffness ({head}; "
+            f"ã⊥/ã = {float(n_o) / max(float(ni_c), 1e-300):.2g}{', a sine confounds m with k' if sines else ''}): "
+            f"{fixed}, k absorbs −m·ω² (fit tests at several frequencies together, or fix m with --fix-mass)"
+        )
     else:
         reason = f"inertia excited and separable ({head}): m fitted"
     return InertiaCheck(bool(excited), bool(separable), reason, m_ref * n_c * rms, m_ref * n_o * rms, sigma, sines)

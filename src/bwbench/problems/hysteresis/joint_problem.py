@@ -51,8 +51,9 @@ def stack_signals(signals) -> StackedSignal:
     segments = tuple(slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]))
     join = [np.concatenate([np.asarray(getattr(s, k), dtype=float) for s in signals]) for k in "txva"]
     recorded = [getattr(s, "x_recorded", None) for s in signals]
-    x_recorded: np.ndarray | None = (np.concatenate([np.asarray(r) for r in recorded])
-                                     if all(r is not None for r in recorded) else None)
+    x_recorded: np.ndarray | None = (
+        np.concatenate([np.asarray(r) for r in recorded]) if all(r is not None for r in recorded) else None
+    )
     t, x, v, a = join
     return StackedSignal(t, x, v, a, segments, dict(getattr(signals[0], "sources", {})), x_recorded)
 
@@ -71,8 +72,9 @@ class JointProblem:
     """The problems of several specimens (``parts``: ``DirectProblem`` or ``IdentifiableProblem`` of
     one model, formulation, state and excitation) as one fit; see the module docstring."""
 
-    def __init__(self, parts, weighting: str = "equal", *, fix_mass="auto", offsets=True,
-                 coefficient_bounds: dict | None = None):
+    def __init__(
+        self, parts, weighting: str = "equal", *, fix_mass="auto", offsets=True, coefficient_bounds: dict | None = None
+    ):
         if len(parts) < 2:
             raise ValueError("a joint problem needs at least two specimens")
         first = parts[0]
@@ -101,8 +103,16 @@ class JointProblem:
 
             layout = self.model.linear_layout(self.state)
             bounds, notes = default_bounds(self.model, layout, self.signal, self.f, coefficient_bounds)
-            self.design = LinearDesign(self.signal, self.f, layout, fix_mass=fix_mass, offsets=offsets,
-                                       bounds=bounds, weights=self.sample_weight, notes=notes)
+            self.design = LinearDesign(
+                self.signal,
+                self.f,
+                layout,
+                fix_mass=fix_mass,
+                offsets=offsets,
+                bounds=bounds,
+                weights=self.sample_weight,
+                notes=notes,
+            )
             self.linear_names, self.linear_units = first.linear_names, first.linear_units
 
     # -- what the objective, the runner and the result need -----------------------------------
@@ -128,8 +138,14 @@ class JointProblem:
 
     @property
     def info(self) -> dict:
-        out = {"specimen": self.name, "specimens": [p.specimen.name for p in self.parts], "model": self.model.name,
-               "excitation": self.excitation, "formulation": self.formulation, "weighting": self.weighting}
+        out = {
+            "specimen": self.name,
+            "specimens": [p.specimen.name for p in self.parts],
+            "model": self.model.name,
+            "excitation": self.excitation,
+            "formulation": self.formulation,
+            "weighting": self.weighting,
+        }
         if self.state is not None:
             out["state"] = self.state
         if self.design is not None:
@@ -194,8 +210,9 @@ class JointProblem:
         found = self._each_file(lambda p: self.model.trajectory_sensitivities(theta, p.signal, self.state))
         if any(f is None for f in found):
             return None
-        return self.design.residual_jacobian(np.concatenate([f[0] for f in found]),
-                                             np.concatenate([f[1] for f in found], axis=0))
+        return self.design.residual_jacobian(
+            np.concatenate([f[0] for f in found]), np.concatenate([f[1] for f in found], axis=0)
+        )
 
     def _each_file(self, run) -> list:
         """``run(part)`` of every file, in file order; on ``workers`` threads when more than one (the
@@ -237,8 +254,16 @@ class JointProblem:
                 mse = float(np.mean((force - p.specimen.f) ** 2))
             mse = mse if np.isfinite(mse) else float("inf")
             peak = float(np.max(np.abs(p.specimen.f)))
-            out.append({"specimen": p.specimen.name, "n": p.n_data, "weight": float(w), "mse": mse,
-                        "rmse_N": float(np.sqrt(mse)), "nrmse": float(np.sqrt(mse)) / peak if peak > 0 else float("inf")})
+            out.append(
+                {
+                    "specimen": p.specimen.name,
+                    "n": p.n_data,
+                    "weight": float(w),
+                    "mse": mse,
+                    "rmse_N": float(np.sqrt(mse)),
+                    "nrmse": float(np.sqrt(mse)) / peak if peak > 0 else float("inf"),
+                }
+            )
         return out
 
     def fit_checks(self, result, synthetic: bool = False):

@@ -49,8 +49,9 @@ from bwbench.problems.hysteresis.linear.solve import LinearSolution
 PRIORS = ("flat", "scale-free")
 
 
-def log_marginal(sol: LinearSolution, sigma: float | None = None, *, prior: str = "flat",
-                 varying: int = 0) -> np.ndarray:
+def log_marginal(
+    sol: LinearSolution, sigma: float | None = None, *, prior: str = "flat", varying: int = 0
+) -> np.ndarray:
     """log p(y | θ, σ) (``sigma`` in N given) or log p(y | θ) (σ integrated out), one per row (m,).
 
     ``prior``: "flat" or "scale-free" (module docstring); ``varying``: q, the number of θ-dependent
@@ -81,8 +82,9 @@ def log_marginal(sol: LinearSolution, sigma: float | None = None, *, prior: str 
     return np.where(ok & np.isfinite(out), out, -np.inf)
 
 
-def draw_linear(sol: LinearSolution, rng: np.random.Generator, size: int, sigma: float | None = None, *,
-                varying: int = 0) -> dict:
+def draw_linear(
+    sol: LinearSolution, rng: np.random.Generator, size: int, sigma: float | None = None, *, varying: int = 0
+) -> dict:
     """Exact draws of (σ, β) given θ for a one-row solution (``sol.row(i)``).
 
     Returns ``sigma`` (size,) N — drawn from Inv-Gamma((L−p)/2, RSS/2) unless given, (L − p + q)/2 with

@@ -42,8 +42,12 @@ class ModelFit:
 
     @property
     def info(self) -> dict:
-        out = {"specimen": self.specimen.name, "model": self.model.name, "excitation": self.excitation,
-               "formulation": self.formulation}
+        out = {
+            "specimen": self.specimen.name,
+            "model": self.model.name,
+            "excitation": self.excitation,
+            "formulation": self.formulation,
+        }
         if self.state is not None:
             out["state"] = self.state
         return out
@@ -125,15 +129,26 @@ class IdentifiableProblem(ModelFit):
 
     formulation = "identifiable"
 
-    def __init__(self, model, specimen, state=None, excitation: str = "measured", *, fix_mass="auto",
-                 offsets=True, bounds: dict | None = None, coefficient_bounds: dict | None = None):
+    def __init__(
+        self,
+        model,
+        specimen,
+        state=None,
+        excitation: str = "measured",
+        *,
+        fix_mass="auto",
+        offsets=True,
+        bounds: dict | None = None,
+        coefficient_bounds: dict | None = None,
+    ):
         from bwbench.problems.hysteresis.linear.solve import LinearDesign, coefficient_units
 
         self._setup(model, specimen, state, excitation)
         layout = model.linear_layout(self.state)
         solved, notes = coefficient_bounds_of(model, layout, self.signal, specimen.f, coefficient_bounds)
-        self.design = LinearDesign(self.signal, specimen.f, layout, fix_mass=fix_mass, offsets=offsets,
-                                   bounds=solved, notes=notes)
+        self.design = LinearDesign(
+            self.signal, specimen.f, layout, fix_mass=fix_mass, offsets=offsets, bounds=solved, notes=notes
+        )
         self.linear_names = self.design.names
         self.linear_units = coefficient_units(layout)
         self.parameter_list = model.hysteretic_parameters(self.state)
@@ -220,9 +235,14 @@ def coefficient_bounds_of(model, layout, signal, f, given: dict | None = None) -
     from bwbench.problems.hysteresis.linear.bounds import physical_bounds
     from bwbench.problems.hysteresis.linear.columns import coefficient_units
 
-    bounds, notes = physical_bounds(layout, signal, f, coefficient_units(layout),
-                                    viscous_sign=getattr(model, "viscous_sign_bound", True),
-                                    model_bounds=model.coefficient_limits() if hasattr(model, "coefficient_limits") else None)
+    bounds, notes = physical_bounds(
+        layout,
+        signal,
+        f,
+        coefficient_units(layout),
+        viscous_sign=getattr(model, "viscous_sign_bound", True),
+        model_bounds=model.coefficient_limits() if hasattr(model, "coefficient_limits") else None,
+    )
     for name, (lo, hi) in (given or {}).items():
         bounds[name] = (float(lo), float(hi))
         notes.append(f"{name} bounded to [{lo:g}, {hi:g}] by the caller")

@@ -39,8 +39,11 @@ def energy_split(x, v, f_model, f_measured) -> dict:
     x, v = np.asarray(x, dtype=float), np.asarray(v, dtype=float)
     fm, fd = np.asarray(f_model, dtype=float), np.asarray(f_measured, dtype=float)
     mid, amplitude = 0.5 * (x.max() + x.min()), 0.5 * float(np.ptp(x))
-    zones = {"loading (ẋ ≥ 0)": v >= 0, "unloading (ẋ < 0)": v < 0,
-             "reversal zones": np.abs(x - mid) >= REVERSAL_ZONE * amplitude}
+    zones = {
+        "loading (ẋ ≥ 0)": v >= 0,
+        "unloading (ẋ < 0)": v < 0,
+        "reversal zones": np.abs(x - mid) >= REVERSAL_ZONE * amplitude,
+    }
     total = _work(x, fd, np.ones(len(x), dtype=bool))
     out: dict = {"total_measured_Nmm": total, "parts": {}, "tolerance": ENERGY_TOLERANCE}
     worst = 0.0
@@ -70,9 +73,15 @@ def residual_structure(t, x, residual, noise_N: float, cycle_s: float | None) ->
     denominator = float(np.dot(centred, centred))
     rho = float(np.dot(centred[lag:], centred[:-lag]) / denominator) if denominator > 0 and lag < len(r) else 0.0
     rmse = float(np.sqrt(np.mean(squared)))
-    return {"rmse_N": rmse, "noise_N": float(noise_N), "rmse_over_noise": rmse / noise_N if noise_N > 0 else np.inf,
-            "reversal_error_share": error_share, "reversal_sample_share": sample_share,
-            "reversal_excess": error_share / sample_share if sample_share > 0 else np.inf,
-            "autocorrelation": rho, "lag_samples": lag,
-            "model_error_dominates": bool(noise_N > 0 and rmse > NOISE_EXCESS * noise_N),
-            "reversals_missed": bool(sample_share > 0 and error_share > REVERSAL_EXCESS * sample_share)}
+    return {
+        "rmse_N": rmse,
+        "noise_N": float(noise_N),
+        "rmse_over_noise": rmse / noise_N if noise_N > 0 else np.inf,
+        "reversal_error_share": error_share,
+        "reversal_sample_share": sample_share,
+        "reversal_excess": error_share / sample_share if sample_share > 0 else np.inf,
+        "autocorrelation": rho,
+        "lag_samples": lag,
+        "model_error_dominates": bool(noise_N > 0 and rmse > NOISE_EXCESS * noise_N),
+        "reversals_missed": bool(sample_share > 0 and error_share > REVERSAL_EXCESS * sample_share),
+    }

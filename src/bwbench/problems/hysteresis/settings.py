@@ -14,9 +14,12 @@ def checked_settings(model=None, formulation=None, state=None, excitation=None) 
     from bwbench.models import registry
     from bwbench.problems.hysteresis.formulations import FORMULATIONS, resolve_formulation
 
-    for flag, value, choices in (("--model", model, None), ("--formulation", formulation, FORMULATIONS),
-                                 ("--state", state, ("shared", "split")),
-                                 ("--excitation", excitation, ("measured", "sine"))):
+    for flag, value, choices in (
+        ("--model", model, None),
+        ("--formulation", formulation, FORMULATIONS),
+        ("--state", state, ("shared", "split")),
+        ("--excitation", excitation, ("measured", "sine")),
+    ):
         if value is None:
             continue
         if not isinstance(value, str) or not value.strip() or (choices and value not in choices):
@@ -25,8 +28,12 @@ def checked_settings(model=None, formulation=None, state=None, excitation=None) 
     chosen = registry.get(model or registry.DEFAULT)
     if state is not None and not chosen.states:
         raise UserError(f"--state does not apply to model {chosen.name!r} (no state convention to choose)")
-    return {"model": chosen.name, "formulation": resolve_formulation(chosen, formulation),
-            "state": state or "shared", "excitation": excitation or "measured"}
+    return {
+        "model": chosen.name,
+        "formulation": resolve_formulation(chosen, formulation),
+        "state": state or "shared",
+        "excitation": excitation or "measured",
+    }
 
 
 def check_fit_flags(settings: dict, fix_mass="auto", offsets=None, weighting=None) -> None:
@@ -41,18 +48,23 @@ def check_fit_flags(settings: dict, fix_mass="auto", offsets=None, weighting=Non
     layout = model.linear_layout(settings["state"] if model.states else None) if model.has_linear_part else None
     if fix_mass != "auto":
         if not identifiable:
-            raise UserError(f"--fix-mass applies to the identifiable formulation (the {settings['formulation']} "
-                            "formulation has no solved mass)")
+            raise UserError(
+                f"--fix-mass applies to the identifiable formulation (the {settings['formulation']} "
+                "formulation has no solved mass)"
+            )
         if layout is None or not layout.mass:
-            raise UserError(f"--fix-mass does not apply to model {model.name!r} (its identifiable formulation has no "
-                            "mass term)")
+            raise UserError(
+                f"--fix-mass does not apply to model {model.name!r} (its identifiable formulation has no mass term)"
+            )
     if offsets is not None:
         if offsets not in ("branch", "continuous"):
             raise UserError(f"--offsets must be 'branch' or 'continuous', got {offsets!r}")
         if not identifiable or layout is None or not layout.branched:
-            raise UserError(f"--offsets applies to the identifiable formulation of a model that switches its "
-                            f"coefficients with the direction (the switched model), not to {model.name!r} in the "
-                            f"{settings['formulation']} formulation")
+            raise UserError(
+                f"--offsets applies to the identifiable formulation of a model that switches its "
+                f"coefficients with the direction (the switched model), not to {model.name!r} in the "
+                f"{settings['formulation']} formulation"
+            )
     if weighting is not None and weighting not in ("equal", "samples"):
         raise UserError(f"--weighting must be 'equal' or 'samples', got {weighting!r}")
 
@@ -68,12 +80,14 @@ def refuse_same_file(paths) -> None:
         for b in paths[:i]:
             if same_file(a, b):
                 spelled = "" if str(a) == str(b) else f" (as {b} and {a})"
-                raise UserError(f"{a}: a specimen is named twice{spelled}: a joint fit takes each file once (use "
-                                "--weighting to weight)")
+                raise UserError(
+                    f"{a}: a specimen is named twice{spelled}: a joint fit takes each file once (use "
+                    "--weighting to weight)"
+                )
 
 
 def fix_mass_value(text, flag: str = "--fix-mass"):
-    """"auto" (None given), None ("fit") or a mass ≥ 0 (N·s²/mm) from the text of ``flag``; ``UserError``
+    """ "auto" (None given), None ("fit") or a mass ≥ 0 (N·s²/mm) from the text of ``flag``; ``UserError``
     otherwise."""
     import math
 

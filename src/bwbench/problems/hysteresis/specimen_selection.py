@@ -41,8 +41,10 @@ def _unique_stems(fail, paths, label) -> list[Path]:
     seen: dict = {}
     for path in paths:
         if path.stem in seen:
-            fail(f"{label}: two specimens are named {path.stem!r} ({seen[path.stem]} and {path}): "
-                 "names (file stems) must be unique in a study")
+            fail(
+                f"{label}: two specimens are named {path.stem!r} ({seen[path.stem]} and {path}): "
+                "names (file stems) must be unique in a study"
+            )
         seen[path.stem] = path
     return paths
 
@@ -63,8 +65,10 @@ def _entry(fail, path: Path, row: dict) -> SpecimenEntry:
 def from_manifest(fail, study, filters_table, base_dir, data_override):
     if data_override is None:
         if "data" not in study:
-            fail("no specimens: list them with [specimens] files = [...], or give [study] data = \"FOLDER\" "
-                 "(with a manifest.json) and manifest filters")
+            fail(
+                'no specimens: list them with [specimens] files = [...], or give [study] data = "FOLDER" '
+                "(with a manifest.json) and manifest filters"
+            )
         data = study["data"]
         if not isinstance(data, str) or not data:
             fail("[study] data must be a folder path (a string)")
@@ -122,10 +126,13 @@ def _select(fail, manifest, filters) -> list[dict]:
         present = sorted({row[key] for row in manifest}, key=str)
         for wanted in values:
             if not any(_matches(key, row[key], wanted) for row in manifest):
-                fail(f"[specimens] {key}: no specimen has {wanted!r} (the manifest has "
-                     f"{', '.join(str(p) for p in present)})")
-    selected = [row for row in manifest
-                if all(any(_matches(k, row[k], w) for w in values) for k, values in filters.items())]
+                fail(
+                    f"[specimens] {key}: no specimen has {wanted!r} (the manifest has "
+                    f"{', '.join(str(p) for p in present)})"
+                )
+    selected = [
+        row for row in manifest if all(any(_matches(k, row[k], w) for w in values) for k, values in filters.items())
+    ]
     if not selected:
         fail("[specimens] the filters together select no specimen")
     return selected

@@ -54,7 +54,7 @@ OFFSETS = ("branch", "continuous")
 
 
 def mass_setting(fail, label: str, value):
-    """"auto", None ("fit": always fitted) or a mass ≥ 0 (N·s²/mm) of a study's fix_mass; ``fail`` otherwise."""
+    """ "auto", None ("fit": always fitted) or a mass ≥ 0 (N·s²/mm) of a study's fix_mass; ``fail`` otherwise."""
     if value == "fit" or value is None:
         return None
     if isinstance(value, str) and value != "auto":  # from the command line
@@ -65,13 +65,15 @@ def mass_setting(fail, label: str, value):
         value = number if math.isfinite(number) else value
     if value == "auto" or (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0):
         return value
-    fail(f"{label} must be \"auto\", \"fit\" or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}")
+    fail(f'{label} must be "auto", "fit" or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}')
 
 
 class HysteresisProblem(ProblemType):
     name = "switched-bouc-wen"
-    description = ("a hysteresis model (default: the paper's switched Bouc-Wen) fitted to force-displacement "
-                   "specimens (loss: MSE in N²)")
+    description = (
+        "a hysteresis model (default: the paper's switched Bouc-Wen) fitted to force-displacement "
+        "specimens (loss: MSE in N²)"
+    )
     loss_unit = "N²"
     residual_unit = "N"
     study_keys = ("model", "state", "excitation", "data", "formulation", "fix_mass", "offsets")
@@ -116,15 +118,31 @@ class HysteresisProblem(ProblemType):
         """The held-out specimens (``[validation] files`` or ``--validate``): like ``[specimens] files``."""
         return specimens_from_files(fail, files, base_dir, label)
 
-    def setup_from_files(self, fail, files, base_dir, state=None, excitation="measured", bounds_file=None,
-                         formulation=None, model=None, fix_mass="auto", offsets="branch"):
-        model_names = parse_models(fail, model.split(",") if isinstance(model, str) else model or model_registry.DEFAULT)
+    def setup_from_files(
+        self,
+        fail,
+        files,
+        base_dir,
+        state=None,
+        excitation="measured",
+        bounds_file=None,
+        formulation=None,
+        model=None,
+        fix_mass="auto",
+        offsets="branch",
+    ):
+        model_names = parse_models(
+            fail, model.split(",") if isinstance(model, str) else model or model_registry.DEFAULT
+        )
         if state is not None and not any(model_registry.get(m).states for m in model_names):
             fail(f"--state does not apply to {', '.join(model_names)} (no state convention to choose)")
         state = choice(fail, "--state", state or "shared", STATES)
         choice(fail, "--excitation", excitation, EXCITATIONS)
-        formulations = (_formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
-                        if formulation else None)
+        formulations = (
+            _formulations(fail, formulation.split(",") if isinstance(formulation, str) else formulation)
+            if formulation
+            else None
+        )
         check_pairs(fail, model_names, formulations)
         fix_mass = mass_setting(fail, "--fix-mass", fix_mass)
         offsets = choice(fail, "--offsets", offsets, OFFSETS)
@@ -134,12 +152,29 @@ class HysteresisProblem(ProblemType):
             from bwbench.data import bounds as bounds_mod
 
             bounds = bounds_mod.read_json(bounds_file, bound_names(formulations, state, model_names))
-        return self.setup(state, excitation, specimens_from_files(fail, files, base_dir, "--specimens"),
-                          bounds=bounds, formulations=formulations, fix_mass=fix_mass, models=model_names,
-                          offsets=offsets)
+        return self.setup(
+            state,
+            excitation,
+            specimens_from_files(fail, files, base_dir, "--specimens"),
+            bounds=bounds,
+            formulations=formulations,
+            fix_mass=fix_mass,
+            models=model_names,
+            offsets=offsets,
+        )
 
-    def setup(self, state, excitation, entries, available=None, bounds=None, formulations=None,
-              fix_mass="auto", models=(model_registry.DEFAULT,), offsets="branch") -> ProblemSetup:
+    def setup(
+        self,
+        state,
+        excitation,
+        entries,
+        available=None,
+        bounds=None,
+        formulations=None,
+        fix_mass="auto",
+        models=(model_registry.DEFAULT,),
+        offsets="branch",
+    ) -> ProblemSetup:
         """The ``ProblemSetup`` of these specimens (``SpecimenEntry`` with ``meta["sha256"]``); several
         models or formulations are variants compared side by side."""
         from bwbench.problems.hysteresis.formulations import variants as variant_list
@@ -155,12 +190,15 @@ class HysteresisProblem(ProblemType):
         if resolved != ["paper"]:  # absent for the paper's formulation: studies stored before stay the same
             identity["formulation"] = resolved[0] if len(resolved) == 1 else resolved
             identity.update(linear)
-        variants = [(label, {**settings, "model": m, "formulation": f, **linear, "variant": label})
-                    for label, m, f in pairs]
+        variants = [
+            (label, {**settings, "model": m, "formulation": f, **linear, "variant": label}) for label, m, f in pairs
+        ]
         return ProblemSetup(
-            settings=variants[0][1], study_json=identity,
+            settings=variants[0][1],
+            study_json=identity,
             specimens_json={e.name: e.meta["sha256"] for e in entries},
-            specimens=tuple(entries), available=available or {e.name: e for e in entries},
+            specimens=tuple(entries),
+            available=available or {e.name: e for e in entries},
             data_location={e.name: str(Path(e.path).resolve()) for e in entries},
             variants=tuple(variants) if len(variants) > 1 else (),
         )
@@ -172,10 +210,14 @@ class HysteresisProblem(ProblemType):
 
     def record_columns(self, settings, entry, result=None) -> dict:
         model_name = settings.get("model", model_registry.DEFAULT)
-        columns = {"state": settings.get("state") if model_registry.get(model_name).states else None,
-                   "excitation": settings.get("excitation"), "model": model_name,
-                   "formulation": settings.get("formulation", "paper"), "variant": settings.get("variant"),
-                   **entry.meta}
+        columns = {
+            "state": settings.get("state") if model_registry.get(model_name).states else None,
+            "excitation": settings.get("excitation"),
+            "model": model_name,
+            "formulation": settings.get("formulation", "paper"),
+            "variant": settings.get("variant"),
+            **entry.meta,
+        }
         if result is not None:
             columns.update(rmse_N=result.rmse_N, **result.params)
         return columns
@@ -195,7 +237,7 @@ class HysteresisProblem(ProblemType):
         return data if data.is_absolute() else REPO / data
 
     def is_synthetic(self, study) -> str:
-        """"SYNTHETIC DATA (generated from <source>)" when a manifest marks the study's specimens
+        """ "SYNTHETIC DATA (generated from <source>)" when a manifest marks the study's specimens
         synthetic ('' otherwise: a false value), for banners and the mark on every figure."""
         found = [manifest_mod.synthetic_source(study.specimen_path(s)) for s in study.specimens]
         sources = [s for s in dict.fromkeys(found) if s]
@@ -212,8 +254,12 @@ class HysteresisProblem(ProblemType):
         model = registry.get(model_name)
         truth = np.array([values[p.name] for p in model.direct_parameters(model.check_state(None))])
         s = study.settings
-        settings = {"state": s.get("state", "shared"), "excitation": s.get("excitation", "measured"),
-                    "model": model_name, "formulation": model.direct_name}
+        settings = {
+            "state": s.get("state", "shared"),
+            "excitation": s.get("excitation", "measured"),
+            "model": model_name,
+            "formulation": model.direct_name,
+        }
         problem = self.make_problem(settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
         return float(problem.loss_batch(truth[None, :])[0])
 
@@ -250,11 +296,15 @@ def _refuse_unused(fail, prefix: str, models, formulations, fix_mass, offsets) -
             layouts.append(model.linear_layout(model.states[0] if model.states else None))
     flag = (lambda key: f"--{key.replace('_', '-')}") if prefix == "--" else (lambda key: f"[study] {key}")
     if fix_mass != "auto" and not any(layout.mass for layout in layouts):
-        fail(f"{flag('fix_mass')} applies to the identifiable formulation of a model with a mass term: no variant "
-             f"of this study ({', '.join(models)}) has one")
+        fail(
+            f"{flag('fix_mass')} applies to the identifiable formulation of a model with a mass term: no variant "
+            f"of this study ({', '.join(models)}) has one"
+        )
     if offsets != "branch" and not any(layout.branched for layout in layouts):
-        fail(f"{flag('offsets')} applies to the identifiable formulation of the switched model: no variant of this "
-             f"study ({', '.join(models)}) has branches")
+        fail(
+            f"{flag('offsets')} applies to the identifiable formulation of the switched model: no variant of this "
+            f"study ({', '.join(models)}) has branches"
+        )
 
 
 PROBLEM_TYPE = HysteresisProblem()

@@ -17,8 +17,18 @@ from bwbench.problems.noel_schoukens import problem as bm
 from bwbench.problems.noel_schoukens.problem import TARGET_ERMS_M
 
 NAMES = bm.PARAM_NAMES
-LABELS = {"m": "m", "c": "c", "k": "k", "alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "nu": "ν",
-          "beta_gamma": "βγ", "beta_delta": "βδ"}
+LABELS = {
+    "m": "m",
+    "c": "c",
+    "k": "k",
+    "alpha": "α",
+    "beta": "β",
+    "gamma": "γ",
+    "delta": "δ",
+    "nu": "ν",
+    "beta_gamma": "βγ",
+    "beta_delta": "βδ",
+}
 # Finite-difference step (unit coordinates) of the identifiability Jacobian. Not the switched
 # model's 1e-4: the residual is only piecewise smooth in the parameters (the |ẏ| and |z| kinks move
 # across the fixed RK4 stages), and at 1e-4 the difference quotients of single coordinates mix
@@ -34,12 +44,16 @@ def load_problem(study) -> bm.BoucWenBenchmarkProblem:
     folder = Path(study.data_dir)
     missing = [f for f in bench_data.FILES if not (folder / f).is_file()]
     if missing:
-        raise UserError(f"the Bouc-Wen benchmark files are not in {folder} (missing {', '.join(missing)}); "
-                        "point to the folder with --data PATH")
+        raise UserError(
+            f"the Bouc-Wen benchmark files are not in {folder} (missing {', '.join(missing)}); "
+            "point to the folder with --data PATH"
+        )
     expected = study.settings.get("data_sha256")
     if expected and files_sha256([folder / f for f in bench_data.FILES]) != expected:
-        raise UserError(f"the benchmark files in {folder} are not the ones this study ran on (SHA-256 differs); "
-                        "point to the right folder with --data PATH")
+        raise UserError(
+            f"the benchmark files in {folder} are not the ones this study ran on (SHA-256 differs); "
+            "point to the right folder with --data PATH"
+        )
     try:
         return bm.BoucWenBenchmarkProblem(folder)
     except InputFileError as err:
@@ -64,18 +78,23 @@ def backend_results(study, order) -> pd.DataFrame:
         multisine = np.where(np.isnan(multisine), np.inf, multisine)
         sweep = np.where(np.isnan(sweep), np.inf, sweep)
         best = ok.loc[ok["mse"].idxmin()] if len(ok) else None
-        rows.append({
-            "optimizer": optimizer, "runs": len(runs),
-            "best_replicate": -1 if best is None else int(best["replicate"]),  # -1: no finished run
-            "best_train_rmse_m": math.nan if best is None else math.sqrt(best["mse"]),
-            "best_multisine_m": math.nan if best is None else _metric(best, "test_multisine_erms_m"),
-            "best_sweep_m": math.nan if best is None else _metric(best, "test_sinesweep_erms_m"),
-            "median_multisine_m": float(np.median(multisine)), "min_multisine_m": float(np.min(multisine)),
-            "max_multisine_m": float(np.max(multisine)),
-            "median_sweep_m": float(np.median(sweep)), "min_sweep_m": float(np.min(sweep)),
-            "max_sweep_m": float(np.max(sweep)),
-            "seeds_below_target": int(np.sum(multisine < TARGET_ERMS_M)),
-        })
+        rows.append(
+            {
+                "optimizer": optimizer,
+                "runs": len(runs),
+                "best_replicate": -1 if best is None else int(best["replicate"]),  # -1: no finished run
+                "best_train_rmse_m": math.nan if best is None else math.sqrt(best["mse"]),
+                "best_multisine_m": math.nan if best is None else _metric(best, "test_multisine_erms_m"),
+                "best_sweep_m": math.nan if best is None else _metric(best, "test_sinesweep_erms_m"),
+                "median_multisine_m": float(np.median(multisine)),
+                "min_multisine_m": float(np.min(multisine)),
+                "max_multisine_m": float(np.max(multisine)),
+                "median_sweep_m": float(np.median(sweep)),
+                "min_sweep_m": float(np.min(sweep)),
+                "max_sweep_m": float(np.max(sweep)),
+                "seeds_below_target": int(np.sum(multisine < TARGET_ERMS_M)),
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -86,12 +105,15 @@ def _metric(run, name) -> float:
 
 def truth_figures(problem) -> dict:
     """The true parameters through this simulator: training RMSE and both test e_RMS (m)."""
-    return {"train_rmse_m": float(np.sqrt(problem.loss_batch(bm.TRUE_PARAMS[None, :])[0])),
-            **{which: problem.test_error(bm.TRUE_PARAMS, which) for which in bm.TEST_SETS}}
+    return {
+        "train_rmse_m": float(np.sqrt(problem.loss_batch(bm.TRUE_PARAMS[None, :])[0])),
+        **{which: problem.test_error(bm.TRUE_PARAMS, which) for which in bm.TEST_SETS},
+    }
 
 
 def invariance_tangent(problem, params) -> np.ndarray:
     """Unit vector, in the problem's unit coordinates, along (β·s, γ/s, δ/s) at s = 1."""
+
     def scaled(s):
         p = np.array(params, dtype=float)
         p[4] *= s
@@ -114,16 +136,16 @@ def analyse_identifiability(problem, params) -> dict:
     def residual(v):
         return problem.simulate(problem.from_unit(v)) - problem.y_period
 
-    sens = identifiability.sensitivity(residual, u, NAMES, [LABELS[n] for n in NAMES], step=JACOBIAN_STEP,
-                                       bounds=None)
+    sens = identifiability.sensitivity(residual, u, NAMES, [LABELS[n] for n in NAMES], step=JACOBIAN_STEP, bounds=None)
     tangent = invariance_tangent(problem, params)
     weakest = sens.weakest(3)
     cosine = float(abs(sens.directions[-1] @ tangent))
 
     # θ = relative change of (m, c, k, α, βγ, βδ, ν); β stays at its fitted value.
     reduced = ("m", "c", "k", "alpha", "beta_gamma", "beta_delta", "nu")
-    base = np.array([params[0], params[1], params[2], params[3], params[4] * params[5], params[4] * params[6],
-                     params[7]])
+    base = np.array(
+        [params[0], params[1], params[2], params[3], params[4] * params[5], params[4] * params[6], params[7]]
+    )
 
     def reduced_residual(x):
         q = base * (1.0 + np.asarray(x))
@@ -133,12 +155,19 @@ def analyse_identifiability(problem, params) -> dict:
     sens7 = identifiability.sensitivity(reduced_residual, np.zeros(7), reduced, step=JACOBIAN_STEP, bounds=None)
     free = sens.free_ranges()
     return {
-        "sensitivity": sens, "weakest": weakest, "cosine": cosine, "tangent": tangent,
-        "undetermined": int(sens.undetermined().sum()), "poorly_determined": sens.poorly_determined(),
+        "sensitivity": sens,
+        "weakest": weakest,
+        "cosine": cosine,
+        "tangent": tangent,
+        "undetermined": int(sens.undetermined().sum()),
+        "poorly_determined": sens.poorly_determined(),
         "free_range_unit": {n: float(hi - lo) for n, (lo, hi) in zip(NAMES, free)},
         "standard_error_unit": dict(zip(NAMES, map(float, sens.standard_errors()))),
-        "reduced": reduced, "reduced_values": base, "reduced_relative_se": sens7.standard_errors(),
-        "reduced_ratios": sens7.ratios, "noise_rmse_m": math.sqrt(sens.noise_variance),
+        "reduced": reduced,
+        "reduced_values": base,
+        "reduced_relative_se": sens7.standard_errors(),
+        "reduced_ratios": sens7.ratios,
+        "noise_rmse_m": math.sqrt(sens.noise_variance),
     }
 
 

@@ -100,13 +100,12 @@ def read_benchmark_csv(path) -> BenchmarkRecord:
     return BenchmarkRecord(path=path, name=Path(path).stem, t=t, u=u, y=y)
 
 
-
-
 def one_period(record: BenchmarkRecord, n_periods: int) -> np.ndarray:
     """The input's period, after checking the file holds ``n_periods`` identical periods."""
     if record.n_samples != n_periods * PERIOD_SAMPLES:
         raise InputFileError(
-            record.path, None,
+            record.path,
+            None,
             f"{record.n_samples} samples, expected {n_periods} period(s) of {PERIOD_SAMPLES} ({n_periods * PERIOD_SAMPLES})",
         )
     periods = record.u.reshape(n_periods, PERIOD_SAMPLES)
@@ -116,4 +115,3 @@ def one_period(record: BenchmarkRecord, n_periods: int) -> np.ndarray:
         row = int(np.argmax(np.abs(periods[:, bad] - periods[0, bad]))) * PERIOD_SAMPLES + bad
         raise InputFileError(record.path, row + 2, f"force is not periodic with {PERIOD_SAMPLES} samples")
     return np.ascontiguousarray(periods[0])
-

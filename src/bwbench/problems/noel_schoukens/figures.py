@@ -35,10 +35,30 @@ from bwbench.render.palette import (
 SPREAD_TOLERANCE = 0.10  # parameter spread: runs within 10 % of the best known training MSE
 DATA_MARK = "BENCHMARK DATA (Noël & Schoukens 2016: a simulated Bouc-Wen system with noise)"
 
-LABELS = {"m": "m", "c": "c", "k": "k", "alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "nu": "ν",
-          "beta_gamma": "βγ", "beta_delta": "βδ"}
-UNITS = {"m": "kg", "c": "N·s/m", "k": "N/m", "alpha": "N/m", "beta": "1/m", "gamma": "–", "delta": "–", "nu": "–",
-         "beta_gamma": "1/m", "beta_delta": "1/m"}
+LABELS = {
+    "m": "m",
+    "c": "c",
+    "k": "k",
+    "alpha": "α",
+    "beta": "β",
+    "gamma": "γ",
+    "delta": "δ",
+    "nu": "ν",
+    "beta_gamma": "βγ",
+    "beta_delta": "βδ",
+}
+UNITS = {
+    "m": "kg",
+    "c": "N·s/m",
+    "k": "N/m",
+    "alpha": "N/m",
+    "beta": "1/m",
+    "gamma": "–",
+    "delta": "–",
+    "nu": "–",
+    "beta_gamma": "1/m",
+    "beta_delta": "1/m",
+}
 # The identifiable products, scaled to the box their factors span: βγ log-scaled like β and γ,
 # βδ linear like δ (it changes sign inside the box).
 COMBINATIONS = {
@@ -74,25 +94,38 @@ def test_fit(study, out_dir, problem, params, label: str, window_s=(2.0, 2.4), o
     backend = label.split(",")[0].strip()
     look = styles(study, order)
     colour = look[backend].colour if backend in look else look[next(iter(look))].colour
-    fig, (top, bottom) = figure(MAX_WIDTH_IN, 6.6, nrows=2, ncols=1, sharex=True,
-                                gridspec_kw={"height_ratios": [1.2, 1]})
+    fig, (top, bottom) = figure(
+        MAX_WIDTH_IN, 6.6, nrows=2, ncols=1, sharex=True, gridspec_kw={"height_ratios": [1.2, 1]}
+    )
     top.plot(t, 1e3 * record.y[shown], "-", color="black", lw=2.6, zorder=2)
     top.plot(t, 1e3 * y_fit[shown], "--", color=colour, lw=1.5, zorder=3)
     top.set_ylabel("displacement y (mm)")
-    top.set_title("output" + (": the curves overlap at this scale; the error is below"
-                              if e_fit < 0.05 * float(np.std(record.y)) else ""), loc="left")
+    top.set_title(
+        "output"
+        + (": the curves overlap at this scale; the error is below" if e_fit < 0.05 * float(np.std(record.y)) else ""),
+        loc="left",
+    )
     bottom.plot(t, 1e6 * (y_fit - record.y)[shown], "-", color=colour, lw=1.2, zorder=3)
     bottom.plot(t, 1e6 * (y_truth - record.y)[shown], "-", color="black", lw=1.0, zorder=2)
     bottom.axhline(0.0, color="0.6", lw=0.8)
     bottom.set_ylabel("y_model − y_test (µm)")
     bottom.set_xlabel("time t (s)")
     bottom.set_title("error", loc="left")
-    legend(fig, [Line2D([], [], color="black", lw=2.6, label="test_multisine (measured)"),
-                 Line2D([], [], color=colour, lw=1.5, ls="--", label=f"best fit: {label} (e_RMS over the file {e_fit:.2e} m)"),
-                 Line2D([], [], color="black", lw=1.0, label=f"true parameters, this simulator (e_RMS {e_truth:.2e} m)")],
-           ncol=1)
-    fig.suptitle(f"Best fit vs the benchmark's test_multisine output, {window_s[0]:g}–{window_s[1]:g} s of the "
-                 f"{record.t[-1] - record.t[0] + 1 / bm.SAMPLE_RATE_HZ:.2f} s period")
+    legend(
+        fig,
+        [
+            Line2D([], [], color="black", lw=2.6, label="test_multisine (measured)"),
+            Line2D(
+                [], [], color=colour, lw=1.5, ls="--", label=f"best fit: {label} (e_RMS over the file {e_fit:.2e} m)"
+            ),
+            Line2D([], [], color="black", lw=1.0, label=f"true parameters, this simulator (e_RMS {e_truth:.2e} m)"),
+        ],
+        ncol=1,
+    )
+    fig.suptitle(
+        f"Best fit vs the benchmark's test_multisine output, {window_s[0]:g}–{window_s[1]:g} s of the "
+        f"{record.t[-1] - record.t[0] + 1 / bm.SAMPLE_RATE_HZ:.2f} s period"
+    )
     frame = pd.DataFrame({"time_s": record.t, "y_test_m": record.y, "y_fit_m": y_fit, "y_truth_m": y_truth})
     return save(fig, out_dir, "test_multisine_fit", frame, DATA_MARK)
 
@@ -123,18 +156,30 @@ def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE, order=
             x = j + offset + rng.uniform(-0.25, 0.25, len(g)) * width
             ax.plot(x, unit[:, j], **look[optimizer].point(ms=6), alpha=0.85, zorder=3)
         for replicate, mse, u in zip(g["replicate"], g["mse"], unit):
-            rows += [{"optimizer": optimizer, "replicate": int(replicate), "mse_m2": mse, "parameter": n,
-                      "unit_value": float(u[j])} for j, n in enumerate(names)]
+            rows += [
+                {
+                    "optimizer": optimizer,
+                    "replicate": int(replicate),
+                    "mse_m2": mse,
+                    "parameter": n,
+                    "unit_value": float(u[j]),
+                }
+                for j, n in enumerate(names)
+            ]
     truth = unit_values(bm.TRUE_PARAMS)[0]
     ax.hlines(truth, np.arange(len(names)) - 0.42, np.arange(len(names)) + 0.42, color="black", lw=1.0, zorder=1)
     ax.plot(np.arange(len(names)), truth, **TRUTH, zorder=4)
-    rows += [{"optimizer": "truth", "replicate": -1, "mse_m2": np.nan, "parameter": n, "unit_value": float(u)}
-             for n, u in zip(names, truth)]
+    rows += [
+        {"optimizer": "truth", "replicate": -1, "mse_m2": np.nan, "parameter": n, "unit_value": float(u)}
+        for n, u in zip(names, truth)
+    ]
     ax.axvline(len(bm.PARAM_NAMES) - 0.5, color="0.3", lw=1.2)
     for j in range(len(names) - 1):
         ax.axvline(j + 0.5, color="0.85", lw=0.8)
     ax.grid(axis="x", visible=False)
-    scale = ["log" if log else "lin" for log in bm.LOG_SCALED] + ["log" if c[2] else "lin" for c in COMBINATIONS.values()]
+    scale = ["log" if log else "lin" for log in bm.LOG_SCALED] + [
+        "log" if c[2] else "lin" for c in COMBINATIONS.values()
+    ]
     ax.set_xticks(np.arange(len(names)), [f"{LABELS[n]}\n({s})" for n, s in zip(names, scale)])
     ax.set_xlim(-0.6, len(names) - 0.4)
     ax.set_ylim(-0.04, 1.04)
@@ -142,7 +187,9 @@ def parameter_spread(study, out_dir, tolerance: float = SPREAD_TOLERANCE, order=
     ax.set_xlabel("parameter (log: log10 scaled to the box; lin: linear) | identifiable products")
     text = {o: f"{o} ({int((good['optimizer'] == o).sum())}/{int(total.get(o, 0))} runs)" for o in optimizers}
     legend(fig, [*backend_handles(look, optimizers, text, line=False), truth_handle()], ncol=5)
-    fig.suptitle(f"Identified parameters of every ranking run with training MSE ≤ {1 + tolerance:g} × the best "
-                 f"known ({best:.3g} m²), scaled to the search box")
+    fig.suptitle(
+        f"Identified parameters of every ranking run with training MSE ≤ {1 + tolerance:g} × the best "
+        f"known ({best:.3g} m²), scaled to the search box"
+    )
     frame = pd.DataFrame(rows, columns=["optimizer", "replicate", "mse_m2", "parameter", "unit_value"])
     return save(fig, out_dir, "spread", frame, DATA_MARK)

@@ -114,7 +114,7 @@ class BoucWenBenchmarkProblem:
         self.train = read_benchmark_csv(self.data_dir / "train_multisine.csv")
         u_period = one_period(self.train, TRAIN_PERIODS)
         start = (int(self.train_period) - 1) * PERIOD_SAMPLES
-        self.y_period = np.ascontiguousarray(self.train.y[start:start + PERIOD_SAMPLES])
+        self.y_period = np.ascontiguousarray(self.train.y[start : start + PERIOD_SAMPLES])
         self.input = upsample_periodic(u_period, self.steps_per_sample, self.warmup_samples)
         self._tests: dict = {}
 
@@ -134,8 +134,10 @@ class BoucWenBenchmarkProblem:
     @property
     def info(self) -> dict:
         return {
-            "problem": "bouc-wen-benchmark", "specimen": "train_multisine",
-            "train_period": int(self.train_period), "integration_rate_hz": SAMPLE_RATE_HZ * self.steps_per_sample,
+            "problem": "bouc-wen-benchmark",
+            "specimen": "train_multisine",
+            "train_period": int(self.train_period),
+            "integration_rate_hz": SAMPLE_RATE_HZ * self.steps_per_sample,
             "warmup_samples": int(self.warmup_samples),
         }
 
@@ -185,5 +187,3 @@ class BoucWenBenchmarkProblem:
                 inp = upsample_from_rest(record.u, self.steps_per_sample)
             self._tests[which] = (record, inp)
         return self._tests[which]
-
-

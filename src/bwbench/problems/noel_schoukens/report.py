@@ -30,8 +30,10 @@ from bwbench.problems.noel_schoukens.report_sections import (
     _section_results,
 )
 
-SOURCE = ("J.P. Noël and M. Schoukens, “Hysteretic benchmark with a dynamic nonlinearity”, Workshop on Nonlinear "
-          "System Identification Benchmarks, Brussels, 2016; data and description at www.nonlinearbenchmark.org")
+SOURCE = (
+    "J.P. Noël and M. Schoukens, “Hysteretic benchmark with a dynamic nonlinearity”, Workshop on Nonlinear "
+    "System Identification Benchmarks, Brussels, 2016; data and description at www.nonlinearbenchmark.org"
+)
 
 
 def limits(report) -> list[str]:
@@ -50,12 +52,15 @@ def limits(report) -> list[str]:
 
 # ----------------------------------------------------------------------------------- the hooks
 
+
 def setup_text(report) -> str:
-    return ("Fit the 8 parameters (m, c, k, α, β, γ, δ, ν) of the force-driven Bouc-Wen model to the displacement "
-            "of one steady-state period of train_multisine (8,192 samples; loss = MSE in m²). Search box: every "
-            "positive parameter a decade either side of the truth, log-scaled; δ in [−3, 3] and ν in [0.5, 3], "
-            f"linear. Data: the public Bouc-Wen benchmark of nonlinear system identification — {SOURCE}; read from "
-            f"`{report.study.data_dir}` (SHA-256 of the three files recorded with the study).")
+    return (
+        "Fit the 8 parameters (m, c, k, α, β, γ, δ, ν) of the force-driven Bouc-Wen model to the displacement "
+        "of one steady-state period of train_multisine (8,192 samples; loss = MSE in m²). Search box: every "
+        "positive parameter a decade either side of the truth, log-scaled; δ in [−3, 3] and ν in [0.5, 3], "
+        f"linear. Data: the public Bouc-Wen benchmark of nonlinear system identification — {SOURCE}; read from "
+        f"`{report.study.data_dir}` (SHA-256 of the three files recorded with the study)."
+    )
 
 
 def _context(report) -> dict:
@@ -67,15 +72,24 @@ def _context(report) -> dict:
             if metric not in study.runs:  # no run has metrics (e.g. every finished run blew up on the tests)
                 study.runs[metric] = np.nan
         order = list(report.table["optimizer"])
-        report.options["benchmark"] = {"problem": problem, "results": backend_results(study, order),
-                                       "truth": truth_figures(problem)}
+        report.options["benchmark"] = {
+            "problem": problem,
+            "results": backend_results(study, order),
+            "truth": truth_figures(problem),
+        }
     return report.options["benchmark"]
 
 
 def report_intro(report) -> None:
     c = _context(report)
-    _section_results(report.doc, report.study, c["results"], c["truth"], report.best_backend,
-                     [n for n in report.verdict.peers if n not in report.verdict.avoid])
+    _section_results(
+        report.doc,
+        report.study,
+        c["results"],
+        c["truth"],
+        report.best_backend,
+        [n for n in report.verdict.peers if n not in report.verdict.avoid],
+    )
     c["results"].to_csv(report.out / "benchmark_results.csv", index=False)
 
 
@@ -102,10 +116,14 @@ def add_sections(report) -> None:
         doc.p("Identifiability analysis not possible: the model is not finite next to the best fit.")
     else:
         _section_identifiability(doc, analysis, label)
-    doc.figure(benchmark_figures.test_fit(study, out, problem, params, label, order=list(report.table["optimizer"])),
-               f"The best fit ({label}) against the test_multisine output, and the error of the fit and of the true "
-               "parameters")
-    doc.figure(benchmark_figures.parameter_spread(study, out, order=list(report.table["optimizer"])),
-               "Identified parameters of the runs within 10 % of the best training MSE, scaled to the search box, "
-               "with the truth (×): β, γ, δ scatter along their invariance while βγ and βδ stay on the truth")
+    doc.figure(
+        benchmark_figures.test_fit(study, out, problem, params, label, order=list(report.table["optimizer"])),
+        f"The best fit ({label}) against the test_multisine output, and the error of the fit and of the true "
+        "parameters",
+    )
+    doc.figure(
+        benchmark_figures.parameter_spread(study, out, order=list(report.table["optimizer"])),
+        "Identified parameters of the runs within 10 % of the best training MSE, scaled to the search box, "
+        "with the truth (×): β, γ, δ scatter along their invariance while βγ and βδ stay on the truth",
+    )
     _section_posterior(doc, study)

@@ -28,6 +28,7 @@ SPECIMEN = "train_multisine"
 
 def metric(runs, name: str) -> np.ndarray:
     """One metric of ``metrics_json`` per run (NaN where absent or not finite)."""
+
     def value(text):
         if not isinstance(text, str):
             return np.nan
@@ -70,18 +71,28 @@ class NoelSchoukens(ProblemType):
             data_dir = bench_data.default_data_dir()
         missing = [f for f in bench_data.FILES if not (data_dir / f).is_file()]
         if missing:
-            fail(f"[study] data: the Bouc-Wen benchmark files are not in {data_dir} (missing {', '.join(missing)}); "
-                 "point to the folder with [study] data = \"PATH\" or --data PATH")
+            fail(
+                f"[study] data: the Bouc-Wen benchmark files are not in {data_dir} (missing {', '.join(missing)}); "
+                'point to the folder with [study] data = "PATH" or --data PATH'
+            )
         entry = SpecimenEntry(name=SPECIMEN, path=str(data_dir))
         digest = files_sha256([data_dir / f for f in bench_data.FILES])
         return ProblemSetup(
             settings={},
             # the problem's fixed settings: a code change to them is a different study
-            study_json={"problem": self.name, "data_sha256": digest,
-                        "settings": {"train_period": bench_data.TRAIN_PERIODS, "steps_per_sample": STEPS_PER_SAMPLE,
-                                     "warmup_samples": WARMUP_SAMPLES}},
+            study_json={
+                "problem": self.name,
+                "data_sha256": digest,
+                "settings": {
+                    "train_period": bench_data.TRAIN_PERIODS,
+                    "steps_per_sample": STEPS_PER_SAMPLE,
+                    "warmup_samples": WARMUP_SAMPLES,
+                },
+            },
             specimens_json={"files": [SPECIMEN]},
-            specimens=(entry,), available={SPECIMEN: entry}, data_location=str(data_dir.resolve()),
+            specimens=(entry,),
+            available={SPECIMEN: entry},
+            data_location=str(data_dir.resolve()),
         )
 
     def make_problem(self, settings, entry):
@@ -101,8 +112,10 @@ class NoelSchoukens(ProblemType):
 
     def summary_columns(self, runs) -> dict:
         test = metric(runs, "test_multisine_erms_m")
-        return {"median test e_RMS (m)": "-" if not np.isfinite(test).any() else f"{np.nanmedian(test):.2e}",
-                f"test < {TARGET_ERMS_M:g} m": f"{int((test < TARGET_ERMS_M).sum())}/{len(runs)}"}
+        return {
+            "median test e_RMS (m)": "-" if not np.isfinite(test).any() else f"{np.nanmedian(test):.2e}",
+            f"test < {TARGET_ERMS_M:g} m": f"{int((test < TARGET_ERMS_M).sum())}/{len(runs)}",
+        }
 
     def is_synthetic(self, study) -> str:
         """The benchmark's data are a simulated Bouc-Wen system with noise, published as a benchmark:

@@ -33,8 +33,9 @@ M_MAX = 1.0  # N·s²/mm (1 t): the largest inertia a solved m may take by defau
 VISCOUS_UNIT = "N·s/mm"
 
 
-def physical_bounds(layout, signal, f, coefficient_units: dict, viscous_sign: bool = True,
-                    model_bounds: dict | None = None) -> tuple[dict, list[str]]:
+def physical_bounds(
+    layout, signal, f, coefficient_units: dict, viscous_sign: bool = True, model_bounds: dict | None = None
+) -> tuple[dict, list[str]]:
     """({coefficient: (lower, upper)}, notes) of the module docstring for one record (or a stacked
     set: ``signal`` with ``segments``) and its force ``f`` (N); ``viscous_sign`` False: no sign bound
     on the viscous coefficients (a model whose branches may carry either sign, ``Model.viscous_sign_bound``);
@@ -51,25 +52,33 @@ def physical_bounds(layout, signal, f, coefficient_units: dict, viscous_sign: bo
     if not viscous and not model_bounds:
         return bounds, notes
     if not viscous_sign:
-        notes.append(f"{', '.join(viscous)} of either sign: the model's branches may carry a negative viscous term "
-                     "while the loop dissipates (the paper's ξ₋ < 0)")
+        notes.append(
+            f"{', '.join(viscous)} of either sign: the model's branches may carry a negative viscous term "
+            "while the loop dissipates (the paper's ξ₋ < 0)"
+        )
         return bounds, notes
     parts = getattr(signal, "segments", None) or (slice(0, len(f)),)
-    x = np.asarray(getattr(signal, "x_recorded", None) if getattr(signal, "x_recorded", None) is not None
-                   else signal.x, dtype=float)
+    x = np.asarray(
+        getattr(signal, "x_recorded", None) if getattr(signal, "x_recorded", None) is not None else signal.x,
+        dtype=float,
+    )
     work = sum(loop_work(x[part], np.asarray(f, dtype=float)[part])[0] for part in parts)
     if work > 0:
         bounds.update({n: (0.0, np.inf) for n in viscous})
         if viscous:
-            notes.append(f"{', '.join(viscous)} ≥ 0: the measured loops dissipate energy (∮F·dx > 0), so a viscous "
-                         "force opposes the motion")
+            notes.append(
+                f"{', '.join(viscous)} ≥ 0: the measured loops dissipate energy (∮F·dx > 0), so a viscous "
+                "force opposes the motion"
+            )
         for name, (lo, hi, why) in model_bounds.items():
             bounds[name] = (float(lo), float(hi))
             notes.append(why)
     else:
-        notes.append(f"{', '.join(viscous + list(model_bounds))} of either sign: the measured loops run clockwise "
-                     "(∮F·dx ≤ 0), against the sign convention (force positive in tension, displacement positive "
-                     "in elongation)")
+        notes.append(
+            f"{', '.join(viscous + list(model_bounds))} of either sign: the measured loops run clockwise "
+            "(∮F·dx ≤ 0), against the sign convention (force positive in tension, displacement positive "
+            "in elongation)"
+        )
     return bounds, notes
 
 
@@ -110,7 +119,7 @@ def apply_bounds(design, out, Zw, qwy, good) -> None:
         extra = float(np.sum((R @ new[k] - b) ** 2))
         out.mse[i] = (out.rss_ls[i] + extra) / design.L
         out.coef[i, design.free_index] = new[k]
-        design._tie(out.coef[i:i + 1])
+        design._tie(out.coef[i : i + 1])
         out.bound_active[i] = True
         if out.residual is not None:
             delta = new[k] - beta[i]
@@ -141,8 +150,10 @@ def _clamped_solutions(R, B, below, above, lower, upper) -> list:
         scale[scale == 0] = 1.0
         A = A / scale
         try:
-            beta_free = np.linalg.solve(np.einsum("mpi,mpj->mij", A, A),
-                                        np.einsum("mpi,mp->mi", A, Bk)[..., None])[..., 0] / scale[:, 0, :]
+            beta_free = (
+                np.linalg.solve(np.einsum("mpi,mpj->mij", A, A), np.einsum("mpi,mp->mi", A, Bk)[..., None])[..., 0]
+                / scale[:, 0, :]
+            )
         except np.linalg.LinAlgError:
             continue
         beta = np.empty((len(ks), len(held)))
@@ -150,8 +161,9 @@ def _clamped_solutions(R, B, below, above, lower, upper) -> list:
         gradient = np.einsum("mpi,mp->mi", R[ks], np.einsum("mpi,mi->mp", R[ks], beta) - B[ks])
         tolerance = 1e-9 * np.maximum(np.abs(gradient).max(axis=1, keepdims=True), 1e-300)
         feasible = np.all((beta[:, free] >= lower[free]) & (beta[:, free] <= upper[free]), axis=1)
-        outward = np.all(np.where(np.array(lo_mask)[held], gradient[:, held] >= -tolerance,
-                                  gradient[:, held] <= tolerance), axis=1)
+        outward = np.all(
+            np.where(np.array(lo_mask)[held], gradient[:, held] >= -tolerance, gradient[:, held] <= tolerance), axis=1
+        )
         for j, k in enumerate(ks):
             if feasible[j] and outward[j] and np.all(np.isfinite(beta[j])):
                 out[k] = beta[j]

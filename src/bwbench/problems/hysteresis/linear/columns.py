@@ -14,7 +14,7 @@ OFFSETS = ("branch", "continuous", "none")  # the constant force: one per branch
 
 
 def offsets_mode(offsets) -> str:
-    """"branch", "continuous" or "none" from a mode name or a bool (True: per branch, False: none)."""
+    """ "branch", "continuous" or "none" from a mode name or a bool (True: per branch, False: none)."""
     if offsets is True:
         return "branch"
     if offsets is False or offsets is None:
@@ -36,7 +36,8 @@ def coefficient_names(layout) -> tuple:
     """Every coefficient of ``layout``, the mass first, then per branch in the layout's order."""
     suffixes = ("+", "-") if layout.branched else ("",)
     return tuple(n for n in layout.names if n == layout.mass) + tuple(
-        f"{n}{b}" for b in suffixes for n in layout.names if n != layout.mass)
+        f"{n}{b}" for b in suffixes for n in layout.names if n != layout.mass
+    )
 
 
 def coefficient_units(layout) -> dict:

@@ -87,9 +87,20 @@ class LinearSolution:
         """The results of row i as a one-row solution."""
         s = slice(i, i + 1)
         return LinearSolution(
-            self.mse[s], self.coef[s], self.coef_ls[s], self.rss_ls[s], self.R[s], self.logdet[s],
-            self.full_rank[s], self.bound_active[s], self.free_names, self.free_index, self.n_data,
-            None if self.residual is None else self.residual[s], self.names)
+            self.mse[s],
+            self.coef[s],
+            self.coef_ls[s],
+            self.rss_ls[s],
+            self.R[s],
+            self.logdet[s],
+            self.full_rank[s],
+            self.bound_active[s],
+            self.free_names,
+            self.free_index,
+            self.n_data,
+            None if self.residual is None else self.residual[s],
+            self.names,
+        )
 
 
 @dataclass(eq=False)  # eq=False: comparing ndarray fields would raise
@@ -132,7 +143,9 @@ class LinearDesign:
                 self.notes.append(f"branch {b} has no samples: {dropped} dropped (NaN)")
         self.tied = tied_offsets(layout, self.masks, self.offsets)
         if self.tied:
-            self.notes.append("offsets continuous across a reversal: " + ", ".join(f"{a} = {b}" for a, b in self.tied.items()))
+            self.notes.append(
+                "offsets continuous across a reversal: " + ", ".join(f"{a} = {b}" for a, b in self.tied.items())
+            )
         self.inertia = inertia_check(s, self.f, layout, self.offsets, self.m_ref) if layout.mass else None
         if not layout.mass:
             self.mass = 0.0  # no inertia term in this model
@@ -143,7 +156,9 @@ class LinearDesign:
             self.notes.append(self.inertia.reason)
         else:
             self.mass = None if self.fix_mass is None else float(self.fix_mass)
-            self.notes.append("m fitted (fix_mass=None)" if self.mass is None else f"m fixed at {self.mass:g} by the caller")
+            self.notes.append(
+                "m fitted (fix_mass=None)" if self.mass is None else f"m fixed at {self.mass:g} by the caller"
+            )
         self.sw = None if self.weights is None else np.sqrt(np.asarray(self.weights, dtype=float))
         names, cols = fixed_columns(s, layout, self.masks, self.offsets)
         if self.mass is None:
@@ -215,8 +230,21 @@ class LinearDesign:
         res = None
         if residual:
             res = -fit_res if self.sw is None else -fit_res / self.sw
-        out = LinearSolution(rss / self.L, coef, np.where(good[:, None], beta, np.nan), rss, R, logdet,
-                             full, np.zeros(m, bool), self.free_names, self.free_index, self.L, res, self.names)
+        out = LinearSolution(
+            rss / self.L,
+            coef,
+            np.where(good[:, None], beta, np.nan),
+            rss,
+            R,
+            logdet,
+            full,
+            np.zeros(m, bool),
+            self.free_names,
+            self.free_index,
+            self.L,
+            res,
+            self.names,
+        )
         if np.any(np.isfinite(self.lower)) or np.any(np.isfinite(self.upper)):
             from bwbench.problems.hysteresis.linear.bounds import apply_bounds
 

@@ -16,6 +16,14 @@ from bwbench.problems.hysteresis import model_problem
 
 
 class IdentifiableProblem(model_problem.IdentifiableProblem):
-    def __init__(self, specimen, state: str = "shared", excitation: str = "measured", *,
-                 fix_mass="auto", offsets: bool = True, bounds: dict | None = None):
+    def __init__(
+        self,
+        specimen,
+        state: str = "shared",
+        excitation: str = "measured",
+        *,
+        fix_mass="auto",
+        offsets: bool = True,
+        bounds: dict | None = None,
+    ):
         super().__init__(MODEL, specimen, state, excitation, fix_mass=fix_mass, offsets=offsets, bounds=bounds)

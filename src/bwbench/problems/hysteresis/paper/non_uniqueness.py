@@ -74,19 +74,35 @@ def spread_table(study, specimen: str) -> tuple[pd.DataFrame, dict]:
         column = U[:, j][np.isfinite(U[:, j])]
         return float(np.ptp(column)) if column.size >= 2 else float("nan")
 
-    rows = [{"paper parameter": LABELS[n], "spread as fitted (% of Table 5)": width(paper_u, j),
-             "after fixing the gauge": width(gauged_u, j)} for j, n in enumerate(PARAM_NAMES)]
-    ident = [{"identifiable parameter": fm.LABELS[n], "spread (% of its box)": width(theta_u, j)}
-             for j, n in enumerate(box.names)]
+    rows = [
+        {
+            "paper parameter": LABELS[n],
+            "spread as fitted (% of Table 5)": width(paper_u, j),
+            "after fixing the gauge": width(gauged_u, j),
+        }
+        for j, n in enumerate(PARAM_NAMES)
+    ]
+    ident = [
+        {"identifiable parameter": fm.LABELS[n], "spread (% of its box)": width(theta_u, j)}
+        for j, n in enumerate(box.names)
+    ]
     frame = pd.concat([pd.DataFrame(rows), pd.DataFrame(ident)], axis=1)
     # The symmetry's share is a question about fits searched in the paper's 14 coordinates: a fit of
     # the identifiable formulation is mapped back in the canonical gauge already.
     single = study.settings.get("formulation", "paper")
     searched_paper = np.array([(split_label(o)[1] or single) == "paper" for o in runs["optimizer"]], dtype=bool)
     share = symmetry_share(paper_u[searched_paper], gauged_u[searched_paper])
-    return frame, {"runs": len(runs), "share": share, "share_runs": int(searched_paper.sum()), "paper_unit": paper_u,
-                   "gauged_unit": gauged_u, "theta_unit": theta_u, "theta_names": box.names, "box": box,
-                   "optimizers": list(runs["optimizer"])}
+    return frame, {
+        "runs": len(runs),
+        "share": share,
+        "share_runs": int(searched_paper.sum()),
+        "paper_unit": paper_u,
+        "gauged_unit": gauged_u,
+        "theta_unit": theta_u,
+        "theta_names": box.names,
+        "box": box,
+        "optimizers": list(runs["optimizer"]),
+    }
 
 
 def figure(study, out_dir, specimen: str, order=None):
@@ -119,17 +135,33 @@ def figure(study, out_dir, specimen: str, order=None):
         jitter = rng.uniform(-0.18, 0.18)
         point = look[optimizer].point(ms=5.5)
         off_scale += int(np.sum((s["paper_unit"][k] < 0) | (s["paper_unit"][k] > 1)))
-        left.plot(np.arange(14) + jitter, np.clip(s["paper_unit"][k], -EDGE, 1 + EDGE),
-                  **{**point, "mfc": point["color"]}, alpha=0.85)
-        left.plot(np.arange(14) + jitter, np.clip(s["gauged_unit"][k], -EDGE, 1 + EDGE),
-                  **{**point, "mfc": "none", "ms": 7.5}, alpha=0.85)
-        right.plot(np.arange(len(s["theta_names"])) + jitter, s["theta_unit"][k], **{**point, "mfc": point["color"]},
-                   alpha=0.85)
-        rows += [{"optimizer": optimizer, "coordinates": kind, "parameter": name, "unit_value": float(value)}
-                 for kind, names, values in (("paper as fitted", PARAM_NAMES, s["paper_unit"][k]),
-                                             ("paper, canonical gauge", PARAM_NAMES, s["gauged_unit"][k]),
-                                             ("identifiable", s["theta_names"], s["theta_unit"][k]))
-                 for name, value in zip(names, values)]
+        left.plot(
+            np.arange(14) + jitter,
+            np.clip(s["paper_unit"][k], -EDGE, 1 + EDGE),
+            **{**point, "mfc": point["color"]},
+            alpha=0.85,
+        )
+        left.plot(
+            np.arange(14) + jitter,
+            np.clip(s["gauged_unit"][k], -EDGE, 1 + EDGE),
+            **{**point, "mfc": "none", "ms": 7.5},
+            alpha=0.85,
+        )
+        right.plot(
+            np.arange(len(s["theta_names"])) + jitter,
+            s["theta_unit"][k],
+            **{**point, "mfc": point["color"]},
+            alpha=0.85,
+        )
+        rows += [
+            {"optimizer": optimizer, "coordinates": kind, "parameter": name, "unit_value": float(value)}
+            for kind, names, values in (
+                ("paper as fitted", PARAM_NAMES, s["paper_unit"][k]),
+                ("paper, canonical gauge", PARAM_NAMES, s["gauged_unit"][k]),
+                ("identifiable", s["theta_names"], s["theta_unit"][k]),
+            )
+            for name, value in zip(names, values)
+        ]
     truth = switched_parameters.truth_params(study.specimen_path(specimen))
     if truth is not None:  # the truth's loops, in the canonical gauge and in the identifiable coordinates
         state = study.settings.get("state", "shared")
@@ -141,14 +173,21 @@ def figure(study, out_dir, specimen: str, order=None):
     left.set_xticks(np.arange(14), [LABELS[n] for n in PARAM_NAMES])
     left.set_ylabel("position in range (–)")
     share = s["share"]
-    left.set_title("paper parameters (Table 5 units): filled = as fitted, open = same loops, gauge fixed"
-                   + (f"\n{share:.0%} of the scatter of the {s['share_runs']} paper-coordinate searches is the "
-                      "exact symmetry z → s·z" if np.isfinite(share) else "")
-                   + (f"\n{off_scale} values beyond Table 5 drawn on the grey bands" if off_scale else ""),
-                   loc="left")
+    left.set_title(
+        "paper parameters (Table 5 units): filled = as fitted, open = same loops, gauge fixed"
+        + (
+            f"\n{share:.0%} of the scatter of the {s['share_runs']} paper-coordinate searches is the "
+            "exact symmetry z → s·z"
+            if np.isfinite(share)
+            else ""
+        )
+        + (f"\n{off_scale} values beyond Table 5 drawn on the grey bands" if off_scale else ""),
+        loc="left",
+    )
     right.set_xticks(np.arange(len(s["theta_names"])), [fm.LABELS[n] for n in s["theta_names"]])
-    right.set_title("identifiable parameters (data-scaled\nbox): no symmetry; what scatters is\nweakly determined",
-                    loc="left")
+    right.set_title(
+        "identifiable parameters (data-scaled\nbox): no symmetry; what scatters is\nweakly determined", loc="left"
+    )
     edge_bands(left)  # fits mapped from the identifiable box can lie beyond Table 5
     right.set_ylim(-0.04, 1.04)
     for ax in (left, right):
@@ -181,18 +220,22 @@ def section(report, paper: bool) -> None:
         return
     doc.h(2, "Non-uniqueness: the data, the optimiser and the exact symmetry")
     if symmetric:
-        doc.p("The paper's 14 parameters have an exact symmetry: z → s·z with A → s·A, β, γ → s^(1−n)·β, "
-              "s^(1−n)·γ and (1 − α)·ωn² → (1 − α)·ωn²/s leaves the force unchanged (one s for the shared state, "
-              "one per branch for the split), so every fit lies on a curve of equally good parameter vectors; the "
-              "identifiable coordinates have no such curve.")
+        doc.p(
+            "The paper's 14 parameters have an exact symmetry: z → s·z with A → s·A, β, γ → s^(1−n)·β, "
+            "s^(1−n)·γ and (1 − α)·ωn² → (1 − α)·ωn²/s leaves the force unchanged (one s for the shared state, "
+            "one per branch for the split), so every fit lies on a curve of equally good parameter vectors; the "
+            "identifiable coordinates have no such curve."
+        )
     if chains:
-        doc.p("Where a specimen has a posterior, the good ranking fits (within 10 % of the best known MSE, every seed "
-              "and formulation, put in the posterior's coordinates) are held against it. The posterior is what the "
-              "data allow: a fit whose log-posterior reaches the 1 % quantile of the posterior's draws is as probable "
-              "as they are, so where it lies the data put it; a fit below stopped before the posterior's bulk (on "
-              "~1,900 samples a fit 10 % above the best MSE is e^90 less probable). Per parameter, fits outside the "
-              "range the posterior's draws cover (their central 99 %) are scatter the data do not explain: the "
-              "optimisers' when they stopped early, another mode the chain did not visit when they are as probable.")
+        doc.p(
+            "Where a specimen has a posterior, the good ranking fits (within 10 % of the best known MSE, every seed "
+            "and formulation, put in the posterior's coordinates) are held against it. The posterior is what the "
+            "data allow: a fit whose log-posterior reaches the 1 % quantile of the posterior's draws is as probable "
+            "as they are, so where it lies the data put it; a fit below stopped before the posterior's bulk (on "
+            "~1,900 samples a fit 10 % above the best MSE is e^90 less probable). Per parameter, fits outside the "
+            "range the posterior's draws cover (their central 99 %) are scatter the data do not explain: the "
+            "optimisers' when they stopped early, another mode the chain did not visit when they are as probable."
+        )
     done = set()
     for pc in chains:
         specimen = pc.chain.specimen
@@ -203,16 +246,24 @@ def section(report, paper: bool) -> None:
         if not len(d["fits"]):
             doc.p(f"{specimen}: no good ranking fit to hold against the posterior.")
             continue
-        doc.table(sd.shown_table(pc, d), f"{specimen}: the scatter of the {len(d['fits'])} good fits against the "
-                                         "posterior, per parameter (positions as fractions of the search box)")
+        doc.table(
+            sd.shown_table(pc, d),
+            f"{specimen}: the scatter of the {len(d['fits'])} good fits against the "
+            "posterior, per parameter (positions as fractions of the search box)",
+        )
         text = sd.sentence(pc, d)
         if not pc.assessment["converged"]:  # the reference itself is unreliable: say so first
-            text = ("**Provisional: this specimen's posterior has not converged (see the posterior section), so its "
-                    "ranges are where the chain has been, not the posterior; read the split below with that "
-                    "caution.** " + text)
+            text = (
+                "**Provisional: this specimen's posterior has not converged (see the posterior section), so its "
+                "ranges are where the chain has been, not the posterior; read the split below with that "
+                "caution.** " + text
+            )
         doc.p(text)
-        doc.figure(sd.figure(study, report.out, pc, d), f"{specimen}: the good fits against the posterior"
-                   + ("" if pc.assessment["converged"] else " (posterior not converged: provisional)"))
+        doc.figure(
+            sd.figure(study, report.out, pc, d),
+            f"{specimen}: the good fits against the posterior"
+            + ("" if pc.assessment["converged"] else " (posterior not converged: provisional)"),
+        )
     if not (symmetric and paper):
         return
     for specimen in [s for s in report.featured[:2] if s not in done]:
@@ -224,14 +275,20 @@ def section(report, paper: bool) -> None:
         for column in shown.columns:
             if shown[column].dtype.kind == "f":
                 shown[column] = shown[column].map(lambda x: "–" if not np.isfinite(x) else f"{x:.0%}")
-        doc.table(shown.fillna(""), f"{specimen}: range of the {s['runs']} good fits, as a fraction of each "
-                                    "parameter's search range")
+        doc.table(
+            shown.fillna(""),
+            f"{specimen}: range of the {s['runs']} good fits, as a fraction of each parameter's search range",
+        )
         share = s["share"]
         if np.isfinite(share):
-            doc.p(f"{specimen}: of the scatter of the paper parameters across the {s['share_runs']} of these fits "
-                  "that searched the paper's coordinates (total variance in Table 5 units), **{share:.0%} is the "
-                  "exact symmetry** (it disappears when the gauge is fixed); the rest lies in directions the data "
-                  "determine only weakly or where the optimisers stopped (no posterior on this specimen to tell "
-                  "which).".replace("{share:.0%}", f"{share:.0%}"))
-        doc.figure(figure(study, report.out, specimen, order=list(report.table["optimizer"])),
-                   f"{specimen}: good fits in the paper's and the identifiable coordinates")
+            doc.p(
+                f"{specimen}: of the scatter of the paper parameters across the {s['share_runs']} of these fits "
+                "that searched the paper's coordinates (total variance in Table 5 units), **{share:.0%} is the "
+                "exact symmetry** (it disappears when the gauge is fixed); the rest lies in directions the data "
+                "determine only weakly or where the optimisers stopped (no posterior on this specimen to tell "
+                "which).".replace("{share:.0%}", f"{share:.0%}")
+            )
+        doc.figure(
+            figure(study, report.out, specimen, order=list(report.table["optimizer"])),
+            f"{specimen}: good fits in the paper's and the identifiable coordinates",
+        )

@@ -40,8 +40,10 @@ def column_groups(problem) -> list[tuple[str, list[str]]]:
     """(title, parameter names) of each table for the coordinates ``problem`` searched."""
     names = list(problem.param_names)
     if getattr(problem, "formulation", "") == "identifiable":
-        return [("hysteretic parameters (searched)", names),
-                ("linear coefficients (solved per simulation)", list(problem.linear_names))]
+        return [
+            ("hysteretic parameters (searched)", names),
+            ("linear coefficients (solved per simulation)", list(problem.linear_names)),
+        ]
     if problem.model.name == "switched-bouc-wen":
         return [("tension set (+)", list(PARAM_NAMES[:7])), ("compression set (−)", list(PARAM_NAMES[7:]))]
     return [("parameters (searched)", names)]
@@ -58,17 +60,28 @@ def headings(problem) -> dict:
 
 def section(report, formulation: str, paper_data: bool) -> None:
     doc, study = report.doc, report.study
-    shown = report.best_backend if formulation_of(study, report.best_backend) == formulation else next(
-        (o for o in report.table["optimizer"] if formulation_of(study, o) == formulation), report.best_backend)
+    shown = (
+        report.best_backend
+        if formulation_of(study, report.best_backend) == formulation
+        else next(
+            (o for o in report.table["optimizer"] if formulation_of(study, o) == formulation), report.best_backend
+        )
+    )
     variant = variant_of(study, shown)
     paper = paper_data and formulation == "paper" and variant[1] == "switched-bouc-wen"
     doc.h(2, "Identified parameters per specimen" + (" (the paper's Tables 6–8)" if paper else ""))
     several_models = len({m for _, m, _ in study_variants(study)}) > 1
-    coordinates = ("the paper's 14 parameters" if paper else f"the {formulation} coordinates"
-                   + (f" of the {variant[1]} model" if several_models else ""))
-    doc.p(f"In {coordinates}, the coordinates the study searched. For each specimen: the best run that searched "
-          f"them (loss = MSE, N²), the runs of {shown} across its seeds"
-          + (", and the truth the synthetic specimen was generated from" if paper else "") + ".")
+    coordinates = (
+        "the paper's 14 parameters"
+        if paper
+        else f"the {formulation} coordinates" + (f" of the {variant[1]} model" if several_models else "")
+    )
+    doc.p(
+        f"In {coordinates}, the coordinates the study searched. For each specimen: the best run that searched "
+        f"them (loss = MSE, N²), the runs of {shown} across its seeds"
+        + (", and the truth the synthetic specimen was generated from" if paper else "")
+        + "."
+    )
     ranking = study.ranking.assign(material=study.ranking["material"].fillna("Specimens"))  # no manifest: one group
     ok = ranking[(ranking["status"] == "ok") & np.isfinite(ranking["mse"].astype(float))]
     ok = ok[[variant_of(study, o) == variant for o in ok["optimizer"]]]
@@ -86,20 +99,39 @@ def section(report, formulation: str, paper_data: bool) -> None:
                 if runs.empty:
                     continue
                 first = group[group["specimen"] == specimen].iloc[0]
-                label = (specimen if not np.isfinite(first["underpressure_MPa"]) else
-                         f"{first['underpressure_MPa']:g} MPa r{int(first['repeat'])}")
+                label = (
+                    specimen
+                    if not np.isfinite(first["underpressure_MPa"])
+                    else f"{first['underpressure_MPa']:g} MPa r{int(first['repeat'])}"
+                )
                 b = runs.loc[runs["mse"].idxmin()]
-                rows.append({"specimen": label, "row": f"best: {b['optimizer']} seed {int(b['replicate'])}",
-                             "MSE (N²)": number(b["mse"], 5), **{heading[n]: number(b.get(n)) for n in names}})
+                rows.append(
+                    {
+                        "specimen": label,
+                        "row": f"best: {b['optimizer']} seed {int(b['replicate'])}",
+                        "MSE (N²)": number(b["mse"], 5),
+                        **{heading[n]: number(b.get(n)) for n in names},
+                    }
+                )
                 mine = runs[runs["optimizer"] == shown]
-                rows.append({"specimen": "", "row": f"{shown}: {aggregate_label(len(mine))}",
-                             "MSE (N²)": aggregate_text(mine["mse"]),
-                             **{heading[n]: aggregate_text(mine[n]) if n in mine else "–" for n in names}})
+                rows.append(
+                    {
+                        "specimen": "",
+                        "row": f"{shown}: {aggregate_label(len(mine))}",
+                        "MSE (N²)": aggregate_text(mine["mse"]),
+                        **{heading[n]: aggregate_text(mine[n]) if n in mine else "–" for n in names},
+                    }
+                )
                 truth = switched_parameters.truth_params(study.specimen_path(specimen)) if paper else None
                 if truth is not None:
                     truth_problem = problem_for(study, specimen, "paper", cache)
-                    rows.append({"specimen": "", "row": "truth (synthetic)",
-                                 "MSE (N²)": number(float(truth_problem.loss_batch(truth[None, :])[0]), 5),
-                                 **{heading[n]: number(truth[PARAM_NAMES.index(n)]) for n in names}})
+                    rows.append(
+                        {
+                            "specimen": "",
+                            "row": "truth (synthetic)",
+                            "MSE (N²)": number(float(truth_problem.loss_batch(truth[None, :])[0]), 5),
+                            **{heading[n]: number(truth[PARAM_NAMES.index(n)]) for n in names},
+                        }
+                    )
             if rows:
                 doc.table(pd.DataFrame(rows), f"{material}: {title}")

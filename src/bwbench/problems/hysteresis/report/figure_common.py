@@ -51,7 +51,7 @@ def synthetic(study, specimens) -> str:
 
 
 def conditions(problem) -> str:
-    """"shared state, measured excitation" (no state for a model without state conventions)."""
+    """ "shared state, measured excitation" (no state for a model without state conventions)."""
     return (f"{problem.state} state, " if problem.state else "") + f"{problem.excitation} excitation"
 
 
@@ -68,9 +68,10 @@ def study_variants(study) -> list[tuple[str, str, str]]:
     s = study.settings
     models = s.get("model", DEFAULT)
     formulations = s.get("formulation")
-    return variants([models] if isinstance(models, str) else list(models),
-                    None if formulations is None else [formulations] if isinstance(formulations, str)
-                    else list(formulations))
+    return variants(
+        [models] if isinstance(models, str) else list(models),
+        None if formulations is None else [formulations] if isinstance(formulations, str) else list(formulations),
+    )
 
 
 def variant_of(study, label: str) -> tuple[str, str, str]:
@@ -97,7 +98,8 @@ def problem_for(study, specimen: str, which: str = "paper", cache: dict | None =
     pair with ``cache``."""
     pairs = study_variants(study)
     pair = next((p for p in pairs if p[2] == which), None) or (
-        pairs[0][:2] + (which,) if which in ("paper", "direct", "identifiable") else variant_of(study, which))
+        pairs[0][:2] + (which,) if which in ("paper", "direct", "identifiable") else variant_of(study, which)
+    )
     key = (specimen, pair[1], pair[2])
     if cache is not None and key in cache:
         return cache[key]
@@ -139,6 +141,17 @@ def travel_arrows(ax, x, f, turns, colour, per_stroke: int = 1) -> None:
             j = min(i + step, len(x) - 1)
             if i >= j or (x[i] == x[j] and f[i] == f[j]):
                 continue
-            ax.annotate("", xy=(x[j], f[j]), xytext=(x[i], f[i]), zorder=6,
-                        arrowprops={"arrowstyle": "-|>", "color": colour, "lw": 1.4, "mutation_scale": 16,
-                                    "shrinkA": 0, "shrinkB": 0})
+            ax.annotate(
+                "",
+                xy=(x[j], f[j]),
+                xytext=(x[i], f[i]),
+                zorder=6,
+                arrowprops={
+                    "arrowstyle": "-|>",
+                    "color": colour,
+                    "lw": 1.4,
+                    "mutation_scale": 16,
+                    "shrinkA": 0,
+                    "shrinkB": 0,
+                },
+            )

@@ -42,7 +42,15 @@ from bwbench.render.palette import (
 
 BAND_COLOUR = OKABE_ITO[5]
 BACKENDS = 3  # residuals of the best few backends (and random search): more lines hide each other
-MEASURED: dict[str, Any] = {"color": "black", "marker": ".", "ls": "", "ms": 2.2, "alpha": 0.75, "zorder": 5, "rasterized": True}
+MEASURED: dict[str, Any] = {
+    "color": "black",
+    "marker": ".",
+    "ls": "",
+    "ms": 2.2,
+    "alpha": 0.75,
+    "zorder": 5,
+    "rasterized": True,
+}
 
 
 def _panels(height: float = 6.6):
@@ -69,7 +77,9 @@ def _draw_measured(loop, force, t, x, f, fitted, style: Style, turns, x_model=No
     x, f, fitted = np.asarray(x), np.asarray(f), np.asarray(fitted)
     keep = np.zeros(len(x), dtype=bool)
     keep[steady if steady is not None else slice(None)] = True
-    for part in (slice(None, keep.argmax() + 1), slice(len(keep) - keep[::-1].argmax() - 1, None)) if not keep.all() else ():
+    for part in (
+        (slice(None, keep.argmax() + 1), slice(len(keep) - keep[::-1].argmax() - 1, None)) if not keep.all() else ()
+    ):
         loop.plot(x_model[part], fitted[part], **{**style.line(lw=1.0, ls="-"), "alpha": RAMP_ALPHA}, zorder=2)
         loop.plot(x[part], f[part], **{**MEASURED, "alpha": RAMP_ALPHA, "zorder": 2})
     steady_turns = [i for i in turns if keep[i]]
@@ -77,8 +87,9 @@ def _draw_measured(loop, force, t, x, f, fitted, style: Style, turns, x_model=No
     loop.plot(x[keep], f[keep], **MEASURED)
     travel_arrows(loop, x_model[keep], fitted[keep], [i - int(keep.argmax()) for i in steady_turns], "black")
     turns = steady_turns
-    loop.plot(np.asarray(x)[turns], np.asarray(f)[turns], ls="", marker="D", ms=7, mfc="white", mec="black",
-              mew=1.3, zorder=6)
+    loop.plot(
+        np.asarray(x)[turns], np.asarray(f)[turns], ls="", marker="D", ms=7, mfc="white", mec="black", mew=1.3, zorder=6
+    )
     loop.set_xlabel("displacement x (mm)")
     loop.set_ylabel("force F (N)")
     loop.set_title("hysteresis loop (arrows: direction of travel)", loc="left")
@@ -94,8 +105,18 @@ def _mark_reversals(axes, t, turns) -> None:
             ax.axvline(t[i], color="0.45", lw=0.8, ls=":", zorder=1)
 
 
-REVERSAL = Line2D([], [], ls=":", color="0.45", marker="D", ms=7, mfc="white", mec="black", mew=1.3,
-                  label="reversal of travel (◇ on the loop, dotted against time)")
+REVERSAL = Line2D(
+    [],
+    [],
+    ls=":",
+    color="0.45",
+    marker="D",
+    ms=7,
+    mfc="white",
+    mec="black",
+    mew=1.3,
+    label="reversal of travel (◇ on the loop, dotted against time)",
+)
 
 
 def _residual_limit(residuals: dict, skip=()) -> float:
@@ -119,8 +140,18 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     style = Style(result.optimizer, OKABE_ITO[0], "-", "o", True)
     fig, loop, force, residual = _panels()
     steady = steady_part(spec.t, spec.x)
-    _draw_measured(loop, force, spec.t, spec.x, spec.f, fitted, style, turns, x_model=problem.signal.x,
-                   steady=steady.part if steady.ramped else None)
+    _draw_measured(
+        loop,
+        force,
+        spec.t,
+        spec.x,
+        spec.f,
+        fitted,
+        style,
+        turns,
+        x_model=problem.signal.x,
+        steady=steady.part if steady.ramped else None,
+    )
     error = fitted - spec.f
     rmse = float(np.sqrt(np.mean(error**2)))
     residual.plot(spec.t, error, **style.line(lw=0.9, ls="-"))
@@ -132,16 +163,30 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     residual.set_title(f"residual: RMSE {rmse:.3g} N, NRMSE {nrmse_pair(rmse, spec.f)[1]:.3g} (RMSE/max F)", loc="left")
     _mark_reversals([force, residual], spec.t, turns)
     formulation = getattr(problem, "formulation", "paper")
-    handles = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
-               style.handle(f"fitted model ({result.optimizer})", marker=False), REVERSAL]
+    handles = [
+        Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
+        style.handle(f"fitted model ({result.optimizer})", marker=False),
+        REVERSAL,
+    ]
     if steady.ramped:
-        handles.append(Line2D([], [], color="black", marker=".", ls="", alpha=RAMP_ALPHA,
-                              label=f"ramp cycles, lighter ({steady.describe()})"))
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color="black",
+                marker=".",
+                ls="",
+                alpha=RAMP_ALPHA,
+                label=f"ramp cycles, lighter ({steady.describe()})",
+            )
+        )
     legend(fig, handles, ncol=2 if steady.ramped else 3)
     nrmse_abs, nrmse_max = nrmse_pair(rmse, spec.f)
-    fig.suptitle(f"{spec.name} — {problem.model.name} ({formulation} formulation), {result.optimizer}, seed "
-                 f"{result.seed}, {result.nfev} evaluations\nRMSE {result.rmse_N:.3g} N, NRMSE {nrmse_max:.3g} "
-                 f"(RMSE/max F; {nrmse_abs:.3g} RMSE/max|F|); {conditions(problem)}, {_velocity_source(problem)}")
+    fig.suptitle(
+        f"{spec.name} — {problem.model.name} ({formulation} formulation), {result.optimizer}, seed "
+        f"{result.seed}, {result.nfev} evaluations\nRMSE {result.rmse_N:.3g} N, NRMSE {nrmse_max:.3g} "
+        f"(RMSE/max F; {nrmse_abs:.3g} RMSE/max|F|); {conditions(problem)}, {_velocity_source(problem)}"
+    )
     write_png(fig, path, synthetic)
 
 
@@ -153,10 +198,11 @@ def nrmse_pair(rmse: float, f) -> tuple[float, float]:
 
 
 def _velocity_source(problem) -> str:
-    """"velocity recorded", "velocity estimated from the displacement" or "velocity of the sine fit"."""
+    """ "velocity recorded", "velocity estimated from the displacement" or "velocity of the sine fit"."""
     source = problem.signal.sources.get("velocity", "")
     return {"measured": "velocity recorded", "estimated": "velocity estimated from the displacement"}.get(
-        source, f"velocity of the {source}" if source else "velocity")
+        source, f"velocity of the {source}" if source else "velocity"
+    )
 
 
 def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = BACKENDS, band="auto") -> Path:
@@ -173,8 +219,9 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     theme()
     band = band_of(study, specimen) if isinstance(band, str) else band
     ranking = study.ranking
-    runs = ranking[(ranking["specimen"] == specimen) & (ranking["status"] == "ok")
-                   & np.isfinite(ranking["mse"].astype(float))]
+    runs = ranking[
+        (ranking["specimen"] == specimen) & (ranking["status"] == "ok") & np.isfinite(ranking["mse"].astype(float))
+    ]
     look = styles(study, order)
     present = [o for o in look if o in set(runs["optimizer"])]
     best_run = runs.loc[runs["mse"].idxmin()]
@@ -195,10 +242,21 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
         force = problem.simulate(run[list(problem.param_names)].to_numpy(dtype=float))
         fits[optimizer] = (run, force, problem)
         residuals[optimizer] = force - spec.f
-        frames.append(pd.DataFrame({
-            "specimen": specimen, "optimizer": optimizer, "kind": run["kind"], "replicate": int(run["replicate"]),
-            "time_s": spec.t, "displacement_mm": spec.x, "force_measured_N": spec.f, "force_model_N": force,
-            "residual_N": force - spec.f}))
+        frames.append(
+            pd.DataFrame(
+                {
+                    "specimen": specimen,
+                    "optimizer": optimizer,
+                    "kind": run["kind"],
+                    "replicate": int(run["replicate"]),
+                    "time_s": spec.t,
+                    "displacement_mm": spec.x,
+                    "force_measured_N": spec.f,
+                    "force_model_N": force,
+                    "residual_N": force - spec.f,
+                }
+            )
+        )
     turns = reversals(spec.x)
     fig, loop, force_ax, residual = _panels(7.4)
     best_label = best_run["optimizer"]
@@ -209,16 +267,36 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
         residual.axhspan(-2 * noise, 2 * noise, color="0.85", zorder=0, lw=0)
     if band is not None:  # on the residual panel as residuals of the best fit: best force − predicted measurement
         force_ax.fill_between(spec.t, band.lower, band.upper, color=BAND_COLOUR, alpha=0.45, lw=0, zorder=2)
-        residual.fill_between(spec.t, best_force - band.upper, best_force - band.lower, color=BAND_COLOUR,
-                              alpha=0.35, lw=0, zorder=1)
+        residual.fill_between(
+            spec.t, best_force - band.upper, best_force - band.lower, color=BAND_COLOUR, alpha=0.35, lw=0, zorder=1
+        )
         # on top of the residual lines: it is narrow (the posterior's spread of the fitted force, no noise)
-        residual.fill_between(spec.t, best_force - band.model_upper, best_force - band.model_lower,
-                              color=OKABE_ITO[4], alpha=0.55, lw=0, zorder=20)
-        frames.append(pd.DataFrame({"specimen": specimen, "optimizer": "posterior predictive 95 %", "kind": "posterior",
-                                    "replicate": 0, "time_s": spec.t, "displacement_mm": spec.x,
-                                    "force_measured_N": spec.f, "band_lower_N": band.lower,
-                                    "band_upper_N": band.upper, "model_band_lower_N": band.model_lower,
-                                    "model_band_upper_N": band.model_upper}))
+        residual.fill_between(
+            spec.t,
+            best_force - band.model_upper,
+            best_force - band.model_lower,
+            color=OKABE_ITO[4],
+            alpha=0.55,
+            lw=0,
+            zorder=20,
+        )
+        frames.append(
+            pd.DataFrame(
+                {
+                    "specimen": specimen,
+                    "optimizer": "posterior predictive 95 %",
+                    "kind": "posterior",
+                    "replicate": 0,
+                    "time_s": spec.t,
+                    "displacement_mm": spec.x,
+                    "force_measured_N": spec.f,
+                    "band_lower_N": band.lower,
+                    "band_upper_N": band.upper,
+                    "model_band_lower_N": band.model_lower,
+                    "model_band_upper_N": band.model_upper,
+                }
+            )
+        )
     for rank, optimizer in reversed(list(enumerate(shown))):  # the best drawn last, on top
         residual.plot(spec.t, residuals[optimizer], **look[optimizer].line(lw=0.9), zorder=3 + len(shown) - rank)
     residual.axhline(0.0, color="black", lw=0.8, zorder=2)
@@ -226,10 +304,17 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     residual.set_ylim(-limit, limit)
     off = [o for o in randoms if np.nanmax(np.abs(residuals[o])) > limit]
     if off:
-        residual.text(0.99, 0.03, "off-scale: " + ", ".join(f"{o} (up to {np.nanmax(np.abs(residuals[o])):.0f} N)"
-                                                             for o in off),
-                      transform=residual.transAxes, ha="right", va="bottom", fontsize=9,
-                      bbox={"fc": "white", "ec": "0.7", "boxstyle": "round"}, zorder=10)
+        residual.text(
+            0.99,
+            0.03,
+            "off-scale: " + ", ".join(f"{o} (up to {np.nanmax(np.abs(residuals[o])):.0f} N)" for o in off),
+            transform=residual.transAxes,
+            ha="right",
+            va="bottom",
+            fontsize=9,
+            bbox={"fc": "white", "ec": "0.7", "boxstyle": "round"},
+            zorder=10,
+        )
     residual.set_ylabel("model − measured (N)")
     residual.set_xlabel("time t (s)")
     residual.set_title("residual of the best run of each backend", loc="left")
@@ -241,15 +326,29 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     if noise is not None:
         handles.append(Patch(color="0.85", label=f"±2σ of the noise (truth's residual, σ = {noise:.2g} N)"))
     if band is not None:
-        handles.append(Patch(color=BAND_COLOUR, alpha=0.45, label=(
-            f"posterior predictive 95 % (noise included; {band.draws} draws): the measured force leaves it at "
-            f"{band.outside:.1%} of the samples")))
-        handles.append(Patch(color=OKABE_ITO[4], alpha=0.55, label="posterior 95 % of the model force (no noise); "
-                                                                    "residual panel: both as residuals of the best fit"))
+        handles.append(
+            Patch(
+                color=BAND_COLOUR,
+                alpha=0.45,
+                label=(
+                    f"posterior predictive 95 % (noise included; {band.draws} draws): the measured force leaves it at "
+                    f"{band.outside:.1%} of the samples"
+                ),
+            )
+        )
+        handles.append(
+            Patch(
+                color=OKABE_ITO[4],
+                alpha=0.55,
+                label="posterior 95 % of the model force (no noise); residual panel: both as residuals of the best fit",
+            )
+        )
     legend(fig, handles, ncol=2)
-    fig.suptitle(f"{specimen}: best fit ({best_label}, seed {int(best_run['replicate'])}) and the residuals of the "
-                 f"best {len(shown) - len(randoms)} backends" + (" and random search" if randoms else "") + "\n"
-                 f"ranking runs only ({conditions(best_problem)})")
+    fig.suptitle(
+        f"{specimen}: best fit ({best_label}, seed {int(best_run['replicate'])}) and the residuals of the "
+        f"best {len(shown) - len(randoms)} backends" + (" and random search" if randoms else "") + "\n"
+        f"ranking runs only ({conditions(best_problem)})"
+    )
     frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     return save(fig, out_dir, f"loops_{slug(specimen)}", frame, synthetic(study, [specimen]))
 

@@ -37,8 +37,12 @@ def runs_in(study, formulation: str, model: str | None = None) -> pd.DataFrame:
     """Finished runs (ranking and posterior) that searched ``formulation``'s coordinates (of ``model``,
     when given: a study comparing models has one set of coordinates per model)."""
     runs = study.runs[(study.runs["status"] == "ok") & np.isfinite(study.runs["mse"].astype(float))]
-    return runs[[formulation_of(study, o) == formulation and (model is None or model_of(study, o) == model)
-                 for o in runs["optimizer"]]]
+    return runs[
+        [
+            formulation_of(study, o) == formulation and (model is None or model_of(study, o) == model)
+            for o in runs["optimizer"]
+        ]
+    ]
 
 
 def good_run_spread(study, specimen, formulation, cache, tolerance=GOOD, label: str | None = None):
@@ -46,8 +50,9 @@ def good_run_spread(study, specimen, formulation, cache, tolerance=GOOD, label: 
     label ``label``, when given) as a fraction of its search range; None with fewer than 2 such runs."""
     best = statistics.best_known(study.runs)[specimen]
     ranking = runs_in(study, formulation, None if label is None else model_of(study, label))
-    good = ranking[(ranking["kind"] == "ranking") & (ranking["specimen"] == specimen)
-                   & (ranking["mse"] <= best * (1 + tolerance))]
+    good = ranking[
+        (ranking["kind"] == "ranking") & (ranking["specimen"] == specimen) & (ranking["mse"] <= best * (1 + tolerance))
+    ]
     if len(good) < 2:
         return None, len(good)
     problem = problem_for(study, specimen, label or formulation, cache)
@@ -64,14 +69,16 @@ def section(report, formulation: str, paper_data: bool) -> list:
     profile_params, profile_grid = report.options.get("profile_params", 2), report.options.get("profile_grid", 7)
     coordinates = "the paper's 14 parameters" if formulation == "paper" else "the identifiable hysteretic parameters"
     doc.h(2, "Identifiability: what the data cannot pin down")
-    doc.p(f"At the best fit of each specimen in the coordinates the study searched ({coordinates}, scaled to "
-          f"{box}): the Jacobian of the force residual (model − measured, N) by central differences (step 1e-4 of "
-          "the range); its singular values say how strongly the force responds along each direction of parameter "
-          "space. A direction is *undetermined* when even a step across the whole range changes the residual sum of "
-          "squares by less than the 95 % threshold for one parameter (1.96² × the noise variance); moving along the "
-          "undetermined directions inside the box gives each parameter a *free range*. A parameter is *poorly "
-          f"determined* when its free range or its linearised standard error exceeds {POOR_SE:.0%} of its range. "
-          "This is a local, linear analysis at one point; the profiles and the spread across seeds test it further.")
+    doc.p(
+        f"At the best fit of each specimen in the coordinates the study searched ({coordinates}, scaled to "
+        f"{box}): the Jacobian of the force residual (model − measured, N) by central differences (step 1e-4 of "
+        "the range); its singular values say how strongly the force responds along each direction of parameter "
+        "space. A direction is *undetermined* when even a step across the whole range changes the residual sum of "
+        "squares by less than the 95 % threshold for one parameter (1.96² × the noise variance); moving along the "
+        "undetermined directions inside the box gives each parameter a *free range*. A parameter is *poorly "
+        f"determined* when its free range or its linearised standard error exceeds {POOR_SE:.0%} of its range. "
+        "This is a local, linear analysis at one point; the profiles and the spread across seeds test it further."
+    )
     runs = runs_in(study, formulation)
     cache: dict = {}
     results: list = []
@@ -93,15 +100,20 @@ def section(report, formulation: str, paper_data: bool) -> list:
         run = inside.loc[inside["mse"].idxmin()]
         widest = profile_params if k == 0 else 0
         if widest:
-            print(f"profiling {widest} parameter(s) on {specimen} (about a second per point) ...", file=log,
-                  flush=True)
+            print(f"profiling {widest} parameter(s) on {specimen} (about a second per point) ...", file=log, flush=True)
         try:
             result = switched_identifiability.analyse(
-                study.specimen_path(specimen), run[list(problem.param_names)].to_numpy(dtype=float),
-                study.settings.get("state", "shared"), study.settings.get("excitation", "measured"),
-                formulation=formulation, bounds=study.settings.get("bounds"), profile_widest=widest,
-                grid=profile_grid, model=model,
-                progress=report.counter(f"profiles on {specimen}", "point") if hasattr(report, "counter") else None)
+                study.specimen_path(specimen),
+                run[list(problem.param_names)].to_numpy(dtype=float),
+                study.settings.get("state", "shared"),
+                study.settings.get("excitation", "measured"),
+                formulation=formulation,
+                bounds=study.settings.get("bounds"),
+                profile_widest=widest,
+                grid=profile_grid,
+                model=model,
+                progress=report.counter(f"profiles on {specimen}", "point") if hasattr(report, "counter") else None,
+            )
         except UserError as err:
             doc.p(f"{specimen}: identifiability analysis not possible: {err}")
             continue
@@ -110,69 +122,98 @@ def section(report, formulation: str, paper_data: bool) -> list:
         label = result["labels"].get  # the model's own labels (x_y₊, ωn₋, c₁, ...)
         doc.h(3, specimen)
         rel = result["relative_singular_values"]
-        doc.p(f"Best fit: {run['optimizer']} ({run['kind']}, seed {int(run['replicate'])}), RMSE "
-              f"{result['rmse_N']:.3g} N. The singular values span {math.log10(rel[0] / max(rel[-1], 1e-300)):.1f} "
-              f"decades (condition number {number(result['condition_number'], 3)}); {result['numerically_zero']} "
-              f"{'is' if result['numerically_zero'] == 1 else 'are'} below 1e-6 of the largest and "
-              f"{result['undetermined_directions']} directions are undetermined at the "
-              f"noise level ({result['noise_rmse_N']:.3g} N RMSE).")
+        doc.p(
+            f"Best fit: {run['optimizer']} ({run['kind']}, seed {int(run['replicate'])}), RMSE "
+            f"{result['rmse_N']:.3g} N. The singular values span {math.log10(rel[0] / max(rel[-1], 1e-300)):.1f} "
+            f"decades (condition number {number(result['condition_number'], 3)}); {result['numerically_zero']} "
+            f"{'is' if result['numerically_zero'] == 1 else 'are'} below 1e-6 of the largest and "
+            f"{result['undetermined_directions']} directions are undetermined at the "
+            f"noise level ({result['noise_rmse_N']:.3g} N RMSE)."
+        )
         doc.bullets([f"σ/σmax = {w['ratio']:.1e}: {w['text']}" for w in result["weakest"]])
         for s in result["symmetries"]:
-            doc.p(f"**Exact symmetry {s['name']}**: along s ∈ [0.8, 1.25] the force changes by at most "
-                  f"{s['max_force_change_N']:.1g} N, and {s['in_null_space']:.0%} of its tangent "
-                  f"({s['direction']}) lies in the numerically zero directions: it accounts for one of them. "
-                  + " ".join(f"The other zero direction {d['direction']} is "
-                             + ("invariant to round-off along a finite path at this point (an exact invariance "
-                                "here, not a symmetry of the model)." if d["exact"] else
-                                "zero here only: weakly determined, not invariant.")
-                             for d in result["null_directions"]))
+            doc.p(
+                f"**Exact symmetry {s['name']}**: along s ∈ [0.8, 1.25] the force changes by at most "
+                f"{s['max_force_change_N']:.1g} N, and {s['in_null_space']:.0%} of its tangent "
+                f"({s['direction']}) lies in the numerically zero directions: it accounts for one of them. "
+                + " ".join(
+                    f"The other zero direction {d['direction']} is "
+                    + (
+                        "invariant to round-off along a finite path at this point (an exact invariance "
+                        "here, not a symmetry of the model)."
+                        if d["exact"]
+                        else "zero here only: weakly determined, not invariant."
+                    )
+                    for d in result["null_directions"]
+                )
+            )
         spread, n_good = good_run_spread(study, specimen, formulation, cache, label=best_label)
         poor = result["poorly_determined"]
         rows = []
         for n in names:
             lo, hi = result["free_range"][n]
-            rows.append({"parameter": label(n), "best fit": number(result["params"][n]),
-                         "free range": f"{number(lo)} – {number(hi)}",
-                         "free (% of range)": f"{result['free_range_unit'][n]:.0%}",
-                         "s.e. (% of range)": f"{min(result['standard_error_unit'][n], 9.99):.1%}",
-                         f"spread of {n_good} good run{'s' if n_good != 1 else ''} (% of range)":
-                             (f"{spread[n]:.0%}" if spread else "–"),
-                         "poorly determined": "yes" if n in poor else ""})
+            rows.append(
+                {
+                    "parameter": label(n),
+                    "best fit": number(result["params"][n]),
+                    "free range": f"{number(lo)} – {number(hi)}",
+                    "free (% of range)": f"{result['free_range_unit'][n]:.0%}",
+                    "s.e. (% of range)": f"{min(result['standard_error_unit'][n], 9.99):.1%}",
+                    f"spread of {n_good} good run{'s' if n_good != 1 else ''} (% of range)": (
+                        f"{spread[n]:.0%}" if spread else "–"
+                    ),
+                    "poorly determined": "yes" if n in poor else "",
+                }
+            )
         doc.table(pd.DataFrame(rows), f"{specimen}: local identifiability at the best fit (ranges: {box})")
         doc.p(_spread_text(names, poor, spread, n_good, label))
         if result["profiles"]:
             png = figures.profiles(result, doc.out_dir, synthetic(study, [specimen]))  # names the data's source
-            doc.figure(png, f"Profile likelihoods on {specimen}: each point re-optimises the other parameters "
-                            "(L-BFGS-B until its convergence test stops it; open circles: not converged, an upper "
-                            "bound only)")
+            doc.figure(
+                png,
+                f"Profile likelihoods on {specimen}: each point re-optimises the other parameters "
+                "(L-BFGS-B until its convergence test stops it; open circles: not converged, an upper "
+                "bound only)",
+            )
             doc.p(profile_sentence(result))
     return results
 
 
 def _spread_text(names, poor, spread, n_good, label) -> str:
     well = [n for n in names if n not in poor]
-    text = (f"The data cannot pin down {', '.join(label(n) for n in poor)}" if poor else
-            f"Every parameter is determined to better than {POOR_SE:.0%} of its range")
+    text = (
+        f"The data cannot pin down {', '.join(label(n) for n in poor)}"
+        if poor
+        else f"Every parameter is determined to better than {POOR_SE:.0%} of its range"
+    )
     text += f"; well determined: {', '.join(label(n) for n in well) or 'none'}."
     if not spread:
-        return text + (f" Only {n_good} ranking run(s) came within {GOOD:.0%} of the best known MSE, too few to "
-                       "compare the spread across seeds with this analysis.")
+        return text + (
+            f" Only {n_good} ranking run(s) came within {GOOD:.0%} of the best known MSE, too few to "
+            "compare the spread across seeds with this analysis."
+        )
     wide = [n for n in names if spread[n] > POOR_SE]
     explained = [n for n in wide if n in poor]
     unexplained = [n for n in wide if n not in poor]
-    text += (f" Across the {n_good} ranking runs within {GOOD:.0%} of the best known MSE, {len(wide)} parameters "
-             f"spread over more than {POOR_SE:.0%} of their range; {len(explained)} of them are flagged poorly "
-             "determined")
+    text += (
+        f" Across the {n_good} ranking runs within {GOOD:.0%} of the best known MSE, {len(wide)} parameters "
+        f"spread over more than {POOR_SE:.0%} of their range; {len(explained)} of them are flagged poorly "
+        "determined"
+    )
     if unexplained:
-        text += (f", while {join([f'{label(n)} ({spread[n]:.0%})' for n in unexplained])} "
-                 f"{'is' if len(unexplained) == 1 else 'are'} determined locally yet scatter"
-                 f"{'s' if len(unexplained) == 1 else ''}: there the good runs sit in different minima, not along "
-                 "one flat valley")
+        text += (
+            f", while {join([f'{label(n)} ({spread[n]:.0%})' for n in unexplained])} "
+            f"{'is' if len(unexplained) == 1 else 'are'} determined locally yet scatter"
+            f"{'s' if len(unexplained) == 1 else ''}: there the good runs sit in different minima, not along "
+            "one flat valley"
+        )
     text += "."
     if wide and len(explained) >= len(wide) / 2:
-        text += (" So most of the scatter across seeds is what the data allow: runs that fit equally well land at "
-                 "different points along the undetermined combinations, so the scatter of these parameters is no "
-                 "fault of the optimisers.")
+        text += (
+            " So most of the scatter across seeds is what the data allow: runs that fit equally well land at "
+            "different points along the undetermined combinations, so the scatter of these parameters is no "
+            "fault of the optimisers."
+        )
     return text
 
 
@@ -193,18 +234,26 @@ def profile_sentence(result: dict) -> str:
         side = bounded(values, mse, threshold, converged)
         label = result.get("labels", {}).get(name) or switched_identifiability.label(name)
         if side == "neither":
-            parts.append(f"{label}: below the 95 % threshold over its whole search range, so the data do not "
-                         "identify it at all (the others compensate; an upper-bound profile shows this whether or "
-                         "not every re-optimisation converged)")
+            parts.append(
+                f"{label}: below the 95 % threshold over its whole search range, so the data do not "
+                "identify it at all (the others compensate; an upper-bound profile shows this whether or "
+                "not every re-optimisation converged)"
+            )
         elif side == "not shown":
-            parts.append(f"{label}: the profile rises above the 95 % threshold only at points whose "
-                         f"re-optimisation did not converge ({int((~converged).sum())} of {len(points)}): those "
-                         "points are upper bounds, so no bound is shown")
+            parts.append(
+                f"{label}: the profile rises above the 95 % threshold only at points whose "
+                f"re-optimisation did not converge ({int((~converged).sum())} of {len(points)}): those "
+                "points are upper bounds, so no bound is shown"
+            )
         else:
             worst = float(mse[converged & np.isfinite(mse)].max())
-            parts.append(f"{label}: the 95 % region is {BOUNDED_TEXT[side]}, shown"
-                         f" by converged re-optimisations (up to {number(worst, 3)} {'N²'}, best "
-                         f"{number(floor, 3)} N²); a local result: another minimum could lower the profile")
-    return ("Profiles (each point: L-BFGS-B on the other parameters until its own convergence test stops it, at "
-            f"most {result.get('profile_maxiter', '?')} iterations, from the neighbouring point and, if that does "
-            "not converge, from the best fit) — " + "; ".join(parts) + ".")
+            parts.append(
+                f"{label}: the 95 % region is {BOUNDED_TEXT[side]}, shown"
+                f" by converged re-optimisations (up to {number(worst, 3)} {'N²'}, best "
+                f"{number(floor, 3)} N²); a local result: another minimum could lower the profile"
+            )
+    return (
+        "Profiles (each point: L-BFGS-B on the other parameters until its own convergence test stops it, at "
+        f"most {result.get('profile_maxiter', '?')} iterations, from the neighbouring point and, if that does "
+        "not converge, from the best fit) — " + "; ".join(parts) + "."
+    )

@@ -129,7 +129,9 @@ def best_log_likelihood(pc, study=None) -> float:
 
     problem = pc.problem
     flat = pc.chain.samples.reshape(-1, pc.chain.samples.shape[2])
-    lp = np.asarray(pc.chain.log_prob, dtype=float).reshape(-1) if pc.chain.log_prob is not None else np.zeros(len(flat))
+    lp = (
+        np.asarray(pc.chain.log_prob, dtype=float).reshape(-1) if pc.chain.log_prob is not None else np.zeros(len(flat))
+    )
     order = np.argsort(np.where(np.isfinite(lp), lp, -np.inf))[-TOP:]
     U = [flat[order]]
     if study is not None:
@@ -159,8 +161,14 @@ def evidence(pc, rng) -> Evidence:
         coefficients = problem.solve(problem.from_unit(flat[pick[:1]])).n_free
     else:
         correction, err = direct_constant(int(problem.n_data)), 0.0
-    return Evidence(ev["log_z"] + correction, float(np.hypot(ev["err"], err)), ev["log_z"], correction,
-                    pinned_count(pc), coefficients)
+    return Evidence(
+        ev["log_z"] + correction,
+        float(np.hypot(ev["err"], err)),
+        ev["log_z"],
+        correction,
+        pinned_count(pc),
+        coefficients,
+    )
 
 
 def table(chains, rng=None, study=None, bands: dict | None = None) -> pd.DataFrame:
@@ -174,16 +182,25 @@ def table(chains, rng=None, study=None, bands: dict | None = None) -> pd.DataFra
             continue
         e = evidence(pc, rng)
         check = predictive_check(pc, rng, bands)
-        rows.append({"model": model_of(pc), "ln Z": e.log_z, "±": e.err, "specimen": pc.chain.specimen,
-                     "formulation": getattr(pc.problem, "formulation", ""), "box shift": e.box_shift,
-                     "best log-likelihood": best_log_likelihood(pc, study),
-                     "pinned": e.pinned, "coefficients": e.coefficients,
-                     "outside": np.nan if check is None else check.outside,
-                     "outside near reversals": np.nan if check is None else check.outside_reversal,
-                     "residual near reversals": np.nan if check is None else check.residual_reversal,
-                     "samples near reversals": np.nan if check is None else check.samples_reversal,
-                     "band draws": 0 if check is None else check.draws,
-                     "converged": bool(pc.nested["converged"])})
+        rows.append(
+            {
+                "model": model_of(pc),
+                "ln Z": e.log_z,
+                "±": e.err,
+                "specimen": pc.chain.specimen,
+                "formulation": getattr(pc.problem, "formulation", ""),
+                "box shift": e.box_shift,
+                "best log-likelihood": best_log_likelihood(pc, study),
+                "pinned": e.pinned,
+                "coefficients": e.coefficients,
+                "outside": np.nan if check is None else check.outside,
+                "outside near reversals": np.nan if check is None else check.outside_reversal,
+                "residual near reversals": np.nan if check is None else check.residual_reversal,
+                "samples near reversals": np.nan if check is None else check.samples_reversal,
+                "band draws": 0 if check is None else check.draws,
+                "converged": bool(pc.nested["converged"]),
+            }
+        )
     frame = pd.DataFrame(rows)
     if not len(frame):
         return frame
@@ -194,6 +211,7 @@ def table(chains, rng=None, study=None, bands: dict | None = None) -> pd.DataFra
 
 def shown(frame: pd.DataFrame) -> pd.DataFrame:
     """The table as the report prints it: ``| model | ln Z | ± | ln B against the best | specimen | ...``."""
+
     def pct(x):
         return "–" if not np.isfinite(x) else f"{100 * x:.1f} %"
 
@@ -202,18 +220,27 @@ def shown(frame: pd.DataFrame) -> pd.DataFrame:
         few = draws < FEW_DRAWS
         return pct(x) + (f" (from {draws} draw{'s' if draws != 1 else ''}: no check)" if few and np.isfinite(x) else "")
 
-    return pd.DataFrame({
-        "model": frame["model"], "ln Z": [f"{z:.2f}" for z in frame["ln Z"]], "±": [f"{e:.2f}" for e in frame["±"]],
-        "ln B against the best": [f"{b:+.2f}" for b in frame["ln B against the best"]],
-        "specimen": frame["specimen"],
-        "Δ ln Z, every box ×2": [f"{s:+.1f}" for s in frame["box shift"]],
-        "best log-likelihood (ln Z ≤)": [f"{b:.1f}" for b in frame.get("best log-likelihood", np.full(len(frame), np.nan))],
-        "outside the 95 % band": [band(x, d) for x, d in zip(frame["outside"],
-                                                             frame.get("band draws", np.full(len(frame), FEW_DRAWS)))],
-        "share of the squared residual near reversals": [
-            "–" if not np.isfinite(r) else f"{100 * r:.0f} % (on {100 * s:.0f} % of the samples)"
-            for r, s in zip(frame["residual near reversals"], frame["samples near reversals"])],
-        "converged": ["yes" if c else "no" for c in frame["converged"]]})
+    return pd.DataFrame(
+        {
+            "model": frame["model"],
+            "ln Z": [f"{z:.2f}" for z in frame["ln Z"]],
+            "±": [f"{e:.2f}" for e in frame["±"]],
+            "ln B against the best": [f"{b:+.2f}" for b in frame["ln B against the best"]],
+            "specimen": frame["specimen"],
+            "Δ ln Z, every box ×2": [f"{s:+.1f}" for s in frame["box shift"]],
+            "best log-likelihood (ln Z ≤)": [
+                f"{b:.1f}" for b in frame.get("best log-likelihood", np.full(len(frame), np.nan))
+            ],
+            "outside the 95 % band": [
+                band(x, d) for x, d in zip(frame["outside"], frame.get("band draws", np.full(len(frame), FEW_DRAWS)))
+            ],
+            "share of the squared residual near reversals": [
+                "–" if not np.isfinite(r) else f"{100 * r:.0f} % (on {100 * s:.0f} % of the samples)"
+                for r, s in zip(frame["residual near reversals"], frame["samples near reversals"])
+            ],
+            "converged": ["yes" if c else "no" for c in frame["converged"]],
+        }
+    )
 
 
 def verdicts(frame: pd.DataFrame) -> list[str]:
@@ -230,45 +257,64 @@ def verdicts(frame: pd.DataFrame) -> list[str]:
         gap = best["ln Z"] - second["ln Z"]
         err = float(np.hypot(best["±"], second["±"]))
         flip = abs(best["box shift"] - second["box shift"])
-        text = (f"{specimen}: the evidence favours **{best['model']}** — ln B = {gap:.1f} ± {err:.1f} over the next, "
-                f"{second['model']}" + (f" (odds of about e^{gap:.0f})" if gap >= 1 else "") + ". ")
+        text = (
+            f"{specimen}: the evidence favours **{best['model']}** — ln B = {gap:.1f} ± {err:.1f} over the next, "
+            f"{second['model']}" + (f" (odds of about e^{gap:.0f})" if gap >= 1 else "") + ". "
+        )
         if gap <= 2 * err:
             text += "Within twice its error: the data do not decide between them. "
         bounds = group.iloc[1:].get("best log-likelihood")
         if bounds is not None and np.all(np.isfinite(bounds)) and best["ln Z"] - 2 * best["±"] > bounds.max():
-            text += ("Conclusive whatever the other runs' convergence: its ln Z exceeds the best log-likelihood known for "
-                     "every other model, which bounds their ln Z from above. ")
-        text += (f"Doubling every box would move that ln B by {best['box shift'] - second['box shift']:+.1f}"
-                 + (", far less than it: the verdict does not hang on the box." if flip < 0.2 * gap else
-                    ", comparable to it: the verdict depends on the boxes."))
+            text += (
+                "Conclusive whatever the other runs' convergence: its ln Z exceeds the best log-likelihood known for "
+                "every other model, which bounds their ln Z from above. "
+            )
+        text += f"Doubling every box would move that ln B by {best['box shift'] - second['box shift']:+.1f}" + (
+            ", far less than it: the verdict does not hang on the box."
+            if flip < 0.2 * gap
+            else ", comparable to it: the verdict depends on the boxes."
+        )
+
         def checked(r):
             return np.isfinite(r["residual near reversals"]) and r.get("band draws", FEW_DRAWS) >= FEW_DRAWS
 
         worse = [r for _, r in group.iloc[1:].iterrows() if checked(r)]
         if worse:
-            text += " " + "; ".join(
-                f"{r['model']}'s measured force leaves its 95 % band at {100 * r['outside']:.0f} % of the samples"
-                + (f", {100 * r['residual near reversals']:.0f} % of its squared residual near reversals "
-                   f"({100 * r['samples near reversals']:.0f} % of the samples)") for r in worse) + "."
+            text += (
+                " "
+                + "; ".join(
+                    f"{r['model']}'s measured force leaves its 95 % band at {100 * r['outside']:.0f} % of the samples"
+                    + (
+                        f", {100 * r['residual near reversals']:.0f} % of its squared residual near reversals "
+                        f"({100 * r['samples near reversals']:.0f} % of the samples)"
+                    )
+                    for r in worse
+                )
+                + "."
+            )
         if checked(best):
-            text += f" {best['model']}: {100 * best['outside']:.1f} % outside its band (about 5 % when the model holds)."
+            text += (
+                f" {best['model']}: {100 * best['outside']:.1f} % outside its band (about 5 % when the model holds)."
+            )
         out.append(text)
     return out
 
 
-TEXT = ("Model evidence of each nested-sampling posterior, comparable between models of one specimen: "
-        "σ under Jeffreys' prior (common to all models), each searched parameter uniform on its box, and in the "
-        f"identifiable formulation each linear coefficient uniform on ±{COEF_RANGE:g}·‖F‖/‖X_j‖ (its term alone "
-        f"within ±{COEF_RANGE:g} times the measured force, RMS), the sampler's improper-prior evidence moved to it by "
-        "importance weights over the posterior draws. ln B against the best is the log Bayes factor (0 for the "
-        "best model; −5 is odds of 1 to 150). Doubling every box lowers ln Z by ln 2 for each parameter the "
-        "data pin down (here: a searched parameter whose 95 % interval spans less than half its box, and every "
-        "linear coefficient); the column says by how much. ln Z, the mean likelihood over the prior, cannot exceed the "
-        "best log-likelihood known (the sampler's most likely draws and the model's best ranking fit, in the same units): "
-        "a bound that needs no converged run. The predictive check: the share of measured samples "
-        "outside the 95 % band of the posterior's predicted measurement (about 5 % when the model holds), and the "
-        f"share of the squared residual near the reversals (|ẋ| under {REVERSAL:.0%} of its peak), where hysteresis "
-        "models differ.")
+TEXT = (
+    "Model evidence of each nested-sampling posterior, comparable between models of one specimen: "
+    "σ under Jeffreys' prior (common to all models), each searched parameter uniform on its box, and in the "
+    f"identifiable formulation each linear coefficient uniform on ±{COEF_RANGE:g}·‖F‖/‖X_j‖ (its term alone "
+    f"within ±{COEF_RANGE:g} times the measured force, RMS), the sampler's improper-prior evidence moved to it by "
+    "importance weights over the posterior draws. ln B against the best is the log Bayes factor (0 for the "
+    "best model; −5 is odds of 1 to 150). Doubling every box lowers ln Z by ln 2 for each parameter the "
+    "data pin down (here: a searched parameter whose 95 % interval spans less than half its box, and every "
+    "linear coefficient); the column says by how much. ln Z, the mean likelihood over the prior, cannot exceed the "
+    "best log-likelihood known (the sampler's most likely draws and the model's best ranking fit, in the same units): "
+    "a bound that needs no converged run. The predictive check: the share of measured samples "
+    "outside the 95 % band of the posterior's predicted measurement (about 5 % when the model holds), and the "
+    f"share of the squared residual near the reversals (|ẋ| under {REVERSAL:.0%} of its peak), where hysteresis "
+    "models differ."
+)
 
 
 def section(report, chains) -> None:
@@ -279,22 +325,29 @@ def section(report, chains) -> None:
         return
     doc = report.doc
     doc.h(3, "Model evidence")
-    doc.table(shown(frame), "Model evidence of each posterior (the runs' ln Z pooled, made comparable between "
-                            "models), the log Bayes factor against the best model of the specimen, ln Z's change "
-                            "when every box doubles, and the posterior predictive check")
+    doc.table(
+        shown(frame),
+        "Model evidence of each posterior (the runs' ln Z pooled, made comparable between "
+        "models), the log Bayes factor against the best model of the specimen, ln Z's change "
+        "when every box doubles, and the posterior predictive check",
+    )
     doc.p(TEXT)
     if not frame["converged"].all():
-        doc.p("A posterior that is not converged gives a rough ln Z (its runs' spread is in ±); a Bayes factor "
-              "many times its error still ranks the models.")
+        doc.p(
+            "A posterior that is not converged gives a rough ln Z (its runs' spread is in ±); a Bayes factor "
+            "many times its error still ranks the models."
+        )
     for text in verdicts(frame):
         doc.p(text)
     for specimen in dict.fromkeys(frame["specimen"]):
-        shown_bands = [(model, pc, band) for (s, model), (pc, band) in bands.items()
-                       if s == specimen and band.draws >= FEW_DRAWS]
+        shown_bands = [
+            (model, pc, band) for (s, model), (pc, band) in bands.items() if s == specimen and band.draws >= FEW_DRAWS
+        ]
         if len(shown_bands) > 1 or (len(shown_bands) == 1 and len(frame[frame["specimen"] == specimen]) > 1):
             png = residual_figure(report.study, doc.out_dir, specimen, shown_bands)
-            doc.figure(png, f"{specimen}: each model's residual (measured force − the posterior's median model force) "
-                            "against time, within the 95 % band of the predicted measurement; grey: near the "
-                            "displacement's reversals")
-
-
+            doc.figure(
+                png,
+                f"{specimen}: each model's residual (measured force − the posterior's median model force) "
+                "against time, within the 95 % band of the predicted measurement; grey: near the "
+                "displacement's reversals",
+            )

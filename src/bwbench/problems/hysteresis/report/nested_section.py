@@ -17,12 +17,14 @@ from bwbench.problems.hysteresis.report.posterior_tables import (
 )
 from bwbench.render.format import number
 
-PRIOR_TEXT = ("The prior is uniform on the search box in the searched coordinates (log-uniform in a parameter whose box "
-              "is logarithmic), so ln Z is the log of the likelihood's mean over the box: widening the box by a factor c "
-              "in a parameter the data pin down lowers ln Z by ln c (doubling it: −0.69), and a direction the data "
-              "cannot pin down shows as a marginal as wide as its box, not removed. The likelihood's constant (σ "
-              "integrated out under Jeffreys' prior) is the same for every model of the same data: differences of "
-              "ln Z between models of one specimen are meaningful, their absolute values are not.")
+PRIOR_TEXT = (
+    "The prior is uniform on the search box in the searched coordinates (log-uniform in a parameter whose box "
+    "is logarithmic), so ln Z is the log of the likelihood's mean over the box: widening the box by a factor c "
+    "in a parameter the data pin down lowers ln Z by ln c (doubling it: −0.69), and a direction the data "
+    "cannot pin down shows as a marginal as wide as its box, not removed. The likelihood's constant (σ "
+    "integrated out under Jeffreys' prior) is the same for every model of the same data: differences of "
+    "ln Z between models of one specimen are meaningful, their absolute values are not."
+)
 
 
 def nested_text(pc) -> list[str]:
@@ -32,9 +34,11 @@ def nested_text(pc) -> list[str]:
     ev = v["evidence"]
     out = []
     if v["converged"]:
-        out.append(f"**Converged** across {pc.chain.walkers} independent runs: R̂ ≤ {R_HAT_MAX:g} and bulk ESS ≥ "
-                   f"{ESS_MIN} for every parameter (each run's equal-weight draws one chain), the runs agree on ln Z "
-                   f"(χ² p = {number(ev['p'], 2)}) and on every mode's mass, and no run was cut by the budget.")
+        out.append(
+            f"**Converged** across {pc.chain.walkers} independent runs: R̂ ≤ {R_HAT_MAX:g} and bulk ESS ≥ "
+            f"{ESS_MIN} for every parameter (each run's equal-weight draws one chain), the runs agree on ln Z "
+            f"(χ² p = {number(ev['p'], 2)}) and on every mode's mass, and no run was cut by the budget."
+        )
     else:
         out.append("NOT converged — " + "; ".join(v["failed"]) + ".")
     place = v.get("best_fit_place")
@@ -42,12 +46,16 @@ def nested_text(pc) -> list[str]:
         if place["where"] == "mode":
             out.append(f"The best ranking fit lies in mode {place['mode'] + 1} of the posterior.")
         elif place["where"] == "below":
-            out.append(f"The best ranking fit lies below the posterior's support by Δ log p = {place['delta']:.1f} "
-                       "(the sampler's draws are all more probable).")
+            out.append(
+                f"The best ranking fit lies below the posterior's support by Δ log p = {place['delta']:.1f} "
+                "(the sampler's draws are all more probable)."
+            )
         else:
-            out.append("The best ranking fit lies where no draw goes (outside every draw, or more probable than "
-                       "any draw), at least as probable as the draws: the sampler missed a mode at least as "
-                       "probable as it.")
+            out.append(
+                "The best ranking fit lies where no draw goes (outside every draw, or more probable than "
+                "any draw), at least as probable as the draws: the sampler missed a mode at least as "
+                "probable as it."
+            )
     return out
 
 
@@ -67,11 +75,21 @@ def good_fits_placed(study, pc) -> pd.DataFrame:
         like = float(log_posterior(pc.problem, theta[None, :])[0])
         u = np.asarray(pc.problem.to_unit(theta[None, :]), dtype=float)[0]
         place = nested.locate(u, like, pc.chain.samples, pc.chain.log_prob, pc.nested)
-        where = (f"mode {place['mode'] + 1}" if place["where"] == "mode" else
-                 f"below the posterior's support by Δ log p = {place['delta']:.1f}" if place["where"] == "below" else
-                 "where no draw goes, as probable: the sampler missed a mode at least as probable as this fit")
-        rows.append({"fit": f"{run['optimizer']}, seed {int(run['replicate']) + 1}", "MSE": number(float(run["mse"])),
-                     "log-likelihood": f"{like:.1f}", "where": where})
+        where = (
+            f"mode {place['mode'] + 1}"
+            if place["where"] == "mode"
+            else f"below the posterior's support by Δ log p = {place['delta']:.1f}"
+            if place["where"] == "below"
+            else "where no draw goes, as probable: the sampler missed a mode at least as probable as this fit"
+        )
+        rows.append(
+            {
+                "fit": f"{run['optimizer']}, seed {int(run['replicate']) + 1}",
+                "MSE": number(float(run["mse"])),
+                "log-likelihood": f"{like:.1f}",
+                "where": where,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -83,8 +101,11 @@ def nested_modes_table(pc) -> pd.DataFrame:
     rows = []
     for i, mode in enumerate(v["modes"]):
         P = pc.problem.from_unit(flat[mode.members])
-        row = {"mode": i + 1, "mass": f"{mode.mass:.2f} ± {mode.spread:.2f}" if np.isfinite(mode.spread)
-               else f"{mode.mass:.2f}", "best log-likelihood": f"{mode.best_log_like:.1f}"}
+        row = {
+            "mode": i + 1,
+            "mass": f"{mode.mass:.2f} ± {mode.spread:.2f}" if np.isfinite(mode.spread) else f"{mode.mass:.2f}",
+            "best log-likelihood": f"{mode.best_log_like:.1f}",
+        }
         for j, n in enumerate(pc.names):
             lo, mid, hi = np.quantile(P[:, j], [(1 - LEVEL) / 2, 0.5, 1 - (1 - LEVEL) / 2])
             row[axis(pc.problem, n, table)] = f"{number(mid, 3)} [{number(lo, 3)}, {number(hi, 3)}]"
@@ -97,8 +118,16 @@ def evidence_table(chains) -> pd.DataFrame:
     (log) against the best model of the same specimen."""
     from bwbench.analysis import nested
 
-    rows = [{"specimen": pc.chain.specimen, "model": model_name(pc), "ln Z": pc.nested["evidence"]["log_z"],
-             "±": pc.nested["evidence"]["err"]} for pc in chains if pc.nested is not None]
+    rows = [
+        {
+            "specimen": pc.chain.specimen,
+            "model": model_name(pc),
+            "ln Z": pc.nested["evidence"]["log_z"],
+            "±": pc.nested["evidence"]["err"],
+        }
+        for pc in chains
+        if pc.nested is not None
+    ]
     if not rows:
         return pd.DataFrame()
     frame = pd.DataFrame(rows)
@@ -117,24 +146,43 @@ def _nested_subsection(report, pc, rng, order):
     doc.h(3, f"{chain.specimen} ({chain.optimizer}, {pc.problem.formulation} formulation)")
     ev = chain.evidence
     nfev = pc.run.get("nfev")
-    doc.table(convergence_table(pc), f"{chain.walkers} independent runs × {chain.steps:,} equal-weight draws"
-              + (f", {int(nfev):,} evaluations" if nfev == nfev and nfev else "")
-              + f"; ln Z per run: {', '.join(f'{z:.2f} ± {e:.2f}' for z, e in zip(ev['log_z'], ev['log_z_err']))}")
+    doc.table(
+        convergence_table(pc),
+        f"{chain.walkers} independent runs × {chain.steps:,} equal-weight draws"
+        + (f", {int(nfev):,} evaluations" if nfev == nfev and nfev else "")
+        + f"; ln Z per run: {', '.join(f'{z:.2f} ± {e:.2f}' for z, e in zip(ev['log_z'], ev['log_z_err']))}",
+    )
     for text in nested_text(pc):
         (doc.p if v["converged"] or not text.startswith("NOT") else doc.banner)(text)
     if pc.run.get("message"):
         doc.p(f"What the sampler did and why it stopped: {pc.run['message']}.")
-    doc.table(nested_modes_table(pc), "Modes: posterior mass (± run-to-run spread), best log-likelihood, median "
-                                      f"[central {LEVEL:.0%} interval] of each parameter")
+    doc.table(
+        nested_modes_table(pc),
+        "Modes: posterior mass (± run-to-run spread), best log-likelihood, median "
+        f"[central {LEVEL:.0%} interval] of each parameter",
+    )
     placed = good_fits_placed(study, pc)
     if len(placed):
-        doc.table(placed, "The good ranking fits (final MSE within 10 % of the best known) against the posterior's draws")
+        doc.table(
+            placed, "The good ranking fits (final MSE within 10 % of the best known) against the posterior's draws"
+        )
     _summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals over every mode")
     written = write_inference_data(pc, doc.out_dir)
     if written:
         doc.p(f"The draws in physical units, one chain per run, are in `{written}` (ArviZ InferenceData, netCDF).")
     png = figures.posterior(study, doc.out_dir, chain, problem=pc.problem, posterior=pc, order=order)
-    doc.figure(png, f"{chain.specimen}: posterior marginals and the most correlated pairs, with the best fit on the "
-                    "specimen and the truth")
-    return (chain, {"converged": v["converged"], "steps": chain.steps, "worst_r_hat": worst, "min_ess": least,
-                    "modes": len(v["modes"])})
+    doc.figure(
+        png,
+        f"{chain.specimen}: posterior marginals and the most correlated pairs, with the best fit on the "
+        "specimen and the truth",
+    )
+    return (
+        chain,
+        {
+            "converged": v["converged"],
+            "steps": chain.steps,
+            "worst_r_hat": worst,
+            "min_ess": least,
+            "modes": len(v["modes"]),
+        },
+    )

@@ -50,7 +50,7 @@ class PosteriorChain:
     def unit_draws(self, mode=None, size: int = DRAWS) -> np.ndarray:
         """Kept samples of ``mode`` (default: the main one) in unit coordinates, thinned evenly to ≤ ``size``."""
         mode = self.main if mode is None else mode
-        kept = self.chain.samples[self.burn:, mode.walkers].reshape(-1, self.chain.samples.shape[2])
+        kept = self.chain.samples[self.burn :, mode.walkers].reshape(-1, self.chain.samples.shape[2])
         return kept[:: max(1, -(-len(kept) // size))]
 
     def draws(self, rng, mode=None, size: int = DRAWS) -> dict:
@@ -87,7 +87,7 @@ def parameters(problem) -> dict:
         labels = problem.model.linear_layout(problem.state).labels
         for n in problem.linear_names:
             base = n.rstrip("+-") if n not in labels else n
-            label = labels.get(n, labels.get(base, base) + n[len(base):].replace("+", "₊").replace("-", "₋"))
+            label = labels.get(n, labels.get(base, base) + n[len(base) :].replace("+", "₊").replace("-", "₋"))
             out[n] = (label, problem.linear_units[n])
     return out
 
@@ -99,7 +99,7 @@ def pretty(unit: str) -> str:
 
 
 def axis(problem, name: str, table: dict | None = None) -> str:
-    """"x_y₊ (mm)": the label and unit of ``name`` for an axis or a table row."""
+    """ "x_y₊ (mm)": the label and unit of ``name`` for an axis or a table row."""
     label, unit = (table or parameters(problem)).get(name, (name, "-"))
     return f"{label} ({pretty(unit)})"
 
@@ -137,8 +137,12 @@ def posterior_chains(study, chains=None) -> list[PosteriorChain]:
         if chain.samples.shape[2] != len(names):
             continue  # not this problem's coordinates: nothing to read it with
         runs = study.runs
-        row = runs[(runs["kind"] == chain.kind) & (runs["specimen"] == chain.specimen)
-                   & (runs["optimizer"] == chain.optimizer) & (runs["replicate"] == chain.replicate)]
+        row = runs[
+            (runs["kind"] == chain.kind)
+            & (runs["specimen"] == chain.specimen)
+            & (runs["optimizer"] == chain.optimizer)
+            & (runs["replicate"] == chain.replicate)
+        ]
         run = row.iloc[0].to_dict() if len(row) else {}
         try:
             options = json.loads(run.get("options_json") or "{}")
@@ -152,8 +156,11 @@ def posterior_chains(study, chains=None) -> list[PosteriorChain]:
             ensembles = 1
         assessment = mcmc.assess(chain.samples, chain.log_prob, ensembles, names)
         moving = mcmc.sampled(chain.samples)
-        out.append(PosteriorChain(chain, problem, run, ensembles, assessment, names,
-                                  [n for n, m in zip(names, moving) if not m]))
+        out.append(
+            PosteriorChain(
+                chain, problem, run, ensembles, assessment, names, [n for n, m in zip(names, moving) if not m]
+            )
+        )
     return out
 
 
@@ -184,13 +191,27 @@ def nested_chain(study, chain, problem, run: dict, names) -> PosteriorChain:
 
     ev = chain.evidence
     best = best_ranking_fit(study, problem, chain.specimen)
-    verdict = nested.assess(chain.samples, chain.log_prob, ev["log_z"], ev["log_z_err"], names,
-                            complete=ev.get("run_complete"), best_fit=best)
+    verdict = nested.assess(
+        chain.samples,
+        chain.log_prob,
+        ev["log_z"],
+        ev["log_z_err"],
+        names,
+        complete=ev.get("run_complete"),
+        best_fit=best,
+    )
     lp = chain.log_prob
-    whole = mcmc.Mode(tuple(range(chain.walkers)), np.arange(chain.walkers),
-                      float(np.median(lp)) if lp is not None else float("nan"))
-    assessment = {"converged": verdict["converged"], "modes": [whole], "diagnostics": [verdict["diagnostics"]],
-                  "why": verdict["failed"], "modes_text": "", "steps": chain.steps}
+    whole = mcmc.Mode(
+        tuple(range(chain.walkers)), np.arange(chain.walkers), float(np.median(lp)) if lp is not None else float("nan")
+    )
+    assessment = {
+        "converged": verdict["converged"],
+        "modes": [whole],
+        "diagnostics": [verdict["diagnostics"]],
+        "why": verdict["failed"],
+        "modes_text": "",
+        "steps": chain.steps,
+    }
     return PosteriorChain(chain, problem, run, chain.walkers, assessment, list(names), [], verdict)
 
 
@@ -206,8 +227,9 @@ def in_coordinates(values: dict, problem):
     if all(np.isfinite(values.get(n, np.nan)) for n in names):
         return np.array([float(values[n]) for n in names])
     direct = [p.name for p in problem.model.direct_parameters(problem.state)]
-    if getattr(problem, "formulation", "") != "identifiable" or not all(np.isfinite(values.get(n, np.nan))
-                                                                         for n in direct):
+    if getattr(problem, "formulation", "") != "identifiable" or not all(
+        np.isfinite(values.get(n, np.nan)) for n in direct
+    ):
         return None
     try:
         theta, _ = problem.model.from_direct(np.array([values[n] for n in direct], dtype=float), problem.state)
@@ -224,8 +246,9 @@ def log_posterior(problem, P) -> np.ndarray:
         return problem.log_likelihood_batch(P)[1]
     with np.errstate(divide="ignore", invalid="ignore"):
         mse = problem.loss_batch(P)
-        return np.where(np.isfinite(mse), -0.5 * problem.n_data * np.log(np.maximum(mse, np.finfo(float).tiny)),
-                        -np.inf)
+        return np.where(
+            np.isfinite(mse), -0.5 * problem.n_data * np.log(np.maximum(mse, np.finfo(float).tiny)), -np.inf
+        )
 
 
 def cached(report) -> list:

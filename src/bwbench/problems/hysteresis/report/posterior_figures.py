@@ -46,8 +46,9 @@ def verdict(diagnostics: pd.DataFrame | None) -> tuple[bool | None, str]:
         parts.append(f"R̂ up to {np.nanmax(r_hat):.3g} (> {R_HAT_MAX:g} for {int(bad_r.sum())} of {n} parameters)")
     if bad_e.any() and not np.isnan(ess).all():
         parts.append(f"bulk ESS down to {np.nanmin(ess):.0f} (< {ESS_MIN} for {int(bad_e.sum())} of {n})")
-    return False, ("NOT converged: " + "; ".join(parts)
-                   + ". The histograms show where the chain has been, not the posterior.")
+    return False, (
+        "NOT converged: " + "; ".join(parts) + ". The histograms show where the chain has been, not the posterior."
+    )
 
 
 def _coordinates(values: dict, names, state: str, problem=None):
@@ -74,8 +75,21 @@ def _ticks(axis, bins: int) -> None:
     axis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:.3g}"))
 
 
-def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, max_csv: int = 4000, *,
-              diagnostics=None, from_unit=None, names=None, order=None, problem=None, posterior=None) -> Path:
+def posterior(
+    study,
+    out_dir,
+    chain,
+    burn: int | None = None,
+    pairs: int = 4,
+    max_csv: int = 4000,
+    *,
+    diagnostics=None,
+    from_unit=None,
+    names=None,
+    order=None,
+    problem=None,
+    posterior=None,
+) -> Path:
     """MCMC posterior of one chain: the marginal of every parameter and the joint density of the
     ``pairs`` most correlated pairs, with the overall best fit on the specimen (any run) and the
     truth marked, and the convergence verdict printed on the figure. ``burn`` steps are dropped
@@ -117,8 +131,11 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         # nested sampling has criteria beyond R̂ and ESS (ln Z, mode masses, runs cut, a missed mode)
         converged = False
         sentence = "NOT converged: " + posterior.nested["failed"][0]
-    box = (np.vstack([LOWER, UPPER]) if from_unit is None else
-           np.vstack([from_unit(np.zeros((1, len(names))))[0], from_unit(np.ones((1, len(names))))[0]]))
+    box = (
+        np.vstack([LOWER, UPPER])
+        if from_unit is None
+        else np.vstack([from_unit(np.zeros((1, len(names))))[0], from_unit(np.ones((1, len(names))))[0]])
+    )
     specimen = chain.specimen
     if problem is not None:
         known = truth_of(study, problem, specimen)
@@ -130,8 +147,11 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         label = axis_label
     # the best ranking fit (the posterior run's own best point comes from its start's searches, in the
     # full model even when the chain samples a reduced one); the ranking's when there is one
-    runs = study.runs[(study.runs["specimen"] == specimen) & (study.runs["status"] == "ok")
-                      & np.isfinite(study.runs["mse"].astype(float))]
+    runs = study.runs[
+        (study.runs["specimen"] == specimen)
+        & (study.runs["status"] == "ok")
+        & np.isfinite(study.runs["mse"].astype(float))
+    ]
     if (runs["kind"] == "ranking").any():
         runs = runs[runs["kind"] == "ranking"]
     if problem is not None and "model" in runs and runs["model"].notna().any():
@@ -166,8 +186,18 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
     note = fig.add_subplot(grid[0, :])
     note.axis("off")
     if sentence:
-        note.text(0.5, 0.5, sentence, ha="center", va="center", fontsize=11, fontweight="bold", wrap=True,
-                  transform=note.transAxes, bbox=CONVERGED_BOX if converged else NOT_CONVERGED_BOX)
+        note.text(
+            0.5,
+            0.5,
+            sentence,
+            ha="center",
+            va="center",
+            fontsize=11,
+            fontweight="bold",
+            wrap=True,
+            transform=note.transAxes,
+            bbox=CONVERGED_BOX if converged else NOT_CONVERGED_BOX,
+        )
     diag = {} if diagnostics is None else diagnostics.set_index("parameter").to_dict("index")
     for k, j in enumerate(shown):
         name = names[j]
@@ -185,8 +215,12 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         if name in diag:
             r, e = diag[name]["r_hat"], diag[name]["ess_bulk"]
             ok = r <= R_HAT_MAX and e >= ESS_MIN
-            ax.set_title(f"R̂ {r:.2f}, ESS {e:.0f}", fontsize=9.5, color="black" if ok else OKABE_ITO[3],
-                         fontweight="normal" if ok else "bold")
+            ax.set_title(
+                f"R̂ {r:.2f}, ESS {e:.0f}",
+                fontsize=9.5,
+                color="black" if ok else OKABE_ITO[3],
+                fontweight="normal" if ok else "bold",
+            )
     pair_grid = grid[nrows + 1, :].subgridspec(1, max(len(top), 1))
     for k, (a, b, r) in enumerate(top):
         ia, ib = names.index(a), names.index(b)
@@ -203,9 +237,20 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         _ticks(ax.yaxis, 4)
     handles: list[Any] = [Patch(color="0.6", label="posterior samples")]
     if best is not None:
-        handles.append(Line2D([], [], color=colour, lw=2.0, marker="*", ms=13, mec="black", mew=0.8,
-                              label=f"best fit on the specimen: {best_run['optimizer']} ({best_run['kind']}, seed "
-                                    f"{int(best_run['replicate'])}), MSE {best_run['mse']:.4g} {study.loss_unit}"))
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color=colour,
+                lw=2.0,
+                marker="*",
+                ms=13,
+                mec="black",
+                mew=0.8,
+                label=f"best fit on the specimen: {best_run['optimizer']} ({best_run['kind']}, seed "
+                f"{int(best_run['replicate'])}), MSE {best_run['mse']:.4g} {study.loss_unit}",
+            )
+        )
     if true is not None:
         handles.append(Line2D([], [], ls="--", lw=1.2, marker="x", color="black", ms=8, mew=2, label="truth"))
     legend(fig, handles, ncol=len(handles))
@@ -214,15 +259,22 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
         dropped = f", mode 1 of {modes} ({len(posterior.main.walkers)} walkers)" if modes > 1 else ""
     else:
         dropped = f", {int(stuck.sum())} stuck walker(s) left out" if stuck.any() else ""
-    held = (("\nheld fixed (reduced model): " + ", ".join(f"{label(n)} = {samples[0, names.index(n)]:.4g}"
-                                                           for n in fixed)) if fixed else "")
+    held = (
+        ("\nheld fixed (reduced model): " + ", ".join(f"{label(n)} = {samples[0, names.index(n)]:.4g}" for n in fixed))
+        if fixed
+        else ""
+    )
     if posterior is not None and posterior.nested is not None:  # nested sampling: runs of equal-weight draws
         masses = ", ".join(f"{m.mass:.2f}" for m in posterior.nested["modes"])
-        fig.suptitle(f"{specimen}: {chain.optimizer} posterior, {chain.walkers} independent runs × {chain.steps:,} "
-                     f"equal-weight draws, every mode (masses {masses}){held}")
+        fig.suptitle(
+            f"{specimen}: {chain.optimizer} posterior, {chain.walkers} independent runs × {chain.steps:,} "
+            f"equal-weight draws, every mode (masses {masses}){held}"
+        )
     else:
-        fig.suptitle(f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
-                     f"{burn:,} steps dropped as burn-in{dropped}{held}")
+        fig.suptitle(
+            f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
+            f"{burn:,} steps dropped as burn-in{dropped}{held}"
+        )
     thin = max(1, -(-len(samples) // max_csv))  # ceil: at most max_csv rows
     frame = pd.DataFrame(samples[::thin], columns=names).assign(source="posterior", optimizer=chain.optimizer)
     extra = []
@@ -235,12 +287,17 @@ def posterior(study, out_dir, chain, burn: int | None = None, pairs: int = 4, ma
             values = diagnostics.set_index("parameter")[column].reindex(names).to_numpy(dtype=float)
             extra.append(pd.DataFrame([values], columns=names).assign(source=column, optimizer=chain.optimizer))
     frame = pd.concat([frame, *extra], ignore_index=True)[["source", "optimizer", *names]]
-    return save(fig, out_dir, f"posterior_{slug(specimen)}{_suffix(study, problem, chain.optimizer)}", frame,
-                synthetic(study, [specimen]))
+    return save(
+        fig,
+        out_dir,
+        f"posterior_{slug(specimen)}{_suffix(study, problem, chain.optimizer)}",
+        frame,
+        synthetic(study, [specimen]),
+    )
 
 
 def _suffix(study, problem, label: str) -> str:
-    """"_spencer" when the study compares models, "_emcee" when its posterior runs several samplers (each
+    """ "_spencer" when the study compares models, "_emcee" when its posterior runs several samplers (each
     posterior has its own figure), "" otherwise."""
     from bwbench.problems.hysteresis.report.figure_common import study_variants
     from bwbench.render.labels import split_label
@@ -252,4 +309,3 @@ def _suffix(study, problem, label: str) -> str:
     if isinstance(samplers, list) and len(samplers) > 1:
         out += f"_{slug(split_label(label)[0])}"
     return out
-

@@ -37,25 +37,29 @@ def section(report) -> list:
         return []
     doc.h(2, "Posterior sampling")
     if any(pc.nested is not None for pc in chains):
-        doc.p("Nested sampling (UltraNest) per specimen, kept out of the ranking: several independent runs, each "
-              "holding every mode it finds with its mass and giving the model evidence ln Z. Convergence across "
-              "the runs: each run's equal-weight draws are one chain of ArviZ's rank-normalised split-R̂ and bulk "
-              f"ESS (R̂ ≤ {R_HAT_MAX:g} and bulk ESS ≥ {ESS_MIN} for every parameter), the runs must agree on ln Z "
-              "within their errors and on each mode's mass, no run may be cut by the budget, and the best ranking "
-              "fit must not lie outside every draw while being as probable as them (with a flat prior the "
-              "highest-likelihood region holds it: the sampler would have missed a mode). " + PRIOR_TEXT)
+        doc.p(
+            "Nested sampling (UltraNest) per specimen, kept out of the ranking: several independent runs, each "
+            "holding every mode it finds with its mass and giving the model evidence ln Z. Convergence across "
+            "the runs: each run's equal-weight draws are one chain of ArviZ's rank-normalised split-R̂ and bulk "
+            f"ESS (R̂ ≤ {R_HAT_MAX:g} and bulk ESS ≥ {ESS_MIN} for every parameter), the runs must agree on ln Z "
+            "within their errors and on each mode's mass, no run may be cut by the budget, and the best ranking "
+            "fit must not lie outside every draw while being as probable as them (with a flat prior the "
+            "highest-likelihood region holds it: the sampler would have missed a mode). " + PRIOR_TEXT
+        )
     if any(pc.nested is None for pc in chains):
-        doc.p("A long emcee run per specimen, kept out of the ranking. In the identifiable formulation it samples the "
-              "hysteretic parameters with the linear coefficients integrated out analytically (flat prior on the "
-              "coefficients of the fixed signals, the scale-free g-prior on those of the hysteretic column, so the "
-              "arbitrary scale of w does not weigh in) and σ under Jeffreys' prior; the prior on the hysteretic "
-              "parameters is uniform on the search box (log-uniform where the box is). The linear coefficients are then "
-              "drawn exactly from their conditional Gaussian for each kept sample. The sampler starts independent "
-              "ensembles around distinct good optima of independent local searches and stops when converged or when "
-              "its budget ends. Convergence by ArviZ: rank-normalised split-R̂ and bulk and tail effective sample "
-              "sizes, each walker taken as a chain, the first half of the chain dropped as burn-in, mode by mode "
-              f"(ensembles that settled in different regions are not pooled); converged when R̂ ≤ {R_HAT_MAX:g} and "
-              f"bulk ESS ≥ {ESS_MIN} for every sampled parameter (Vehtari et al. 2021).")
+        doc.p(
+            "A long emcee run per specimen, kept out of the ranking. In the identifiable formulation it samples the "
+            "hysteretic parameters with the linear coefficients integrated out analytically (flat prior on the "
+            "coefficients of the fixed signals, the scale-free g-prior on those of the hysteretic column, so the "
+            "arbitrary scale of w does not weigh in) and σ under Jeffreys' prior; the prior on the hysteretic "
+            "parameters is uniform on the search box (log-uniform where the box is). The linear coefficients are then "
+            "drawn exactly from their conditional Gaussian for each kept sample. The sampler starts independent "
+            "ensembles around distinct good optima of independent local searches and stops when converged or when "
+            "its budget ends. Convergence by ArviZ: rank-normalised split-R̂ and bulk and tail effective sample "
+            "sizes, each walker taken as a chain, the first half of the chain dropped as burn-in, mode by mode "
+            f"(ensembles that settled in different regions are not pooled); converged when R̂ ≤ {R_HAT_MAX:g} and "
+            f"bulk ESS ≥ {ESS_MIN} for every sampled parameter (Vehtari et al. 2021)."
+        )
     verdicts = []
     rng = np.random.default_rng(0)  # the conditional draws: the same summary every time
     order = list(report.table["optimizer"])
@@ -66,27 +70,46 @@ def section(report) -> list:
         chain, a = pc.chain, pc.assessment
         worst = max((float(d["r_hat"].max()) for d in a["diagnostics"]), default=float("nan"))
         least = min((float(d["ess_bulk"].min()) for d in a["diagnostics"]), default=float("nan"))
-        verdicts.append((chain, {"converged": a["converged"], "steps": chain.steps, "worst_r_hat": worst,
-                                 "min_ess": least, "modes": len(a["modes"])}))
+        verdicts.append(
+            (
+                chain,
+                {
+                    "converged": a["converged"],
+                    "steps": chain.steps,
+                    "worst_r_hat": worst,
+                    "min_ess": least,
+                    "modes": len(a["modes"]),
+                },
+            )
+        )
         doc.h(3, f"{chain.specimen} ({chain.optimizer}, {pc.problem.formulation} formulation)")
         nfev = pc.run.get("nfev")
-        doc.table(convergence_table(pc), f"{chain.steps:,} stored steps × {chain.walkers} walkers in {pc.ensembles} "
-                                         f"ensemble(s) (acceptance fraction {number(chain.acceptance_fraction, 2)}"
-                                         + (f", {int(nfev):,} evaluations" if nfev == nfev and nfev else "")
-                                         + "), second half kept")
+        doc.table(
+            convergence_table(pc),
+            f"{chain.steps:,} stored steps × {chain.walkers} walkers in {pc.ensembles} "
+            f"ensemble(s) (acceptance fraction {number(chain.acceptance_fraction, 2)}"
+            + (f", {int(nfev):,} evaluations" if nfev == nfev and nfev else "")
+            + "), second half kept",
+        )
         if a["converged"]:
-            doc.p(f"**Converged**: R̂ ≤ {R_HAT_MAX:g} (worst {worst:.3f}) and bulk ESS ≥ {ESS_MIN} (least {least:,.0f}) "
-                  "for every sampled parameter" + (" in every mode." if len(a["modes"]) > 1 else "."))
+            doc.p(
+                f"**Converged**: R̂ ≤ {R_HAT_MAX:g} (worst {worst:.3f}) and bulk ESS ≥ {ESS_MIN} (least {least:,.0f}) "
+                "for every sampled parameter" + (" in every mode." if len(a["modes"]) > 1 else ".")
+            )
         else:
-            doc.banner(f"NOT converged: worst R̂ {worst:.3f}, least bulk ESS {least:,.0f} (need ≤ {R_HAT_MAX:g} and ≥ "
-                       f"{ESS_MIN}): the summaries below are not reliable. " + "; ".join(a["why"]) + ".")
+            doc.banner(
+                f"NOT converged: worst R̂ {worst:.3f}, least bulk ESS {least:,.0f} (need ≤ {R_HAT_MAX:g} and ≥ "
+                f"{ESS_MIN}): the summaries below are not reliable. " + "; ".join(a["why"]) + "."
+            )
         if pc.run.get("message"):
             doc.p(f"What the sampler did and why it stopped: {pc.run['message']}.")
         if len(a["modes"]) > 1:
-            doc.p(f"The {pc.ensembles} ensembles settled in {len(a['modes'])} separate regions (their central 90 % "
-                  "intervals do not overlap in every parameter): separate modes, or one mode the chains have not "
-                  "crossed. They are summarised apart, not pooled; the summary below is mode 1's region with the most "
-                  "ensembles. Separate ensembles cannot weigh one mode against another.")
+            doc.p(
+                f"The {pc.ensembles} ensembles settled in {len(a['modes'])} separate regions (their central 90 % "
+                "intervals do not overlap in every parameter): separate modes, or one mode the chains have not "
+                "crossed. They are summarised apart, not pooled; the summary below is mode 1's region with the most "
+                "ensembles. Separate ensembles cannot weigh one mode against another."
+            )
             doc.table(modes_table(pc), "Modes: median log-probability and the median of each sampled parameter")
         _summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals")
         kept = pc.problem.from_unit(pc.unit_draws())
@@ -94,20 +117,31 @@ def section(report) -> list:
         labels = parameters(pc.problem)
         pairs = strongest_pairs(posterior_correlation(kept[:, moving], [pc.names[j] for j in moving]), 3)
         if pairs:
-            doc.p("Strongest posterior correlations (kept samples): " + "; ".join(
-                f"{labels[x][0]}–{labels[y][0]} r = {r:+.2f}" for x, y, r in pairs) + ".")
+            doc.p(
+                "Strongest posterior correlations (kept samples): "
+                + "; ".join(f"{labels[x][0]}–{labels[y][0]} r = {r:+.2f}" for x, y, r in pairs)
+                + "."
+            )
         png = figures.posterior(study, doc.out_dir, chain, problem=pc.problem, posterior=pc, order=order)
-        doc.figure(png, f"{chain.specimen}: posterior marginals and the most correlated pairs, with the best fit on "
-                        "the specimen, the truth and the chain's convergence verdict")
+        doc.figure(
+            png,
+            f"{chain.specimen}: posterior marginals and the most correlated pairs, with the best fit on "
+            "the specimen, the truth and the chain's convergence verdict",
+        )
         if chain.specimen == report.featured[0]:
-            doc.p("The loops figure of this specimen above carries the posterior predictive 95 % band (model force "
-                  "plus noise) on the force and on the residual.")
+            doc.p(
+                "The loops figure of this specimen above carries the posterior predictive 95 % band (model force "
+                "plus noise) on the force and on the residual."
+            )
         else:
             png = _loops_with_band(study, doc.out_dir, pc, order)
             if png is not None:
-                doc.figure(png, f"{chain.specimen}: the best fits and the posterior predictive check — the measured "
-                                "force against the 95 % band of the posterior's predictions (model force plus noise), "
-                                "and the residual")
+                doc.figure(
+                    png,
+                    f"{chain.specimen}: the best fits and the posterior predictive check — the measured "
+                    "force against the 95 % band of the posterior's predictions (model force plus noise), "
+                    "and the residual",
+                )
     # which model the data support (nested posteriors of several models), and several samplers compared
     model_evidence.section(report, chains)
     samplers_section.section(report, chains)
@@ -123,8 +157,11 @@ def _loops_with_band(study, out_dir, pc, order):
     from bwbench.problems.hysteresis.report.fit_figures import hysteresis_loops
 
     ranking = study.ranking
-    runs = ranking[(ranking["specimen"] == pc.chain.specimen) & (ranking["status"] == "ok")
-                   & np.isfinite(ranking["mse"].astype(float))]
+    runs = ranking[
+        (ranking["specimen"] == pc.chain.specimen)
+        & (ranking["status"] == "ok")
+        & np.isfinite(ranking["mse"].astype(float))
+    ]
     band = posterior_predictive.predictive(pc, np.random.default_rng(0))
     if not len(runs) or band is None:
         return None

@@ -21,8 +21,13 @@ def convergence_table(pc) -> pd.DataFrame:
     for i, diag in enumerate(pc.assessment["diagnostics"]):
         tag = f" (mode {i + 1})" if several else ""
         for r in diag.itertuples():
-            rows[r.parameter].update({f"R̂{tag}": f"{r.r_hat:.3f}", f"bulk ESS{tag}": f"{r.ess_bulk:,.0f}",
-                                      f"tail ESS{tag}": f"{r.ess_tail:,.0f}"})
+            rows[r.parameter].update(
+                {
+                    f"R̂{tag}": f"{r.r_hat:.3f}",
+                    f"bulk ESS{tag}": f"{r.ess_bulk:,.0f}",
+                    f"tail ESS{tag}": f"{r.ess_tail:,.0f}",
+                }
+            )
     for n in pc.fixed:
         value = pc.problem.from_unit(pc.chain.samples[:1, 0])[0][pc.names.index(n)]
         rows[n]["R̂"] = f"held at {number(float(value))} (reduced model)"
@@ -42,8 +47,12 @@ def summary(pc, rng, true: dict | None) -> tuple[pd.DataFrame, list]:
         if not values.size:
             continue
         lo, mid, hi = np.quantile(values, [tail, 0.5, 1 - tail])
-        row = {"parameter": axis(pc.problem, name, table), "median": number(mid), "2.5 %": number(lo),
-               "97.5 %": number(hi)}
+        row = {
+            "parameter": axis(pc.problem, name, table),
+            "median": number(mid),
+            "2.5 %": number(lo),
+            "97.5 %": number(hi),
+        }
         # held: by a reduced model, or by the problem itself (an unfitted inertia, a coefficient fixed)
         held = name in pc.fixed or np.ptp(values) == 0
         if held:
@@ -51,9 +60,16 @@ def summary(pc, rng, true: dict | None) -> tuple[pd.DataFrame, list]:
         if true is not None and name in true:
             t = true[name]
             inside = held or name in gauge or lo <= t <= hi
-            row.update({"truth": number(t), "truth inside": "held fixed" if held else
-                        "not comparable (the reduced model's gauge)" if name in gauge else
-                        ("yes" if inside else "**no**")})
+            row.update(
+                {
+                    "truth": number(t),
+                    "truth inside": "held fixed"
+                    if held
+                    else "not comparable (the reduced model's gauge)"
+                    if name in gauge
+                    else ("yes" if inside else "**no**"),
+                }
+            )
             if not inside:
                 outside.append(name)
         rows.append(row)
@@ -66,10 +82,18 @@ def modes_table(pc) -> pd.DataFrame:
     rows = []
     for i, mode in enumerate(pc.assessment["modes"]):
         P = pc.problem.from_unit(pc.unit_draws(mode))
-        row = {"mode": i + 1, "ensembles": ", ".join(str(e + 1) for e in mode.ensembles),
-               "median log p": f"{mode.log_prob:.1f}"}
-        row.update({axis(pc.problem, n, table): number(float(np.median(P[:, j])), 3)
-                    for j, n in enumerate(pc.names) if n not in pc.fixed})
+        row = {
+            "mode": i + 1,
+            "ensembles": ", ".join(str(e + 1) for e in mode.ensembles),
+            "median log p": f"{mode.log_prob:.1f}",
+        }
+        row.update(
+            {
+                axis(pc.problem, n, table): number(float(np.median(P[:, j])), 3)
+                for j, n in enumerate(pc.names)
+                if n not in pc.fixed
+            }
+        )
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -89,9 +113,16 @@ def write_inference_data(pc, out_dir) -> str | None:
     P = pc.problem.from_unit(samples.reshape(-1, samples.shape[2])).reshape(samples.shape)
     posterior = {n: np.swapaxes(P[:, :, j], 0, 1) for j, n in enumerate(pc.names)}
     stats = {} if pc.chain.log_prob is None else {"lp": np.swapaxes(pc.chain.log_prob, 0, 1)}
-    data = az.from_dict(posterior=posterior, sample_stats=stats,
-                        attrs={"engine": "nested sampling (UltraNest)", "weights": "equal",
-                               "log_z": pc.nested["evidence"]["log_z"], "log_z_err": pc.nested["evidence"]["err"]})
+    data = az.from_dict(
+        posterior=posterior,
+        sample_stats=stats,
+        attrs={
+            "engine": "nested sampling (UltraNest)",
+            "weights": "equal",
+            "log_z": pc.nested["evidence"]["log_z"],
+            "log_z_err": pc.nested["evidence"]["err"],
+        },
+    )
     name = f"posterior_{pc.chain.specimen}_{pc.chain.optimizer}".replace(" ", "_").replace("[", "").replace("]", "")
     path = f"{out_dir}/{name}.nc"
     try:
@@ -105,8 +136,18 @@ def _summary_against_truth(doc, study, pc, rng, caption: str) -> None:
     """The table of posterior medians and intervals, and where the truth (a synthetic specimen's) lies."""
     true = truth(study, pc.problem, pc.chain.specimen)
     table, outside = summary(pc, rng, true)
-    doc.table(table, caption + (" (linear coefficients drawn from their conditional Gaussian)"
-                                if pc.problem.formulation == "identifiable" else ""))
+    doc.table(
+        table,
+        caption
+        + (
+            " (linear coefficients drawn from their conditional Gaussian)"
+            if pc.problem.formulation == "identifiable"
+            else ""
+        ),
+    )
     if true is not None:
-        doc.p("The truth lies inside every central 95 % interval." if not outside else
-              f"The truth lies outside the central 95 % interval of {', '.join(outside)}.")
+        doc.p(
+            "The truth lies inside every central 95 % interval."
+            if not outside
+            else f"The truth lies outside the central 95 % interval of {', '.join(outside)}."
+        )

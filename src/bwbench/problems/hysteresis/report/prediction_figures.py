@@ -21,8 +21,14 @@ def draw_predictions(predictions, title: str, what: str = "predicted"):
     """The figure (matplotlib) of ``predictions`` (``fitted_model.Prediction``), one row each."""
     theme()
     shown = list(predictions)[:MAX_ROWS]
-    fig, axes = figure(MAX_WIDTH_IN, 1.2 + 2.5 * len(shown), nrows=len(shown), ncols=2, squeeze=False,
-                       gridspec_kw={"width_ratios": [1, 1.6]})
+    fig, axes = figure(
+        MAX_WIDTH_IN,
+        1.2 + 2.5 * len(shown),
+        nrows=len(shown),
+        ncols=2,
+        squeeze=False,
+        gridspec_kw={"width_ratios": [1, 1.6]},
+    )
     colour = OKABE_ITO[0] if what == "fitted" else OKABE_ITO[3]
     for (loop, resid), p in zip(axes, shown):
         finite = np.all(np.isfinite(p.force_N))
@@ -41,8 +47,14 @@ def draw_predictions(predictions, title: str, what: str = "predicted"):
         resid.set_ylabel("residual (N)")
     more = len(predictions) - len(shown)
     fig.suptitle(title + (f" (first {len(shown)} of {len(predictions)} tests)" if more > 0 else ""))
-    legend(fig, [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
-                 Line2D([], [], color=colour, lw=1.6, label=f"{what} by the model")], ncol=2)
+    legend(
+        fig,
+        [
+            Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
+            Line2D([], [], color=colour, lw=1.6, label=f"{what} by the model"),
+        ],
+        ncol=2,
+    )
     return fig
 
 

@@ -22,6 +22,7 @@ class Check:
     samples_reversal: float
     draws: int = 0  # posterior draws the band rests on
 
+
 REVERSAL = 0.2  # near a reversal: |ẋ| below this share of its peak
 
 
@@ -40,8 +41,13 @@ def predictive_check(pc, rng, bands: dict | None = None) -> Check | None:
     out = (f < band.lower) | (f > band.upper)
     residual2 = (f - 0.5 * (band.model_lower + band.model_upper)) ** 2
     total = float(residual2.sum())
-    return Check(float(out.mean()), float(out[near].mean()) if near.any() else float("nan"),
-                 float(residual2[near].sum() / total) if total > 0 else float("nan"), float(near.mean()), band.draws)
+    return Check(
+        float(out.mean()),
+        float(out[near].mean()) if near.any() else float("nan"),
+        float(residual2[near].sum() / total) if total > 0 else float("nan"),
+        float(near.mean()),
+        band.draws,
+    )
 
 
 def residual_figure(study, out_dir, specimen: str, shown_bands: list):
@@ -62,15 +68,31 @@ def residual_figure(study, out_dir, specimen: str, shown_bands: list):
         ax.fill_between(t, 0, 1, where=near, color="0.85", lw=0, transform=ax.get_xaxis_transform(), zorder=0)
         ax.fill_between(t, band.lower - mid, band.upper - mid, color=OKABE_ITO[5], alpha=0.5, lw=0, zorder=1)
         ax.plot(t, f - mid, color="black", lw=0.7, zorder=2)
-        ax.set_title(f"{model}: {100 * band.outside:.1f} % of the samples outside the 95 % band ({band.draws} draws)",
-                     loc="left")
+        ax.set_title(
+            f"{model}: {100 * band.outside:.1f} % of the samples outside the 95 % band ({band.draws} draws)", loc="left"
+        )
         ax.set_ylabel("residual (N)")
-        frames.append(pd.DataFrame({"model": model, "time_s": t, "residual_N": f - mid, "band_lower_N": band.lower - mid,
-                                    "band_upper_N": band.upper - mid, "near_reversal": near}))
+        frames.append(
+            pd.DataFrame(
+                {
+                    "model": model,
+                    "time_s": t,
+                    "residual_N": f - mid,
+                    "band_lower_N": band.lower - mid,
+                    "band_upper_N": band.upper - mid,
+                    "near_reversal": near,
+                }
+            )
+        )
     axes[-1, 0].set_xlabel("time (s)")
     fig.suptitle(f"{specimen}: residual, 95 % predictive band (blue), reversals (grey)")
-    return save(fig, out_dir, f"evidence_residuals_{slug(specimen)}", pd.concat(frames, ignore_index=True),
-                synthetic(study, [specimen]))
+    return save(
+        fig,
+        out_dir,
+        f"evidence_residuals_{slug(specimen)}",
+        pd.concat(frames, ignore_index=True),
+        synthetic(study, [specimen]),
+    )
 
 
 def model_of(pc) -> str:

@@ -38,18 +38,21 @@ def bounded(values, mse, threshold: float, converged=None) -> str:
         return "neither"
     i = int(np.argmin(mse))
     above = (mse > threshold) & converged
-    low, high = bool(np.any(above[:i])), bool(np.any(above[i + 1:]))
+    low, high = bool(np.any(above[:i])), bool(np.any(above[i + 1 :]))
     if not (low or high) and np.any(mse > threshold):
         return "not shown"
     return {(True, True): "both sides", (True, False): "below only", (False, True): "above only"}.get(
-        (low, high), "neither")
+        (low, high), "neither"
+    )
 
 
-BOUNDED_TEXT = {"both sides": "bounded on both sides",
-                "below only": "bounded below only (open above)",
-                "above only": "bounded above only (open below)",
-                "neither": "not bounded: all of the range is in it",
-                "not shown": "no bound shown (not converged)"}
+BOUNDED_TEXT = {
+    "both sides": "bounded on both sides",
+    "below only": "bounded below only (open above)",
+    "above only": "bounded above only (open below)",
+    "neither": "not bounded: all of the range is in it",
+    "not shown": "no bound shown (not converged)",
+}
 
 
 def better_fit_text(found: float, analysed: float, unit: str = "N²", least: float = 1e-4) -> str | None:
@@ -114,10 +117,17 @@ def profiles(analysis: dict, out_dir, synthetic_data: bool | str = False) -> Pat
         if text:
             ax.plot(values[i], mse[i], "D", ms=8, color=better, mec="black", mew=0.8, zorder=6)
             found_better.append((float(mse[i]), text))
-            ax.annotate("the profile found a better fit:\n" + text.replace(", ", ",\n", 1),
-                        (values[i], mse[i]), xytext=(0.5, 0.97), textcoords="axes fraction", ha="center", va="top",
-                        fontsize=9.5, bbox={"fc": "white", "ec": better, "boxstyle": "round"},
-                        arrowprops={"arrowstyle": "->", "color": better, "lw": 1.2})
+            ax.annotate(
+                "the profile found a better fit:\n" + text.replace(", ", ",\n", 1),
+                (values[i], mse[i]),
+                xytext=(0.5, 0.97),
+                textcoords="axes fraction",
+                ha="center",
+                va="top",
+                fontsize=9.5,
+                bbox={"fc": "white", "ec": better, "boxstyle": "round"},
+                arrowprops={"arrowstyle": "->", "color": better, "lw": 1.2},
+            )
         side = bounded(values, mse, threshold, converged)
         ax.set_title(f"95 % region {BOUNDED_TEXT[side]}", loc="left")
         if values.size and values.min() > 0 and values.max() / values.min() > 100:
@@ -138,22 +148,44 @@ def profiles(analysis: dict, out_dir, synthetic_data: bool | str = False) -> Pat
             ax.set_xlabel(axis_label(name))
         ax.set_ylabel("MSE (N²)")
         rows.append(points.assign(parameter=name, threshold_mse=threshold, bounded=side))
-    for ax in axes.flat[len(names):]:
+    for ax in axes.flat[len(names) :]:
         ax.set_visible(False)
-    handles = [Line2D([], [], color=blue, marker="o", ms=5, label="profile (others re-optimised, converged: a "
-                                                                 "bound is read from these only)"),
-               Line2D([], [], ls="", marker="o", ms=8, mfc="white", mec=blue, mew=1.4,
-                      label="not converged: an upper bound only"),
-               Line2D([], [], ls="", marker="*", ms=13, color=star, mec="black", mew=0.6, label="analysed fit"),
-               Line2D([], [], color="0.25", ls="--", label="95 % threshold (one parameter)"),
-               Patch(color=blue, alpha=0.25, label="95 % region: profile below the threshold")]
+    handles = [
+        Line2D(
+            [],
+            [],
+            color=blue,
+            marker="o",
+            ms=5,
+            label="profile (others re-optimised, converged: a bound is read from these only)",
+        ),
+        Line2D(
+            [], [], ls="", marker="o", ms=8, mfc="white", mec=blue, mew=1.4, label="not converged: an upper bound only"
+        ),
+        Line2D([], [], ls="", marker="*", ms=13, color=star, mec="black", mew=0.6, label="analysed fit"),
+        Line2D([], [], color="0.25", ls="--", label="95 % threshold (one parameter)"),
+        Patch(color=blue, alpha=0.25, label="95 % region: profile below the threshold"),
+    ]
     if found_better:
-        handles.append(Line2D([], [], ls="", marker="D", ms=8, color=better, mec="black", mew=0.8,
-                              label="a better fit than the analysed one"))
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="",
+                marker="D",
+                ms=8,
+                color=better,
+                mec="black",
+                mew=0.8,
+                label="a better fit than the analysed one",
+            )
+        )
     legend(fig, handles, ncol=3)
     d = len(analysis.get("params", {})) or None
-    title = (f"{analysis['specimen']}: profile likelihoods (MSE after re-optimising the other "
-             f"{d - 1 if d else ''} parameters)".replace("other  ", "other "))
+    title = (
+        f"{analysis['specimen']}: profile likelihoods (MSE after re-optimising the other "
+        f"{d - 1 if d else ''} parameters)".replace("other  ", "other ")
+    )
     if found_better:
         title += f"\nthe profile found a better fit: {min(found_better)[1]} — the analysed fit is not the optimum"
     fig.suptitle(title)

@@ -27,7 +27,7 @@ def groups(chains) -> dict:
 
 def unit_draws(pc) -> np.ndarray:
     """Every kept draw of a posterior (unit coordinates, (m, d)): all walkers or runs, not one mode."""
-    samples = pc.chain.samples[pc.burn:]
+    samples = pc.chain.samples[pc.burn :]
     return samples.reshape(-1, samples.shape[2])
 
 
@@ -36,8 +36,9 @@ def verdict_text(pc) -> str:
     diagnostics = pc.assessment["diagnostics"] if pc.nested is None else [pc.nested["diagnostics"]]
     r_hat = [float(np.nanmax(d["r_hat"])) for d in diagnostics if len(d)]
     ess = [float(np.nanmin(d["ess_bulk"])) for d in diagnostics if len(d)]
-    numbers = (f"worst R̂ {max(r_hat):.3f}, least bulk ESS {min(ess):,.0f}"
-               if r_hat and np.isfinite(max(r_hat)) else "no R̂")
+    numbers = (
+        f"worst R̂ {max(r_hat):.3f}, least bulk ESS {min(ess):,.0f}" if r_hat and np.isfinite(max(r_hat)) else "no R̂"
+    )
     converged = pc.assessment["converged"] if pc.nested is None else pc.nested["converged"]
     return f"{'converged' if converged else 'not converged'} ({numbers})"
 
@@ -50,12 +51,16 @@ def comparison_table(by_backend: dict) -> pd.DataFrame:
         pc = by_backend[backend]
         shares = sampler_comparison.mode_shares(reference.chain.samples, reference.nested, unit_draws(pc))
         nfev, wall = pc.run.get("nfev"), pc.run.get("wall_s")
-        rows.append({"sampler": backend + (" (reference)" if backend == REFERENCE else ""),
-                     "finds every mode": sampler_comparison.found_text(shares),
-                     "mass in each mode": sampler_comparison.mass_text(shares),
-                     "R̂/ESS verdict": verdict_text(pc),
-                     "evaluations": f"{int(nfev):,}" if _finite(nfev) else "–",
-                     "wall time (s)": f"{float(wall):,.1f}" if _finite(wall) else "–"})
+        rows.append(
+            {
+                "sampler": backend + (" (reference)" if backend == REFERENCE else ""),
+                "finds every mode": sampler_comparison.found_text(shares),
+                "mass in each mode": sampler_comparison.mass_text(shares),
+                "R̂/ESS verdict": verdict_text(pc),
+                "evaluations": f"{int(nfev):,}" if _finite(nfev) else "–",
+                "wall time (s)": f"{float(wall):,.1f}" if _finite(wall) else "–",
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -73,12 +78,14 @@ def section(report, chains) -> None:
         return
     doc = report.doc
     doc.h(3, "Posterior samplers")
-    doc.p("The samplers of the [posterior] ran on the same specimens with the same budget, and are judged like "
-          "optimisers against the reference posterior, nested sampling's (it holds every mode with its mass). A "
-          "sampler's draw lies in a reference mode when its nearest reference draw does and is within the "
-          "distance that separates the reference's modes; a mode is found when the sampler gives it at least "
-          f"{sampler_comparison.FOUND_SHARE:.0%} of its reference mass. The R̂/ESS verdict is each sampler's own "
-          "(a sampler stuck in one mode can pass it).")
+    doc.p(
+        "The samplers of the [posterior] ran on the same specimens with the same budget, and are judged like "
+        "optimisers against the reference posterior, nested sampling's (it holds every mode with its mass). A "
+        "sampler's draw lies in a reference mode when its nearest reference draw does and is within the "
+        "distance that separates the reference's modes; a mode is found when the sampler gives it at least "
+        f"{sampler_comparison.FOUND_SHARE:.0%} of its reference mass. The R̂/ESS verdict is each sampler's own "
+        "(a sampler stuck in one mode can pass it)."
+    )
     for (specimen, variant), by_backend in compared.items():
         title = specimen + (f" [{variant}]" if variant else "")
         if REFERENCE not in by_backend:
@@ -86,5 +93,7 @@ def section(report, chains) -> None:
             continue
         doc.table(comparison_table(by_backend), f"{title}: every sampler against the reference posterior")
         if not by_backend[REFERENCE].nested["converged"]:
-            doc.p(f"{title}: the reference posterior itself is not converged "
-                  f"({'; '.join(by_backend[REFERENCE].nested['failed'])}): the masses it gives are provisional.")
+            doc.p(
+                f"{title}: the reference posterior itself is not converged "
+                f"({'; '.join(by_backend[REFERENCE].nested['failed'])}): the masses it gives are provisional."
+            )

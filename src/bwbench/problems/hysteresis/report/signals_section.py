@@ -37,27 +37,47 @@ def paragraph(report) -> None:
             recorded.append(specimen)
         else:
             errors.append(error["expected_force_error_N"])
-            estimated.append({"specimen": specimen, "best RMSE (N)": number(np.sqrt(best["mse"]), 3),
-                              "expected force error (N)": number(error["expected_force_error_N"], 3),
-                              "velocity error (mm/s)": f"{error['velocity_error_mm_s']:.2g}",
-                              "∂F/∂ẋ rms (N·s/mm)": number(error["sensitivity_N_s_per_mm"], 4)})
+            estimated.append(
+                {
+                    "specimen": specimen,
+                    "best RMSE (N)": number(np.sqrt(best["mse"]), 3),
+                    "expected force error (N)": number(error["expected_force_error_N"], 3),
+                    "velocity error (mm/s)": f"{error['velocity_error_mm_s']:.2g}",
+                    "∂F/∂ẋ rms (N·s/mm)": number(error["sensitivity_N_s_per_mm"], 4),
+                }
+            )
         linear = linear_branches(problem, params)
-        edges += [f"{specimen} ({name} {side}" + (f": branch {name[-1]} linear, no yield within the stroke)"
-                                                  if side == "upper" and name.startswith("xy") and linear.get(name[-1])
-                                                  else ")")
-                  for name, side in on_box_edge(problem, params).items()]
+        edges += [
+            f"{specimen} ({name} {side}"
+            + (
+                f": branch {name[-1]} linear, no yield within the stroke)"
+                if side == "upper" and name.startswith("xy") and linear.get(name[-1])
+                else ")"
+            )
+            for name, side in on_box_edge(problem, params).items()
+        ]
     text = []
     if recorded:
-        text.append(f"The velocity of {len(recorded)} of {len(recorded) + len(estimated)} specimens is recorded in "
-                    "their files (velocity_mm_s) and drives the model as recorded: no estimation error.")
+        text.append(
+            f"The velocity of {len(recorded)} of {len(recorded) + len(estimated)} specimens is recorded in "
+            "their files (velocity_mm_s) and drives the model as recorded: no estimation error."
+        )
     if estimated:
         worst = max(errors)
-        text.append(f"The velocity of {len(estimated)} specimen{'s' if len(estimated) > 1 else ''} is estimated from the displacement ({SPLINE_NAME}, "
-                    f"smoothing set by the displacement noise): at the best fit's viscous coefficients its expected "
-                    f"force error is up to {worst:.3g} N rms, to be read beside the fit's RMSE (table).")
-    text.append("Best fits with a parameter on an edge of its search box (the optimum may lie beyond it): "
-                + (", ".join(edges) if edges else "none") + ".")
+        text.append(
+            f"The velocity of {len(estimated)} specimen{'s' if len(estimated) > 1 else ''} is estimated from the displacement ({SPLINE_NAME}, "
+            f"smoothing set by the displacement noise): at the best fit's viscous coefficients its expected "
+            f"force error is up to {worst:.3g} N rms, to be read beside the fit's RMSE (table)."
+        )
+    text.append(
+        "Best fits with a parameter on an edge of its search box (the optimum may lie beyond it): "
+        + (", ".join(edges) if edges else "none")
+        + "."
+    )
     doc.p("**Signals and box edges.** " + " ".join(text))
     if estimated:
-        doc.table(pd.DataFrame(estimated), "Estimated velocities: expected force error at the best fit "
-                  "(|∂F/∂ẋ| × estimated velocity error) beside the best fit's RMSE")
+        doc.table(
+            pd.DataFrame(estimated),
+            "Estimated velocities: expected force error at the best fit "
+            "(|∂F/∂ẋ| × estimated velocity error) beside the best fit's RMSE",
+        )

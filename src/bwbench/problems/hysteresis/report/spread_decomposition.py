@@ -67,7 +67,7 @@ def decomposition(study, pc) -> dict:
     fits_lp = log_posterior(problem, P) if len(P) else np.empty(0)
     draws = pc.unit_draws()
     main = pc.main.walkers
-    draws_lp = pc.chain.log_prob[pc.burn:, main].reshape(-1) if pc.chain.log_prob is not None else None
+    draws_lp = pc.chain.log_prob[pc.burn :, main].reshape(-1) if pc.chain.log_prob is not None else None
     if draws_lp is None:
         draws_lp = log_posterior(problem, problem.from_unit(draws))
     fits = problem.to_unit(P)
@@ -75,35 +75,60 @@ def decomposition(study, pc) -> dict:
     # be placed against the reduced posterior there, so only the other parameters classify the fits
     gauge = problem.model.reduced_gauge(pc.fixed, problem.state)
     compared = [j for j, n in enumerate(pc.names) if n not in pc.fixed and n not in gauge]
-    part, kinds = spread.decompose(fits[:, compared], fits_lp, draws[:, compared], draws_lp,
-                                   [pc.names[j] for j in compared])
+    part, kinds = spread.decompose(
+        fits[:, compared], fits_lp, draws[:, compared], draws_lp, [pc.names[j] for j in compared]
+    )
     by_name = {r["parameter"]: r for r in part.to_dict("records")}
     for j, n in enumerate(pc.names):
         if n not in by_name:
-            by_name[n] = {"parameter": n, "fits_spread": float(np.ptp(fits[:, j])) if len(fits) else np.nan,
-                       "posterior_width": np.nan, "inside": 0, "stopped_early": 0, "elsewhere": 0,
-                       "scatter": "the data (held fixed: a linear branch)" if n in pc.fixed else
-                       "the data (the reduced model's gauge: trades with a held parameter)"}
+            by_name[n] = {
+                "parameter": n,
+                "fits_spread": float(np.ptp(fits[:, j])) if len(fits) else np.nan,
+                "posterior_width": np.nan,
+                "inside": 0,
+                "stopped_early": 0,
+                "elsewhere": 0,
+                "scatter": "the data (held fixed: a linear branch)"
+                if n in pc.fixed
+                else "the data (the reduced model's gauge: trades with a held parameter)",
+            }
     table = pd.DataFrame([by_name[n] for n in pc.names])
     known = truth(study, problem, specimen)
     true = None if known is None else problem.to_unit(np.array([known.get(n, np.nan) for n in pc.names]))
-    return {"table": table, "kinds": kinds, "fits": fits, "draws": draws, "fits_log_prob": fits_lp,
-            "draws_log_prob": draws_lp, "optimizers": list(runs["optimizer"].iloc[ok]), "truth": true,
-            "symmetry": symmetry_part(study, pc, runs), "runs": len(runs)}
+    return {
+        "table": table,
+        "kinds": kinds,
+        "fits": fits,
+        "draws": draws,
+        "fits_log_prob": fits_lp,
+        "draws_log_prob": draws_lp,
+        "optimizers": list(runs["optimizer"].iloc[ok]),
+        "truth": true,
+        "symmetry": symmetry_part(study, pc, runs),
+        "runs": len(runs),
+    }
 
 
 def shown_table(pc, d: dict) -> pd.DataFrame:
     labels = parameters(pc.problem)
     t = d["table"]
     n = len(d["fits"])
-    return pd.DataFrame({
-        "parameter": [axis(pc.problem, p, labels) for p in t["parameter"]],
-        "good fits' spread (% of box)": [f"{x:.0%}" for x in t["fits_spread"]],
-        "posterior's 99 % range (% of box)": [("held" if p in pc.fixed else "–" if not np.isfinite(x) else f"{x:.0%}")
-                                               for p, x in zip(t["parameter"], t["posterior_width"])],
-        "fits inside it": [f"{i}/{n}" if np.isfinite(x) else "–" for i, x in zip(t["inside"], t["posterior_width"])],
-        "outside, stopped early": t["stopped_early"], "outside, as probable": t["elsewhere"],
-        "the scatter is": t["scatter"]})
+    return pd.DataFrame(
+        {
+            "parameter": [axis(pc.problem, p, labels) for p in t["parameter"]],
+            "good fits' spread (% of box)": [f"{x:.0%}" for x in t["fits_spread"]],
+            "posterior's 99 % range (% of box)": [
+                ("held" if p in pc.fixed else "–" if not np.isfinite(x) else f"{x:.0%}")
+                for p, x in zip(t["parameter"], t["posterior_width"])
+            ],
+            "fits inside it": [
+                f"{i}/{n}" if np.isfinite(x) else "–" for i, x in zip(t["inside"], t["posterior_width"])
+            ],
+            "outside, stopped early": t["stopped_early"],
+            "outside, as probable": t["elsewhere"],
+            "the scatter is": t["scatter"],
+        }
+    )
 
 
 def sentence(pc, d: dict) -> str:
@@ -114,30 +139,42 @@ def sentence(pc, d: dict) -> str:
     data = [labels[p][0] for p in t.loc[t["scatter"] == "the data", "parameter"]]
     early = [labels[p][0] for p in t.loc[t["scatter"] == "the optimiser", "parameter"]]
     other = [labels[p][0] for p in t.loc[t["scatter"] == "another mode", "parameter"]]
-    text = (f"Of the {n} good fits, {counts[spread.DATA]} are as probable as the posterior's own draws and lie inside "
-            f"the range of its draws in every parameter, {counts[spread.EARLY]} stopped before the posterior's bulk "
-            f"(log-posterior below its draws' 1 % quantile) and {counts[spread.ELSEWHERE]} are as probable but lie "
-            "where the draws do not go. ")
+    text = (
+        f"Of the {n} good fits, {counts[spread.DATA]} are as probable as the posterior's own draws and lie inside "
+        f"the range of its draws in every parameter, {counts[spread.EARLY]} stopped before the posterior's bulk "
+        f"(log-posterior below its draws' 1 % quantile) and {counts[spread.ELSEWHERE]} are as probable but lie "
+        "where the draws do not go. "
+    )
     if data:
-        text += f"The scatter of {', '.join(data)} stays within the posterior: the data cannot tell those values apart. "
+        text += (
+            f"The scatter of {', '.join(data)} stays within the posterior: the data cannot tell those values apart. "
+        )
     if early:
         text += f"{', '.join(early)} scatter beyond it mostly through fits that stopped early: the optimisers'. "
     if other:
-        text += (f"{', '.join(other)} scatter beyond it through fits as probable as the posterior's draws but where they "
-                 "do not go: another mode the chain did not visit. ")
+        text += (
+            f"{', '.join(other)} scatter beyond it through fits as probable as the posterior's draws but where they "
+            "do not go: another mode the chain did not visit. "
+        )
     if pc.fixed:
-        text += (f"{', '.join(labels[p][0] for p in pc.fixed)} are held fixed in the posterior (a branch the data "
-                 "cannot tell from a linear one): whatever the fits say of them, the data do not determine them. ")
+        text += (
+            f"{', '.join(labels[p][0] for p in pc.fixed)} are held fixed in the posterior (a branch the data "
+            "cannot tell from a linear one): whatever the fits say of them, the data do not determine them. "
+        )
         gauge = [n for n in pc.names if n in pc.problem.model.reduced_gauge(pc.fixed, pc.problem.state)]
         if gauge:
-            text += (f"{', '.join(labels[p][0] for p in gauge)} trade with the held parameters along directions the data "
-                     "do not see (the reduced model's gauge), so the fits are placed against the posterior on the "
-                     "other parameters only. ")
+            text += (
+                f"{', '.join(labels[p][0] for p in gauge)} trade with the held parameters along directions the data "
+                "do not see (the reduced model's gauge), so the fits are placed against the posterior on the "
+                "other parameters only. "
+            )
     sym = d["symmetry"]
     if np.isfinite(sym["share"]):
-        text += (f"In the model's direct coordinates, the exact symmetry ({'; '.join(sym['names'])}) accounts for "
-                 f"{sym['share']:.0%} of the scatter of the {sym['runs']} fits that searched them (it disappears when "
-                 "each is moved to one point of its orbit); this table is about the rest.")
+        text += (
+            f"In the model's direct coordinates, the exact symmetry ({'; '.join(sym['names'])}) accounts for "
+            f"{sym['share']:.0%} of the scatter of the {sym['runs']} fits that searched them (it disappears when "
+            "each is moved to one point of its orbit); this table is about the rest."
+        )
     return text
 
 
@@ -166,11 +203,29 @@ def figure(study, out_dir, pc, d: dict):
     rows = []
     for k, kind in enumerate(d["kinds"]):
         jitter = rng.uniform(-0.22, 0.22)
-        left.plot(x + jitter, np.clip(d["fits"][k, idx], -0.05, 1.05), ls="", marker="o", ms=5.5, mec="black",
-                  mew=0.5, color=CLASS_COLOURS[kind], alpha=0.9, zorder=4)
-        rows += [{"source": "fit", "optimizer": d["optimizers"][k], "class": kind, "parameter": n,
-                  "box_position": float(d["fits"][k, j]), "log_posterior": float(d["fits_log_prob"][k])}
-                 for n, j in zip(names, idx)]
+        left.plot(
+            x + jitter,
+            np.clip(d["fits"][k, idx], -0.05, 1.05),
+            ls="",
+            marker="o",
+            ms=5.5,
+            mec="black",
+            mew=0.5,
+            color=CLASS_COLOURS[kind],
+            alpha=0.9,
+            zorder=4,
+        )
+        rows += [
+            {
+                "source": "fit",
+                "optimizer": d["optimizers"][k],
+                "class": kind,
+                "parameter": n,
+                "box_position": float(d["fits"][k, j]),
+                "log_posterior": float(d["fits_log_prob"][k]),
+            }
+            for n, j in zip(names, idx)
+        ]
     if d["truth"] is not None:
         left.plot(x, d["truth"][idx], **TRUTH, zorder=5)
     left.set_xticks(x, [parameters(pc.problem)[n][0] for n in names])
@@ -185,24 +240,54 @@ def figure(study, out_dir, pc, d: dict):
     low = max(float(np.min(lp_d - top)) - 10.0, floor - top - 40.0)
     for k, kind in enumerate(d["kinds"]):
         y = max(float(lp_f[k] - top), low) if np.isfinite(lp_f[k]) else low
-        right.plot(rng.uniform(0.02, 0.12) * right.get_xlim()[1], y, ls="", marker="o", ms=5.5, mec="black", mew=0.5,
-                   color=CLASS_COLOURS[kind], zorder=4)
+        right.plot(
+            rng.uniform(0.02, 0.12) * right.get_xlim()[1],
+            y,
+            ls="",
+            marker="o",
+            ms=5.5,
+            mec="black",
+            mew=0.5,
+            color=CLASS_COLOURS[kind],
+            zorder=4,
+        )
     right.set_ylim(low - 1.0, 1.0 + max(0.0, float(np.max(lp_f - top)) if len(lp_f) else 0.0))
     right.set_ylabel("log-posterior − the draws' highest (–)")
     right.set_xlabel("density of the draws (–)")
-    right.set_title("how probable the fits are\n(dashed: the draws' 1 % quantile;\nfits far below: at the bottom edge)",
-                    loc="left")
-    handles = [Patch(color="0.75", label="posterior draws"),
-               *[Line2D([], [], ls="", marker="o", ms=6, mec="black", mew=0.5, color=c,
-                        label=f"good fit, {k} ({int(np.sum(d['kinds'] == k))})") for k, c in CLASS_COLOURS.items()]]
+    right.set_title(
+        "how probable the fits are\n(dashed: the draws' 1 % quantile;\nfits far below: at the bottom edge)", loc="left"
+    )
+    handles = [
+        Patch(color="0.75", label="posterior draws"),
+        *[
+            Line2D(
+                [],
+                [],
+                ls="",
+                marker="o",
+                ms=6,
+                mec="black",
+                mew=0.5,
+                color=c,
+                label=f"good fit, {k} ({int(np.sum(d['kinds'] == k))})",
+            )
+            for k, c in CLASS_COLOURS.items()
+        ],
+    ]
     if d["truth"] is not None:
         handles.append(Line2D([], [], **TRUTH, label="truth"))
     legend(fig, handles, ncol=len(handles))
     sym = d["symmetry"]
-    fig.suptitle(f"{pc.chain.specimen}: why the {len(d['kinds'])} good ranking fits (MSE within {TOLERANCE:.0%} of the "
-                 "best) scatter\nthe data (inside the posterior) or the optimiser (stopped early)"
-                 + (f"; in the direct coordinates the exact symmetry adds {sym['share']:.0%} of their scatter"
-                    if np.isfinite(sym["share"]) else ""))
+    fig.suptitle(
+        f"{pc.chain.specimen}: why the {len(d['kinds'])} good ranking fits (MSE within {TOLERANCE:.0%} of the "
+        "best) scatter\nthe data (inside the posterior) or the optimiser (stopped early)"
+        + (
+            f"; in the direct coordinates the exact symmetry adds {sym['share']:.0%} of their scatter"
+            if np.isfinite(sym["share"])
+            else ""
+        )
+    )
     frame = pd.DataFrame(rows)
-    return save(fig, out_dir, f"nonuniqueness_posterior_{slug(pc.chain.specimen)}", frame,
-                synthetic(study, [pc.chain.specimen]))
+    return save(
+        fig, out_dir, f"nonuniqueness_posterior_{slug(pc.chain.specimen)}", frame, synthetic(study, [pc.chain.specimen])
+    )
