@@ -23,9 +23,11 @@ install: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
-# ruff (pyflakes, isort, bugbear) over the code and the tests, mypy over src/ and optimizers/.
+# ruff (pyflakes, isort, bugbear) and ruff's formatter over the code and the tests, mypy over src/ and
+# optimizers/.
 lint: $(STAMP)
 	$(BIN)/ruff check src optimizers tests benchmarks studies examples
+	$(BIN)/ruff format --check src optimizers tests benchmarks studies examples
 	$(BIN)/mypy
 
 # exit 1 = some runs failed (listed): the report still shows the study, failures included
