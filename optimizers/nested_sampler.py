@@ -63,7 +63,8 @@ MAX_DRAWS = 4000  # equal-weight draws kept per run
 NDRAW_MAX = 1024  # most points UltraNest's region sampling draws in one vectorised call
 MIN_LIVE = 20  # fewer live points than this: the run is not started
 POP_DIVISOR = 4  # slice walkers = live points / this: a quarter of the live points per vectorised batch
-SLICE_STEPS_PER_DIM = 1  # slice steps per parameter before a walker's point is handed out
+SLICE_STEPS_PER_DIM = 2  # slice steps per parameter before a walker's point is handed out
+SLICE_DIRECTION = "generate_mixture_random_direction"  # region-oriented or differential, at random
 IMPOSSIBLE = -1e300  # the log-likelihood UltraNest gets for a blow-up (it refuses non-finite values)
 
 
@@ -73,13 +74,13 @@ IMPOSSIBLE = -1e300  # the log-likelihood UltraNest gets for a blow-up (it refus
     description="UltraNest nested sampling, uniform prior on the box: every mode with its mass, and ln Z, "
                 "from independent runs",
     options={"runs": Int(4, minimum=1, maximum=64),
-             "live_points": Int(100, minimum=20, maximum=100_000),
+             "live_points": Int(60, minimum=20, maximum=100_000),
              "dlogz": Float(0.5, minimum=0.001, maximum=100.0),
              "min_ess": Int(150, minimum=10, maximum=1_000_000),
              "step_sampler": Choice("auto", ("auto", "region", "slice")),
              "n_data": Int(None, minimum=1, maximum=10**9, none="the problem's number of data points")},
 )
-def minimize(objective, *, rng, runs=4, live_points=100, dlogz=0.5, min_ess=150, step_sampler="auto",
+def minimize(objective, *, rng, runs=4, live_points=60, dlogz=0.5, min_ess=150, step_sampler="auto",
              n_data=None):
     from bwbench.optimize.global_rng import seeded_global_rng
 
@@ -126,7 +127,7 @@ def _one_run(log_like, d, live_points, dlogz, min_ess, share, slice_sampling) ->
                                               ndraw_min=min(128, live_points), ndraw_max=NDRAW_MAX,
                                               num_test_samples=2)
     if slice_sampling:
-        from ultranest.popstepsampler import PopulationSimpleSliceSampler, generate_region_oriented_direction
+        from ultranest import popstepsampler
 
         # Each call moves a population of walkers ``nsteps`` whole slice steps at one threshold, every
         # shrink a vectorised batch, and hands out the population one point per iteration; a point that
@@ -134,8 +135,9 @@ def _one_run(log_like, d, live_points, dlogz, min_ess, share, slice_sampling) ->
         # UltraNest's other population sampler (PopulationSliceSampler) reverts every walker whose past
         # steps fall below the threshold: with a population as large as the live points most walkers
         # restarted, 176 evaluations per iteration, and runs were cut at 500,000 evaluations.
-        sampler.stepsampler = PopulationSimpleSliceSampler(popsize=popsize, nsteps=SLICE_STEPS_PER_DIM * d,
-                                                           generate_direction=generate_region_oriented_direction)
+        sampler.stepsampler = popstepsampler.PopulationSimpleSliceSampler(
+            popsize=popsize, nsteps=SLICE_STEPS_PER_DIM * d,
+            generate_direction=getattr(popstepsampler, SLICE_DIRECTION))
     # UltraNest checks max_ncalls between iterations only, and one iteration may cost up to ndraw_max
     # (region sampling) or a population's slice moves (typically ~10 shrinks per step): stop that much
     # short of the share
@@ -147,7 +149,7 @@ def _one_run(log_like, d, live_points, dlogz, min_ess, share, slice_sampling) ->
         warnings.simplefilter("ignore", UserWarning)
         out = sampler.run(min_num_live_points=live_points, dlogz=dlogz, min_ess=min_ess, show_status=False,
                           viz_callback=False, max_ncalls=max_ncalls, max_num_improvement_loops=3,
-                          cluster_num_live_points=min(40, live_points))
+                          cluster_num_live_points=min(40, live_points // 3))
     nfev = log_like.objective.nfev - start
     weighted = out["weighted_samples"]
     return {"live_points": live_points, "log_z": float(out["logz"]), "log_z_err": float(out["logzerr"]), "nfev": int(nfev),
