@@ -6,6 +6,7 @@ Both return the PNG's path and write the CSV behind it beside it (same name).
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -267,13 +268,19 @@ def posterior(
     if posterior is not None and posterior.nested is not None:  # nested sampling: runs of equal-weight draws
         masses = ", ".join(f"{m.mass:.2f}" for m in posterior.nested["modes"])
         fig.suptitle(
-            f"{specimen}: {chain.optimizer} posterior, {chain.walkers} independent runs × {chain.steps:,} "
-            f"equal-weight draws, every mode (masses {masses}){held}"
+            _wrapped(
+                fig,
+                f"{specimen}: {chain.optimizer} posterior, {chain.walkers} independent runs × {chain.steps:,} "
+                f"equal-weight draws, every mode (masses {masses}){held}",
+            )
         )
     else:
         fig.suptitle(
-            f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
-            f"{burn:,} steps dropped as burn-in{dropped}{held}"
+            _wrapped(
+                fig,
+                f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
+                f"{burn:,} steps dropped as burn-in{dropped}{held}",
+            )
         )
     thin = max(1, -(-len(samples) // max_csv))  # ceil: at most max_csv rows
     frame = pd.DataFrame(samples[::thin], columns=names).assign(source="posterior", optimizer=chain.optimizer)
@@ -294,6 +301,12 @@ def posterior(
         frame,
         synthetic(study, [specimen]),
     )
+
+
+def _wrapped(fig, text: str) -> str:
+    """``text`` wrapped to the figure's width (a long title would run off both sides of the page)."""
+    width = int(fig.get_figwidth() * 9.5)  # characters per line of the title's font on this figure
+    return "\n".join(textwrap.fill(line, width) for line in text.split("\n"))
 
 
 def _suffix(study, problem, label: str) -> str:
