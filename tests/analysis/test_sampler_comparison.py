@@ -44,7 +44,7 @@ def posterior(label, result):
 @pytest.fixture(scope="module")
 def samplers():
     toy = MixtureToy([[0.3, 0.3], [0.7, 0.7]], 0.04, [0.7, 0.3])
-    reference = fitting.run(toy, "nested", BUDGET, 1, {"live_points": 60, "min_ess": 60, "runs": 3})
+    reference = fitting.run(toy, "nested", BUDGET, 1, {"live_points": 120, "min_ess": 60, "runs": 3})
     emcee = fitting.run(toy, "emcee", BUDGET, 1, dict(POSTERIOR_OPTIONS["emcee"]))
     return posterior("nested [toy]", reference), posterior("emcee [toy]", emcee)
 
