@@ -17,6 +17,7 @@ no text below ``MIN_FONT_PT``.
 from __future__ import annotations
 
 import re
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -200,6 +201,13 @@ def theme() -> None:
 def figure(width: float, height: float, **kw):
     """A constrained-layout figure, at most ``MAX_WIDTH_IN`` wide (``plt.subplots`` arguments in ``kw``)."""
     return plt.subplots(figsize=(min(width, MAX_WIDTH_IN), height), layout="constrained", **kw)
+
+
+def title(fig, text: str, **kw) -> None:
+    """The figure's title, each line wrapped to the figure's width: a long title would otherwise run off
+    both sides of the page."""
+    width = int(fig.get_figwidth() * 9.5)  # characters per line of the title's font (12 pt) per inch
+    fig.suptitle("\n".join(textwrap.fill(line, width) for line in text.split("\n")), **kw)
 
 
 def canvas(width: float, height: float):

@@ -37,6 +37,7 @@ from bwbench.render.palette import (
     split_label,
     styles,
     theme,
+    title,
     write_png,
 )
 
@@ -182,10 +183,11 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
         )
     legend(fig, handles, ncol=2 if steady.ramped else 3)
     nrmse_abs, nrmse_max = nrmse_pair(rmse, spec.f)
-    fig.suptitle(
+    title(
+        fig,
         f"{spec.name} — {problem.model.name} ({formulation} formulation), {result.optimizer}, seed "
         f"{result.seed}, {result.nfev} evaluations\nRMSE {result.rmse_N:.3g} N, NRMSE {nrmse_max:.3g} "
-        f"(RMSE/max F; {nrmse_abs:.3g} RMSE/max|F|); {conditions(problem)}, {_velocity_source(problem)}"
+        f"(RMSE/max F; {nrmse_abs:.3g} RMSE/max|F|); {conditions(problem)}, {_velocity_source(problem)}",
     )
     write_png(fig, path, synthetic)
 
@@ -344,10 +346,11 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
             )
         )
     legend(fig, handles, ncol=2)
-    fig.suptitle(
+    title(
+        fig,
         f"{specimen}: best fit ({best_label}, seed {int(best_run['replicate'])}) and the residuals of the "
         f"best {len(shown) - len(randoms)} backends" + (" and random search" if randoms else "") + "\n"
-        f"ranking runs only ({conditions(best_problem)})"
+        f"ranking runs only ({conditions(best_problem)})",
     )
     frame = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     return save(fig, out_dir, f"loops_{slug(specimen)}", frame, synthetic(study, [specimen]))

@@ -6,7 +6,6 @@ Both return the PNG's path and write the CSV behind it beside it (same name).
 
 from __future__ import annotations
 
-import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +20,7 @@ from bwbench.models import switched_identifiable as fm
 from bwbench.models.switched_bouc_wen import PARAM_NAMES
 from bwbench.models.switched_parameters import LOWER, UPPER
 from bwbench.problems.hysteresis.report.figure_common import axis_label, synthetic, truth
-from bwbench.render.palette import MAX_WIDTH_IN, OKABE_ITO, TRUTH, canvas, legend, save, slug, styles, theme
+from bwbench.render.palette import MAX_WIDTH_IN, OKABE_ITO, TRUTH, canvas, legend, save, slug, styles, theme, title
 
 R_HAT_MAX, ESS_MIN = mcmc.R_HAT_MAX, mcmc.ESS_MIN  # Vehtari et al. (2021): converged when R̂ ≤ 1.01 and bulk ESS ≥ 400
 NOT_CONVERGED_BOX = {"fc": "#FBE3D6", "ec": OKABE_ITO[3], "boxstyle": "round,pad=0.4"}
@@ -267,20 +266,16 @@ def posterior(
     )
     if posterior is not None and posterior.nested is not None:  # nested sampling: runs of equal-weight draws
         masses = ", ".join(f"{m.mass:.2f}" for m in posterior.nested["modes"])
-        fig.suptitle(
-            _wrapped(
-                fig,
-                f"{specimen}: {chain.optimizer} posterior, {chain.walkers} independent runs × {chain.steps:,} "
-                f"equal-weight draws, every mode (masses {masses}){held}",
-            )
+        title(
+            fig,
+            f"{specimen}: {chain.optimizer} posterior, {chain.walkers} independent runs × {chain.steps:,} "
+            f"equal-weight draws, every mode (masses {masses}){held}",
         )
     else:
-        fig.suptitle(
-            _wrapped(
-                fig,
-                f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
-                f"{burn:,} steps dropped as burn-in{dropped}{held}",
-            )
+        title(
+            fig,
+            f"{specimen}: {chain.optimizer} posterior, {chain.steps:,} steps × {chain.walkers} walkers, first "
+            f"{burn:,} steps dropped as burn-in{dropped}{held}",
         )
     thin = max(1, -(-len(samples) // max_csv))  # ceil: at most max_csv rows
     frame = pd.DataFrame(samples[::thin], columns=names).assign(source="posterior", optimizer=chain.optimizer)
@@ -301,12 +296,6 @@ def posterior(
         frame,
         synthetic(study, [specimen]),
     )
-
-
-def _wrapped(fig, text: str) -> str:
-    """``text`` wrapped to the figure's width (a long title would run off both sides of the page)."""
-    width = int(fig.get_figwidth() * 9.5)  # characters per line of the title's font on this figure
-    return "\n".join(textwrap.fill(line, width) for line in text.split("\n"))
 
 
 def _suffix(study, problem, label: str) -> str:
