@@ -7,7 +7,6 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis.mcmc import ESS_MIN, R_HAT_MAX
-from bwbench.optimize.box import box_to_unit
 from bwbench.problems.hysteresis.report.posterior_draws import axis, parameters
 from bwbench.problems.hysteresis.report.posterior_tables import (
     LEVEL,
@@ -76,17 +75,7 @@ def good_fits_placed(study, pc) -> pd.DataFrame:
         like = float(log_posterior(pc.problem, theta[None, :])[0])
         u = np.asarray(pc.problem.to_unit(theta[None, :]), dtype=float)[0]
         place = nested.locate(u, like, pc.chain.samples, pc.chain.log_prob, pc.nested)
-        edge = _on_box_edge(pc.problem, theta)
-        where = (
-            f"on an edge of the prior's box ({edge}), where no draw goes: a search stopped by its box; "
-            "whether the posterior holds mass in that sliver, its draws do not say"
-            if edge and place["where"] != "mode"
-            else f"mode {place['mode'] + 1}"
-            if place["where"] == "mode"
-            else f"below the posterior's support by Δ log p = {place['delta']:.1f}"
-            if place["where"] == "below"
-            else "where no draw goes, as probable: the sampler missed a mode at least as probable as this fit"
-        )
+        where = _where_text(place, _on_box_edge(pc.problem, u))
         rows.append(
             {
                 "fit": f"{run['optimizer']}, seed {int(run['replicate']) + 1}",
@@ -98,12 +87,26 @@ def good_fits_placed(study, pc) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _on_box_edge(problem, theta, tolerance: float = 1e-3) -> str:
-    """The parameters of ``theta`` within ``tolerance`` (unit coordinates) of an edge of ``problem``'s box
-    or beyond it, named with the edge; "" when it lies inside. A search stopped by its box ends there (a
-    fit in another formulation, whose box differs, too): a sliver of the uniform prior the draws seldom
-    reach: the report says so rather than "a missed mode"."""
-    u = np.asarray(box_to_unit(theta[None, :], problem.lower, problem.upper, problem.log_scaled), dtype=float)[0]
+def _where_text(place: dict, edge: str) -> str:
+    """Where a good fit lies against a nested posterior (``nested.locate``'s ``place``), in words; ``edge``:
+    the parameters it has on an edge of the box (``_on_box_edge``)."""
+    if place["where"] == "mode":
+        return f"mode {place['mode'] + 1}"
+    if edge:
+        return (
+            f"on an edge of the prior's box ({edge}), where no draw goes: a search stopped by its box; "
+            "whether the posterior holds mass in that sliver, its draws do not say"
+        )
+    if place["where"] == "below":
+        return f"below the posterior's support by Δ log p = {place['delta']:.1f}"
+    return "where no draw goes, as probable: the sampler missed a mode at least as probable as this fit"
+
+
+def _on_box_edge(problem, u, tolerance: float = 1e-3) -> str:
+    """The parameters of a point (unit coordinates ``u`` of ``problem``'s box) within ``tolerance`` of an
+    edge of the box or beyond it, named with the edge; "" when it lies inside. A search stopped by its box
+    ends there (a fit in another formulation, whose box differs, too): a sliver of the uniform prior the
+    draws seldom reach: the report says so rather than "a missed mode"."""
     table = parameters(problem)
     return ", ".join(
         f"{axis(problem, n, table)} at its {'lower' if u[i] <= tolerance else 'upper'} edge"
