@@ -86,6 +86,10 @@ class Registry(Generic[T]):
                 )
             return self.items.setdefault(name, value)
 
+    def installed(self) -> set[str]:
+        """The names of the installed plug-ins' entry points, none loaded (a broken one included)."""
+        return {ep.name for ep in entry_points(group=self.group)}
+
     def load_plugins(self) -> None:
         """Load every installed plug-in of the group once; a broken one is recorded, never raised."""
         with self.lock:

@@ -73,11 +73,11 @@ REGISTRY: plugins.Registry[ProblemType] = plugins.Registry(
 
 
 def names() -> list[str]:
-    """Built-in problems first, in their order, then the plugged-in and registered ones by name, a
-    broken plug-in included: a study naming it is refused with the plug-in's own error (``get``)."""
-    REGISTRY.load_plugins()
+    """Built-in problems first, in their order, then the installed and registered ones by name, without
+    loading any plug-in (a broken one is named with its error when a study asks for it: ``get``)."""
     with REGISTRY.lock:
-        return [*_BUILTIN, *sorted((set(REGISTRY.items) | set(REGISTRY.broken)) - set(_BUILTIN))]
+        registered = set(REGISTRY.items)
+    return [*_BUILTIN, *sorted((registered | REGISTRY.installed()) - set(_BUILTIN))]
 
 
 def only_in_this_process(name: str) -> bool:

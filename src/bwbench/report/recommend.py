@@ -34,8 +34,8 @@ def _charge_text() -> str:
     """How the budget counts an exact Jacobian, with the built-in models' charges."""
     from bwbench.models import registry
 
-    charges = {registry.get(name).title: registry.get(name).sensitivity_cost for name in registry.BUILTIN}
-    listed = join([f"{cost} for the {title}" for title, cost in charges.items() if cost])
+    models = [registry.get(name) for name in registry.BUILTIN]
+    listed = join([f"{m.sensitivity_cost} for the {m.title}" for m in models if m.sensitivity_cost])
     return (
         "An evaluation is one simulation of one parameter vector; an exact Jacobian (forward sensitivities "
         f"integrated with the model's state) is charged the plain evaluations it costs, rounded up: {listed}."
