@@ -62,14 +62,12 @@ class Registry(Generic[T]):
         read: Callable[[Any, Any], str] | None = None,
         known: str = "known",
     ):
-        self.kind, self.group, self.builtin, self.attribute, self.read, self.known = (
-            kind,
-            group,
-            builtin,
-            attribute,
-            read,
-            known,
-        )
+        self.kind = kind
+        self.group = group
+        self.builtin = builtin
+        self.attribute = attribute
+        self.read = read
+        self.known = known  # the word before the list of names in "unknown ...": "known", "available"
         self.items: dict[str, T] = {}
         self.broken: dict[str, str] = {}  # entry point name -> the line naming it and its error
         self.from_entry_points: set[str] = set()  # names the installed plug-ins gave
