@@ -11,12 +11,12 @@ from bwbench.render.format import evals_text, join, p_text, seconds_text
 from bwbench.render.labels import split_label
 from bwbench.report import time_noise
 from bwbench.report.recommend_clauses import (
-    _deficit_text,
-    _ratio,
-    _success,
+    deficit_text,
     effect_sentence,
     per_variant_text,
     power_text,
+    ratio_number,
+    success_text,
     tie_text,
 )
 from bwbench.report.verdict import (
@@ -92,7 +92,7 @@ def rule(test_name: str, noun: str | None = None) -> list[str]:
 
 def ratio_text(row) -> str:
     """'1.02 [0.99, 1.05]': a Hodges–Lehmann ratio with its interval."""
-    return f"{_ratio(row['ratio'])} [{_ratio(row['ratio_low'])}, {_ratio(row['ratio_high'])}]"
+    return f"{ratio_number(row['ratio'])} [{ratio_number(row['ratio_low'])}, {ratio_number(row['ratio_high'])}]"
 
 
 def _pair(label: str, noun: str | None) -> str:
@@ -121,7 +121,11 @@ def variant_text(verdict: Verdict, noun: str) -> str:
         text = (
             f"In the {winner} {noun}, {len(better)} of {len(g)} backends end at lower final losses than in the "
             f"{loser} {noun} ({loser} over {winner}: Hodges–Lehmann ratio "
-            + (f"{_ratio(better['ratio'].min())} to {_ratio(better['ratio'].max())}" if len(better) else "–")
+            + (
+                f"{ratio_number(better['ratio'].min())} to {ratio_number(better['ratio'].max())}"
+                if len(better)
+                else "–"
+            )
             + f"), {len(significant)} of them significantly (Holm over the {len(g)} comparisons"
         )
         quiet = better[~better["significant"]]
@@ -184,10 +188,10 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     named = f"**Use {_pair(choice, noun).replace('**', '')}** ({choice})" if noun else f"**Use {choice}**"
     out.append(
         f"{named} at a budget of {budget_text} evaluations: it reached the {TARGET:.0%} target in "
-        f"{_success(table, choice)}, with ERT {evals_text(row[f'ert_{TARGET:.0%}'])} evaluations × "
+        f"{success_text(table, choice)}, with ERT {evals_text(row[f'ert_{TARGET:.0%}'])} evaluations × "
         f"{seconds_text(row['s_per_eval'])} per evaluation = "
         f"{seconds_text(row[f'time_{TARGET:.0%}'])} expected time to the target; its median final loss is "
-        f"{_ratio(row['median_ratio'])} × the best known loss."
+        f"{ratio_number(row['median_ratio'])} × the best known loss."
     )
     out.append(per_variant_text(verdict, table, noun))
     if choice in verdict.avoid:
@@ -201,13 +205,13 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
         alike = [n for n in peers if n != verdict.reference]
         described = join(
             [
-                f"{n} (final losses {ratio_text(ref_rows.loc[n])}× the reference's, {_success(table, n)} on target)"
+                f"{n} (final losses {ratio_text(ref_rows.loc[n])}× the reference's, {success_text(table, n)} on target)"
                 for n in alike
             ]
         )
         out.append(
             f"By the rule, {described} {'is' if len(alike) == 1 else 'are'} as good as the reference "
-            f"{verdict.reference} ({_success(table, verdict.reference)} on target)."
+            f"{verdict.reference} ({success_text(table, verdict.reference)} on target)."
         )
         out.append(tie_text(verdict, table))
     else:
@@ -218,13 +222,13 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     if verdict.less_reliable:
         out.append(
             f"Final losses within {PRACTICAL:.0%} of the reference's, but less reliable at reaching the "
-            f"target ({_success(table, verdict.reference)} for {verdict.reference}): "
-            + join([_deficit_text(verdict, table, n) for n in verdict.less_reliable])
+            f"target ({success_text(table, verdict.reference)} for {verdict.reference}): "
+            + join([deficit_text(verdict, table, n) for n in verdict.less_reliable])
             + "."
         )
     if verdict.behind:
         items = [
-            f"{n} ({_ratio(ref_rows.loc[n, 'ratio'])}×{'*' if ref_rows.loc[n, 'significant'] else ''})"
+            f"{n} ({ratio_number(ref_rows.loc[n, 'ratio'])}×{'*' if ref_rows.loc[n, 'significant'] else ''})"
             for n in verdict.behind
         ]
         out.append(
@@ -235,7 +239,7 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     if avoid:
         base = verdict.vs_baseline.set_index("a")
         items = [
-            f"**{n}** ({_ratio(base.loc[n, 'ratio'])}× {verdict.baselines[0]}'s final losses, Holm p = "
+            f"**{n}** ({ratio_number(base.loc[n, 'ratio'])}× {verdict.baselines[0]}'s final losses, Holm p = "
             f"{p_text(base.loc[n, 'p_holm'])})"
             for n in avoid
         ]
@@ -245,8 +249,8 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
             "Random search is the baseline, never a candidate: "
             + join(
                 [
-                    f"{n} ends at a median {_ratio(table.loc[n, 'median_ratio'])} × the best known loss "
-                    f"({_success(table, n)} on target)"
+                    f"{n} ends at a median {ratio_number(table.loc[n, 'median_ratio'])} × the best known loss "
+                    f"({success_text(table, n)} on target)"
                     for n in verdict.baselines
                 ]
             )
@@ -275,7 +279,7 @@ def box(verdict: Verdict, table, budget, noun: str | None, what: dict | None = N
         + f" at **{budget_text} evaluations** per run (label `{choice}`)."
     ]
     items.append(
-        f"**Reaches the target** (within {TARGET:.0%} of the best known loss) in {_success(table, choice)}; "
+        f"**Reaches the target** (within {TARGET:.0%} of the best known loss) in {success_text(table, choice)}; "
         f"expected time {seconds_text(row[f'time_{TARGET:.0%}'])} ({evals_text(row[f'ert_{TARGET:.0%}'])} "
         f"evaluations × {seconds_text(row['s_per_eval'])} on the machine that ran it)."
     )
@@ -320,7 +324,7 @@ def one_line(verdict: Verdict, table, budget) -> str:
     budget_text = f"{budget:,}" if isinstance(budget, (int, float)) else str(budget)
     row = table.loc[choice]
     text = (
-        f"Recommendation: use {choice} at {budget_text} evaluations ({_success(table, choice)} within "
+        f"Recommendation: use {choice} at {budget_text} evaluations ({success_text(table, choice)} within "
         f"{TARGET:.0%} of the best known loss, expected time {seconds_text(row[f'time_{TARGET:.0%}'])})"
     )
     if verdict.tied:

@@ -14,7 +14,7 @@ from bwbench.report import time_noise
 from bwbench.report.verdict import ALPHA, TARGET, Verdict
 
 
-def _ratio(x) -> str:
+def ratio_number(x) -> str:
     """A loss ratio: three decimals near 1 (1.004, 0.982), three figures further out, powers of ten far."""
     if not np.isfinite(x):
         return number(x)
@@ -23,7 +23,7 @@ def _ratio(x) -> str:
     return f"{x:.3g}" if 0.01 <= x < 1000 else f"{x:.1e}"
 
 
-def _success(table, label, tau=TARGET) -> str:
+def success_text(table, label, tau=TARGET) -> str:
     row = table.loc[label]
     runs = int(row["runs"])
     return f"{int(round(row[f'success_{tau:.0%}'] * runs))} of {runs} runs"
@@ -85,16 +85,16 @@ def per_variant_text(verdict: Verdict, table, noun) -> str:
         return ""
     items = [
         f"{split_label(label)[0]} in the {variant} {noun} (median final loss "
-        f"{_ratio(table.loc[label, 'median_ratio'])} × the best known, {_success(table, label)} on target)"
+        f"{ratio_number(table.loc[label, 'median_ratio'])} × the best known, {success_text(table, label)} on target)"
         for variant, label in first.items()
     ]
     return f"If the {noun} is given, the backend to use in each, by the same rule: {join(items)}."
 
 
-def _deficit_text(verdict, table, label) -> str:
+def deficit_text(verdict, table, label) -> str:
     specimen, gap = verdict.deficit.get(label, (None, math.nan))
     where = f"; {gap * 100:.0f} points below the reference on {specimen}" if specimen is not None else ""
-    return f"{label} ({_success(table, label)} on target{where})"
+    return f"{label} ({success_text(table, label)} on target{where})"
 
 
 def power_text(verdict: Verdict, tests) -> str:

@@ -24,10 +24,10 @@ from bwbench.problems.noel_schoukens.analysis import (
 from bwbench.problems.noel_schoukens.report_sections import (
     NAMES,
     TARGET_M,
-    _section_identifiability,
-    _section_parameters,
-    _section_posterior,
-    _section_results,
+    section_identifiability,
+    section_parameters,
+    section_posterior,
+    section_results,
 )
 
 SOURCE = (
@@ -82,7 +82,7 @@ def _context(report) -> dict:
 
 def report_intro(report) -> None:
     c = _context(report)
-    _section_results(
+    section_results(
         report.doc,
         report.study,
         c["results"],
@@ -102,7 +102,7 @@ def add_sections(report) -> None:
     study, doc, out = report.study, report.doc, report.out
     c = _context(report)
     problem, results, truth = c["problem"], c["results"], c["truth"]
-    _section_parameters(doc, study, results, problem, truth)
+    section_parameters(doc, study, results, problem, truth)
     ranking = study.ranking
     # the best fit of the study: the run with the lowest training MSE, whichever backend found it
     done = finished(ranking)
@@ -115,7 +115,7 @@ def add_sections(report) -> None:
     except ValueError:
         doc.p("Identifiability analysis not possible: the model is not finite next to the best fit.")
     else:
-        _section_identifiability(doc, analysis, label)
+        section_identifiability(doc, analysis, label)
     doc.figure(
         benchmark_figures.test_fit(study, out, problem, params, label, order=list(report.table["optimizer"])),
         f"The best fit ({label}) against the test_multisine output, and the error of the fit and of the true "
@@ -126,4 +126,4 @@ def add_sections(report) -> None:
         "Identified parameters of the runs within 10 % of the best training MSE, scaled to the search box, "
         "with the truth (×): β, γ, δ scatter along their invariance while βγ and βδ stay on the truth",
     )
-    _section_posterior(doc, study)
+    section_posterior(doc, study)

@@ -67,7 +67,7 @@ def _budget(study) -> str:
     return f"{budget:,}" if isinstance(budget, int) else str(budget)
 
 
-def _section_results(doc, study, results, truth, best_backend, ties):
+def section_results(doc, study, results, truth, best_backend, ties):
     budget = _budget(study)
     doc.h(2, "Benchmark results: simulation error on the test files")
     rows = []
@@ -143,7 +143,7 @@ def _section_results(doc, study, results, truth, best_backend, ties):
     )
 
 
-def _section_parameters(doc, study, results, problem, truth):
+def section_parameters(doc, study, results, problem, truth):
     doc.h(2, "Identified parameters")
     doc.p(
         "**β, γ and δ are not separately identifiable.** β enters the model only through the products βγ and βδ: "
@@ -211,7 +211,7 @@ def _section_parameters(doc, study, results, problem, truth):
     )
 
 
-def _section_identifiability(doc, analysis, label):
+def section_identifiability(doc, analysis, label):
     sens = analysis["sensitivity"]
     ratios = sens.ratios
     weakest = analysis["weakest"]
@@ -299,7 +299,7 @@ def _section_identifiability(doc, analysis, label):
     )
 
 
-def _section_posterior(doc, study):
+def section_posterior(doc, study):
     chains = [c for c in study.chains if c.kind == "posterior"]
     if not chains:
         return
