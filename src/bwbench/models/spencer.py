@@ -92,11 +92,13 @@ VY_RANGE = (1e-3, 10.0)
 R0_RANGE = (1e-3, 1e3)
 KAPPA0_MAX = 10.0
 # The integration tolerance per step of a fit's exploring local searches (``Spencer.exploring``). At
-# 1e-3 a simulation costs 0.4–0.55 of one at the model's 1e-5 (the rest is the floor of one step per
-# sample interval) and the force moves by 0.06 N RMS on a 5 N residual (MR-damper generator tests,
-# 600–6,000 samples): the ends of the searches land where they would, and the best one is polished at
-# 1e-5 in a few iterations.
-EXPLORATION_TOLERANCE = 1e-3
+# 1e-4 a simulation costs 0.4–0.7 of one at the model's 1e-5 (fewer steps at the reversals; the floor is
+# one step per sample interval) and the force moves by 0.006–0.025 N RMS on a 4–5 N residual (MR-damper
+# generator tests, 600–6,000 samples): the searches end where they would, and their best end is
+# polished at 1e-5 in a few iterations. 1e-3 was tried: 0.5 of the cost, but on a random-motion test
+# its loss had a spurious minimum 3 % below the optimum (the searches then never agreed) and the
+# sensitivities ran away at 7–9 % of random points of the box.
+EXPLORATION_TOLERANCE = 1e-4
 KAPPA0_FLOOR = 1e-6
 # Physical limits of the solved coefficients (when the loops dissipate: ``linear_bounds``).
 COEFFICIENT_LIMITS = {
@@ -277,8 +279,14 @@ class Spencer(Model):
         from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
 
         arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
         tol = {} if self.tolerance is None else {"tol": self.tolerance}
-        Z, S, status = ydot_sensitivity_batch(np.atleast_2d(np.asarray(theta, dtype=float)), *arrays, **tol)
+        Z, S, status = ydot_sensitivity_batch(theta, *arrays, **tol)
+        if tol and status[0] == 0 and not (np.all(np.isfinite(S[0])) and np.max(np.abs(S[0])) <= 1e100):
+            # The sensitivities step with the state's W (the W-method leaves out their coupling): at a loose
+            # tolerance's long steps they can run away where the state does not (1–4 % of random points of
+            # the box at 1e-4, none at 1e-5). Retaken at the model's own tolerance.
+            Z, S, status = ydot_sensitivity_batch(theta, *arrays)
         return (Z[0], S[0]) if status[0] == 0 else None
 
     def force_sensitivities(self, P, signal, state=None):
