@@ -277,12 +277,18 @@ def minimize(
     with threadpool_limits(limits=1, user_api="blas"):
         if cheaper is None:
             return _restarts(objective, rng, search, stop_agree, agree_rtol, stop_on_arrival, agree_same_fit)
+        # The exploring searches' ends need only be within the agreement's tolerances (the best one is
+        # polished): a shorter stall window. On the MR-damper generator's tests 3 instead of 5 took
+        # 10–25 % fewer evaluations, the same optimum and NRMSE on every test.
+        stall = search["stall"]
+        search["stall"] = (min(int(stall[0]), EXPLORE_STALL_ITERS), stall[1])
         try:
             extras = _restarts(cheaper, rng, search, stop_agree, agree_rtol, stop_on_arrival, agree_same_fit)
         except BudgetExhausted:
             extras = {"message": "budget exhausted", "stop_reason": "budget exhausted"}
         finally:
             objective.charge(cheaper)
+            search["stall"] = stall
         return _polish(objective, cheaper, rng, search, extras)
 
 
@@ -291,6 +297,7 @@ def minimize(
 # ~1 % of the optimum's MSE).
 POLISH_SHARE, POLISH_MIN = 0.05, 40
 POLISH_STALL_ITERS = 2
+EXPLORE_STALL_ITERS = 3
 
 
 def _polish_reserve(budget: int) -> int:
@@ -306,7 +313,8 @@ def _polish(objective, cheaper, rng, search, extras) -> dict:
     u0 = cheaper.best_u
     # It starts where the searches agreed, within ~1 % of the optimum's MSE: stalled after two iterations
     # (not five) of less than ``stall_rtol`` in all.
-    residuals = _Residuals(objective, search["diff_step"], POLISH_STALL_ITERS, search["stall"][1], exact=search["exact"])
+    stall = min(int(search["stall"][0]), POLISH_STALL_ITERS)
+    residuals = _Residuals(objective, search["diff_step"], stall, search["stall"][1], exact=search["exact"])
     how = "their best end polished"
     if u0 is None or residuals.start(u0) is None:  # nothing finite there, or not on the finer simulation
         return _restarts(objective, rng, search, 0, 0.0, False, False)
