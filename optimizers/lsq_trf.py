@@ -312,9 +312,9 @@ def _polish(objective, cheaper, rng, search, extras) -> dict:
     before = objective.nfev
     u0 = cheaper.best_u
     # It starts where the searches agreed, within ~1 % of the optimum's MSE: stalled after two iterations
-    # (not five) of less than ``stall_rtol`` in all.
+    # (not five) of less than a tenth of ``stall_rtol`` in all.
     stall = min(int(search["stall"][0]), POLISH_STALL_ITERS)
-    residuals = _Residuals(objective, search["diff_step"], stall, search["stall"][1], exact=search["exact"])
+    residuals = _Residuals(objective, search["diff_step"], stall, 0.1 * search["stall"][1], exact=search["exact"])
     how = "their best end polished"
     if u0 is None or residuals.start(u0) is None:  # nothing finite there, or not on the finer simulation
         return _restarts(objective, rng, search, 0, 0.0, False, False)
