@@ -71,3 +71,30 @@ def test_an_objective_without_a_cheaper_problem_has_no_exploration_and_charges_c
     child.batch(np.full((4, 6), 0.5))
     parent.charge(child)
     assert parent.nfev == 4 and parent.best_u is None  # counted here, its losses not recorded here
+
+
+def test_samples_per_cycle_counts_each_reversal_once_through_the_velocitys_noise():
+    from bwbench.problems.hysteresis.exploration import samples_per_cycle
+
+    t = np.arange(3000) / 1000.0  # three cycles of a 1 Hz sine at 1 kHz
+    v = np.cos(2 * np.pi * t) + np.random.default_rng(4).normal(0.0, 0.02, t.size)
+    assert samples_per_cycle(v) == pytest.approx(1000.0, rel=0.01)
+
+
+def test_an_oversampled_record_is_explored_on_every_kth_sample_and_fitted_on_all():
+    from bwbench.problems.hysteresis.exploration import decimation
+
+    slow = make_problem(
+        read_specimen(MR.parent / "mr_25mm_0.5Hz_1V.csv"), {"model": "spencer", "formulation": "identifiable"}
+    )
+    assert decimation(slow) == 5  # 1,000 samples per cycle: 200 kept
+    cheaper = slow.exploration()
+    assert cheaper.n_data == 601 and slow.n_data == 3001 and len(cheaper.signal.x) == 601
+    assert np.array_equal(cheaper.lower, slow.lower) and np.array_equal(cheaper.upper, slow.upper)  # one box
+    assert decimation(_problem()) == 1  # 250 samples per cycle: every sample
+    result = fitting.run(slow, "lsq-trf", 4100, 1, {"stop_agree": 3})
+    assert result.extras["stop_reason"] == "restarts agree" and "every 5th sample" in result.message
+    theta = np.array([[result.params[name] for name in slow.param_names]])
+    assert slow.loss_batch(theta)[0] == pytest.approx(result.mse, rel=1e-12)  # the loss on all 3,001 samples
+    plain = fitting.run(slow, "lsq-trf", 4100, 1, {"stop_agree": 3, "explore": False})
+    assert result.mse == pytest.approx(plain.mse, rel=2e-3)
