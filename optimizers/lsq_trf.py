@@ -49,7 +49,14 @@ stands at the best optimum earlier searches ended at (half the agreement's toler
 ``agree_rtol``/2, every unit coordinate within ``AGREE_UTOL``/2 or the fitted curve within
 ``AGREE_FTOL``/2): it would end there, after the 5+ iterations its stall test needs (on MR-damper
 tests the searches that found the optimum spent about half their evaluations confirming it). It
-counts as ending there.
+counts as ending there. ``explore`` (true; only with ``stop_agree``): where the problem has a cheaper
+copy (``Objective.exploration``: Spencer's model at integration tolerance 1e-4 instead of 1e-5, on every
+k-th sample of a record with more than 400 samples per cycle), the local searches run there, with a stall
+window of 3, and once they agree (or their share of the budget is spent) their best end is polished by
+one more search on the problem itself (stall window 2, a tenth of ``stall_rtol``), which gives the
+reported fit; every evaluation of either counts against the one budget, of which ``POLISH_SHARE`` (at
+least ``POLISH_MIN``) is kept for the polish. ``extras["exploration"]`` says what the cheaper copy
+changed and how the evaluations split.
 
 Why the stall test: on the switched model most random starts fall within 10–20 iterations into
 one of a few local minima (on the 0.05 MPa specimen, identifiable formulation: 11.1× and 28× the
@@ -353,7 +360,8 @@ def _restarts(objective, rng, search, stop_agree, agree_rtol, stop_on_arrival, a
     """Local searches from uniform random starts until the objective raises ``BudgetExhausted`` or
     ``stop_agree`` of them agree (the module docstring); the run's extras when they agree."""
     d = objective.dim
-    residuals = _Residuals(objective, search["diff_step"], *search["stall"], exact=search["exact"])
+    stall_iters, stall_rtol = search["stall"]
+    residuals = _Residuals(objective, search["diff_step"], stall_iters, stall_rtol, exact=search["exact"])
     ends: list[tuple] = []  # (lowest MSE, where, its residual vector or None) of each finished local search
     arrivals = 0
     if stop_agree and stop_on_arrival:

@@ -98,3 +98,19 @@ def test_an_oversampled_record_is_explored_on_every_kth_sample_and_fitted_on_all
     assert slow.loss_batch(theta)[0] == pytest.approx(result.mse, rel=1e-12)  # the loss on all 3,001 samples
     plain = fitting.run(slow, "lsq-trf", 4100, 1, {"stop_agree": 3, "explore": False})
     assert result.mse == pytest.approx(plain.mse, rel=2e-3)
+
+
+def test_a_joint_fit_explores_on_every_sample_of_each_file():
+    from bwbench.problems.hysteresis.joint_problem import JointProblem
+
+    parts = [
+        make_problem(read_specimen(MR.parent / name), {"model": "spencer", "formulation": "identifiable"})
+        for name in ("mr_25mm_0.5Hz_1V.csv", "mr_10mm_2Hz_1V.csv")
+    ]
+    joint = JointProblem(parts)
+    cheaper = joint.exploration()
+    assert cheaper.model.tolerance == EXPLORATION_TOLERANCE
+    assert [p.n_data for p in cheaper.parts] == [3001, 751] and cheaper.n_data == joint.n_data
+    theta = np.array([[0.02, 2.0, 0.3, 20.0, 0.09, 0.2]])
+    assert cheaper.residual_batch(theta).shape == joint.residual_batch(theta).shape == (1, 3752)
+    assert cheaper.loss_batch(theta)[0] == pytest.approx(joint.loss_batch(theta)[0], rel=1e-2)

@@ -346,7 +346,9 @@ def _ydot(theta6, signal, tol: float | None = None) -> np.ndarray:
     if v[0] != 0.0 and starts_from_rest(t, x, v):
         v = v.copy()
         v[0] = 0.0
-    out, status = ydot_batch(np.ascontiguousarray(theta6, dtype=float), t, x, v, a, **({} if tol is None else {"tol": tol}))
+    out, status = ydot_batch(
+        np.ascontiguousarray(theta6, dtype=float), t, x, v, a, **({} if tol is None else {"tol": tol})
+    )
     MODEL.step_budget_stops += int(np.count_nonzero(status == STATUS_STEP_BUDGET))
     return out
 

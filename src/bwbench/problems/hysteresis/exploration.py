@@ -18,19 +18,21 @@ import numpy as np
 MIN_SAMPLES_PER_CYCLE = 200
 
 
-def exploration(problem):
+def exploration(problem, decimate: bool = True):
     """A copy of ``problem`` (one file or joint) whose model is ``problem.model.exploring()`` and, for one
-    oversampled record, every ``decimation(problem)``-th sample only; None when the model has no cheaper
-    simulation."""
+    oversampled record (``decimate``), every ``decimation(problem)``-th sample only; None when the model
+    has no cheaper simulation."""
     exploring = getattr(problem.model, "exploring", None)
     if not callable(exploring):
         return None
     cheaper = copy.copy(problem)
     cheaper.model = exploring()
-    if hasattr(problem, "parts"):  # a joint problem: its files' problems simulate too (direct formulation)
-        cheaper.parts = [exploration(part) for part in problem.parts]
+    if hasattr(problem, "parts"):
+        # A joint problem: its files' problems simulate too (direct formulation), on all their samples (the
+        # joint linear solve stacks them).
+        cheaper.parts = [exploration(part, decimate=False) for part in problem.parts]
         return cheaper
-    k = decimation(problem)
+    k = decimation(problem) if decimate else 1
     if k > 1:
         _keep_every(cheaper, k)
     return cheaper
