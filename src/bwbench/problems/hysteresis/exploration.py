@@ -28,20 +28,38 @@ def exploration(problem, decimate: bool = True):
     cheaper = copy.copy(problem)
     cheaper.model = exploring()
     if hasattr(problem, "parts"):
-        # A joint problem: its files' problems simulate too (direct formulation), on all their samples (the
-        # joint linear solve stacks them).
-        cheaper.parts = [exploration(part, decimate=False) for part in problem.parts]
-        return cheaper
+        return _joint_exploration(problem, cheaper, decimate)
     k = decimation(problem) if decimate else 1
     if k > 1:
         _keep_every(cheaper, k)
     return cheaper
 
 
+def _joint_exploration(problem, cheaper, decimate: bool):
+    """The exploring copy of a joint problem: its files' exploring copies, restacked when some of them keep
+    every k-th sample only (an identifiable joint fit weighting its files equally, so that the files
+    weigh the same in both), on the joint problem's own box."""
+    parts = [exploration(part, decimate) for part in problem.parts]
+    design = getattr(problem, "design", None)
+    if design is None or problem.weighting != "equal" or all(getattr(p, "decimated", 1) == 1 for p in parts):
+        cheaper.parts = [exploration(part, decimate=False) for part in problem.parts]
+        return cheaper
+    from bwbench.problems.hysteresis.joint_problem import JointProblem
+
+    restacked = JointProblem(
+        parts, problem.weighting, fix_mass=design.fix_mass, offsets=design.offsets, coefficient_bounds=design.bounds
+    )
+    restacked.lower, restacked.upper, restacked.workers = problem.lower, problem.upper, problem.workers
+    return restacked
+
+
 def exploration_note(problem) -> str:
     """What the exploring copy changes, in words ("" when there is none)."""
     note = str(getattr(problem.model, "exploration_note", ""))
     k = getattr(problem, "decimated", 1)
+    ks = [getattr(part, "decimated", 1) for part in getattr(problem, "parts", ())]
+    if any(k > 1 for k in ks):
+        return f"{note}, every k-th sample of each file (k = {', '.join(map(str, ks))})"
     return f"{note}, every {k}th sample" if k > 1 else note
 
 
