@@ -51,7 +51,7 @@ stands at the best optimum earlier searches ended at (half the agreement's toler
 tests the searches that found the optimum spent about half their evaluations confirming it). It
 counts as ending there. ``explore`` (true; only with ``stop_agree``): where the problem has a cheaper
 copy (``Objective.exploration``: Spencer's model at integration tolerance 1e-4 instead of 1e-5, on every
-k-th sample of a record with more than 400 samples per cycle), the local searches run there, with a stall
+k-th sample of a record with at least 1,000 samples per cycle), the local searches run there, with a stall
 window of 3, and once they agree (or their share of the budget is spent) their best end is polished by
 one more search on the problem itself (stall window 2, a tenth of ``stall_rtol``), which gives the
 reported fit; every evaluation of either counts against the one budget, of which ``POLISH_SHARE`` (at

@@ -87,13 +87,13 @@ def test_an_oversampled_record_is_explored_on_every_kth_sample_and_fitted_on_all
     slow = make_problem(
         read_specimen(MR.parent / "mr_25mm_0.5Hz_1V.csv"), {"model": "spencer", "formulation": "identifiable"}
     )
-    assert decimation(slow) == 5  # 1,000 samples per cycle: 200 kept
+    assert decimation(slow) == 2  # 1,000 samples per cycle: 500 kept
     cheaper = slow.exploration()
-    assert cheaper.n_data == 601 and slow.n_data == 3001 and len(cheaper.signal.x) == 601
+    assert cheaper.n_data == 1501 and slow.n_data == 3001 and len(cheaper.signal.x) == 1501
     assert np.array_equal(cheaper.lower, slow.lower) and np.array_equal(cheaper.upper, slow.upper)  # one box
     assert decimation(_problem()) == 1  # 250 samples per cycle: every sample
     result = fitting.run(slow, "lsq-trf", 4100, 1, {"stop_agree": 3})
-    assert result.extras["stop_reason"] == "restarts agree" and "every 5th sample" in result.message
+    assert result.extras["stop_reason"] == "restarts agree" and "every k-th sample (k = 2)" in result.message
     theta = np.array([[result.params[name] for name in slow.param_names]])
     assert slow.loss_batch(theta)[0] == pytest.approx(result.mse, rel=1e-12)  # the loss on all 3,001 samples
     plain = fitting.run(slow, "lsq-trf", 4100, 1, {"stop_agree": 3, "explore": False})
@@ -111,11 +111,11 @@ def test_a_joint_fit_explores_on_every_kth_sample_of_its_oversampled_files_on_it
     joint = JointProblem(parts)
     cheaper = joint.exploration()
     assert cheaper.model.tolerance == EXPLORATION_TOLERANCE and joint.model.tolerance is None
-    assert [p.n_data for p in cheaper.parts] == [601, 751] and cheaper.n_data == 1352 and joint.n_data == 3752
+    assert [p.n_data for p in cheaper.parts] == [1501, 751] and cheaper.n_data == 2252 and joint.n_data == 3752
     assert np.array_equal(cheaper.lower, joint.lower) and np.array_equal(cheaper.upper, joint.upper)
-    assert "k = 5, 1" in exploration_note(cheaper)
+    assert "k = 2, 1" in exploration_note(cheaper)
     theta = np.array([[0.02, 2.0, 0.3, 20.0, 0.09, 0.2]])
-    assert cheaper.residual_batch(theta).shape == (1, 1352) and joint.residual_batch(theta).shape == (1, 3752)
+    assert cheaper.residual_batch(theta).shape == (1, 2252) and joint.residual_batch(theta).shape == (1, 3752)
     assert cheaper.loss_batch(theta)[0] == pytest.approx(joint.loss_batch(theta)[0], rel=0.1)
     samples = JointProblem(parts, "samples").exploration()  # files weighed by their samples: all of them kept
     assert samples.n_data == 3752
