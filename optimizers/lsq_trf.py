@@ -299,12 +299,9 @@ def minimize(
         return _polish(objective, cheaper, rng, search, extras)
 
 
-# Evaluations kept back from the exploring searches for the polish of their best end (``_polish``): it
-# took 4–30 on the MR-damper generator's tests (one to three trf iterations from an end already within
-# ~1 % of the optimum's MSE).
-POLISH_SHARE, POLISH_MIN = 0.05, 40
-POLISH_STALL_ITERS = 2
-EXPLORE_STALL_ITERS = 3
+# Evaluations kept back from the exploring searches for the polish of their best end (``_polish``): it took
+# 7–30 on the MR-damper generator's tests (a few trf iterations from an end within ~1 % of the optimum's MSE).
+POLISH_SHARE, POLISH_MIN, POLISH_STALL_ITERS, EXPLORE_STALL_ITERS = 0.05, 40, 2, 3
 
 
 def _polish_reserve(budget: int) -> int:
@@ -314,8 +311,6 @@ def _polish_reserve(budget: int) -> int:
 def _polish(objective, cheaper, rng, search, extras) -> dict:
     """One local search on the problem itself from the best end the exploring searches (on ``cheaper``,
     the problem's cheaper simulation) found; the exploration's extras with how the polish went."""
-    from bwbench.problems.hysteresis.exploration import exploration_note
-
     before = objective.nfev
     u0 = cheaper.best_u
     # It starts where the searches agreed, within ~1 % of the optimum's MSE: stalled after two iterations
@@ -331,7 +326,7 @@ def _polish(objective, cheaper, rng, search, extras) -> dict:
         pass
     except BudgetExhausted:
         how += " until the budget ran out"
-    note = exploration_note(cheaper.problem)
+    note = getattr(cheaper.problem, "exploration_note", "") or "a cheaper copy of the problem"
     extras = dict(extras)
     extras["message"] = (
         f"{extras['message']}; the local searches ran on a cheaper simulation ({note}), {how} on the model's own "

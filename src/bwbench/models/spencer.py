@@ -189,6 +189,7 @@ class Spencer(Model):
     # The integration's tolerance per step (None: the kernel's own, ``spencer_kernel._TOL`` = 1e-5);
     # ``exploring`` gives a copy at ``EXPLORATION_TOLERANCE``.
     tolerance: float | None = None
+    exploration_note = f"Spencer's model integrated at tolerance {EXPLORATION_TOLERANCE:g} per step instead of 1e-5"
 
     def exploring(self) -> Spencer:
         """This model integrated at ``EXPLORATION_TOLERANCE`` per step: for a fit's exploring local
@@ -198,10 +199,6 @@ class Spencer(Model):
         cheaper = copy.copy(self)
         cheaper.tolerance = EXPLORATION_TOLERANCE
         return cheaper
-
-    @property
-    def exploration_note(self) -> str:
-        return f"Spencer's model integrated at tolerance {EXPLORATION_TOLERANCE:g} per step instead of 1e-5"
 
     def direct_parameters(self, state=None) -> tuple:
         return DIRECT

@@ -30,10 +30,12 @@ def exploration(problem, decimate: bool = True):
     cheaper = copy.copy(problem)
     cheaper.model = exploring()
     if hasattr(problem, "parts"):
-        return _joint_exploration(problem, cheaper, decimate)
-    k = decimation(problem) if decimate else 1
-    if k > 1:
-        _keep_every(cheaper, k)
+        cheaper = _joint_exploration(problem, cheaper, decimate)
+    else:
+        k = decimation(problem) if decimate else 1
+        if k > 1:
+            _keep_every(cheaper, k)
+    cheaper.exploration_note = exploration_note(cheaper)  # what the searches' message says it changed
     return cheaper
 
 
@@ -46,9 +48,7 @@ def _joint_exploration(problem, cheaper, decimate: bool):
     if design is None or problem.weighting != "equal" or all(getattr(p, "decimated", 1) == 1 for p in parts):
         cheaper.parts = [exploration(part, decimate=False) for part in problem.parts]
         return cheaper
-    from bwbench.problems.hysteresis.joint_problem import JointProblem
-
-    restacked = JointProblem(
+    restacked = type(problem)(  # a JointProblem (not imported: it imports this module)
         parts, problem.weighting, fix_mass=design.fix_mass, offsets=design.offsets, coefficient_bounds=design.bounds
     )
     restacked.lower, restacked.upper, restacked.workers = problem.lower, problem.upper, problem.workers
