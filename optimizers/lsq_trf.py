@@ -49,14 +49,11 @@ stands at the best optimum earlier searches ended at (half the agreement's toler
 ``agree_rtol``/2, every unit coordinate within ``AGREE_UTOL``/2 or the fitted curve within
 ``AGREE_FTOL``/2): it would end there, after the 5+ iterations its stall test needs (on MR-damper
 tests the searches that found the optimum spent about half their evaluations confirming it). It
-counts as ending there. ``explore`` (true; only with ``stop_agree``): where the problem has a cheaper
-copy (``Objective.exploration``: Spencer's model at integration tolerance 1e-4 instead of 1e-5, on every
-k-th sample of a record with at least 1,000 samples per cycle), the local searches run there, with a stall
-window of 3, and once they agree (or their share of the budget is spent) their best end is polished by
-one more search on the problem itself (stall window 2, a tenth of ``stall_rtol``), which gives the
-reported fit; every evaluation of either counts against the one budget, of which ``POLISH_SHARE`` (at
-least ``POLISH_MIN``) is kept for the polish. ``extras["exploration"]`` says what the cheaper copy
-changed and how the evaluations split.
+counts as ending there. ``explore`` (true; only with ``stop_agree``): where the problem has a cheaper copy
+(``Objective.exploration``: Spencer's model at tolerance 1e-4, not 1e-5, on every k-th sample of a record of
+≥ 1,000 samples per cycle) the searches run there (stall window 3); their best end is then polished on the
+problem itself (window 2, a tenth of ``stall_rtol``: the reported fit), all on the one budget, of which
+``POLISH_SHARE`` (≥ ``POLISH_MIN``) is kept for the polish; ``extras["exploration"]`` gives the split.
 
 Why the stall test: on the switched model most random starts fall within 10–20 iterations into
 one of a few local minima (on the 0.05 MPa specimen, identifiable formulation: 11.1× and 28× the
@@ -277,7 +274,9 @@ def minimize(
         stall=(stall_iters, stall_rtol),
         exact=jacobian == "auto",
     )
-    cheaper = objective.exploration(_polish_reserve(objective.budget)) if stop_agree and explore else None
+    cheaper = (
+        objective.exploration(max(POLISH_MIN, int(POLISH_SHARE * objective.budget))) if stop_agree and explore else None
+    )
     # One BLAS thread: trf takes an SVD of the (L + d) × d Jacobian every iteration, 5 ms on one
     # core and 95 ms with OpenBLAS's 2 threads on a busy 2-core machine (L ≈ 2,000, d = 14); and
     # the run then does not depend on the machine's thread count.
@@ -304,13 +303,10 @@ def minimize(
 POLISH_SHARE, POLISH_MIN, POLISH_STALL_ITERS, EXPLORE_STALL_ITERS = 0.05, 40, 2, 3
 
 
-def _polish_reserve(budget: int) -> int:
-    return max(POLISH_MIN, int(POLISH_SHARE * budget))
-
-
 def _polish(objective, cheaper, rng, search, extras) -> dict:
     """One local search on the problem itself from the best end the exploring searches (on ``cheaper``,
-    the problem's cheaper simulation) found; the exploration's extras with how the polish went."""
+    the problem's cheaper simulation) found, then, if they did not agree, more searches there until the
+    budget is spent (a budget is spent whole unless searches agree); the extras, with how it went."""
     before = objective.nfev
     u0 = cheaper.best_u
     # It starts where the searches agreed, within ~1 % of the optimum's MSE: stalled after two iterations
@@ -326,13 +322,19 @@ def _polish(objective, cheaper, rng, search, extras) -> dict:
         pass
     except BudgetExhausted:
         how += " until the budget ran out"
+    polish, rest = objective.nfev - before, ""
+    if extras.get("stop_reason") == "budget exhausted" and not objective.exhausted:
+        try:
+            _restarts(objective, rng, search, 0, 0.0, False, False)
+        except BudgetExhausted:
+            rest = f", and the {objective.nfev - before - polish} left in more local searches there"
     note = getattr(cheaper.problem, "exploration_note", "") or "a cheaper copy of the problem"
     extras = dict(extras)
     extras["message"] = (
         f"{extras['message']}; the local searches ran on a cheaper simulation ({note}), {how} on the model's own "
-        f"in {objective.nfev - before} evaluations"
+        f"in {polish} evaluations{rest}"
     )
-    extras["exploration"] = {"simulation": note, "evaluations": cheaper.nfev, "polish": objective.nfev - before}
+    extras["exploration"] = {"simulation": note, "evaluations": cheaper.nfev, "polish": polish}
     return extras
 
 
