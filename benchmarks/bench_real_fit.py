@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/bench_real_fit.py            # ~5-10 min on 2 busy cores
     .venv/bin/python benchmarks/bench_real_fit.py --quick    # three files, no joint fit
+    .venv/bin/python benchmarks/bench_real_fit.py --no-explore   # searches on the model's own simulation
 
 The files, written in a temporary folder as a user's would be and read back through ``bwbench.fit``:
 
@@ -137,8 +138,15 @@ def main():
         action="store_true",
         help="lsq-trf's earlier agreement rule: ends agree by their parameters only (agree_same_fit=false)",
     )
+    parser.add_argument(
+        "--no-explore",
+        action="store_true",
+        help="lsq-trf's local searches on the model's own simulation throughout (explore=false: the fit before the exploring searches)",
+    )
     args = parser.parse_args()
-    options = {"agree_same_fit": False} if args.coordinates_only else None
+    options = {"agree_same_fit": False} if args.coordinates_only else {}
+    if args.no_explore:
+        options["explore"] = False
     rng = np.random.default_rng(2027)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)

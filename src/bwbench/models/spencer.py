@@ -91,6 +91,14 @@ ETA_RANGE = (-50.0, 1.0)
 VY_RANGE = (1e-3, 10.0)
 R0_RANGE = (1e-3, 1e3)
 KAPPA0_MAX = 10.0
+# The integration tolerance per step of a fit's exploring local searches (``Spencer.exploring``). At
+# 1e-4 a simulation costs 0.4–0.7 of one at the model's 1e-5 (fewer steps at the reversals; the floor is
+# one step per sample interval) and the force moves by 0.006–0.025 N RMS on a 4–5 N residual (MR-damper
+# generator tests, 600–6,000 samples): the searches end where they would, and their best end is
+# polished at 1e-5 in a few iterations. 1e-3 was tried: 0.5 of the cost, but on a random-motion test
+# its loss had a spurious minimum 3 % below the optimum (the searches then never agreed) and the
+# sensitivities ran away at 7–9 % of random points of the box.
+EXPLORATION_TOLERANCE = 1e-4
 KAPPA0_FLOOR = 1e-6
 # Physical limits of the solved coefficients (when the loops dissipate: ``linear_bounds``).
 COEFFICIENT_LIMITS = {
@@ -178,6 +186,19 @@ class Spencer(Model):
         "magnetorheological dampers, J. Eng. Mech. 123(3):230-238, 1997"
     )
     default_formulation = "identifiable"
+    # The integration's tolerance per step (None: the kernel's own, ``spencer_kernel._TOL`` = 1e-5);
+    # ``exploring`` gives a copy at ``EXPLORATION_TOLERANCE``.
+    tolerance: float | None = None
+    exploration_note = f"Spencer's model integrated at tolerance {EXPLORATION_TOLERANCE:g} per step instead of 1e-5"
+
+    def exploring(self) -> Spencer:
+        """This model integrated at ``EXPLORATION_TOLERANCE`` per step: for a fit's exploring local
+        searches, whose best end is then polished at the model's own tolerance (``lsq-trf``)."""
+        import copy
+
+        cheaper = copy.copy(self)
+        cheaper.tolerance = EXPLORATION_TOLERANCE
+        return cheaper
 
     def direct_parameters(self, state=None) -> tuple:
         return DIRECT
@@ -212,7 +233,7 @@ class Spencer(Model):
         good = np.all(np.isfinite(theta), axis=1) & (theta[:, 0] > 0)
         out = np.full((len(theta), len(signal.x)), np.inf)
         if good.any():
-            W = _ydot(theta[good], signal)
+            W = _ydot(theta[good], signal, self.tolerance)
             c1, k1, f0 = coef[good].T
             with np.errstate(invalid="ignore", over="ignore"):
                 F = c1[:, None] * W + k1[:, None] * np.asarray(signal.x)[None, :] + f0[:, None]
@@ -242,7 +263,7 @@ class Spencer(Model):
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         if theta.ndim != 2 or theta.shape[1] != len(HYSTERETIC):
             raise ValueError(f"theta must have shape (m, {len(HYSTERETIC)}), got {theta.shape}")
-        return _ydot(theta, signal)
+        return _ydot(theta, signal, self.tolerance)
 
     # An evaluation with its six sensitivities (the Rosenbrock-W kernel) took 1.4–1.8 plain simulations
     # at the optima of seven MR-damper generator fits (600–6,000 samples) and 1.65 at random points of
@@ -255,7 +276,14 @@ class Spencer(Model):
         from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
 
         arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]
-        Z, S, status = ydot_sensitivity_batch(np.atleast_2d(np.asarray(theta, dtype=float)), *arrays)
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        tol = {} if self.tolerance is None else {"tol": self.tolerance}
+        Z, S, status = ydot_sensitivity_batch(theta, *arrays, **tol)
+        if tol and status[0] == 0 and not (np.all(np.isfinite(S[0])) and np.max(np.abs(S[0])) <= 1e100):
+            # The sensitivities step with the state's W (the W-method leaves out their coupling): at a loose
+            # tolerance's long steps they can run away where the state does not (1–4 % of random points of
+            # the box at 1e-4, none at 1e-5). Retaken at the model's own tolerance.
+            Z, S, status = ydot_sensitivity_batch(theta, *arrays)
         return (Z[0], S[0]) if status[0] == 0 else None
 
     def force_sensitivities(self, P, signal, state=None):
@@ -303,7 +331,7 @@ class Spencer(Model):
         return theta[0], dict(zip(LAYOUT.names, map(float, coef[0])))
 
 
-def _ydot(theta6, signal) -> np.ndarray:
+def _ydot(theta6, signal, tol: float | None = None) -> np.ndarray:
     """ẏ (mm/s) of kernel rows (m, 6) = (x_y, n, η, v_y, r₀, κ₀) at the samples; +inf rows on blow-up
     and where the simulation ran out of its step budget (counted in ``MODEL.step_budget_stops``).
 
@@ -315,7 +343,9 @@ def _ydot(theta6, signal) -> np.ndarray:
     if v[0] != 0.0 and starts_from_rest(t, x, v):
         v = v.copy()
         v[0] = 0.0
-    out, status = ydot_batch(np.ascontiguousarray(theta6, dtype=float), t, x, v, a)
+    out, status = ydot_batch(
+        np.ascontiguousarray(theta6, dtype=float), t, x, v, a, **({} if tol is None else {"tol": tol})
+    )
     MODEL.step_budget_stops += int(np.count_nonzero(status == STATUS_STEP_BUDGET))
     return out
 

@@ -173,6 +173,21 @@ class Objective:
         self.nfev += cost - 1
         return r, J
 
+    def exploration(self, reserve: int):
+        """An ``Objective`` over a cheaper copy of the problem (its ``exploration()``: the same search
+        space, the model simulated more cheaply), on this budget less ``reserve`` evaluations; None when
+        the problem has none or too little budget is left. Its evaluations count here once ``charge``d;
+        its best point is not recorded here (its losses are not the problem's own)."""
+        make = getattr(self.problem, "exploration", None)
+        cheaper = make() if callable(make) else None
+        if cheaper is None or self.remaining - int(reserve) < 1:
+            return None
+        return Objective(cheaper, self.remaining - int(reserve))
+
+    def charge(self, exploration: Objective) -> None:
+        """Count the evaluations an ``exploration`` objective ran against this budget."""
+        self.nfev = min(self.budget, self.nfev + exploration.nfev)
+
     def apply(self, U, simulate) -> np.ndarray:
         """``simulate(P)`` (physical rows (m, d) → rows (m, ...)) of the rows of U, each counted as one
         evaluation, cut and refused past the budget like ``batch`` (rows not run are NaN): for a

@@ -152,6 +152,12 @@ class JointProblem:
             out["linear_solve"] = "; ".join(self.notes)
         return out
 
+    def exploration(self):
+        """A copy simulating more cheaply for a fit's exploring searches, or None (``exploration``)."""
+        from bwbench.problems.hysteresis.exploration import exploration
+
+        return exploration(self)
+
     def from_unit(self, U) -> np.ndarray:
         from bwbench.optimize.box import box_from_unit
 

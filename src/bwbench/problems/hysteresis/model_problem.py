@@ -65,6 +65,12 @@ class ModelFit:
         params = [result.params.get(name, np.nan) for name in self.param_names]
         return fit_checks.check(self, params, synthetic, result.at_bound)
 
+    def exploration(self):
+        """A copy simulating more cheaply for a fit's exploring searches, or None (``exploration``)."""
+        from bwbench.problems.hysteresis.exploration import exploration
+
+        return exploration(self)
+
     def from_unit(self, U) -> np.ndarray:
         return box_from_unit(U, self.lower, self.upper, self.log_scaled)
 
