@@ -16,13 +16,12 @@ calls are scalar libm calls (a vectorised pow, e.g. numba with Intel SVML, would
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
 from bwbench.models import switched_kernel as kernel
 from bwbench.models.lockstep_inputs import _excitation_pieces, _load_rows
+from bwbench.models.power import power, power_inline
 from bwbench.models.switched_kernel import (
     _IMPLICIT_SUBSTEPS,
     _RK4_MAX_SUBSTEPS,
@@ -79,7 +78,7 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
     # starts from, the pending power's argument, RK4 step and stages; backward-Euler state; the
     # current branch's parameters, contiguous, copied when the branch changes.
     msub, bstate, bdone, bit = np.zeros((4, K), dtype=np.int64)
-    zc, zarg, pw, hs, k1, k2, k3, batt, blo, bhi, bfhi, cA, cn, cbg, cbm = np.empty((15, K))
+    zc, zarg, pw, hs, k1, k2, k3, batt, blo, bhi, bfhi, cA, cn, cbg, cbm = np.zeros((15, K))
     b_loaded = -1
     for k in range(x.shape[0] - 1):
         for j in range(2):
@@ -95,14 +94,15 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                 cbm[:] = pbm[b]
                 b_loaded = b
             direction = 1.0 if dx > 0.0 else -1.0
-            # Each stage is a loop of bare pow calls, then a loop of the arithmetic around them:
-            # the CPU then holds more of the independent pow calls in flight at once.
+            # Each stage is a loop of bare powers, then a loop of the arithmetic around them. The
+            # power loop has no condition: every lane computes one (an idle lane's is not read), so
+            # LLVM turns the loop into vector instructions (``power_inline`` is plain inlined arithmetic).
             for lane in range(K):
                 z = z_slot[s, lane]
                 zc[lane] = z
                 msub[lane] = 1 if alive[lane] and np.isfinite(z) else 0
-                if msub[lane]:
-                    pw[lane] = math.pow(abs(z), cn[lane])
+            for lane in range(K):
+                pw[lane] = power_inline(abs(zc[lane]), cn[lane])
             max_m = 0
             n_implicit = 0
             for lane in range(K):  # first stage, whose |z|^n also gives the substep count
@@ -133,9 +133,8 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
             i = 0
             q = 1
             while i < max_m or n_implicit > 0:
-                for lane in range(K):
-                    if msub[lane] > i or (msub[lane] == -1 and bstate[lane] != _DONE):
-                        pw[lane] = math.pow(abs(zarg[lane]), cn[lane])
+                for lane in range(K):  # unconditional, to be vectorised (see above)
+                    pw[lane] = power_inline(abs(zarg[lane]), cn[lane])
                 if n_implicit > 0:
                     for lane in range(K):
                         if msub[lane] != -1 or bstate[lane] == _DONE:
@@ -272,7 +271,7 @@ def _implicit_round(st, z, p, z0, h, A, n, bg, bm, z_att, lo, hi, f_hi, it):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _rate_of(z, n, direction, A, bg, bm):
-    return _rate_from_pow(z, math.pow(abs(z), n), direction, A, bg, bm)
+    return _rate_from_pow(z, power(abs(z), n), direction, A, bg, bm)
 
 
 @numba.njit(cache=True, error_model="numpy")

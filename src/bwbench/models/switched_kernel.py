@@ -13,6 +13,8 @@ import math
 import numba
 import numpy as np
 
+from bwbench.models.power import power
+
 PARAM_NAMES = (
     "A+",
     "n+",
@@ -53,7 +55,7 @@ def _rate(z, direction, A, n, beta, gamma):
     """dz/dx for motion in ``direction`` (+1 or −1); sign(z)·|z|^n keeps n < 1 finite at z = 0."""
     if z == 0.0:
         return A
-    p = math.pow(abs(z), n)
+    p = power(abs(z), n)
     if (z > 0.0) == (direction > 0.0):
         return A - (beta + gamma) * p
     return A - (beta - gamma) * p
@@ -84,7 +86,7 @@ def _backward_euler(z0, h, A, n, beta, gamma, z_att):
         else:
             lo = z
         # Newton where the derivative is usable, bisection otherwise.
-        p = math.pow(abs(z), n) if z != 0.0 else 0.0
+        p = power(abs(z), n) if z != 0.0 else 0.0
         c = (beta + gamma) if (z > 0.0) == (direction > 0.0) else (beta - gamma)
         dg = -c * n * p / abs(z) if z != 0.0 else -np.inf
         df = 1.0 - h * dg
@@ -117,7 +119,7 @@ def _advance_z(z, dx, A, n, beta, gamma, z_s, attractor_rate):
     # First RK4 stage, whose |z|^n also gives the local stiffness n·|c|·|z|^(n−1).
     k1 = A
     if z != 0.0:
-        p = math.pow(abs(z), n)
+        p = power(abs(z), n)
         c = (beta + gamma) if (z > 0.0) == (direction > 0.0) else (beta - gamma)
         k1 = A - c * p
         local = n * abs(c) * p / abs(z)
