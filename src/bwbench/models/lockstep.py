@@ -23,6 +23,7 @@ from bwbench.models import switched_kernel as kernel
 from bwbench.models.lockstep_inputs import _excitation_pieces, _load_rows
 from bwbench.models.power import power, power_inline
 from bwbench.models.switched_kernel import (
+    _AT_ATTRACTOR,
     _IMPLICIT_SUBSTEPS,
     _RK4_MAX_SUBSTEPS,
     _RK4_STIFFNESS_PER_SUBSTEP,
@@ -170,6 +171,8 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                                 cbm[lane],
                             )
                             bdone[lane] = _IMPLICIT_SUBSTEPS
+                        elif z_new == zc[lane] and z_new != 0.0:  # a fixed point: switched_kernel._advance_z stops
+                            bdone[lane] = _IMPLICIT_SUBSTEPS
                         else:
                             bdone[lane] += 1
                         zc[lane] = z_new
@@ -244,7 +247,7 @@ def _implicit_round(st, z, p, z0, h, A, n, bg, bm, z_att, lo, hi, f_hi, it):
     if st == _BE_START:
         f_lo = -h * _rate_from_pow(z0, p, direction, A, bg, bm)
         f_hi = z_att - z0
-        if f_lo == 0.0:
+        if f_lo == 0.0 or abs(f_hi) <= _AT_ATTRACTOR * abs(z_att):  # on the attractor, as there
             return z0, -1, lo, hi, f_hi, it
         if f_lo * f_hi > 0.0:
             return np.nan, -1, lo, hi, f_hi, it

@@ -115,13 +115,17 @@ def _advance_z_sens(z, S, slot, dx, A, n, beta, gamma, z_s, attractor_rate, col,
         h = dx / _IMPLICIT_SUBSTEPS
         z_att = direction * z_s
         done = 0
+        fixed = False  # z on a fixed point of the step: the plain kernel stops, S still moves
+        g_z = g_n = g_beta = g_gamma = 0.0
         while done < _IMPLICIT_SUBSTEPS:
-            z_new = _backward_euler(z, h, A, n, beta, gamma, z_att)
-            if np.isnan(z_new):
-                break
-            z = z_new
-            # z₁ = z₀ + h·g(z₁; H) differentiated: (1 − h·g_z)·S₁ = S₀ + h·∂g/∂H.
-            g_z, g_n, g_beta, g_gamma = _slopes(z, direction, n, beta, gamma)
+            if not fixed:
+                z_new = _backward_euler(z, h, A, n, beta, gamma, z_att)
+                if np.isnan(z_new):
+                    break
+                fixed = z_new == z and z != 0.0
+                z = z_new
+                # z₁ = z₀ + h·g(z₁; H) differentiated: (1 − h·g_z)·S₁ = S₀ + h·∂g/∂H.
+                g_z, g_n, g_beta, g_gamma = _slopes(z, direction, n, beta, gamma)
             scale = 1.0 / (1.0 - h * g_z)
             S[slot, col] += h
             S[slot, col + 1] += h * g_n
