@@ -1,17 +1,21 @@
-"""Several parameter sets simulated together, interleaved so their ``pow`` calls overlap.
+"""Several parameter sets simulated together, interleaved so their powers |z|ⁿ run as vector code.
 
-The scalar kernel (``bwbench.models.switched_kernel``) is latency-bound: each RK4 stage waits for a ``pow`` whose
-argument comes from the stage before (~27 ns, four per step), while the CPU can run two or three
-independent ones in that time. Here a group of K rows (lanes; rows of similar stiffness) walks
-the samples together. Per piece of a sample interval, each round computes every lane's pending
-power in one loop, then the arithmetic: RK4 stages with per-lane substep counts (a lane sits out
-the substeps it does not need), the stiff lanes' backward-Euler steps in the same rounds. A lane
-that blows up stops and reports +inf; the others go on.
+The scalar kernel (``bwbench.models.switched_kernel``) is latency-bound: each RK4 stage waits for a
+power whose argument comes from the stage before (~20 ns, four per step), while the CPU can run
+several independent ones in that time. Here a group of K rows (lanes; rows of similar stiffness)
+walks the samples together. Per piece of a sample interval, each round computes every lane's
+pending power in one loop, then the arithmetic: RK4 stages with per-lane substep counts (a lane
+sits out the substeps it does not need), the stiff lanes' backward-Euler steps in the same rounds.
+The power loop has no condition and calls ``power.power_inline`` (inlined arithmetic), which LLVM
+vectorises: 8 lanes per AVX-512 instruction, ~2.5 ns per power against ~7 ns for libm's pow called
+lane by lane (it was two thirds of this kernel's time). A lane that blows up stops and reports +inf;
+the others go on.
 
 Each lane performs exactly the scalar kernel's floating-point operations in the same order (the
-excitation pieces come from the same helper, the force and MSE from the same functions), so the
-results are bit-identical to ``switched_bouc_wen.mse_batch(..., kernel="scalar")``: no fastmath, and the pow
-calls are scalar libm calls (a vectorised pow, e.g. numba with Intel SVML, would break that).
+excitation pieces come from the same helper, the force and MSE from the same functions, the power
+from the same ``bwbench.models.power`` code, whose vector form gives the bits of its scalar calls),
+so the results are bit-identical to ``switched_bouc_wen.mse_batch(..., kernel="scalar")``: no
+fastmath, and no libm call whose vector version would differ from the scalar one (as SVML's would).
 """
 
 from __future__ import annotations
