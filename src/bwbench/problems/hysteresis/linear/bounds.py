@@ -156,7 +156,10 @@ def _clamped_solutions(R, B, below, above, lower, upper) -> list:
         free = ~held
         Rk, Bk = R[ks], B[ks] - R[ks][:, :, held] @ value
         A = Rk[:, :, free]
-        scale = np.linalg.norm(A, axis=1, keepdims=True)  # unit columns: the normal equations stay well conditioned
+        with np.errstate(
+            over="ignore"
+        ):  # a trajectory near 1e300 overflows here: its solution is not finite, refused below
+            scale = np.linalg.norm(A, axis=1, keepdims=True)  # unit columns: the normal equations stay well conditioned
         scale[scale == 0] = 1.0
         A = A / scale
         try:

@@ -20,7 +20,7 @@ def w_solve(Z, good, col, QT, r0, nw, want_residual, residual, RG, Qty):
     rss = np.full(m, np.inf)
     full = np.zeros(m, dtype=np.bool_)
     g = np.zeros((m, q))
-    r0_2 = _sum_squares(r0)
+    r0_2 = sum_squares(r0)
     threads = numba.get_num_threads()
     if threads > 1 and m >= 2 * threads:
         _w_parallel(Z, good, col, QT, r0, r0_2, nw, want_residual, residual, C, Rw, qwy, h, rss, full, RG, Qty, g)
@@ -29,8 +29,77 @@ def w_solve(Z, good, col, QT, r0, nw, want_residual, residual, RG, Qty):
     return C, Rw, qwy, h, rss, full, g
 
 
+def mse_rows(Z, sw, col, QT, r0, r0_2, nw, RG, Qty, lower, upper, bounded):
+    """``LinearDesign.mse``'s work in one compiled call: per row of Z (m, L) its unbounded RSS (+inf
+    where the trajectory or the solve is not finite) and whether its coefficients break a bound
+    (``bounded``: any finite bound). ``sw``: √weights (L,), or empty for none. The same ``_w_row`` and
+    ``_fixed_coefficients`` as ``w_solve`` on the same numbers, so the same bits: a one-point
+    optimiser's loss then pays one call into numba instead of a dozen small array operations."""
+    threads = numba.get_num_threads()
+    args = (Z, sw, col, QT, r0, r0_2, nw, RG, Qty, lower, upper, bounded)
+    return _mse_parallel(*args) if threads > 1 and Z.shape[0] >= 2 * threads else _mse_serial(*args)
+
+
 @numba.njit(cache=True, error_model="numpy")
-def _sum_squares(r):
+def _mse_row(i, Z, sw, col, QT, r0, r0_2, nw, RG, Qty, lower, upper, bounded, rss_out, bad):
+    L = Z.shape[1]
+    q = QT.shape[0]
+    row = np.empty((1, L))
+    for l in range(L):
+        z = Z[i, l]
+        if not np.isfinite(z):
+            return
+        row[0, l] = z * sw[l] if sw.shape[0] else z
+    good = np.ones(1, dtype=np.bool_)
+    C = np.zeros((1, q, nw))
+    Rw = np.zeros((1, nw, nw))
+    qwy = np.zeros((1, nw))
+    h = np.zeros((1, nw))
+    rss = np.full(1, np.inf)
+    full = np.zeros(1, dtype=np.bool_)
+    g = np.zeros((1, q))
+    _w_row(0, row, good, col, QT, r0, r0_2, nw, False, np.empty((0, L)), C, Rw, qwy, h, rss, full)
+    _fixed_coefficients(0, good, C, h, RG, Qty, g)
+    # as LinearDesign._unbounded: a finite but huge trajectory can overflow the solve
+    if not np.isfinite(rss[0]):
+        return
+    for k in range(nw):
+        if not np.isfinite(h[0, k]):
+            return
+        for j in range(q):
+            if not np.isfinite(C[0, j, k]):
+                return
+    rss_out[i] = rss[0]
+    if bounded:
+        for j in range(q):
+            if g[0, j] < lower[j] or g[0, j] > upper[j]:
+                bad[i] = True
+        for k in range(nw):
+            if h[0, k] < lower[q + k] or h[0, k] > upper[q + k]:
+                bad[i] = True
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
+def _mse_serial(Z, sw, col, QT, r0, r0_2, nw, RG, Qty, lower, upper, bounded):
+    rss = np.full(Z.shape[0], np.inf)
+    bad = np.zeros(Z.shape[0], dtype=np.bool_)
+    for i in range(Z.shape[0]):
+        _mse_row(i, Z, sw, col, QT, r0, r0_2, nw, RG, Qty, lower, upper, bounded, rss, bad)
+    return rss, bad
+
+
+@numba.njit(cache=True, parallel=True, error_model="numpy")
+def _mse_parallel(Z, sw, col, QT, r0, r0_2, nw, RG, Qty, lower, upper, bounded):
+    rss = np.full(Z.shape[0], np.inf)
+    bad = np.zeros(Z.shape[0], dtype=np.bool_)
+    for i in numba.prange(Z.shape[0]):
+        _mse_row(i, Z, sw, col, QT, r0, r0_2, nw, RG, Qty, lower, upper, bounded, rss, bad)
+    return rss, bad
+
+
+@numba.njit(cache=True, error_model="numpy")
+def sum_squares(r):
+    """Σ r², one running sum: ‖r0‖² as ``w_solve`` and ``mse_rows`` take it (the same bits)."""
     s = 0.0
     for l in range(r.shape[0]):
         s += r[l] * r[l]
