@@ -116,3 +116,27 @@ def test_bad_shapes_and_state_are_refused():
         model.simulate(LOWER[:7], T, x, v, a)
     with pytest.raises(ValueError, match="equal length"):
         model.simulate(LOWER, T, x[:-1], v, a)
+
+
+def test_a_backward_euler_step_on_the_attractor_stays_there():
+    """z within a few units in the last place of the attractor z_s: g(z) is rounding noise of either
+    sign, and reading a bracket from it sent 4 of these 24 stiff steps (h·stiffness ≈ 4 per substep)
+    to the RK4 fallback, unstable there — a blow-up of random identifiable-box points. The step stays."""
+    import math
+
+    from bwbench.models.switched_kernel import _backward_euler
+
+    A, n, beta, gamma = 15.282839, 6.54174115, -1.98254158e08, 6.19889082e09  # a '−' branch, η ≈ −1.07
+    z_att = -math.pow(A / (beta + gamma), 1.0 / n)  # moving in −x: the attractor at −z_s
+    h = -0.0037625  # mm per substep
+    starts = [z_att]
+    for toward in (0.0, -1.0):  # 12 representable numbers on each side
+        z = z_att
+        for _ in range(12):
+            z = float(np.nextafter(z, toward))
+            starts.append(z)
+    for z0 in starts:
+        assert _backward_euler(z0, h, A, n, beta, gamma, z_att) == z0
+    # and a start clearly off the attractor still takes a real step towards it
+    z1 = _backward_euler(0.9 * z_att, h, A, n, beta, gamma, z_att)
+    assert 0.9 * z_att > z1 >= z_att

@@ -110,3 +110,29 @@ def test_continuous_offsets_tie_the_two_branch_offsets():
     assert sol.mse[0] == pytest.approx(np.mean((X @ beta - f) ** 2), rel=1e-9)
     branch = ls.LinearDesign(e, f, LAYOUT).solve(w[None, :])
     assert branch.mse[0] <= sol.mse[0]
+
+
+def test_the_loss_alone_is_the_full_solves_mse_on_bounded_free_and_blown_up_rows():
+    """``LinearDesign.mse`` (what a loss calls) gives solve(Z).mse to the bit: rows whose bounds bite
+    (re-solved), rows inside them, a row that blew up (+inf) and one so large that its squares overflow
+    (its w-column is dropped as dependent: the fit without it)."""
+    e, f = damper_test(25.0, 1.0)
+    rng = np.random.default_rng(11)
+    phase = rng.uniform(0.1, 1.5, size=(16, 1))
+    W = np.tanh(np.cumsum(np.sign(e.v)[None, :] * phase * 0.05, axis=1))
+    W[3, 40:] = np.inf
+    W[5] *= 1e300
+    f = f + 3.0 * e.a - 0.02 * e.v * (e.v < 0)
+    bounds = {"m": (0.0, 0.5), "c+": (0.0, np.inf), "c-": (0.0, np.inf), "h+": (-50.0, 50.0), "f-": (-10.0, 10.0)}
+    active = []
+    for design in (
+        ls.LinearDesign(e, f, LAYOUT, fix_mass=None, bounds=bounds),
+        ls.LinearDesign(e, f, LAYOUT, fix_mass=None, mass_min=None),
+    ):
+        solution = design.solve(W)
+        np.testing.assert_array_equal(design.mse(W), solution.mse)
+        np.testing.assert_array_equal(design.mse(W[7]), solution.mse[7:8])  # one row, as a one-point call
+        assert np.isposinf(solution.mse[3]) and not solution.full_rank[5]
+        assert np.all(np.isfinite(np.delete(solution.mse, 3)))
+        active.append(int(solution.bound_active.sum()))
+    assert active[0] >= 8 and active[1] == 0  # the bounded design re-solves most rows, the free one none

@@ -13,6 +13,8 @@ import math
 import numba
 import numpy as np
 
+from bwbench.models.power import power
+
 PARAM_NAMES = (
     "A+",
     "n+",
@@ -40,6 +42,7 @@ _A, _N, _ALPHA, _BETA, _GAMMA, _XI, _WN = range(7)
 _RK4_STIFFNESS_PER_SUBSTEP = 1.0
 _RK4_MAX_SUBSTEPS = 32
 _IMPLICIT_SUBSTEPS = 16
+_AT_ATTRACTOR = 1e-13  # |z_att − z0| ≤ this·|z_att| (100× the noise of g(z0) there): a backward-Euler step stays at z0
 
 
 def symmetric_params(A, n, alpha, beta, gamma, xi, wn) -> np.ndarray:
@@ -53,7 +56,7 @@ def _rate(z, direction, A, n, beta, gamma):
     """dz/dx for motion in ``direction`` (+1 or −1); sign(z)·|z|^n keeps n < 1 finite at z = 0."""
     if z == 0.0:
         return A
-    p = math.pow(abs(z), n)
+    p = power(abs(z), n)
     if (z > 0.0) == (direction > 0.0):
         return A - (beta + gamma) * p
     return A - (beta - gamma) * p
@@ -69,7 +72,10 @@ def _backward_euler(z0, h, A, n, beta, gamma, z_att):
     direction = 1.0 if h > 0.0 else -1.0
     f_lo = -h * _rate(z0, direction, A, n, beta, gamma)
     f_hi = z_att - z0
-    if f_lo == 0.0:
+    if f_lo == 0.0 or abs(f_hi) <= _AT_ATTRACTOR * abs(z_att):
+        # z0 on the attractor to rounding: the root is z0 to that accuracy, and g(z0) is rounding
+        # noise of either sign, so the bracket test below would read noise and send a stiff step
+        # to RK4, unstable there (a blow-up seen after a last-bit change of the power).
         return z0
     if f_lo * f_hi > 0.0:
         return np.nan
@@ -84,7 +90,7 @@ def _backward_euler(z0, h, A, n, beta, gamma, z_att):
         else:
             lo = z
         # Newton where the derivative is usable, bisection otherwise.
-        p = math.pow(abs(z), n) if z != 0.0 else 0.0
+        p = power(abs(z), n) if z != 0.0 else 0.0
         c = (beta + gamma) if (z > 0.0) == (direction > 0.0) else (beta - gamma)
         dg = -c * n * p / abs(z) if z != 0.0 else -np.inf
         df = 1.0 - h * dg
@@ -117,7 +123,7 @@ def _advance_z(z, dx, A, n, beta, gamma, z_s, attractor_rate):
     # First RK4 stage, whose |z|^n also gives the local stiffness n·|c|·|z|^(n−1).
     k1 = A
     if z != 0.0:
-        p = math.pow(abs(z), n)
+        p = power(abs(z), n)
         c = (beta + gamma) if (z > 0.0) == (direction > 0.0) else (beta - gamma)
         k1 = A - c * p
         local = n * abs(c) * p / abs(z)
@@ -132,6 +138,10 @@ def _advance_z(z, dx, A, n, beta, gamma, z_s, attractor_rate):
             z_new = _backward_euler(z, h, A, n, beta, gamma, z_att)
             if np.isnan(z_new):
                 break
+            if z_new == z and z != 0.0:
+                # A fixed point of the step (z on the attractor to the last bit): each remaining
+                # substep would call it again with the same arguments and get the same z.
+                return z
             z = z_new
             done += 1
         if done == _IMPLICIT_SUBSTEPS:

@@ -26,11 +26,10 @@ both halves the same for the classic model. A trajectory that is not finite give
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
+from bwbench.models.power import exp, log
 from bwbench.models.switched_kernel import (
     _IMPLICIT_SUBSTEPS,
     _RK4_MAX_SUBSTEPS,
@@ -44,8 +43,9 @@ from bwbench.models.switched_kernel import (
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _rate_sens(z, p, direction, A, n, beta, gamma, S, s, col, out, o):
-    """g(z) (``switched_kernel._rate``, the same operations; p = |z|ⁿ, unused at z = 0) and into
+def _rate_sens(z, p, log_z, direction, A, n, beta, gamma, S, s, col, out, o):
+    """g(z) (``switched_kernel._rate``, the same operations; p = |z|ⁿ and log_z = log|z| from
+    ``_pow_log``, unused at z = 0) and into
     row ``o`` of ``out`` its total derivative g_z·S + ∂g/∂H at S's row ``s``, the branch's (A, n, β, γ)
     at columns ``col``..``col + 3``. (Rows of 2-D arrays, not views: a view costs two atomic reference
     counts, as much as the arithmetic here.)"""
@@ -67,15 +67,20 @@ def _rate_sens(z, p, direction, A, n, beta, gamma, S, s, col, out, o):
     for q in range(d):
         out[o, q] = g_z * S[s, q]
     out[o, col] += 1.0
-    out[o, col + 1] -= c * p * math.log(abs(z))
+    out[o, col + 1] -= c * p * log_z
     out[o, col + 2] -= p
     out[o, col + 3] += g_gamma
     return g
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _pow(z, n):
-    return math.pow(abs(z), n) if z != 0.0 else 0.0
+@numba.njit(cache=True, error_model="numpy")
+def _pow_log(z, n):
+    """(|z|ⁿ, log|z|), (0, 0) at z = 0: the power by ``power``'s own operations, exp(n·log|z|), so it
+    is bit-identical to the plain kernel's, and its log is the one ∂g/∂n needs (no second log)."""
+    if z == 0.0:
+        return 0.0, 0.0
+    log_z = log(abs(z))
+    return exp(n * log_z), log_z
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -83,10 +88,10 @@ def _slopes(z, direction, n, beta, gamma):
     """(g_z, g_n, g_β, g_γ) of ``_rate_sens`` at z (0 at z = 0), for the backward-Euler step."""
     if z == 0.0:
         return 0.0, 0.0, 0.0, 0.0
-    p = math.pow(abs(z), n)
+    p, log_z = _pow_log(z, n)
     loading = (z > 0.0) == (direction > 0.0)
     c = beta + gamma if loading else beta - gamma
-    return -c * n * p / z, -c * p * math.log(abs(z)), -p, -p if loading else p
+    return -c * n * p / z, -c * p * log_z, -p, -p if loading else p
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -99,9 +104,8 @@ def _advance_z_sens(z, S, slot, dx, A, n, beta, gamma, z_s, attractor_rate, col,
     d = S.shape[1]
     direction = 1.0 if dx > 0.0 else -1.0
     stiffness = attractor_rate
-    p = 0.0
+    p, log_z = _pow_log(z, n)
     if z != 0.0:
-        p = math.pow(abs(z), n)
         c = (beta + gamma) if (z > 0.0) == (direction > 0.0) else (beta - gamma)
         local = n * abs(c) * p / abs(z)
         if (n >= 1.0 or abs(z) > z_s) and local > stiffness:
@@ -111,13 +115,17 @@ def _advance_z_sens(z, S, slot, dx, A, n, beta, gamma, z_s, attractor_rate, col,
         h = dx / _IMPLICIT_SUBSTEPS
         z_att = direction * z_s
         done = 0
+        fixed = False  # z on a fixed point of the step: the plain kernel stops, S still moves
+        g_z = g_n = g_beta = g_gamma = 0.0
         while done < _IMPLICIT_SUBSTEPS:
-            z_new = _backward_euler(z, h, A, n, beta, gamma, z_att)
-            if np.isnan(z_new):
-                break
-            z = z_new
-            # z₁ = z₀ + h·g(z₁; H) differentiated: (1 − h·g_z)·S₁ = S₀ + h·∂g/∂H.
-            g_z, g_n, g_beta, g_gamma = _slopes(z, direction, n, beta, gamma)
+            if not fixed:
+                z_new = _backward_euler(z, h, A, n, beta, gamma, z_att)
+                if np.isnan(z_new):
+                    break
+                fixed = z_new == z and z != 0.0
+                z = z_new
+                # z₁ = z₀ + h·g(z₁; H) differentiated: (1 − h·g_z)·S₁ = S₀ + h·∂g/∂H.
+                g_z, g_n, g_beta, g_gamma = _slopes(z, direction, n, beta, gamma)
             scale = 1.0 / (1.0 - h * g_z)
             S[slot, col] += h
             S[slot, col + 1] += h * g_n
@@ -130,26 +138,29 @@ def _advance_z_sens(z, S, slot, dx, A, n, beta, gamma, z_s, attractor_rate, col,
             return z
         dx = h * (_IMPLICIT_SUBSTEPS - done)
         work = _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS
-        p = _pow(z, n)
+        p, log_z = _pow_log(z, n)
     m = _substeps(work)
     h = dx / m
     for i in range(m):
         if i > 0:
-            p = _pow(z, n)
+            p, log_z = _pow_log(z, n)
         # k1 is the plain kernel's (inline at i = 0, _rate after): the same operations on the same p.
-        k1 = _rate_sens(z, p, direction, A, n, beta, gamma, S, slot, col, K, 0)
+        k1 = _rate_sens(z, p, log_z, direction, A, n, beta, gamma, S, slot, col, K, 0)
         for q in range(d):
             K[4, q] = S[slot, q] + 0.5 * h * K[0, q]
         z2 = z + 0.5 * h * k1
-        k2 = _rate_sens(z2, _pow(z2, n), direction, A, n, beta, gamma, K, 4, col, K, 1)
+        p, log_z = _pow_log(z2, n)
+        k2 = _rate_sens(z2, p, log_z, direction, A, n, beta, gamma, K, 4, col, K, 1)
         for q in range(d):
             K[4, q] = S[slot, q] + 0.5 * h * K[1, q]
         z3 = z + 0.5 * h * k2
-        k3 = _rate_sens(z3, _pow(z3, n), direction, A, n, beta, gamma, K, 4, col, K, 2)
+        p, log_z = _pow_log(z3, n)
+        k3 = _rate_sens(z3, p, log_z, direction, A, n, beta, gamma, K, 4, col, K, 2)
         for q in range(d):
             K[4, q] = S[slot, q] + h * K[2, q]
         z4 = z + h * k3
-        k4 = _rate_sens(z4, _pow(z4, n), direction, A, n, beta, gamma, K, 4, col, K, 3)
+        p, log_z = _pow_log(z4, n)
+        k4 = _rate_sens(z4, p, log_z, direction, A, n, beta, gamma, K, 4, col, K, 3)
         z = z + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
         for q in range(d):
             S[slot, q] = S[slot, q] + h * (K[0, q] + 2.0 * K[1, q] + 2.0 * K[2, q] + K[3, q]) / 6.0

@@ -184,8 +184,9 @@ class JointProblem:
     def loss_batch(self, P) -> np.ndarray:
         """Σ_i w_i·MSE_i (N²) of each row of P (m, d); +inf where the model blows up on any file."""
         P = np.atleast_2d(np.asarray(P, dtype=float))
-        if self.design is not None:
-            return self.solve(P).mse
+        if self.design is not None:  # the loss alone (``LinearDesign.mse``): the same numbers as solve(P).mse
+            Z = np.concatenate(self._each_file(lambda p: self.model.trajectories(P, p.signal, self.state)), axis=1)
+            return self.design.mse(Z)
         losses = sum(w * loss for w, loss in zip(self.file_weight, self._each_file(lambda p: p.loss_batch(P))))
         return np.where(np.isfinite(losses), losses, np.inf)
 

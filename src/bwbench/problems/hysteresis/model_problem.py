@@ -176,7 +176,8 @@ class IdentifiableProblem(ModelFit):
 
     def loss_batch(self, P) -> np.ndarray:
         """MSE (N²) of each row of P with its linear coefficients solved; +inf on blow-up."""
-        return self.solve(P).mse
+        theta = np.atleast_2d(np.asarray(P, dtype=float))
+        return self.design.mse(self.model.trajectories(theta, self.signal, self.state))
 
     def log_likelihood_batch(self, P) -> tuple[np.ndarray, np.ndarray]:
         """(MSE in N², log marginal likelihood) of each row of P from one simulation each: the linear

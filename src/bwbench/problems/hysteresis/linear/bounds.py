@@ -115,7 +115,11 @@ def apply_bounds(design, out, Zw, qwy, good) -> None:
             from scipy.optimize import lsq_linear
 
             fit = lsq_linear(R, b, bounds=(design.lower, design.upper), method="bvls")
-            new[k] = np.clip(fit.x, design.lower, design.upper)
+            x = np.clip(fit.x, design.lower, design.upper)
+            # BVLS may leave a coefficient it holds a unit in the last place inside its bound: put it
+            # on the bound, as the clamped solutions are (what ``on_bound`` reads as held)
+            x = np.where(on_bound(x, design.lower), design.lower, x)
+            new[k] = np.where(on_bound(x, design.upper), design.upper, x)
         extra = float(np.sum((R @ new[k] - b) ** 2))
         out.mse[i] = (out.rss_ls[i] + extra) / design.L
         out.coef[i, design.free_index] = new[k]
@@ -127,6 +131,12 @@ def apply_bounds(design, out, Zw, qwy, good) -> None:
             for j in range(len(design.w_names)):
                 change += delta[q + j] * np.where(design._col == j, Zw[i], 0.0)
             out.residual[i] += change if design.sw is None else change / design.sw
+
+
+def on_bound(beta, bound) -> np.ndarray:
+    """Which coefficients sit on their (finite) bound, to the rounding of the bounded solve."""
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(bound) & (np.abs(beta - bound) <= 1e-12 * np.maximum(np.abs(bound), np.max(np.abs(beta))))
 
 
 def _clamped_solutions(R, B, below, above, lower, upper) -> list:
@@ -146,7 +156,10 @@ def _clamped_solutions(R, B, below, above, lower, upper) -> list:
         free = ~held
         Rk, Bk = R[ks], B[ks] - R[ks][:, :, held] @ value
         A = Rk[:, :, free]
-        scale = np.linalg.norm(A, axis=1, keepdims=True)  # unit columns: the normal equations stay well conditioned
+        with np.errstate(
+            over="ignore"
+        ):  # a trajectory near 1e300 overflows here: its solution is not finite, refused below
+            scale = np.linalg.norm(A, axis=1, keepdims=True)  # unit columns: the normal equations stay well conditioned
         scale[scale == 0] = 1.0
         A = A / scale
         try:
