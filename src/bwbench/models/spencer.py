@@ -372,12 +372,12 @@ def starts_from_rest(t, x, v) -> bool:
 
 def initial_state(signal) -> str:
     """Which initial state the model starts a record from, in words (for the fit's result)."""
-    from bwbench.models.spencer_kernel import preroll_end
+    from bwbench.models.spencer_kernel import kernel_arrays, preroll_end
 
     t, x, v = (np.asarray(getattr(signal, k), dtype=float) for k in "txv")
     if v[0] == 0.0 or starts_from_rest(t, x, v):
         return "from rest (y = x, z = 0 at the first sample): the record starts from rest"
-    k = int(preroll_end(np.ascontiguousarray(x), np.ascontiguousarray(v)))
+    k = int(preroll_end(*kernel_arrays(x, v)))
     if k == 0:
         return "from rest (y = x, z = 0 at the first sample): the record has no full cycle to pre-roll"
     return (

@@ -28,12 +28,33 @@ A state that is not finite makes the whole row +inf.
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
+from bwbench.models.power import exp, log
+
 _XY, _N, _ETA, _VY, _R0, _K0 = range(6)
+# Two reciprocals every rate needs, computed once per simulation (``with_reciprocals``): a multiply
+# instead of a division on the chain each stage waits for.
+_INV_S, _INV_XY = 6, 7
+
+
+@numba.njit(cache=True, error_model="numpy")
+def with_reciprocals(p):
+    """The parameters p = (x_y, n, η, v_y, r₀, κ₀) followed by 1/(1 + r₀) and 1/x_y, as the rates read them."""
+    q = np.empty(8)
+    q[:6] = p[:6]
+    q[_INV_S] = 1.0 / (1.0 + p[_R0])
+    q[_INV_XY] = 1.0 / p[_XY]
+    return q
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def abs_power(w, n):
+    """|w|^n (n ≥ 1) by the switched kernels' table-driven log and exp (``bwbench.models.power``):
+    inlined arithmetic, shorter on the stages' chain than libm's pow, and the same bits as the
+    sensitivity kernel's, which needs log|w| itself."""
+    return exp(n * log(abs(w)))
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
@@ -55,11 +76,12 @@ def _excitation(tau, h, x0, v0, v1, a0, a1):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _rates(y, w, x, xd, p):
-    """(ẏ, ẇ) at state (y, w) and excitation (x, ẋ) for parameters p = (x_y, n, η, v_y, r₀, κ₀)."""
-    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) / (1.0 + p[_R0])
+    """(ẏ, ẇ) at state (y, w) and excitation (x, ẋ) for parameters p = (x_y, n, η, v_y, r₀, κ₀, and
+    the reciprocals of ``with_reciprocals``)."""
+    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) * p[_INV_S]
     u = xd - yd
     c = 1.0 if w * u > 0.0 else p[_ETA]
-    wd = u / p[_XY] * (1.0 - c * math.pow(abs(w), p[_N]))
+    wd = u * p[_INV_XY] * (1.0 - c * abs_power(w, p[_N]))
     return yd, wd
 
 
@@ -69,16 +91,16 @@ def _rates_jacobian(y, w, x, xd, p):
     (y, w) and excitation (x, ẋ) on the current branch (loading or not), sharing one |w|^n: (ẏ, ẇ,
     ∂ẏ/∂y, ∂ẏ/∂w, ∂ẇ/∂y, ∂ẇ/∂w). (W on the stiffer of the two branches where the relative velocity
     hovers about 0 was tried: 3× the steps there.)"""
-    s = 1.0 + p[_R0]
-    j11 = -p[_K0] / s
-    j12 = p[_VY] / s
-    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) / s
+    j11 = -p[_K0] * p[_INV_S]
+    j12 = p[_VY] * p[_INV_S]
+    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) * p[_INV_S]
     u = xd - yd
     c = 1.0 if w * u > 0.0 else p[_ETA]
-    pw = math.pow(abs(w), p[_N])
+    pw = abs_power(w, p[_N])
     sat = 1.0 - c * pw
     dsat = -c * p[_N] * pw / w if w != 0.0 else 0.0  # ∂(1 − c·|w|^n)/∂w; 0 at w = 0 (n ≥ 1)
-    return yd, u / p[_XY] * sat, j11, j12, -j11 / p[_XY] * sat, -j12 / p[_XY] * sat + u / p[_XY] * dsat
+    ux = u * p[_INV_XY]
+    return yd, ux * sat, j11, j12, -j11 * p[_INV_XY] * sat, -j12 * p[_INV_XY] * sat + ux * dsat
 
 
 # Rosenbrock-W method ROS34PW2 (Rang & Angermann, BIT 45:761–787, 2005): 4 stages, order 3 with an
@@ -109,18 +131,14 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
     span = t1 - t0
     s = 0.0
     steps = 0
+    xs, xds = x0, v0  # the excitation at s (the interval's start: its samples)
     while s < span:
         if steps >= allowance:
             return np.nan, np.nan, h, steps
         steps += 1
         h = min(h, span - s)
-        x, xd = _excitation(s / span, span, x0, v0, v1, a0, a1)
-        fy, fw, j11, j12, j21, j22 = _rates_jacobian(y, w, x, xd, p)
-        # (I − h·γ·W)⁻¹ once per step: every stage solves with it.
-        hg = h * _GAMMA
-        m11, m12, m21, m22 = 1.0 - hg * j11, -hg * j12, -hg * j21, 1.0 - hg * j22
-        det = m11 * m22 - m12 * m21
-        i11, i12, i21, i22 = m22 / det, -m12 / det, -m21 / det, m11 / det
+        fy, fw, j11, j12, j21, j22 = _rates_jacobian(y, w, xs, xds, p)
+        i11, i12, i21, i22 = _step_inverse(h, j11, j12, j21, j22)
         r1, r2 = h * fy, h * fw
         k1y, k1w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
         x, xd = _excitation((s + _C2 * h) / span, span, x0, v0, v1, a0, a1)
@@ -133,8 +151,8 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
         gy, gw = _G31 * k1y + _G32 * k2y, _G31 * k1w + _G32 * k2w
         r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
         k3y, k3w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
-        x, xd = _excitation((s + h) / span, span, x0, v0, v1, a0, a1)
-        fy, fw = _rates(y + k3y, w + k3w, x, xd, p)
+        xe, xde = _excitation((s + h) / span, span, x0, v0, v1, a0, a1)
+        fy, fw = _rates(y + k3y, w + k3w, xe, xde, p)
         gy, gw = _G41 * k1y + _G42 * k2y + _G43 * k3y, _G41 * k1w + _G42 * k2w + _G43 * k3w
         r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
         k4y, k4w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
@@ -151,9 +169,33 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
         if err <= 1.0:
             s += h
             y, w = y_new, w_new
-        factor = 0.9 * err ** (-1.0 / 3.0) if err > 0.0 else 5.0  # the error estimate is O(h³)
-        h *= min(5.0, max(0.2, factor))
+            xs, xds = xe, xde  # the next step starts where this one's last stage was: s + h
+        h *= _step_factor(err)
     return y, w, h, steps
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _step_inverse(h, j11, j12, j21, j22):
+    """(I − h·γ·W)⁻¹ (2×2, row by row), once per step: every stage solves with it."""
+    hg = h * _GAMMA
+    m11, m12, m21, m22 = 1.0 - hg * j11, -hg * j12, -hg * j21, 1.0 - hg * j22
+    inv_det = 1.0 / (m11 * m22 - m12 * m21)
+    return m22 * inv_det, -m12 * inv_det, -m21 * inv_det, m11 * inv_det
+
+
+# The step-size factor 0.9·err^(−1/3) (the error estimate is O(h³)) is clipped to [0.2, 5]: outside
+# err ∈ [(0.9/5)³, (0.9/0.2)³] the clip decides, and the cube root (a pow) is not taken. Most steps end
+# at a sample (h cut to what is left of the interval) with an error far below the tolerance.
+_ERR_GROW, _ERR_SHRINK = (0.9 / 5.0) ** 3, (0.9 / 0.2) ** 3
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _step_factor(err):
+    if err <= _ERR_GROW:
+        return 5.0
+    if err >= _ERR_SHRINK:
+        return 0.2
+    return min(5.0, max(0.2, 0.9 * err ** (-1.0 / 3.0)))
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -216,6 +258,7 @@ def _ydot_into(p, t, x, v, a, preroll, out, tol):
     first ~40 ms of an MR-damper test recorded in motion carry a transient of ~200 N.
     """
     budget = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
+    p = with_reciprocals(p)
     y, w = x[0], 0.0
     if preroll > 0:
         y, w, budget = _run(p, t, x, v, a, y, w, preroll, out[:0], budget, tol)
@@ -228,6 +271,20 @@ def _ydot_into(p, t, x, v, a, preroll, out, tol):
     return STATUS_OK
 
 
+def kernel_arrays(*arrays) -> list:
+    """The arrays as the kernels take them: C-contiguous float64, read-only (views, no copy where they
+    already are). One array type for every call, so each kernel is compiled once: a record's arrays
+    are read-only, but a decimated copy (every k-th sample) or a velocity with its first sample set to
+    0 is writable, and each mix was a new specialisation compiled at its first use (1–4 s inside the
+    first fit of such a record: the 34× of a 1 kHz 0.5 Hz test in ``bench_real_fit``)."""
+    out = []
+    for arr in arrays:
+        view = np.ascontiguousarray(arr, dtype=np.float64).view()
+        view.flags.writeable = False
+        out.append(view)
+    return out
+
+
 def ydot_batch(TH, t, x, v, a, tol=_TOL):
     """(ẏ (mm/s) of each parameter row of TH (m, 6) at the samples: (m, L), +inf rows where the
     simulation did not finish; the status of each row (m,), ``STATUS_*``). ``tol``: the integration's
@@ -236,6 +293,8 @@ def ydot_batch(TH, t, x, v, a, tol=_TOL):
     On numba's threads only when there are enough rows for each thread (on a busy machine a parallel
     loop waits for a thread that has no core: tens of ms per call); the rows are independent, so the
     result is the same either way."""
+    TH = np.ascontiguousarray(TH, dtype=np.float64)
+    t, x, v, a = kernel_arrays(t, x, v, a)
     out = np.empty((TH.shape[0], x.shape[0]))
     status = np.zeros(TH.shape[0], dtype=np.int8)
     preroll = preroll_end(x, v)
