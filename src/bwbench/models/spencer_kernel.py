@@ -132,14 +132,18 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
     s = 0.0
     steps = 0
     xs, xds = x0, v0  # the excitation at s (the interval's start: its samples)
+    fresh = True  # the rates at s and W are to be computed: a step retried with a shorter h reuses them
+    fy0 = fw0 = j11 = j12 = j21 = j22 = 0.0
     while s < span:
         if steps >= allowance:
             return np.nan, np.nan, h, steps
         steps += 1
         h = min(h, span - s)
-        fy, fw, j11, j12, j21, j22 = _rates_jacobian(y, w, xs, xds, p)
+        if fresh:
+            fy0, fw0, j11, j12, j21, j22 = _rates_jacobian(y, w, xs, xds, p)
+            fresh = False
         i11, i12, i21, i22 = _step_inverse(h, j11, j12, j21, j22)
-        r1, r2 = h * fy, h * fw
+        r1, r2 = h * fy0, h * fw0
         k1y, k1w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
         x, xd = _excitation((s + _C2 * h) / span, span, x0, v0, v1, a0, a1)
         fy, fw = _rates(y + _A21 * k1y, w + _A21 * k1w, x, xd, p)
@@ -170,6 +174,7 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
             s += h
             y, w = y_new, w_new
             xs, xds = xe, xde  # the next step starts where this one's last stage was: s + h
+            fresh = True
         h *= _step_factor(err)
     return y, w, h, steps
 
