@@ -50,6 +50,7 @@ from bwbench.models.spencer_kernel import (
     STATUS_OK,
     STATUS_STEP_BUDGET,
     STEPS_PER_SAMPLE,
+    _allowance,
     _excitation,
     _step_factor,
     _step_inverse,
@@ -257,9 +258,9 @@ def _interval_sens(
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget, tol):
+def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total, tol):
     """``spencer_kernel._run`` with the sensitivities; writes ẏ and ∂ẏ/∂θ when ``out`` is not empty.
-    Returns (y, w, steps left, status)."""
+    Returns (y, w, steps used, status)."""
     kSy, kSw = np.empty((4, _D)), np.empty((4, _D))  # the stages' work space, once per run
     fSy, fSw, tmp_y, tmp_w, gy, gw = np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D)
     fSy0, fSw0 = np.empty(_D), np.empty(_D)  # stage 1's, kept while a step is retried
@@ -268,6 +269,7 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget, tol):
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
+        allowance = _allowance(used, start + k, total)
         y, w, h, steps, status = _interval_sens(
             y,
             w,
@@ -283,7 +285,7 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget, tol):
             p,
             h,
             y_scale,
-            budget,
+            allowance,
             tol,
             kSy,
             kSw,
@@ -296,31 +298,31 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget, tol):
             fSy0,
             fSw0,
         )
-        budget -= steps
+        used += steps
         if status != STATUS_OK:
-            return np.nan, np.nan, budget, status
+            return np.nan, np.nan, used, status
         if not (np.isfinite(y) and np.isfinite(w)):
-            return np.nan, np.nan, budget, STATUS_BLOW_UP
+            return np.nan, np.nan, used, STATUS_BLOW_UP
         if out.shape[0]:
             out[k + 1] = _ydot_sens_at(y, w, Sy, Sw, x[k + 1], v[k + 1], p, out_S[k + 1])
-    return y, w, budget, STATUS_OK
+    return y, w, used, STATUS_OK
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S, tol):
     """ẏ (mm/s) and ∂ẏ/∂θ at every sample (as ``spencer_kernel._ydot_into``); the status."""
-    budget = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
+    total = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
     p = with_reciprocals(p)
     y, w = x[0], 0.0
     Sy = np.zeros(_D)
     Sw = np.zeros(_D)
+    used = 0
     if preroll > 0:
-        y, w, budget, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], budget, tol)
+        y, w, used, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], used, 0, total, tol)
         if status != STATUS_OK:
             return status
         y += x[0] - x[preroll]
-    y, w, budget, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, budget, tol)
-    return status
+    return _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, used, preroll, total, tol)[3]
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
