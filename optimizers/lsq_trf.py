@@ -91,13 +91,12 @@ iterations from a start in the right basin, and restarts cover the basins.
 
 from __future__ import annotations
 
-from threadpoolctl import threadpool_limits
-
 from bwbench.errors import BudgetExhausted
 from bwbench.optimize.options import Bool, Choice, Float, Int
 from bwbench.optimize.registry import register
 from bwbench.optimizers.lsq_agreement import _agreed, _how_agreed, _rule, _same_optimum  # noqa: F401 (read here by tests)
 from bwbench.optimizers.lsq_residuals import _Arrived, _Residuals, _Stalled
+from bwbench.threads import blas_limits
 
 OPTIONS = {
     "diff_step": Float(1e-5, minimum=1e-10, maximum=0.1),
@@ -162,7 +161,7 @@ def minimize(
     # One BLAS thread: trf takes an SVD of the (L + d) × d Jacobian every iteration, 5 ms on one
     # core and 95 ms with OpenBLAS's 2 threads on a busy 2-core machine (L ≈ 2,000, d = 14); and
     # the run then does not depend on the machine's thread count.
-    with threadpool_limits(limits=1, user_api="blas"):
+    with blas_limits(1, user_api="blas"):
         if cheaper is None:
             return _restarts(objective, rng, search, stop_agree, agree_rtol, stop_on_arrival, agree_same_fit)
         # The exploring searches' ends need only be within the agreement's tolerances (the best one is
