@@ -104,34 +104,43 @@ def apply_bounds(design, out, Zw, qwy, good) -> None:
     with np.errstate(invalid="ignore"):
         below, above = beta < design.lower, beta > design.upper
     bad = good & np.any(below | above, axis=1)
-    if not bad.any():
-        return
-    rows = np.flatnonzero(bad)
-    B = np.concatenate([np.broadcast_to(design.Qty, (len(rows), len(design.Qty))), qwy[rows]], axis=1)
-    new = _clamped_solutions(out.R[rows], B, below[rows], above[rows], design.lower, design.upper)
-    q = design.Q.shape[1]
-    for k, i in enumerate(rows):
-        R, b = out.R[i], B[k]
-        if new[k] is None:  # the clamped guess is not the optimum: the library's bounded solver
-            from scipy.optimize import lsq_linear
-
-            fit = lsq_linear(R, b, bounds=(design.lower, design.upper), method="bvls")
-            x = np.clip(fit.x, design.lower, design.upper)
-            # BVLS may leave a coefficient it holds a unit in the last place inside its bound: put it
-            # on the bound, as the clamped solutions are (what ``on_bound`` reads as held)
-            x = np.where(on_bound(x, design.lower), design.lower, x)
-            new[k] = np.where(on_bound(x, design.upper), design.upper, x)
-        extra = float(np.sum((R @ new[k] - b) ** 2))
+    for i in np.flatnonzero(bad):
+        b = np.concatenate([design.Qty, qwy[i]])
+        residual = None if out.residual is None else out.residual[i]
+        new, extra = bounded_row(design, out.R[i], b, below[i], above[i], beta[i], Zw[i], residual)
         out.mse[i] = (out.rss_ls[i] + extra) / design.L
-        out.coef[i, design.free_index] = new[k]
+        out.coef[i, design.free_index] = new
         design._tie(out.coef[i : i + 1])
         out.bound_active[i] = True
-        if out.residual is not None:
-            delta = new[k] - beta[i]
-            change = design.G @ delta[:q]
-            for j in range(len(design.w_names)):
-                change += delta[q + j] * np.where(design._col == j, Zw[i], 0.0)
-            out.residual[i] += change if design.sw is None else change / design.sw
+
+
+def bounded_row(design, R, b, below, above, beta, Zw, residual) -> tuple[np.ndarray, float]:
+    """(coefficients, RSS added to the unbounded one) of one row whose unbounded coefficients ``beta``
+    break the bounds ``below``/``above``: the clamped guess where it is the optimum (``_clamped_row``),
+    else bounded least squares (scipy ``lsq_linear``, BVLS) on its p × p system ‖R·β − b‖². The row's
+    ``residual`` (model − data, or None), is moved to the new coefficients in place (``Zw``: its w
+    trajectory as the design saw it, weighted)."""
+    new, ok = _clamped_row(
+        np.ascontiguousarray(R), np.ascontiguousarray(b, dtype=float), below, above, design.lower, design.upper
+    )
+    if not ok:  # the clamped guess is not the optimum: the library's bounded solver
+        from scipy.optimize import lsq_linear
+
+        fit = lsq_linear(R, b, bounds=(design.lower, design.upper), method="bvls")
+        x = np.clip(fit.x, design.lower, design.upper)
+        # BVLS may leave a coefficient it holds a unit in the last place inside its bound: put it
+        # on the bound, as the clamped solutions are (what ``on_bound`` reads as held)
+        x = np.where(on_bound(x, design.lower), design.lower, x)
+        new = np.where(on_bound(x, design.upper), design.upper, x)
+    extra = float(np.sum((R @ new - b) ** 2))
+    if residual is not None:
+        q = design.Q.shape[1]
+        delta = new - beta
+        change = design.G @ delta[:q]
+        for j in range(len(design.w_names)):
+            change += delta[q + j] * np.where(design._col == j, Zw, 0.0)
+        residual += change if design.sw is None else change / design.sw
+    return new, extra
 
 
 def on_bound(beta, bound) -> np.ndarray:
@@ -140,28 +149,14 @@ def on_bound(beta, bound) -> np.ndarray:
         return np.isfinite(bound) & (np.abs(beta - bound) <= 1e-12 * np.maximum(np.abs(bound), np.max(np.abs(beta))))
 
 
-def _clamped_solutions(R, B, below, above, lower, upper) -> list:
-    """For rows (R (m, p, p), B (m, p)) whose unbounded solution breaks the bounds ``below``/``above``
-    (m, p): the least-squares solution with exactly those coefficients held on their bounds, where it
-    is the bounded optimum (the others within their bounds, and the gradient pushing each held one
-    outwards: the KKT conditions of the convex problem); None for a row where it is not. Row by row in
-    one compiled call each (``_clamped_row``): in numpy, batched over the rows that break the same
-    bounds, a one-row call cost ~0.3 ms of small-array overhead, half a one-point fit's linear solve."""
-    out: list = [None] * len(R)
-    for k in range(len(R)):
-        beta, ok = _clamped_row(
-            np.ascontiguousarray(R[k]), np.ascontiguousarray(B[k], dtype=float), below[k], above[k], lower, upper
-        )
-        if ok:
-            out[k] = beta
-    return out
-
-
 @numba.njit(cache=True, error_model="numpy")
 def _clamped_row(R, b, below, above, lower, upper):
-    """One row of ``_clamped_solutions``: (β, whether it is the bounded optimum). The free coefficients
-    solve the normal equations of the columns of R they own, scaled to unit norm (so that they stay
-    well conditioned), by Cholesky; the held ones sit on their bounds."""
+    """The least-squares solution of ‖R·β − b‖² (R p × p) with exactly the coefficients of ``below``/
+    ``above`` held on their bounds, and whether it is the bounded optimum: the others within their
+    bounds and the gradient pushing each held one outwards (the KKT conditions of the convex problem).
+    The free coefficients solve the normal equations of the columns of R they own, scaled to unit norm
+    (so that they stay well conditioned), by Cholesky. Compiled: in numpy (batched over the rows that
+    broke the same bounds) a one-row call cost ~0.3 ms of small-array overhead."""
     p = R.shape[0]
     held = below | above
     beta = np.zeros(p)

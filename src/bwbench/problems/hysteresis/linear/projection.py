@@ -1,5 +1,6 @@
-"""The variable-projection Jacobian of the linear solve's residual (``LinearDesign.residual_jacobian``),
-compiled: one pass over the samples for each of its sums, the small p × p algebra in place.
+"""One trajectory's residual and its variable-projection Jacobian through the linear solve
+(``LinearDesign.residual_jacobian``): the per-row part of ``LinearDesign.solve`` without the batch's
+bookkeeping, and the Jacobian's sums compiled, one pass over the samples each.
 
 With X = [G | W(θ)] (G the fixed columns, W the masked w-columns, all weighted like the solve), the
 free columns X_F (those not held on a bound), β̂ the solved coefficients and r = Xβ̂ − y:
@@ -9,8 +10,9 @@ free columns X_F (those not held on a bound), β̂ the solved coefficients and r
 (the sum over the free w-columns k; D runs over every w-column, held ones with their bound value).
 X_FᵀX_F = R_FᵀR_F with R_F the triangular factor of the solve's R restricted to the free columns
 (X = Q·R with orthonormal Q: X_F = Q·R[:, F], re-triangularised by a small Householder QR). Written in
-numpy this was 0.7–1.1 ms per call on a 1,501-sample MR-damper test (boolean masks, einsum, scipy's
-triangular solves on 3 × 6 matrices): as much as the simulation with sensitivities it projects.
+numpy, the Jacobian was 0.7–1.1 ms per call on a 1,501-sample MR-damper test (boolean masks, einsum,
+scipy's triangular solves on 3 × 6 matrices) and the full solve of one row another 0.16–0.5 ms: as
+much as the simulation with sensitivities they project.
 """
 
 from __future__ import annotations
@@ -153,3 +155,69 @@ def projected_jacobian(G, z, dZ, col, sw, R, beta, held, r, check_orthogonal):
             if not np.isfinite(D[l, j]):
                 ok = False
     return D, ok
+
+
+def residual_jacobian(design, z, dZ):
+    """``LinearDesign.residual_jacobian``: (weighted residual (L,), ∂r/∂θ (L, d)) of trajectory z (L,)
+    with sensitivities dZ (L, d), or None (a trajectory or solve that is not finite, a dependent
+    column, an active set the solution does not bear out)."""
+    from bwbench.problems.hysteresis.linear.bounds import on_bound
+
+    z = np.asarray(z, dtype=float)
+    dZ = np.asarray(dZ, dtype=float)
+    if not np.all(np.isfinite(dZ)):
+        return None  # sensitivities that overflowed: no derivative to carry through the solve
+    found = _solve_row(design, z)
+    if found is None:
+        return None
+    residual, beta, bound_active, R = found
+    sw = np.ones(design.L) if design.sw is None else design.sw
+    r = residual * sw
+    held = np.zeros(len(beta), dtype=bool)
+    if bound_active:
+        held = on_bound(beta, design.lower) | on_bound(beta, design.upper)
+    G = design.G if len(design.g_names) else np.zeros((design.L, 0))
+    J, ok = projected_jacobian(
+        np.ascontiguousarray(G, dtype=float),
+        np.ascontiguousarray(z),
+        np.ascontiguousarray(dZ),
+        design._col,
+        np.ascontiguousarray(sw, dtype=float),
+        R,
+        np.ascontiguousarray(beta),
+        held,
+        np.ascontiguousarray(r),
+        bool(held.any()),  # the free coefficients must be the least-squares ones given the held
+    )
+    return (r, J) if ok else None
+
+
+def _solve_row(design, z):
+    """``design.solve(z[None], residual=True)`` for one row, the same arithmetic: (residual (model −
+    data, L), the free coefficients (bounded where a bound is active), whether one is, R (p, p)); None
+    where the solution is not finite or a w-column is dependent (not full rank)."""
+    from bwbench.problems.hysteresis.linear.bounds import bounded_row
+
+    Zg, good, fit_res, C, Rw, qwy, h, rss, full, g = design._unbounded(z[None, :], True)
+    if not (good[0] and full[0]):
+        return None
+    q, nw = design.Q.shape[1], len(design.w_names)
+    R = np.zeros((q + nw, q + nw))
+    R[:q, :q] = design.RG
+    R[:q, q:] = C[0]
+    R[q:, q:] = Rw[0]
+    beta = np.concatenate([g[0], h[0]])
+    residual = -fit_res[0] if design.sw is None else -fit_res[0] / design.sw
+    rss_total = rss[0]
+    bound_active = False
+    if design._bounded:
+        with np.errstate(invalid="ignore"):
+            below, above = beta < design.lower, beta > design.upper
+        if np.any(below | above):
+            b = np.concatenate([design.Qty, qwy[0]])
+            beta, extra = bounded_row(design, R, b, below, above, beta, Zg[0], residual)
+            rss_total = rss_total + extra
+            bound_active = True
+    if not np.isfinite(rss_total / design.L):
+        return None
+    return residual, beta, bound_active, R

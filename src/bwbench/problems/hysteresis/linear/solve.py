@@ -48,7 +48,7 @@ from bwbench.problems.hysteresis.linear.columns import (  # noqa: F401 (re-expor
     tied_offsets,
 )
 from bwbench.problems.hysteresis.linear.kernel import mse_rows, sum_squares, w_solve
-from bwbench.problems.hysteresis.linear.projection import projected_jacobian
+from bwbench.problems.hysteresis.linear.projection import residual_jacobian
 
 
 @dataclass(eq=False)  # eq=False: comparing ndarray fields would raise
@@ -292,40 +292,8 @@ class LinearDesign:
         the second term, while (∂X/∂θ_j)·β̂ keeps every w-column, held ones with their bound value
         (their contribution X_H·β_H moves with θ and is projected like the rest). The residual is
         the one ``solve`` gives (model − data), weighted as there."""
-        z = np.asarray(z, dtype=float)
-        dZ = np.asarray(dZ, dtype=float)
-        if not np.all(np.isfinite(dZ)):
-            return None  # sensitivities that overflowed: no derivative to carry through the solve
-        solution = self.solve(z[None, :], residual=True)
-        if not (np.isfinite(solution.mse[0]) and solution.full_rank[0]):
-            return None
-        sw = np.ones(self.L) if self.sw is None else self.sw
-        r = solution.residual[0] * sw
-        beta = solution.coef[0, self.free_index]  # the bounded solution where a bound is active
-        held = np.zeros(len(beta), dtype=bool)
-        if solution.bound_active[0]:
-            held = _on_bound(beta, self.lower) | _on_bound(beta, self.upper)
-        G = self.G if len(self.g_names) else np.zeros((self.L, 0))
-        J, ok = projected_jacobian(
-            np.ascontiguousarray(G, dtype=float),
-            np.ascontiguousarray(z),
-            np.ascontiguousarray(dZ),
-            self._col,
-            np.ascontiguousarray(sw, dtype=float),
-            np.ascontiguousarray(solution.R[0]),
-            np.ascontiguousarray(beta),
-            held,
-            np.ascontiguousarray(r),
-            bool(held.any()),  # the free coefficients must be the least-squares ones given the held
-        )
-        return (r, J) if ok else None
+        return residual_jacobian(self, z, dZ)
 
     def _tie(self, coef):
         for tied, source in self.tied.items():
             coef[:, self.names.index(tied)] = coef[:, self.names.index(source)]
-
-
-def _on_bound(beta, bound) -> np.ndarray:
-    from bwbench.problems.hysteresis.linear.bounds import on_bound
-
-    return on_bound(beta, bound)
