@@ -61,7 +61,7 @@ accepts, right after the residual there, which then costs nothing more. Without 
 is simulated twice, once plain and once with sensitivities; with it a rejected point costs a
 simulation with sensitivities (~1.5 plain ones) instead of one plain. On the MR-damper generator's
 tests about two trial points in three are accepted: seven tests at two seeds took 22 % less CPU time
-(9.86 → 7.65 s) and 8–21 % fewer evaluations, the same NRMSE on every fit. Studies (no ``stop_agree``)
+(9.86 → 7.65 s) and 10–21 % fewer evaluations, the same NRMSE on every fit. Studies (no ``stop_agree``)
 keep the plain residual and the separate Jacobian.
 
 Why the stall test: on the switched model most random starts fall within 10–20 iterations into
