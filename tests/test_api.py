@@ -51,7 +51,8 @@ def test_the_readme_example_runs_as_written(tmp_path, monkeypatch, capsys):
     exec(compile(readme_example(), "README.md (Python API)", "exec"), namespace)
     out = capsys.readouterr().out
     fit, p = namespace["fit"], namespace["p"]
-    assert list(fit.table()["specimen"]) == ["a", "b"] and fit.nfev == 300
+    # at most the budget: the joint fit stops earlier once its searches agree (240 of 300 measured)
+    assert list(fit.table()["specimen"]) == ["a", "b"] and fit.nfev <= 300
     assert 0 < p.nrmse < 0.05 and f"NRMSE {p.nrmse:.4f}" in out  # Spencer's model on its own generator's test
     assert (tmp_path / "fit.json").is_file() and len(namespace["frame"]) == 1001  # 3 cycles at 1.5 Hz, 500 Hz
     assert set(namespace["best"].index) == {"random", "cmaes"}

@@ -47,16 +47,30 @@ def limited(threads: int = 1):
     """Within the block, numba and the BLAS/OpenMP libraries use at most ``threads`` threads; the
     previous settings are restored after."""
     import numba
-    from threadpoolctl import threadpool_limits
 
     previous = numba.get_num_threads()
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))  # type: ignore[attr-defined]
-    blas = threadpool_limits(limits=threads)
+    blas = blas_limits(threads)
     try:
         yield
     finally:
         blas.restore_original_limits()
         numba.set_num_threads(previous)
+
+
+_CONTROLLER: list = []  # [threadpoolctl's ThreadpoolController, len(sys.modules) when it was made]
+
+
+def blas_limits(threads: int, user_api: str | None = None):
+    """``threadpoolctl.threadpool_limits(limits=threads, user_api=user_api)`` (a context manager, or
+    call ``restore_original_limits()``) from a controller kept between calls: each new one reads every
+    library the process has loaded, ~1 ms (3 per fit). It is made again once modules were imported since:
+    a new BLAS or OpenMP pool arrives with the extension module that loads it."""
+    from threadpoolctl import ThreadpoolController
+
+    if not _CONTROLLER or _CONTROLLER[1] != len(sys.modules):
+        _CONTROLLER[:] = [ThreadpoolController(), len(sys.modules)]
+    return _CONTROLLER[0].limit(limits=threads, user_api=user_api)
 
 
 # Read by each library once, when it loads: numba's pool, OpenMP, OpenBLAS, MKL.

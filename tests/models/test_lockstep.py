@@ -1,4 +1,5 @@
-"""The lockstep kernel against the scalar one (bit for bit), and z against the force."""
+"""The lockstep kernel against the scalar one (bit for bit, with and without its stiff rows handed to the scalar
+kernel), and z against the force."""
 
 from pathlib import Path
 
@@ -56,8 +57,15 @@ def _batches(P):
         start += size
 
 
+# The lockstep kernel hands rows stiff enough for its groups to lose to the scalar kernel
+# (``lockstep.SCALAR_WORK``); with that off, every row runs in lockstep, backward Euler included.
+SCALAR_WORK = pytest.mark.parametrize("scalar_work", [lockstep.SCALAR_WORK, np.inf], ids=["dispatch", "all-lockstep"])
+
+
+@SCALAR_WORK
 @pytest.mark.parametrize("state", model.STATES)
-def test_lockstep_mse_is_bit_identical_to_scalar(specimen, population, state):
+def test_lockstep_mse_is_bit_identical_to_scalar(specimen, population, state, scalar_work, monkeypatch):
+    monkeypatch.setattr(lockstep, "SCALAR_WORK", scalar_work)
     ex, f = specimen
     scalar = model.mse_batch(population, ex.t, ex.x, ex.v, ex.a, f, state, kernel="scalar")
     blown = np.isposinf(scalar)
@@ -72,8 +80,10 @@ def test_lockstep_mse_is_bit_identical_to_scalar(specimen, population, state):
     np.testing.assert_array_equal(model.mse_batch(population, ex.t, ex.x, ex.v, ex.a, f, state), scalar)
 
 
+@SCALAR_WORK
 @pytest.mark.parametrize("state", model.STATES)
-def test_lockstep_z_is_bit_identical_to_scalar(specimen, population, state):
+def test_lockstep_z_is_bit_identical_to_scalar(specimen, population, state, scalar_work, monkeypatch):
+    monkeypatch.setattr(lockstep, "SCALAR_WORK", scalar_work)
     ex, _ = specimen
     H = population[:, list(model.HYSTERETIC_INDEX)]
     scalar = model.hysteretic_state_batch(H, ex.t, ex.x, ex.v, state, kernel="scalar")
@@ -138,3 +148,21 @@ def test_edge_sizes_and_bad_arguments(specimen):
         model.hysteretic_state_batch(np.ones((2, 7)), ex.t, ex.x, ex.v)
     with pytest.raises(ValueError, match="at least one sample"):
         model.mse_batch(np.ones((2, 14)), [], [], [], [], [])
+
+
+def test_stiff_rows_go_to_the_scalar_kernel(specimen, population, monkeypatch):
+    """Rows whose attractor rate times the longest sample step exceeds ``SCALAR_WORK`` run in the
+    scalar kernel, the others in lockstep: the population has both kinds."""
+    ex, _ = specimen
+    H = population[:, list(model.HYSTERETIC_INDEX)]
+    work = lockstep._stiffness_key(H) * np.max(np.abs(np.diff(ex.x)))
+    stiff = work > lockstep.SCALAR_WORK
+    assert 0 < stiff.sum() < len(H)
+    calls = []
+    scalar = lockstep.kernel._hysteretic_batch_scalar
+    monkeypatch.setattr(
+        lockstep.kernel, "_hysteretic_batch_scalar", lambda rows, *args: calls.append(len(rows)) or scalar(rows, *args)
+    )
+    monkeypatch.setattr(lockstep.numba, "get_num_threads", lambda: 1)  # the dispatch is on the one-thread path
+    lockstep.run_hysteretic(np.ascontiguousarray(H), *(np.ascontiguousarray(a) for a in (ex.t, ex.x, ex.v)), False)
+    assert calls == [int(stiff.sum())]

@@ -33,10 +33,12 @@ from bwbench.models.switched_kernel import (
     _RK4_STIFFNESS_PER_SUBSTEP,
     _force_from_z,
     _mse_of_force,
+    _newton_done,
     _substeps,
 )
 
 LANES = 16  # rows per group; on AMD EPYC (Zen 4), one core: 4 is ~15% slower, 8 ~3%, 24 the same
+SCALAR_WORK = 32.0  # stiffness × longest dx above which a row runs in the scalar kernel (``_run``)
 
 _STIFF_WORK = _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS  # as in switched_kernel._advance_z
 _NEWTON_ITERATIONS = 60  # as in switched_kernel._backward_euler
@@ -266,9 +268,11 @@ def _implicit_round(st, z, p, z0, h, A, n, bg, bm, z_att, lo, hi, f_hi, it):
     # Newton where the derivative is usable, bisection otherwise (as in the scalar function).
     pz = p if z != 0.0 else 0.0
     c = bg if (z > 0.0) == (direction > 0.0) else bm
-    dg = -c * n * pz / abs(z) if z != 0.0 else -np.inf
+    dg = -c * n * pz / z if z != 0.0 else -np.inf
     df = 1.0 - h * dg
     z_new = z - f / df if np.isfinite(df) and df != 0.0 else 0.5 * (lo + hi)
+    if _newton_done(z, z_new, lo, hi):
+        return z_new, -1, lo, hi, f_hi, it + 1
     if not (min(lo, hi) < z_new < max(lo, hi)):
         z_new = 0.5 * (lo + hi)
     if abs(z_new - z) <= 1e-14 * (abs(z) + 1e-300) or it + 1 == _NEWTON_ITERATIONS:
@@ -348,9 +352,25 @@ def _run(H, t, x, v, split, mode, Z, P, a, f_meas, out):
     pieces = _excitation_pieces(t, x, v, split)
     # Rows of similar stiffness side by side, so that lanes needing many substeps or backward
     # Euler share a group and overlap their powers too (each row's result is independent of it).
-    order = np.argsort(_stiffness_key(H), kind="stable")
+    key = _stiffness_key(H)
+    order = np.argsort(key, kind="stable")
     if numba.get_num_threads() == 1 or m < 2 * K:
-        _serial(H, order, K, *pieces, mode, Z, P, x, v, a, f_meas, out)
+        # Rows stiff enough for the attractor's rate alone to ask for this many RK4 substeps on the
+        # record's longest sample interval go to the scalar kernel (the same bits): there the lanes of a
+        # group differ in substeps and backward-Euler iterations from piece to piece, each round waits for
+        # its slowest lane, and the lockstep took up to 3× the scalar kernel's time on such groups.
+        work = key * (float(np.max(np.abs(np.diff(x)))) if x.shape[0] > 1 else 0.0)
+        stiff = work[order] > SCALAR_WORK
+        if stiff.any():
+            rows = np.sort(order[stiff])
+            if mode == _MODE_MSE:
+                out[rows] = kernel._mse_serial(np.ascontiguousarray(P[rows]), t, x, v, a, f_meas, split)
+            else:
+                Z[rows] = kernel._hysteretic_batch_scalar(np.ascontiguousarray(H[rows]), t, x, v, split)
+            order = order[~stiff]
+        if order.shape[0]:
+            K = -(-order.shape[0] // -(-order.shape[0] // LANES))
+            _serial(H, order, K, *pieces, mode, Z, P, x, v, a, f_meas, out)
         return
     with numba.parallel_chunksize(1):  # groups differ in cost by 10x and more: hand them out one by one
         _parallel(H, order, K, *pieces, mode, Z, P, x, v, a, f_meas, out)

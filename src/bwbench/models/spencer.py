@@ -42,6 +42,13 @@ import numpy as np
 
 from bwbench.models.base import Box, LinearLayout, Model, Parameter, amplitude, velocity_scale
 from bwbench.models.spencer_plausibility import X0_STROKES, _series_damping, plausibility
+from bwbench.models.spencer_start import (  # noqa: F401 (REST_*, starts_from_rest: read here by callers)
+    REST_POSITION,
+    REST_VELOCITY,
+    _kernel_inputs,
+    initial_state,
+    starts_from_rest,
+)
 
 DIRECT = (
     Parameter("c0", "N·s/mm", "c₀", "viscous damping at large velocities"),
@@ -273,9 +280,10 @@ class Spencer(Model):
     def trajectory_sensitivities(self, theta, signal, state=None):
         """(ẏ (L,) mm/s, ∂ẏ/∂θ (L, 6)) of one θ row, by forward sensitivities (``spencer_sensitivity``);
         None where the simulation did not finish or needed its stiff fallback."""
+        from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET
         from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
 
-        arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]
+        arrays = _kernel_inputs(signal)  # the plain simulation's: from rest where the record starts at rest
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         tol = {} if self.tolerance is None else {"tol": self.tolerance}
         Z, S, status = ydot_sensitivity_batch(theta, *arrays, **tol)
@@ -284,6 +292,7 @@ class Spencer(Model):
             # tolerance's long steps they can run away where the state does not (1–4 % of random points of
             # the box at 1e-4, none at 1e-5). Retaken at the model's own tolerance.
             Z, S, status = ydot_sensitivity_batch(theta, *arrays)
+        MODEL.step_budget_stops += int(status[0] == STATUS_STEP_BUDGET)
         return (Z[0], S[0]) if status[0] == 0 else None
 
     def force_sensitivities(self, P, signal, state=None):
@@ -333,57 +342,15 @@ class Spencer(Model):
 
 def _ydot(theta6, signal, tol: float | None = None) -> np.ndarray:
     """ẏ (mm/s) of kernel rows (m, 6) = (x_y, n, η, v_y, r₀, κ₀) at the samples; +inf rows on blow-up
-    and where the simulation ran out of its step budget (counted in ``MODEL.step_budget_stops``).
-
-    A record that starts from rest (``starts_from_rest``) is given to the kernel with its first velocity
-    sample at exactly 0: the kernel then starts the model at rest instead of after a pre-roll cycle."""
+    and where the simulation ran out of its step budget (counted in ``MODEL.step_budget_stops``)."""
     from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET, ydot_batch
 
-    t, x, v, a = (np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva")
-    if v[0] != 0.0 and starts_from_rest(t, x, v):
-        v = v.copy()
-        v[0] = 0.0
+    t, x, v, a = _kernel_inputs(signal)
     out, status = ydot_batch(
         np.ascontiguousarray(theta6, dtype=float), t, x, v, a, **({} if tol is None else {"tol": tol})
     )
     MODEL.step_budget_stops += int(np.count_nonzero(status == STATUS_STEP_BUDGET))
     return out
-
-
-REST_VELOCITY = 0.02  # × max|ẋ|: the record's first samples move slower than this: it starts from rest
-REST_POSITION = 0.1  # × amplitude: ... and from near mid-stroke (a record cut at a reversal is at an end)
-
-
-def starts_from_rest(t, x, v) -> bool:
-    """Whether a record starts from rest: over its first few samples (3, or 0.2 % of the record) the
-    recorded or estimated velocity stays within its noise-level ``REST_VELOCITY`` × max|ẋ|, and the
-    damper sits near mid-stroke (within ``REST_POSITION`` × the amplitude of (x_max + x_min)/2) or the
-    test ramps in (``steady_part``). A record cut from the middle of a test at a reversal also has
-    ẋ ≈ 0 at its start, but there x is at an end of the stroke and the damper is loaded."""
-    from bwbench.data.steady_part import steady_part
-
-    x, v = np.asarray(x, dtype=float), np.asarray(v, dtype=float)
-    head = max(3, len(v) // 500)
-    if not np.median(np.abs(v[:head])) <= REST_VELOCITY * float(np.max(np.abs(v))):
-        return False
-    mid, amplitude = 0.5 * (x.max() + x.min()), 0.5 * float(np.ptp(x))
-    return bool(abs(x[0] - mid) <= REST_POSITION * amplitude or steady_part(t, x).ramp_in_cycles > 0)
-
-
-def initial_state(signal) -> str:
-    """Which initial state the model starts a record from, in words (for the fit's result)."""
-    from bwbench.models.spencer_kernel import preroll_end
-
-    t, x, v = (np.asarray(getattr(signal, k), dtype=float) for k in "txv")
-    if v[0] == 0.0 or starts_from_rest(t, x, v):
-        return "from rest (y = x, z = 0 at the first sample): the record starts from rest"
-    k = int(preroll_end(np.ascontiguousarray(x), np.ascontiguousarray(v)))
-    if k == 0:
-        return "from rest (y = x, z = 0 at the first sample): the record has no full cycle to pre-roll"
-    return (
-        f"in motion: the record starts moving, so the model starts from the state it reaches after one cycle "
-        f"of the record's own motion (pre-roll to t = {t[k]:.4g} s)"
-    )
 
 
 def _box(parameters, rows: dict) -> Box:

@@ -28,12 +28,33 @@ A state that is not finite makes the whole row +inf.
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
+from bwbench.models.power import exp, log
+
 _XY, _N, _ETA, _VY, _R0, _K0 = range(6)
+# Two reciprocals every rate needs, computed once per simulation (``with_reciprocals``): a multiply
+# instead of a division on the chain each stage waits for.
+_INV_S, _INV_XY = 6, 7
+
+
+@numba.njit(cache=True, error_model="numpy")
+def with_reciprocals(p):
+    """The parameters p = (x_y, n, η, v_y, r₀, κ₀) followed by 1/(1 + r₀) and 1/x_y, as the rates read them."""
+    q = np.empty(8)
+    q[:6] = p[:6]
+    q[_INV_S] = 1.0 / (1.0 + p[_R0])
+    q[_INV_XY] = 1.0 / p[_XY]
+    return q
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def abs_power(w, n):
+    """|w|^n (n ≥ 1) by the switched kernels' table-driven log and exp (``bwbench.models.power``):
+    inlined arithmetic, shorter on the stages' chain than libm's pow, and the same bits as the
+    sensitivity kernel's, which needs log|w| itself."""
+    return exp(n * log(abs(w)))
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
@@ -55,11 +76,12 @@ def _excitation(tau, h, x0, v0, v1, a0, a1):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _rates(y, w, x, xd, p):
-    """(ẏ, ẇ) at state (y, w) and excitation (x, ẋ) for parameters p = (x_y, n, η, v_y, r₀, κ₀)."""
-    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) / (1.0 + p[_R0])
+    """(ẏ, ẇ) at state (y, w) and excitation (x, ẋ) for parameters p = (x_y, n, η, v_y, r₀, κ₀, and
+    the reciprocals of ``with_reciprocals``)."""
+    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) * p[_INV_S]
     u = xd - yd
     c = 1.0 if w * u > 0.0 else p[_ETA]
-    wd = u / p[_XY] * (1.0 - c * math.pow(abs(w), p[_N]))
+    wd = u * p[_INV_XY] * (1.0 - c * abs_power(w, p[_N]))
     return yd, wd
 
 
@@ -69,16 +91,16 @@ def _rates_jacobian(y, w, x, xd, p):
     (y, w) and excitation (x, ẋ) on the current branch (loading or not), sharing one |w|^n: (ẏ, ẇ,
     ∂ẏ/∂y, ∂ẏ/∂w, ∂ẇ/∂y, ∂ẇ/∂w). (W on the stiffer of the two branches where the relative velocity
     hovers about 0 was tried: 3× the steps there.)"""
-    s = 1.0 + p[_R0]
-    j11 = -p[_K0] / s
-    j12 = p[_VY] / s
-    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) / s
+    j11 = -p[_K0] * p[_INV_S]
+    j12 = p[_VY] * p[_INV_S]
+    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) * p[_INV_S]
     u = xd - yd
     c = 1.0 if w * u > 0.0 else p[_ETA]
-    pw = math.pow(abs(w), p[_N])
+    pw = abs_power(w, p[_N])
     sat = 1.0 - c * pw
     dsat = -c * p[_N] * pw / w if w != 0.0 else 0.0  # ∂(1 − c·|w|^n)/∂w; 0 at w = 0 (n ≥ 1)
-    return yd, u / p[_XY] * sat, j11, j12, -j11 / p[_XY] * sat, -j12 / p[_XY] * sat + u / p[_XY] * dsat
+    ux = u * p[_INV_XY]
+    return yd, ux * sat, j11, j12, -j11 * p[_INV_XY] * sat, -j12 * p[_INV_XY] * sat + ux * dsat
 
 
 # Rosenbrock-W method ROS34PW2 (Rang & Angermann, BIT 45:761–787, 2005): 4 stages, order 3 with an
@@ -109,19 +131,19 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
     span = t1 - t0
     s = 0.0
     steps = 0
+    xs, xds = x0, v0  # the excitation at s (the interval's start: its samples)
+    fresh = True  # the rates at s and W are to be computed: a step retried with a shorter h reuses them
+    fy0 = fw0 = j11 = j12 = j21 = j22 = 0.0
     while s < span:
         if steps >= allowance:
             return np.nan, np.nan, h, steps
         steps += 1
         h = min(h, span - s)
-        x, xd = _excitation(s / span, span, x0, v0, v1, a0, a1)
-        fy, fw, j11, j12, j21, j22 = _rates_jacobian(y, w, x, xd, p)
-        # (I − h·γ·W)⁻¹ once per step: every stage solves with it.
-        hg = h * _GAMMA
-        m11, m12, m21, m22 = 1.0 - hg * j11, -hg * j12, -hg * j21, 1.0 - hg * j22
-        det = m11 * m22 - m12 * m21
-        i11, i12, i21, i22 = m22 / det, -m12 / det, -m21 / det, m11 / det
-        r1, r2 = h * fy, h * fw
+        if fresh:
+            fy0, fw0, j11, j12, j21, j22 = _rates_jacobian(y, w, xs, xds, p)
+            fresh = False
+        i11, i12, i21, i22 = _step_inverse(h, j11, j12, j21, j22)
+        r1, r2 = h * fy0, h * fw0
         k1y, k1w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
         x, xd = _excitation((s + _C2 * h) / span, span, x0, v0, v1, a0, a1)
         fy, fw = _rates(y + _A21 * k1y, w + _A21 * k1w, x, xd, p)
@@ -133,8 +155,8 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
         gy, gw = _G31 * k1y + _G32 * k2y, _G31 * k1w + _G32 * k2w
         r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
         k3y, k3w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
-        x, xd = _excitation((s + h) / span, span, x0, v0, v1, a0, a1)
-        fy, fw = _rates(y + k3y, w + k3w, x, xd, p)
+        xe, xde = _excitation((s + h) / span, span, x0, v0, v1, a0, a1)
+        fy, fw = _rates(y + k3y, w + k3w, xe, xde, p)
         gy, gw = _G41 * k1y + _G42 * k2y + _G43 * k3y, _G41 * k1w + _G42 * k2w + _G43 * k3w
         r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
         k4y, k4w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
@@ -151,9 +173,34 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
         if err <= 1.0:
             s += h
             y, w = y_new, w_new
-        factor = 0.9 * err ** (-1.0 / 3.0) if err > 0.0 else 5.0  # the error estimate is O(h³)
-        h *= min(5.0, max(0.2, factor))
+            xs, xds = xe, xde  # the next step starts where this one's last stage was: s + h
+            fresh = True
+        h *= _step_factor(err)
     return y, w, h, steps
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _step_inverse(h, j11, j12, j21, j22):
+    """(I − h·γ·W)⁻¹ (2×2, row by row), once per step: every stage solves with it."""
+    hg = h * _GAMMA
+    m11, m12, m21, m22 = 1.0 - hg * j11, -hg * j12, -hg * j21, 1.0 - hg * j22
+    inv_det = 1.0 / (m11 * m22 - m12 * m21)
+    return m22 * inv_det, -m12 * inv_det, -m21 * inv_det, m11 * inv_det
+
+
+# The step-size factor 0.9·err^(−1/3) (the error estimate is O(h³)) is clipped to [0.2, 5]: outside
+# err ∈ [(0.9/5)³, (0.9/0.2)³] the clip decides, and the cube root (a pow) is not taken. Most steps end
+# at a sample (h cut to what is left of the interval) with an error far below the tolerance.
+_ERR_GROW, _ERR_SHRINK = (0.9 / 5.0) ** 3, (0.9 / 0.2) ** 3
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _step_factor(err):
+    if err <= _ERR_GROW:
+        return 5.0
+    if err >= _ERR_SHRINK:
+        return 0.2
+    return min(5.0, max(0.2, 0.9 * err ** (-1.0 / 3.0)))
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -174,24 +221,25 @@ def preroll_end(x, v) -> int:
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run(p, t, x, v, a, y, w, stop, out, budget, tol):
+def _run(p, t, x, v, a, y, w, stop, out, used, start, total, tol):
     """Integrate from (y, w) at sample 0 to sample ``stop``, writing ẏ into ``out`` when it is not
-    empty, on at most ``budget`` steps. Returns (y, w, steps left): (NaN, NaN, ≥ 0)
-    on blow-up, (NaN, NaN, −1) when the step budget ran out."""
+    empty; ``used`` steps taken so far, this run's first interval the simulation's ``start``-th of
+    ``total`` steps' worth (``_allowance``). Returns (y, w, steps used, status)."""
     if out.shape[0]:
         out[0], _ = _rates(y, w, x[0], v[0], p)
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
+        allowance = _allowance(used, start + k, total)
         y, w, h, steps = _interval(
-            y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale, budget, tol
+            y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale, allowance, tol
         )
-        budget -= steps
+        used += steps
         if not (np.isfinite(y) and np.isfinite(w)):
-            return np.nan, np.nan, (budget if budget > 0 else -1)
+            return np.nan, np.nan, used, (STATUS_STEP_BUDGET if steps >= allowance else STATUS_BLOW_UP)
         if out.shape[0]:
             out[k + 1], _ = _rates(y, w, x[k + 1], v[k + 1], p)
-    return y, w, budget
+    return y, w, used, STATUS_OK
 
 
 # The work a simulation may do: this many steps per sample interval on average, over the whole record
@@ -202,6 +250,18 @@ def _run(p, t, x, v, a, y, w, stop, out, budget, tol):
 # stops and its loss is +inf, the reason counted (``STATUS_STEP_BUDGET``).
 STEPS_PER_SAMPLE = 16
 STATUS_OK, STATUS_BLOW_UP, STATUS_STEP_BUDGET = 0, 1, 2
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _allowance(used, interval, total):
+    """Steps the ``interval``-th sample interval of a simulation may take once ``used`` are spent: the
+    budget (``total`` = ``STEPS_PER_SAMPLE`` per interval) at that pace, from a head start of a quarter
+    of it (a burst at the reversals, or the pre-roll's first reversal from rest, is spent from it).
+    The whole budget only at the end: a simulation over budget everywhere (hundreds of steps per
+    interval in a stiff corner of the box) stops after a quarter of the budget, not the whole, where
+    it cost 10× the median simulation of a fit (a third of the sensitivity kernel's time in a fit of
+    a 1,501-sample MR-damper test)."""
+    return min(STEPS_PER_SAMPLE * (interval + 1) + total // 4, total) - used
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -215,17 +275,30 @@ def _ydot_into(p, t, x, v, a, preroll, out, tol):
     there (y shifted by the same x). For a periodic test that is its steady state; without it the
     first ~40 ms of an MR-damper test recorded in motion carry a transient of ~200 N.
     """
-    budget = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
+    total = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
+    p = with_reciprocals(p)
     y, w = x[0], 0.0
+    used = 0
     if preroll > 0:
-        y, w, budget = _run(p, t, x, v, a, y, w, preroll, out[:0], budget, tol)
+        y, w, used, status = _run(p, t, x, v, a, y, w, preroll, out[:0], used, 0, total, tol)
+        if status != STATUS_OK:
+            return status
         y += x[0] - x[preroll]
-    if not np.isfinite(w):
-        return STATUS_STEP_BUDGET if budget < 0 else STATUS_BLOW_UP
-    y, w, budget = _run(p, t, x, v, a, y, w, x.shape[0] - 1, out, budget, tol)
-    if not np.isfinite(w):
-        return STATUS_STEP_BUDGET if budget < 0 else STATUS_BLOW_UP
-    return STATUS_OK
+    return _run(p, t, x, v, a, y, w, x.shape[0] - 1, out, used, preroll, total, tol)[3]
+
+
+def kernel_arrays(*arrays) -> list:
+    """The arrays as the kernels take them: C-contiguous float64, read-only (views, no copy where they
+    already are). One array type for every call, so each kernel is compiled once: a record's arrays
+    are read-only, but a decimated copy (every k-th sample) or a velocity with its first sample set to
+    0 is writable, and each mix was a new specialisation compiled at its first use (1–4 s inside the
+    first fit of such a record: the 34× of a 1 kHz 0.5 Hz test in ``bench_real_fit``)."""
+    out = []
+    for arr in arrays:
+        view = np.ascontiguousarray(arr, dtype=np.float64).view()
+        view.flags.writeable = False
+        out.append(view)
+    return out
 
 
 def ydot_batch(TH, t, x, v, a, tol=_TOL):
@@ -236,6 +309,8 @@ def ydot_batch(TH, t, x, v, a, tol=_TOL):
     On numba's threads only when there are enough rows for each thread (on a busy machine a parallel
     loop waits for a thread that has no core: tens of ms per call); the rows are independent, so the
     result is the same either way."""
+    TH = np.ascontiguousarray(TH, dtype=np.float64)
+    t, x, v, a = kernel_arrays(t, x, v, a)
     out = np.empty((TH.shape[0], x.shape[0]))
     status = np.zeros(TH.shape[0], dtype=np.int8)
     preroll = preroll_end(x, v)

@@ -21,11 +21,10 @@ explicit integrator it was for needed a fallback at stiff corners; this one does
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
+from bwbench.models.power import exp, log
 from bwbench.models.spencer_kernel import (
     _A21,
     _A31,
@@ -46,36 +45,39 @@ from bwbench.models.spencer_kernel import (
     _G41,
     _G42,
     _G43,
-    _GAMMA,
     _TOL,
     STATUS_BLOW_UP,
     STATUS_OK,
     STATUS_STEP_BUDGET,
     STEPS_PER_SAMPLE,
+    _allowance,
     _excitation,
-    _rates_jacobian,
+    _step_factor,
+    _step_inverse,
+    kernel_arrays,
     preroll_end,
+    with_reciprocals,
 )
 
 STATUS_NO_SENSITIVITY = 3
-_XY, _N, _ETA, _VY, _R0, _K0 = range(6)
+_XY, _N, _ETA, _VY, _R0, _K0, _INV_S, _INV_XY = range(8)  # θ, then ``with_reciprocals``' two
 _D = 6
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _rates_sens(y, w, Sy, Sw, x, xd, p, dSy, dSw):
     """(ẏ, ẇ) at (y, w), and into dSy, dSw the rates of the sensitivities S_y, S_w (each (6,))."""
-    s = 1.0 + p[_R0]
-    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) / s
+    inv_s = p[_INV_S]
+    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) * inv_s
     u = xd - yd
     loading = w * u > 0.0
     c = 1.0 if loading else p[_ETA]
-    aw = abs(w)
     # |w|^n through ln|w|, which its derivatives need anyway: ∂|w|^n/∂w = n·|w|^n/w and
-    # ∂|w|^n/∂n = |w|^n·ln|w| (both 0 at w = 0: n ≥ 1 in every box).
+    # ∂|w|^n/∂n = |w|^n·ln|w| (both 0 at w = 0: n ≥ 1 in every box). The plain kernel's
+    # ``abs_power`` is the same log and exp: the same bits.
     if w != 0.0:
-        lw = math.log(aw)
-        pw = math.exp(p[_N] * lw)
+        lw = log(abs(w))
+        pw = exp(p[_N] * lw)
         dpw_dw = p[_N] * pw / w
         dpw_dn = pw * lw
     else:
@@ -83,29 +85,51 @@ def _rates_sens(y, w, Sy, Sw, x, xd, p, dSy, dSw):
         dpw_dw = 0.0
         dpw_dn = 0.0
     sat = 1.0 - c * pw
-    wd = u / p[_XY] * sat
-    dyd_dy = -p[_K0] / s
-    dyd_dw = p[_VY] / s
+    inv_xy = p[_INV_XY]
+    wd = u * inv_xy * sat
+    dyd_dy = -p[_K0] * inv_s
+    dyd_dw = p[_VY] * inv_s
     # Total derivatives: the state's part for every θ_j, then the explicit ∂/∂θ_j of the few that have one.
-    inv_xy = 1.0 / p[_XY]
     for j in range(_D):
         dyd = dyd_dy * Sy[j] + dyd_dw * Sw[j]
         dSy[j] = dyd
         dSw[j] = (-dyd * sat - u * c * dpw_dw * Sw[j]) * inv_xy
-    for j, extra in ((_VY, w / s), (_R0, u / s), (_K0, (x - y) / s)):
+    for j, extra in ((_VY, w * inv_s), (_R0, u * inv_s), (_K0, (x - y) * inv_s)):
         dSy[j] += extra
         dSw[j] -= extra * sat * inv_xy
     dSw[_N] -= u * c * dpw_dn * inv_xy
     if not loading:
         dSw[_ETA] -= u * pw * inv_xy
     dSw[_XY] -= wd * inv_xy
-    return yd, wd
+    return yd, wd, u, c, pw, sat
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _start_sens(y, w, Sy, Sw, x, xd, p, dSy, dSw):
+    """``_rates_sens`` at a step's start, with the matrix W of the step: (ẏ, ẇ, ∂ẏ/∂y, ∂ẏ/∂w, ∂ẇ/∂y,
+    ∂ẇ/∂w), the plain kernel's ``_rates_jacobian`` to the bit from the same |w|^n."""
+    yd, wd, u, c, pw, sat = _rates_sens(y, w, Sy, Sw, x, xd, p, dSy, dSw)
+    j11 = -p[_K0] * p[_INV_S]
+    j12 = p[_VY] * p[_INV_S]
+    dsat = -c * p[_N] * pw / w if w != 0.0 else 0.0
+    ux = u * p[_INV_XY]
+    return yd, wd, j11, j12, -j11 * p[_INV_XY] * sat, -j12 * p[_INV_XY] * sat + ux * dsat
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_sens_at(y, w, Sy, Sw, x, xd, p, out_S, scratch):
-    """ẏ at a sample, and its total derivative ∂ẏ/∂θ into out_S (6,); ``scratch`` (6,) takes Ṡ_w."""
-    yd, _ = _rates_sens(y, w, Sy, Sw, x, xd, p, out_S, scratch)
+def _ydot_sens_at(y, w, Sy, Sw, x, xd, p, out_S):
+    """ẏ at a sample, and its total derivative ∂ẏ/∂θ into out_S (6,): ``_rates_sens``' ẏ part alone
+    (no |w|^n: one log and exp fewer per sample)."""
+    inv_s = p[_INV_S]
+    yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) * inv_s
+    u = xd - yd
+    dyd_dy = -p[_K0] * inv_s
+    dyd_dw = p[_VY] * inv_s
+    for j in range(_D):
+        out_S[j] = dyd_dy * Sy[j] + dyd_dw * Sw[j]
+    out_S[_VY] += w * inv_s
+    out_S[_R0] += u * inv_s
+    out_S[_K0] += (x - y) * inv_s
     return yd
 
 
@@ -121,7 +145,32 @@ def _stage_sens(kSy, kSw, i, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21
 
 @numba.njit(cache=True, error_model="numpy")
 def _interval_sens(
-    y, w, Sy, Sw, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol, kSy, kSw, fSy, fSw, tmp_y, tmp_w, gy, gw
+    y,
+    w,
+    Sy,
+    Sw,
+    t0,
+    t1,
+    x0,
+    v0,
+    v1,
+    a0,
+    a1,
+    p,
+    h,
+    y_scale,
+    allowance,
+    tol,
+    kSy,
+    kSw,
+    fSy,
+    fSw,
+    tmp_y,
+    tmp_w,
+    gy,
+    gw,
+    fSy0,
+    fSw0,
 ):
     """``spencer_kernel._interval`` with the sensitivities (Sy, Sw updated in place). Returns
     (y, w, h, steps, status); STATUS_STEP_BUDGET past ``allowance`` steps, STATUS_BLOW_UP on a state
@@ -129,25 +178,25 @@ def _interval_sens(
     span = t1 - t0
     s = 0.0
     steps = 0
+    xs, xds = x0, v0  # the excitation at s, as in the plain kernel
+    fresh = True  # the rates at s (stage 1's) and W are to be computed: none of them depends on h
+    fy0 = fw0 = j11 = j12 = j21 = j22 = 0.0
     while s < span:
         if steps >= allowance:
             return np.nan, np.nan, h, steps, STATUS_STEP_BUDGET
         steps += 1
         h = min(h, span - s)
-        x, xd = _excitation(s / span, span, x0, v0, v1, a0, a1)
-        _, _, j11, j12, j21, j22 = _rates_jacobian(y, w, x, xd, p)
-        hg = h * _GAMMA
-        m11, m12, m21, m22 = 1.0 - hg * j11, -hg * j12, -hg * j21, 1.0 - hg * j22
-        det = m11 * m22 - m12 * m21
-        i11, i12, i21, i22 = m22 / det, -m12 / det, -m21 / det, m11 / det
+        if fresh:
+            fy0, fw0, j11, j12, j21, j22 = _start_sens(y, w, Sy, Sw, xs, xds, p, fSy0, fSw0)
+            fresh = False
+        i11, i12, i21, i22 = _step_inverse(h, j11, j12, j21, j22)
         # stage 1
-        fy, fw = _rates_sens(y, w, Sy, Sw, x, xd, p, fSy, fSw)
-        r1, r2 = h * fy, h * fw
+        r1, r2 = h * fy0, h * fw0
         k1y, k1w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
         for q in range(_D):
             gy[q] = 0.0
             gw[q] = 0.0
-        _stage_sens(kSy, kSw, 0, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21, i22, h)
+        _stage_sens(kSy, kSw, 0, fSy0, fSw0, gy, gw, j11, j12, j21, j22, i11, i12, i21, i22, h)
         # stage 2
         x, xd = _excitation((s + _C2 * h) / span, span, x0, v0, v1, a0, a1)
         for q in range(_D):
@@ -155,7 +204,7 @@ def _interval_sens(
             tmp_w[q] = Sw[q] + _A21 * kSw[0, q]
             gy[q] = _G21 * kSy[0, q]
             gw[q] = _G21 * kSw[0, q]
-        fy, fw = _rates_sens(y + _A21 * k1y, w + _A21 * k1w, tmp_y, tmp_w, x, xd, p, fSy, fSw)
+        fy, fw, _, _, _, _ = _rates_sens(y + _A21 * k1y, w + _A21 * k1w, tmp_y, tmp_w, x, xd, p, fSy, fSw)
         g1, g2 = _G21 * k1y, _G21 * k1w
         r1, r2 = h * (fy + j11 * g1 + j12 * g2), h * (fw + j21 * g1 + j22 * g2)
         k2y, k2w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
@@ -167,19 +216,21 @@ def _interval_sens(
             tmp_w[q] = Sw[q] + _A31 * kSw[0, q] + _A32 * kSw[1, q]
             gy[q] = _G31 * kSy[0, q] + _G32 * kSy[1, q]
             gw[q] = _G31 * kSw[0, q] + _G32 * kSw[1, q]
-        fy, fw = _rates_sens(y + _A31 * k1y + _A32 * k2y, w + _A31 * k1w + _A32 * k2w, tmp_y, tmp_w, x, xd, p, fSy, fSw)
+        fy, fw, _, _, _, _ = _rates_sens(
+            y + _A31 * k1y + _A32 * k2y, w + _A31 * k1w + _A32 * k2w, tmp_y, tmp_w, x, xd, p, fSy, fSw
+        )
         g1, g2 = _G31 * k1y + _G32 * k2y, _G31 * k1w + _G32 * k2w
         r1, r2 = h * (fy + j11 * g1 + j12 * g2), h * (fw + j21 * g1 + j22 * g2)
         k3y, k3w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
         _stage_sens(kSy, kSw, 2, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21, i22, h)
         # stage 4 (at u + k_3, the step's end)
-        x, xd = _excitation((s + h) / span, span, x0, v0, v1, a0, a1)
+        xe, xde = _excitation((s + h) / span, span, x0, v0, v1, a0, a1)
         for q in range(_D):
             tmp_y[q] = Sy[q] + kSy[2, q]
             tmp_w[q] = Sw[q] + kSw[2, q]
             gy[q] = _G41 * kSy[0, q] + _G42 * kSy[1, q] + _G43 * kSy[2, q]
             gw[q] = _G41 * kSw[0, q] + _G42 * kSw[1, q] + _G43 * kSw[2, q]
-        fy, fw = _rates_sens(y + k3y, w + k3w, tmp_y, tmp_w, x, xd, p, fSy, fSw)
+        fy, fw, _, _, _, _ = _rates_sens(y + k3y, w + k3w, tmp_y, tmp_w, xe, xde, p, fSy, fSw)
         g1, g2 = _G41 * k1y + _G42 * k2y + _G43 * k3y, _G41 * k1w + _G42 * k2w + _G43 * k3w
         r1, r2 = h * (fy + j11 * g1 + j12 * g2), h * (fw + j21 * g1 + j22 * g2)
         k4y, k4w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
@@ -197,25 +248,28 @@ def _interval_sens(
         if err <= 1.0:
             s += h
             y, w = y_new, w_new
+            xs, xds = xe, xde
+            fresh = True
             for q in range(_D):
                 Sy[q] += _B1 * kSy[0, q] + _B2 * kSy[1, q] + _B3 * kSy[2, q] + _B4 * kSy[3, q]
                 Sw[q] += _B1 * kSw[0, q] + _B2 * kSw[1, q] + _B3 * kSw[2, q] + _B4 * kSw[3, q]
-        factor = 0.9 * err ** (-1.0 / 3.0) if err > 0.0 else 5.0
-        h *= min(5.0, max(0.2, factor))
+        h *= _step_factor(err)
     return y, w, h, steps, STATUS_OK
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget, tol):
+def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total, tol):
     """``spencer_kernel._run`` with the sensitivities; writes ẏ and ∂ẏ/∂θ when ``out`` is not empty.
-    Returns (y, w, steps left, status)."""
+    Returns (y, w, steps used, status)."""
     kSy, kSw = np.empty((4, _D)), np.empty((4, _D))  # the stages' work space, once per run
     fSy, fSw, tmp_y, tmp_w, gy, gw = np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D)
+    fSy0, fSw0 = np.empty(_D), np.empty(_D)  # stage 1's, kept while a step is retried
     if out.shape[0]:
-        out[0] = _ydot_sens_at(y, w, Sy, Sw, x[0], v[0], p, out_S[0], fSw)
+        out[0] = _ydot_sens_at(y, w, Sy, Sw, x[0], v[0], p, out_S[0])
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
+        allowance = _allowance(used, start + k, total)
         y, w, h, steps, status = _interval_sens(
             y,
             w,
@@ -231,7 +285,7 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget, tol):
             p,
             h,
             y_scale,
-            budget,
+            allowance,
             tol,
             kSy,
             kSw,
@@ -241,31 +295,34 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, budget, tol):
             tmp_w,
             gy,
             gw,
+            fSy0,
+            fSw0,
         )
-        budget -= steps
+        used += steps
         if status != STATUS_OK:
-            return np.nan, np.nan, budget, status
+            return np.nan, np.nan, used, status
         if not (np.isfinite(y) and np.isfinite(w)):
-            return np.nan, np.nan, budget, STATUS_BLOW_UP
+            return np.nan, np.nan, used, STATUS_BLOW_UP
         if out.shape[0]:
-            out[k + 1] = _ydot_sens_at(y, w, Sy, Sw, x[k + 1], v[k + 1], p, out_S[k + 1], fSw)
-    return y, w, budget, STATUS_OK
+            out[k + 1] = _ydot_sens_at(y, w, Sy, Sw, x[k + 1], v[k + 1], p, out_S[k + 1])
+    return y, w, used, STATUS_OK
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S, tol):
     """ẏ (mm/s) and ∂ẏ/∂θ at every sample (as ``spencer_kernel._ydot_into``); the status."""
-    budget = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
+    total = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
+    p = with_reciprocals(p)
     y, w = x[0], 0.0
     Sy = np.zeros(_D)
     Sw = np.zeros(_D)
+    used = 0
     if preroll > 0:
-        y, w, budget, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], budget, tol)
+        y, w, used, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], used, 0, total, tol)
         if status != STATUS_OK:
             return status
         y += x[0] - x[preroll]
-    y, w, budget, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, budget, tol)
-    return status
+    return _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, used, preroll, total, tol)[3]
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
@@ -281,6 +338,7 @@ def ydot_sensitivity_batch(TH, t, x, v, a, tol=_TOL):
     """(ẏ (m, L) mm/s, ∂ẏ/∂θ (m, L, 6), status (m,)) of each θ row of TH (m, 6); rows that did not
     finish are +inf (ẏ) and NaN (∂ẏ/∂θ), their status saying why (``STATUS_*``)."""
     TH = np.ascontiguousarray(TH, dtype=float)
+    t, x, v, a = kernel_arrays(t, x, v, a)
     out = np.empty((TH.shape[0], x.shape[0]))
     out_S = np.empty((TH.shape[0], x.shape[0], _D))
     status = np.zeros(TH.shape[0], dtype=np.int8)

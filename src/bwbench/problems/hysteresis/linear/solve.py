@@ -30,7 +30,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 
 from bwbench.problems.hysteresis.inertia_rule import (  # noqa: F401 (re-exported: the rule's home was here)
     M_REF,
@@ -49,6 +48,7 @@ from bwbench.problems.hysteresis.linear.columns import (  # noqa: F401 (re-expor
     tied_offsets,
 )
 from bwbench.problems.hysteresis.linear.kernel import mse_rows, sum_squares, w_solve
+from bwbench.problems.hysteresis.linear.projection import residual_jacobian
 
 
 @dataclass(eq=False)  # eq=False: comparing ndarray fields would raise
@@ -181,6 +181,14 @@ class LinearDesign:
             self.bounds = {layout.mass: (self.mass_min, np.inf)} if layout.mass and self.mass_min is not None else {}
         self.lower, self.upper = free_bounds(self)
         self._bounded = bool(np.any(np.isfinite(self.lower)) or np.any(np.isfinite(self.upper)))
+        # A solved row's coefficients before its free values go in: 0 for the fixed and dropped ones of
+        # the present branches, the mass where it is not fitted, NaN for an absent branch's.
+        self._coef_template = np.full(len(self.names), np.nan)
+        for b, mask in self.masks.items():
+            if mask.any():
+                self._coef_template[[self.names.index(f"{n}{b}") for n in layout.names if n != layout.mass]] = 0.0
+        if layout.mass:
+            self._coef_template[self.names.index(layout.mass)] = self.mass if self.mass is not None else 0.0
 
     def _factor(self, names, cols):
         Q, R, perm, rank, scale = pivoted_qr(cols)
@@ -241,12 +249,7 @@ class LinearDesign:
         with np.errstate(divide="ignore"):
             logdet = np.where(full & good, 2.0 * np.sum(np.log(diag), axis=1), -np.inf)
         beta = np.concatenate([g, h], axis=1)
-        coef = np.full((m, len(self.names)), np.nan)
-        for b, mask in self.masks.items():  # fixed and dropped coefficients of present branches
-            if mask.any():
-                coef[:, [self.names.index(f"{n}{b}") for n in self.layout.names if n != self.layout.mass]] = 0.0
-        if self.layout.mass:
-            coef[:, self.names.index(self.layout.mass)] = self.mass if self.mass is not None else 0.0
+        coef = np.repeat(self._coef_template[None, :], m, axis=0)
         coef[:, self.free_index] = beta
         self._tie(coef)
         coef[~good] = np.nan
@@ -289,72 +292,8 @@ class LinearDesign:
         the second term, while (∂X/∂θ_j)·β̂ keeps every w-column, held ones with their bound value
         (their contribution X_H·β_H moves with θ and is projected like the rest). The residual is
         the one ``solve`` gives (model − data), weighted as there."""
-        z = np.asarray(z, dtype=float)
-        dZ = np.asarray(dZ, dtype=float)
-        if not np.all(np.isfinite(dZ)):
-            return None  # sensitivities that overflowed: no derivative to carry through the solve
-        solution = self.solve(z[None, :], residual=True)
-        if not (np.isfinite(solution.mse[0]) and solution.full_rank[0]):
-            return None
-        sw = np.ones(self.L) if self.sw is None else self.sw
-        r = solution.residual[0] * sw
-        nw, q = len(self.w_names), len(self.g_names)
-        W = np.zeros((self.L, nw))
-        dW = np.zeros((nw, self.L, dZ.shape[1]))
-        for k in range(nw):
-            mask = self._col == k
-            W[mask, k] = z[mask] * sw[mask]
-            dW[k][mask] = dZ[mask] * sw[mask, None]
-        X = np.column_stack([self.G, W]) if q else W
-        beta = solution.coef[0, self.free_index]  # the bounded solution where a bound is active
-        held = np.zeros(len(beta), dtype=bool)
-        if solution.bound_active[0]:
-            held = _on_bound(beta, self.lower) | _on_bound(beta, self.upper)
-        if not held.any():
-            return self._projected_jacobian(X, solution.R[0], r, beta[q:], dW)
-        XF = X[:, ~held]
-        Q, R = np.linalg.qr(XF)
-        # The free coefficients must be the least-squares ones given the held: r ⟂ the free columns.
-        # Otherwise the active set read off the solution is not the one the solve used.
-        if held.any() and np.linalg.norm(Q.T @ r) > 1e-8 * max(np.linalg.norm(r), 1e-300) * np.sqrt(XF.shape[1]):
-            return None
-        with np.errstate(over="ignore", invalid="ignore"):  # huge finite sensitivities: checked below
-            dXb = np.einsum("k,kld->ld", beta[q:], dW)  # (∂X/∂θ)·β̂ through every w-column, held or free
-            J = dXb - Q @ (Q.T @ dXb)
-            position = np.cumsum(~held) - 1  # index of each free column among the columns of X_F
-            for k in range(nw):
-                if held[q + k]:
-                    continue  # a held coefficient is no function of θ: no term through its normal equation
-                # X_F·(X_FᵀX_F)⁻¹·e_k = Q·R⁻ᵀ·e_k, times (∂W_k/∂θ)ᵀ·r
-                e = np.zeros(XF.shape[1])
-                e[position[q + k]] = 1.0
-                J -= np.outer(Q @ np.linalg.solve(R.T, e), dW[k].T @ r)
-        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
-            return None
-        return r, J
-
-    def _projected_jacobian(self, X, R, r, h, dW):
-        """The variable-projection Jacobian with no coefficient held, from the solve's own factor
-        (XᵀX = RᵀR, no second factorisation): ∂r/∂θ = D − X·(XᵀX)⁻¹·(Xᵀ·D + Σ_k e_k·(∂W_k/∂θ)ᵀ·r)
-        with D = Σ_k h_k·∂W_k/∂θ (h: the w-columns' coefficients), e_k the w-column k of X."""
-        q = X.shape[1] - len(h)
-        with np.errstate(over="ignore", invalid="ignore"):  # huge finite sensitivities: checked below
-            D = np.einsum("k,kld->ld", h, dW)
-            C = X.T @ D
-            for k in range(len(h)):
-                C[q + k] += dW[k].T @ r
-            y = scipy.linalg.solve_triangular(R, scipy.linalg.solve_triangular(R, C, trans="T"))
-            J = D - X @ y
-        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
-            return None
-        return r, J
+        return residual_jacobian(self, z, dZ)
 
     def _tie(self, coef):
         for tied, source in self.tied.items():
             coef[:, self.names.index(tied)] = coef[:, self.names.index(source)]
-
-
-def _on_bound(beta, bound) -> np.ndarray:
-    from bwbench.problems.hysteresis.linear.bounds import on_bound
-
-    return on_bound(beta, bound)
