@@ -279,7 +279,8 @@ class Spencer(Model):
 
     def trajectory_sensitivities(self, theta, signal, state=None):
         """(ẏ (L,) mm/s, ∂ẏ/∂θ (L, 6)) of one θ row, by forward sensitivities (``spencer_sensitivity``);
-        None where the simulation did not finish or needed its stiff fallback."""
+        (ẏ all +inf, None) where the simulation did not finish: the state steps as the plain kernel's does,
+        to the bit, so the plain simulation would not finish either."""
         from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET
         from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
 
@@ -293,7 +294,7 @@ class Spencer(Model):
             # the box at 1e-4, none at 1e-5). Retaken at the model's own tolerance.
             Z, S, status = ydot_sensitivity_batch(theta, *arrays)
         MODEL.step_budget_stops += int(status[0] == STATUS_STEP_BUDGET)
-        return (Z[0], S[0]) if status[0] == 0 else None
+        return (Z[0], S[0]) if status[0] == 0 else (Z[0], None)
 
     def force_sensitivities(self, P, signal, state=None):
         """(force (L,) N, ∂F/∂P (L, 10)) of one direct parameter vector P: F = c₁·ẏ(θ(P)) + k₁·(x − x₀),
@@ -304,7 +305,7 @@ class Spencer(Model):
         if not (np.all(np.isfinite(theta)) and theta[0, 0] > 0):
             return None
         found = self.trajectory_sensitivities(theta[0], signal)
-        if found is None:
+        if found is None or found[1] is None:
             return None
         ydot, S = found
         c0, c1, k0, k1, x0, alpha, beta, gamma, A, n = P
