@@ -81,8 +81,11 @@ class _Residuals:
 
     def _fused(self, u) -> np.ndarray | None:
         """The residual at u from one simulation with sensitivities (charged what a Jacobian is), its
-        Jacobian kept for ``jac``; None where the problem gave none (then the plain simulation runs)."""
+        Jacobian kept for ``jac``; +inf where the simulation did not finish (a plain one would not
+        either: not run); None where the problem gave no answer (then the plain simulation runs)."""
         found = self.objective.residual_jacobian(np.asarray(u, dtype=float))
+        if found is not None and found[1] is None:
+            return found[0]  # not finished: charged, and no second simulation to learn the same
         if found is None or not np.all(np.isfinite(found[0])):
             return None
         r, J = found
@@ -119,9 +122,12 @@ class _Residuals:
         if self._last_u is not None and np.array_equal(u, self._last_u):
             return self._last_r.copy()  # scipy re-asks for x0: no new simulation
         r = self._fused(u) if self.fused else None
+        if r is not None and np.all(np.isfinite(r)):
+            return r.copy()  # remembered with its Jacobian by ``_fused``
         if r is None:
-            r = self._finite(self.raw(u)[0])
-            self._remember(u, r)
+            r = self.raw(u)[0]
+        r = self._finite(r)
+        self._remember(u, r)
         return r.copy()
 
     def jac(self, u) -> np.ndarray:
@@ -134,7 +140,8 @@ class _Residuals:
         if self.exact:
             found = self.objective.residual_jacobian(u)
             # Sensitivities grow without bound near a blow-up; trf squares the columns: keep those it can.
-            if found is not None and np.all(np.isfinite(found[1])) and np.max(np.abs(found[1])) <= 1e100:
+            ok = found is not None and found[1] is not None
+            if ok and np.all(np.isfinite(found[1])) and np.max(np.abs(found[1])) <= 1e100:
                 return found[1]
             self._stop_if_spent()  # no sensitivities here (a stiff corner): differences, if the budget allows
         h = np.where(u + self.step <= 1.0, self.step, -self.step)  # inward at the upper bound

@@ -8,7 +8,7 @@ import pytest
 
 from bwbench import testing
 from bwbench.data.specimen import read_specimen
-from bwbench.models.spencer import EXPLORATION_TOLERANCE, MODEL
+from bwbench.models.spencer import EXPLORATION_PACE, EXPLORATION_TOLERANCE, MODEL
 from bwbench.optimize import fitting
 from bwbench.optimize.objective import Objective
 from bwbench.problems.hysteresis.formulations import make_problem
@@ -59,6 +59,7 @@ def test_the_exploring_model_is_a_looser_copy_and_the_model_is_untouched():
     problem = _problem()
     cheaper = problem.exploration()
     assert cheaper.model.tolerance == EXPLORATION_TOLERANCE and MODEL.tolerance is None and problem.model is MODEL
+    assert cheaper.model.pace == EXPLORATION_PACE == 8 and MODEL.pace is None  # every sample kept: 8 steps each
     theta = np.array([[0.02, 2.0, 0.3, 20.0, 0.09, 0.2]])  # near Spencer's damper (x_y mm, n, η, v_y mm/s, r₀, κ₀ 1/s)
     fine, coarse = problem.model.trajectories(theta, problem.signal), cheaper.model.trajectories(theta, problem.signal)
     gap = np.max(np.abs(fine - coarse)) / np.ptp(fine)
@@ -124,3 +125,43 @@ def test_a_joint_fit_explores_on_every_kth_sample_of_its_oversampled_files_on_it
     assert cheaper.loss_batch(theta)[0] == pytest.approx(joint.loss_batch(theta)[0], rel=0.1)
     samples = JointProblem(parts, "samples").exploration()  # files weighed by their samples: all of them kept
     assert samples.n_data == 3752
+
+
+def test_the_exploring_step_budget_stops_a_stiff_simulation_sooner_and_spares_the_optimums():
+    from bwbench.models import spencer_kernel as kernel
+    from bwbench.models.spencer_start import _kernel_inputs
+
+    problem = _problem()
+    t, x, v, a = _kernel_inputs(problem.signal)
+    intervals = len(x) - 1
+
+    def run(theta, pace):  # (steps per interval tried, status) at the exploring tolerance, after the pre-roll's share
+        before = kernel.preroll_end(x, v)  # the budget counts the pre-roll's intervals too
+        steps, status = kernel._run(
+            kernel.with_reciprocals(theta),
+            t,
+            x,
+            v,
+            a,
+            x[0],
+            0.0,
+            intervals,
+            np.empty(0),
+            0,
+            before,
+            pace * (intervals + before),
+            EXPLORATION_TOLERANCE,
+            pace,
+        )[2:]
+        return steps / intervals, status
+
+    near = np.array([0.02, 2.0, 0.3, 20.0, 0.09, 0.2])  # near Spencer's damper
+    stiff = problem.from_unit(np.array([0.064, 0.752, 0.279, 0.681, 0.277, 0.841]))  # a random point of the box
+    assert run(near, EXPLORATION_PACE) == run(near, kernel.STEPS_PER_SAMPLE) and run(near, 8)[0] < 2.5
+    (fine, fine_status), (coarse, coarse_status) = run(stiff, kernel.STEPS_PER_SAMPLE), run(stiff, EXPLORATION_PACE)
+    assert fine_status == coarse_status == kernel.STATUS_STEP_BUDGET
+    assert fine > 20 and coarse < 8  # measured 21.3 and 7.0 steps per interval: it stops 3x sooner
+    slow = make_problem(
+        read_specimen(MR.parent / "mr_25mm_0.5Hz_1V.csv"), {"model": "spencer", "formulation": "identifiable"}
+    )
+    assert slow.exploration().model.pace == kernel.STEPS_PER_SAMPLE  # every 2nd sample: 16 per interval of 2

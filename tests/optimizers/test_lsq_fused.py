@@ -61,3 +61,30 @@ def test_fused_needs_exact_jacobians():
     r = residuals.start(u)
     assert r is not None and np.array_equal(residuals.fun(u), r) and sphere.nfev == 1
     assert residuals.jac(u).shape == (len(r), 3) and sphere.nfev == 4  # differences: 3 more points
+
+
+def test_a_simulation_that_does_not_finish_is_not_run_again_without_its_sensitivities(monkeypatch):
+    problem = make_problem(read_specimen(MR), {"model": "spencer", "formulation": "identifiable"})
+    # x_y at the box's floor, η far below −1: the relative velocity hovers about 0 and the branch flips
+    # with the velocity's noise: over the step budget (a stiff corner of the box).
+    stiff = problem.to_unit(np.array([problem.lower[0], 2.0, problem.lower[2], 20.0, 0.09, 0.2]))
+    objective = Objective(problem, 100)
+    r, J = objective.residual_jacobian(stiff)
+    assert J is None and np.all(np.isinf(r)) and objective.nfev == problem.jacobian_cost  # charged, as tried
+    assert not np.isfinite(problem.loss_batch(problem.from_unit(stiff)[None, :])[0])  # nor the plain one
+    calls = _counting(monkeypatch)
+    residuals = lsq_trf._Residuals(Objective(problem, 100), diff_step=1e-5, exact=True, fused=True)
+    residuals.penalty(50.0)
+    assert np.allclose(residuals.fun(stiff), np.sqrt(residuals.penalty.value))  # above every finite cost
+    assert calls == {"residuals": 0, "residual_jacobian": 1}
+    assert residuals.start(stiff) is None  # a start there is redrawn
+
+
+def test_the_polish_starts_from_the_best_distinct_ends():
+    best = (10.0, np.full(3, 0.5), None)
+    near = (10.05, np.full(3, 0.51), None)  # the same place: one optimum
+    other = (10.1, np.array([0.2, 0.5, 0.5]), None)  # another optimum within 2 × the agreement's MSE tolerance
+    far = (10.3, np.array([0.9, 0.1, 0.5]), None)  # 3 % worse: not a candidate
+    starts = lsq_trf._distinct_ends([far, other, near, (np.inf, None, None), best], 0.01)
+    assert [list(u) for u in starts] == [list(best[1]), list(other[1])]
+    assert len(lsq_trf._distinct_ends([(10.0 + i * 1e-3, np.full(3, 0.1 * i), None) for i in range(6)], 0.01)) == 3

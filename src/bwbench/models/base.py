@@ -183,7 +183,8 @@ class Model:
     def trajectory_sensitivities(self, theta, signal, state=None):
         """(the θ-dependent column z (L,), ∂z/∂θ (L, d)) of one θ row (d,), integrated together; None
         when the model has no sensitivities, or where they could not be had (then callers take
-        differences)."""
+        differences); (z all +inf, None) where the simulation itself did not finish (blow-up, step
+        budget), so the plain one would not either: callers need not run it."""
         return None
 
     def to_direct(self, theta, coef: dict, state=None):

@@ -32,6 +32,7 @@ from bwbench.models.switched_kernel import (
     _RK4_MAX_SUBSTEPS,
     _RK4_STIFFNESS_PER_SUBSTEP,
     _force_from_z,
+    _implicit,
     _mse_of_force,
     _newton_done,
     _substeps,
@@ -118,7 +119,7 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                 z = zc[lane]
                 p = pw[lane]
                 work = _work(z, p, dx, direction, cn[lane], cbg[lane], cbm[lane], pzs[b, lane], prate[b, lane])
-                if work > _STIFF_WORK:
+                if _implicit(work, z, direction, pzs[b, lane]):
                     msub[lane] = -1
                     zarg[lane] = z
                     bstate[lane] = _BE_START

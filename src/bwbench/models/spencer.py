@@ -106,6 +106,14 @@ KAPPA0_MAX = 10.0
 # its loss had a spurious minimum 3 % below the optimum (the searches then never agreed) and the
 # sensitivities ran away at 7–9 % of random points of the box.
 EXPLORATION_TOLERANCE = 1e-4
+# The step budget of the exploring simulations, in steps per interval of the record's own sampling (the
+# model's is ``spencer_kernel.STEPS_PER_SAMPLE`` = 16): a simulation that needs more than the pace runs
+# until the head start of a quarter of the budget is spent, so one at 17–30 steps per interval (a stiff
+# corner) ran nearly to the record's end at 16 and failed there: 10–25 % of the steps of a fit's searches
+# on MR-damper tests, in 1–6 simulations. At 8 it fails after a fraction of the record; the optimum needs
+# 1.4–2.4 (500 Hz–1 kHz). Seven MR-damper tests × two seeds: 10 % less CPU (fastest of three alternating
+# runs), the same MSE on every fit; 6 was no faster (more searches ran into it).
+EXPLORATION_PACE = 8
 KAPPA0_FLOOR = 1e-6
 # Physical limits of the solved coefficients (when the loops dissipate: ``linear_bounds``).
 COEFFICIENT_LIMITS = {
@@ -196,16 +204,33 @@ class Spencer(Model):
     # The integration's tolerance per step (None: the kernel's own, ``spencer_kernel._TOL`` = 1e-5);
     # ``exploring`` gives a copy at ``EXPLORATION_TOLERANCE``.
     tolerance: float | None = None
+    # The step budget in steps per sample interval (None: the kernels' ``STEPS_PER_SAMPLE``); ``exploring``
+    # gives a copy at ``EXPLORATION_PACE``.
+    pace: int | None = None
     exploration_note = f"Spencer's model integrated at tolerance {EXPLORATION_TOLERANCE:g} per step instead of 1e-5"
 
-    def exploring(self) -> Spencer:
-        """This model integrated at ``EXPLORATION_TOLERANCE`` per step: for a fit's exploring local
-        searches, whose best end is then polished at the model's own tolerance (``lsq-trf``)."""
+    def exploring(self, every: int = 1) -> Spencer:
+        """This model integrated at ``EXPLORATION_TOLERANCE`` per step and ``EXPLORATION_PACE`` steps per
+        interval of the record's sampling (``every``: the exploring record keeps every k-th sample, so its
+        intervals are k of the record's; at most the model's own pace): for a fit's exploring local
+        searches, whose best end is then polished with the model's own (``lsq-trf``)."""
         import copy
+
+        from bwbench.models.spencer_kernel import STEPS_PER_SAMPLE
 
         cheaper = copy.copy(self)
         cheaper.tolerance = EXPLORATION_TOLERANCE
+        cheaper.pace = min(STEPS_PER_SAMPLE, EXPLORATION_PACE * int(every))
+        if cheaper.pace < STEPS_PER_SAMPLE:
+            cheaper.exploration_note = (
+                f"{self.exploration_note}, a step budget of {cheaper.pace} steps per sample interval instead of "
+                f"{STEPS_PER_SAMPLE}"
+            )
         return cheaper
+
+    def _integration(self) -> dict:
+        """The kernels' keywords of this copy's tolerance and step budget (none: the kernels' own)."""
+        return {k: v for k, v in (("tol", self.tolerance), ("pace", self.pace)) if v is not None}
 
     def direct_parameters(self, state=None) -> tuple:
         return DIRECT
@@ -240,7 +265,7 @@ class Spencer(Model):
         good = np.all(np.isfinite(theta), axis=1) & (theta[:, 0] > 0)
         out = np.full((len(theta), len(signal.x)), np.inf)
         if good.any():
-            W = _ydot(theta[good], signal, self.tolerance)
+            W = _ydot(theta[good], signal, self._integration())
             c1, k1, f0 = coef[good].T
             with np.errstate(invalid="ignore", over="ignore"):
                 F = c1[:, None] * W + k1[:, None] * np.asarray(signal.x)[None, :] + f0[:, None]
@@ -270,7 +295,7 @@ class Spencer(Model):
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         if theta.ndim != 2 or theta.shape[1] != len(HYSTERETIC):
             raise ValueError(f"theta must have shape (m, {len(HYSTERETIC)}), got {theta.shape}")
-        return _ydot(theta, signal, self.tolerance)
+        return _ydot(theta, signal, self._integration())
 
     # An evaluation with its six sensitivities (the Rosenbrock-W kernel) took 1.4–1.8 plain simulations
     # at the optima of seven MR-damper generator fits (600–6,000 samples) and 1.65 at random points of
@@ -279,21 +304,22 @@ class Spencer(Model):
 
     def trajectory_sensitivities(self, theta, signal, state=None):
         """(ẏ (L,) mm/s, ∂ẏ/∂θ (L, 6)) of one θ row, by forward sensitivities (``spencer_sensitivity``);
-        None where the simulation did not finish or needed its stiff fallback."""
+        (ẏ all +inf, None) where the simulation did not finish: the state steps as the plain kernel's does,
+        to the bit, so the plain simulation would not finish either."""
         from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET
         from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
 
         arrays = _kernel_inputs(signal)  # the plain simulation's: from rest where the record starts at rest
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
-        tol = {} if self.tolerance is None else {"tol": self.tolerance}
-        Z, S, status = ydot_sensitivity_batch(theta, *arrays, **tol)
-        if tol and status[0] == 0 and not (np.all(np.isfinite(S[0])) and np.max(np.abs(S[0])) <= 1e100):
+        how = self._integration()
+        Z, S, status = ydot_sensitivity_batch(theta, *arrays, **how)
+        if "tol" in how and status[0] == 0 and not (np.all(np.isfinite(S[0])) and np.max(np.abs(S[0])) <= 1e100):
             # The sensitivities step with the state's W (the W-method leaves out their coupling): at a loose
             # tolerance's long steps they can run away where the state does not (1–4 % of random points of
             # the box at 1e-4, none at 1e-5). Retaken at the model's own tolerance.
-            Z, S, status = ydot_sensitivity_batch(theta, *arrays)
+            Z, S, status = ydot_sensitivity_batch(theta, *arrays, **{k: v for k, v in how.items() if k != "tol"})
         MODEL.step_budget_stops += int(status[0] == STATUS_STEP_BUDGET)
-        return (Z[0], S[0]) if status[0] == 0 else None
+        return (Z[0], S[0]) if status[0] == 0 else (Z[0], None)
 
     def force_sensitivities(self, P, signal, state=None):
         """(force (L,) N, ∂F/∂P (L, 10)) of one direct parameter vector P: F = c₁·ẏ(θ(P)) + k₁·(x − x₀),
@@ -304,7 +330,7 @@ class Spencer(Model):
         if not (np.all(np.isfinite(theta)) and theta[0, 0] > 0):
             return None
         found = self.trajectory_sensitivities(theta[0], signal)
-        if found is None:
+        if found is None or found[1] is None:
             return None
         ydot, S = found
         c0, c1, k0, k1, x0, alpha, beta, gamma, A, n = P
@@ -340,15 +366,14 @@ class Spencer(Model):
         return theta[0], dict(zip(LAYOUT.names, map(float, coef[0])))
 
 
-def _ydot(theta6, signal, tol: float | None = None) -> np.ndarray:
+def _ydot(theta6, signal, how: dict | None = None) -> np.ndarray:
     """ẏ (mm/s) of kernel rows (m, 6) = (x_y, n, η, v_y, r₀, κ₀) at the samples; +inf rows on blow-up
-    and where the simulation ran out of its step budget (counted in ``MODEL.step_budget_stops``)."""
+    and where the simulation ran out of its step budget (counted in ``MODEL.step_budget_stops``).
+    ``how``: the kernel's tolerance and step budget (``Spencer._integration``)."""
     from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET, ydot_batch
 
     t, x, v, a = _kernel_inputs(signal)
-    out, status = ydot_batch(
-        np.ascontiguousarray(theta6, dtype=float), t, x, v, a, **({} if tol is None else {"tol": tol})
-    )
+    out, status = ydot_batch(np.ascontiguousarray(theta6, dtype=float), t, x, v, a, **(how or {}))
     MODEL.step_budget_stops += int(np.count_nonzero(status == STATUS_STEP_BUDGET))
     return out
 

@@ -221,16 +221,17 @@ def preroll_end(x, v) -> int:
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run(p, t, x, v, a, y, w, stop, out, used, start, total, tol):
+def _run(p, t, x, v, a, y, w, stop, out, used, start, total, tol, pace):
     """Integrate from (y, w) at sample 0 to sample ``stop``, writing ẏ into ``out`` when it is not
     empty; ``used`` steps taken so far, this run's first interval the simulation's ``start``-th of
-    ``total`` steps' worth (``_allowance``). Returns (y, w, steps used, status)."""
+    ``total`` steps' worth at ``pace`` steps per interval (``_allowance``). Returns (y, w, steps used,
+    status)."""
     if out.shape[0]:
         out[0], _ = _rates(y, w, x[0], v[0], p)
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
-        allowance = _allowance(used, start + k, total)
+        allowance = _allowance(used, start + k, total, pace)
         y, w, h, steps = _interval(
             y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale, allowance, tol
         )
@@ -253,20 +254,21 @@ STATUS_OK, STATUS_BLOW_UP, STATUS_STEP_BUDGET = 0, 1, 2
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _allowance(used, interval, total):
+def _allowance(used, interval, total, pace):
     """Steps the ``interval``-th sample interval of a simulation may take once ``used`` are spent: the
-    budget (``total`` = ``STEPS_PER_SAMPLE`` per interval) at that pace, from a head start of a quarter
-    of it (a burst at the reversals, or the pre-roll's first reversal from rest, is spent from it).
+    budget (``total`` = ``pace`` steps per interval, ``STEPS_PER_SAMPLE`` unless told) at that pace, from a
+    head start of a quarter of it (a burst at the reversals, or the pre-roll's first reversal from rest, is spent from it).
     The whole budget only at the end: a simulation over budget everywhere (hundreds of steps per
     interval in a stiff corner of the box) stops after a quarter of the budget, not the whole, where
     it cost 10× the median simulation of a fit (a third of the sensitivity kernel's time in a fit of
     a 1,501-sample MR-damper test)."""
-    return min(STEPS_PER_SAMPLE * (interval + 1) + total // 4, total) - used
+    return min(pace * (interval + 1) + total // 4, total) - used
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_into(p, t, x, v, a, preroll, out, tol):
-    """ẏ (mm/s) at every sample into ``out``; the status (``STATUS_*``).
+def _ydot_into(p, t, x, v, a, preroll, out, tol, pace):
+    """ẏ (mm/s) at every sample into ``out``; the status (``STATUS_*``). ``pace``: the step budget, in
+    steps per sample interval (``_allowance``).
 
     Initial state: a record that starts at rest starts from rest (y = x, w = 0). A record that starts
     in motion was recorded in the middle of a test; its first state is then taken as the one the
@@ -275,16 +277,16 @@ def _ydot_into(p, t, x, v, a, preroll, out, tol):
     there (y shifted by the same x). For a periodic test that is its steady state; without it the
     first ~40 ms of an MR-damper test recorded in motion carry a transient of ~200 N.
     """
-    total = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
+    total = pace * (x.shape[0] - 1 + preroll)
     p = with_reciprocals(p)
     y, w = x[0], 0.0
     used = 0
     if preroll > 0:
-        y, w, used, status = _run(p, t, x, v, a, y, w, preroll, out[:0], used, 0, total, tol)
+        y, w, used, status = _run(p, t, x, v, a, y, w, preroll, out[:0], used, 0, total, tol, pace)
         if status != STATUS_OK:
             return status
         y += x[0] - x[preroll]
-    return _run(p, t, x, v, a, y, w, x.shape[0] - 1, out, used, preroll, total, tol)[3]
+    return _run(p, t, x, v, a, y, w, x.shape[0] - 1, out, used, preroll, total, tol, pace)[3]
 
 
 def kernel_arrays(*arrays) -> list:
@@ -301,10 +303,10 @@ def kernel_arrays(*arrays) -> list:
     return out
 
 
-def ydot_batch(TH, t, x, v, a, tol=_TOL):
+def ydot_batch(TH, t, x, v, a, tol=_TOL, pace=STEPS_PER_SAMPLE):
     """(ẏ (mm/s) of each parameter row of TH (m, 6) at the samples: (m, L), +inf rows where the
     simulation did not finish; the status of each row (m,), ``STATUS_*``). ``tol``: the integration's
-    tolerance per step (tests compare at a tighter one).
+    tolerance per step (tests compare at a tighter one); ``pace``: the step budget per sample interval.
 
     On numba's threads only when there are enough rows for each thread (on a busy machine a parallel
     loop waits for a thread that has no core: tens of ms per call); the rows are independent, so the
@@ -316,23 +318,23 @@ def ydot_batch(TH, t, x, v, a, tol=_TOL):
     preroll = preroll_end(x, v)
     threads = numba.get_num_threads()
     if threads > 1 and TH.shape[0] >= 2 * threads:
-        _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol)
+        _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol, int(pace))
     else:
-        _ydot_serial(TH, t, x, v, a, preroll, out, status, tol)
+        _ydot_serial(TH, t, x, v, a, preroll, out, status, tol, int(pace))
     return out, status
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol):
+def _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol, pace):
     for i in numba.prange(TH.shape[0]):
-        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol)
+        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol, pace)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
-def _ydot_serial(TH, t, x, v, a, preroll, out, status, tol):
+def _ydot_serial(TH, t, x, v, a, preroll, out, status, tol, pace):
     for i in range(TH.shape[0]):
-        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol)
+        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol, pace)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf

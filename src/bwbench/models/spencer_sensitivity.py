@@ -258,7 +258,7 @@ def _interval_sens(
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total, tol):
+def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total, tol, pace):
     """``spencer_kernel._run`` with the sensitivities; writes ẏ and ∂ẏ/∂θ when ``out`` is not empty.
     Returns (y, w, steps used, status)."""
     kSy, kSw = np.empty((4, _D)), np.empty((4, _D))  # the stages' work space, once per run
@@ -269,7 +269,7 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total,
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
-        allowance = _allowance(used, start + k, total)
+        allowance = _allowance(used, start + k, total, pace)
         y, w, h, steps, status = _interval_sens(
             y,
             w,
@@ -309,38 +309,41 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total,
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S, tol):
+def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S, tol, pace):
     """ẏ (mm/s) and ∂ẏ/∂θ at every sample (as ``spencer_kernel._ydot_into``); the status."""
-    total = STEPS_PER_SAMPLE * (x.shape[0] - 1 + preroll)
+    total = pace * (x.shape[0] - 1 + preroll)
     p = with_reciprocals(p)
     y, w = x[0], 0.0
     Sy = np.zeros(_D)
     Sw = np.zeros(_D)
     used = 0
     if preroll > 0:
-        y, w, used, status = _run_sens(p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], used, 0, total, tol)
+        y, w, used, status = _run_sens(
+            p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], used, 0, total, tol, pace
+        )
         if status != STATUS_OK:
             return status
         y += x[0] - x[preroll]
-    return _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, used, preroll, total, tol)[3]
+    return _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, used, preroll, total, tol, pace)[3]
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
-def _ydot_sens_serial(TH, t, x, v, a, preroll, out, out_S, status, tol):
+def _ydot_sens_serial(TH, t, x, v, a, preroll, out, out_S, status, tol, pace):
     for i in range(TH.shape[0]):
-        status[i] = _ydot_sens_into(TH[i], t, x, v, a, preroll, out[i], out_S[i], tol)
+        status[i] = _ydot_sens_into(TH[i], t, x, v, a, preroll, out[i], out_S[i], tol, pace)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf
             out_S[i] = np.nan
 
 
-def ydot_sensitivity_batch(TH, t, x, v, a, tol=_TOL):
+def ydot_sensitivity_batch(TH, t, x, v, a, tol=_TOL, pace=STEPS_PER_SAMPLE):
     """(ẏ (m, L) mm/s, ∂ẏ/∂θ (m, L, 6), status (m,)) of each θ row of TH (m, 6); rows that did not
-    finish are +inf (ẏ) and NaN (∂ẏ/∂θ), their status saying why (``STATUS_*``)."""
+    finish are +inf (ẏ) and NaN (∂ẏ/∂θ), their status saying why (``STATUS_*``). ``tol``, ``pace``: as
+    ``spencer_kernel.ydot_batch``'s."""
     TH = np.ascontiguousarray(TH, dtype=float)
     t, x, v, a = kernel_arrays(t, x, v, a)
     out = np.empty((TH.shape[0], x.shape[0]))
     out_S = np.empty((TH.shape[0], x.shape[0], _D))
     status = np.zeros(TH.shape[0], dtype=np.int8)
-    _ydot_sens_serial(TH, t, x, v, a, preroll_end(x, v), out, out_S, status, tol)
+    _ydot_sens_serial(TH, t, x, v, a, preroll_end(x, v), out, out_S, status, tol, int(pace))
     return out, out_S, status

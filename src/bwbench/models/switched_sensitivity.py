@@ -37,6 +37,7 @@ from bwbench.models.switched_kernel import (
     _attractor,
     _backward_euler,
     _branch,
+    _implicit,
     _reversal_pieces,
     _substeps,
 )
@@ -111,7 +112,7 @@ def _advance_z_sens(z, S, slot, dx, A, n, beta, gamma, z_s, attractor_rate, col,
         if (n >= 1.0 or abs(z) > z_s) and local > stiffness:
             stiffness = local
     work = stiffness * abs(dx)
-    if work > _RK4_STIFFNESS_PER_SUBSTEP * _RK4_MAX_SUBSTEPS:
+    if _implicit(work, z, direction, z_s):
         h = dx / _IMPLICIT_SUBSTEPS
         z_att = direction * z_s
         done = 0

@@ -141,7 +141,8 @@ class Objective:
     def residual_jacobian(self, u):
         """(residual (n,), its Jacobian (n, d) in unit coordinates) of one point u (d,), exact (the
         problem's ``residual_jacobian``: the model's sensitivities integrated with its state); None when
-        the problem could not give it at this point (a caller then takes differences).
+        the problem could not give it at this point (a caller then takes differences); (+inf residual,
+        None) where the simulation itself did not finish (a plain evaluation there would be +inf too).
 
         Charged ``jacobian_cost`` evaluations whether or not it succeeds (the work was done): the
         cost of a simulation with sensitivities measured in plain simulations, so a backend using
@@ -160,9 +161,9 @@ class Objective:
             raise BudgetExhausted(f"budget of {self.budget} evaluations is spent")
         P = self.problem.from_unit(u)
         found = self.problem.residual_jacobian(P)
-        if found is None:
+        if found is None or found[1] is None:
             self.nfev += cost
-            return None
+            return found
         r, J = found
         from bwbench.optimize.box import box_derivative
 

@@ -21,18 +21,19 @@ MIN_SAMPLES_PER_CYCLE = 500
 
 
 def exploration(problem, decimate: bool = True):
-    """A copy of ``problem`` (one file or joint) whose model is ``problem.model.exploring()`` and, for one
+    """A copy of ``problem`` (one file or joint) whose model is ``problem.model.exploring(k)`` and, for one
     oversampled record (``decimate``), every ``decimation(problem)``-th sample only; None when the model
     has no cheaper simulation."""
     exploring = getattr(problem.model, "exploring", None)
     if not callable(exploring):
         return None
     cheaper = copy.copy(problem)
-    cheaper.model = exploring()
     if hasattr(problem, "parts"):
+        cheaper.model = exploring()
         cheaper = _joint_exploration(problem, cheaper, decimate)
     else:
         k = decimation(problem) if decimate else 1
+        cheaper.model = exploring(k)  # its step budget is per interval of the record's sampling
         if k > 1:
             _keep_every(cheaper, k)
     cheaper.exploration_note = exploration_note(cheaper)  # what the searches' message says it changed
@@ -52,6 +53,7 @@ def _joint_exploration(problem, cheaper, decimate: bool):
         parts, problem.weighting, fix_mass=design.fix_mass, offsets=design.offsets, coefficient_bounds=design.bounds
     )
     restacked.lower, restacked.upper, restacked.workers = problem.lower, problem.upper, problem.workers
+    restacked.model = problem.model.exploring(max(getattr(p, "decimated", 1) for p in parts))  # for every file
     return restacked
 
 
@@ -81,12 +83,13 @@ def decimation(problem) -> int:
     if getattr(problem, "design", None) is None or not hasattr(problem.model, "initial_state"):
         return 1
     k = int(samples_per_cycle(problem.signal.v) // MIN_SAMPLES_PER_CYCLE)
-    if k < 2:
-        return 1
     start = problem.model.initial_state(problem.signal, problem.state).split(" ")[0]
-    if problem.model.initial_state(_every(problem.signal, k), problem.state).split(" ")[0] != start:
-        return 1
-    return k
+    # The largest k that keeps the start: every k-th sample of a slow record's first ones may move too far
+    # apart to read as a start from rest (a 0.2 Hz test at 1 kHz kept every sample at k = 33, every 10th
+    # sample at k = 10).
+    while k >= 2 and problem.model.initial_state(_every(problem.signal, k), problem.state).split(" ")[0] != start:
+        k -= 1
+    return max(k, 1)
 
 
 def _every(record, k: int):

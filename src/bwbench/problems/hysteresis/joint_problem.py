@@ -210,11 +210,14 @@ class JointProblem:
 
     def residual_jacobian(self, params):
         """(weighted residuals (N,), their Jacobian (N, d) in physical units) of one θ vector, exact;
-        None where the sensitivities cannot be had on some file (then take differences)."""
+        None where the sensitivities cannot be had on some file (then take differences); (+inf
+        residuals, None) where a file's simulation did not finish."""
         if self.design is None:
             return None
         theta = np.asarray(params, dtype=float)
         found = self._each_file(lambda p: self.model.trajectory_sensitivities(theta, p.signal, self.state))
+        if any(f is not None and f[1] is None for f in found):
+            return np.full(self.design.L, np.inf), None  # a file's simulation did not finish: no plain one either
         if any(f is None for f in found):
             return None
         return self.design.residual_jacobian(

@@ -203,8 +203,10 @@ class IdentifiableProblem(ModelFit):
     def residual_jacobian(self, params):
         """(residual (L,) N, ∂residual/∂θ (L, d) in physical units) of one θ vector, exact (the model's
         sensitivities through the linear solve: ``LinearDesign.residual_jacobian``); None where they
-        cannot be had (then take differences)."""
+        cannot be had (then take differences); (+inf residual, None) where the simulation did not finish."""
         found = self.model.trajectory_sensitivities(np.asarray(params, dtype=float), self.signal, self.state)
+        if found is not None and found[1] is None:
+            return np.full(self.design.L, np.inf), None  # the simulation did not finish: no plain one either
         return None if found is None else self.design.residual_jacobian(*found)
 
     def linear(self, params) -> np.ndarray:
