@@ -50,7 +50,7 @@ stands at the best optimum earlier searches ended at (half the agreement's toler
 ``AGREE_FTOL``/2): it would end there, after the 5+ iterations its stall test needs (on MR-damper
 tests the searches that found the optimum spent about half their evaluations confirming it). It
 counts as ending there. ``explore`` (true; only with ``stop_agree``): where the problem has a cheaper copy
-(``Objective.exploration``: Spencer's model at tolerance 1e-4, not 1e-5, and 8 steps per sample interval, on
+(``Objective.exploration``: Spencer's model at tolerance 1e-4, not 1e-5, and 10 steps per sample interval, on
 every k-th sample of a record of ≥ 1,000 samples per cycle) the searches run there (stall window 3, xtol at
 least ``EXPLORE_XTOL``); their best end, and up to ``POLISH_ENDS`` − 1 other optima they ended at within
 ``POLISH_RTOL`` × ``agree_rtol`` of its MSE, are then polished on the problem itself (window 2, a tenth of
