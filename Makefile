@@ -20,8 +20,9 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
+# one test process per core, up to 4 (pytest-xdist; work stealing: a few tests take 20-35 s)
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --maxprocesses=4 --dist worksteal
 
 # ruff (pyflakes, isort, bugbear) and ruff's formatter over the code and the tests, mypy over src/ and
 # optimizers/.
