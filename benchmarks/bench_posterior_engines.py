@@ -22,6 +22,7 @@ otherwise). docs/posterior.md has what they measured.
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 
@@ -39,12 +40,12 @@ REPO = Path(__file__).resolve().parents[1]
 SETTINGS = {"state": "shared", "excitation": "measured", "formulation": "identifiable"}
 
 
-def run_nested(problem, budget, runs, seed):
-    extras = fitting.run(problem, "nested", budget, seed, {"runs": runs}).extras
+def run_nested(problem, budget, runs, seed, options):
+    extras = fitting.run(problem, "nested", budget, seed, {"runs": runs, **options}).extras
     return extras["chain"], extras["log_prob"], extras["log_z"], extras["log_z_err"], sum(extras["run_nfev"])
 
 
-def run_pocomc(problem, budget, runs, seed):
+def run_pocomc(problem, budget, runs, seed, options):
     import pocomc
     import scipy.stats
     import torch
@@ -60,7 +61,7 @@ def run_pocomc(problem, budget, runs, seed):
     for k in range(runs):
         torch.manual_seed(seed + k)
         prior = pocomc.Prior([scipy.stats.uniform(0, 1)] * problem.dim)
-        sampler = pocomc.Sampler(prior, log_like, vectorize=True, random_state=seed + k)
+        sampler = pocomc.Sampler(prior, log_like, vectorize=True, random_state=seed + k, **options)
         sampler.run(progress=False)
         x, w, logl, _ = sampler.posterior()
         z, err = sampler.evidence()
@@ -90,6 +91,9 @@ def main():
     parser.add_argument("--budget", type=int, default=1_000_000)
     parser.add_argument("--runs", type=int, default=4)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--options", default="{}", help="the engine's options as JSON, e.g. '{\"live_points\": 400}' (nested)"
+    )
     args = parser.parse_args()
     problem = make_problem(read_specimen(REPO / "data" / "specimens" / f"{args.specimen}.csv"), SETTINGS)
     names = list(problem.param_names)
@@ -97,7 +101,9 @@ def main():
         try:
             with limited(1):
                 started = time.perf_counter()
-                chain, log_prob, log_z, log_z_err, nfev = ENGINES[engine](problem, args.budget, args.runs, args.seed)
+                chain, log_prob, log_z, log_z_err, nfev = ENGINES[engine](
+                    problem, args.budget, args.runs, args.seed, json.loads(args.options)
+                )
                 wall = time.perf_counter() - started
         except ImportError as error:
             print(f"{engine}: skipped ({error})")
