@@ -91,11 +91,14 @@ def main():
     parser.add_argument("--budget", type=int, default=1_000_000)
     parser.add_argument("--runs", type=int, default=4)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--state", choices=("shared", "split"), default="shared", help="the switched model's state")
     parser.add_argument(
         "--options", default="{}", help="the engine's options as JSON, e.g. '{\"live_points\": 400}' (nested)"
     )
     args = parser.parse_args()
-    problem = make_problem(read_specimen(REPO / "data" / "specimens" / f"{args.specimen}.csv"), SETTINGS)
+    problem = make_problem(
+        read_specimen(REPO / "data" / "specimens" / f"{args.specimen}.csv"), {**SETTINGS, "state": args.state}
+    )
     names = list(problem.param_names)
     for engine in args.engines.split(","):
         try:
