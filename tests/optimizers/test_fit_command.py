@@ -100,3 +100,39 @@ def test_evaluate_of_a_blowing_up_set_prints_null_and_exits_1(folder, capsys):
     assert main(["evaluate", "--params", "p.json", "--specimen", "s.csv"]) == 1
     out = capsys.readouterr()
     assert json.loads(out.out)["mse"] is None and "the model blows up" in out.err
+
+
+OTHER = SPECIMEN.with_name("pom-mt24u01_0.05MPa_r1.csv")
+QUICK = ["--optimizer", "random", "--budget", "20", "--seed", "3"]
+
+
+def test_each_fits_every_file_as_its_own_fit_would(folder, capsys):
+    shutil.copy(OTHER, folder / "t.csv")
+    assert main(["fit", "s.csv", "t.csv", "--each", *QUICK, "--out", "fits"]) == 0
+    assert "2 fits in" in capsys.readouterr().out
+    for name in ("s", "t"):
+        assert main(["fit", f"{name}.csv", *QUICK, "--out", f"{name}-alone.json"]) == 0
+        each = json.loads((folder / "fits" / f"{name}.json").read_text())
+        alone = json.loads((folder / f"{name}-alone.json").read_text())
+        assert each["params"] == alone["params"] and each["mse"] == alone["mse"] and each["nfev"] == 20
+    assert json.loads((folder / "fits" / "s.json").read_text())["mse"] != each["mse"]  # two files, two fits
+
+
+@pytest.mark.parametrize(
+    "files, args, message",
+    [
+        (["s.csv", "bad.csv"], ["--out", "fits"], "bad.csv:3: not a number in column displacement_mm"),
+        (["s.csv", "sub/s.csv"], ["--out", "fits"], "has the same name 's'"),
+        (["s.csv"], ["--out", "fits.json"], "with --each, --out names a folder"),
+        (["s.csv"], ["--out", "fits", "--plot", "fit.png"], "with --each, --plot names a folder"),
+        (["s.csv"], ["--out", "s.csv"], "--out s.csv: is a file, not a folder"),
+    ],
+)
+def test_each_refuses_a_bad_file_or_output_before_any_fit(folder, capsys, files, args, message):
+    (folder / "bad.csv").write_text("time_s,displacement_mm,force_N\n0,0,1\n0.1,abc,2\n")
+    (folder / "sub").mkdir()
+    shutil.copy(SPECIMEN, folder / "sub" / "s.csv")
+    before = sorted(p.name for p in folder.iterdir())
+    assert main(["fit", *files, "--each", *QUICK, *args]) == 2
+    assert message in one_error_line(capsys)
+    assert sorted(p.name for p in folder.iterdir()) == before  # no folder made, nothing written

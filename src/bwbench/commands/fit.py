@@ -51,14 +51,10 @@ def parse_option(text: str):
 def fit(args) -> int:
     """Exit 0 with the result JSON (and plot); 1 when no evaluation gave a finite loss (the JSON is
     still written, with null for what is not finite); 2 for a mistake in the input. Several
-    specimens: one joint fit (``bwbench.problems.hysteresis.joint_problem``)."""
-    import math
-    import sys
-
-    from bwbench.commands.simulate import problem_from_args
+    specimens: one joint fit (``bwbench.problems.hysteresis.joint_problem``), or with ``--each`` one fit
+    of each in this one process (``_fit_each``)."""
     from bwbench.data import manifest
-    from bwbench.optimize import fitting, registry
-    from bwbench.problems.hysteresis.fit_result import provenance, run_fit
+    from bwbench.optimize import registry
 
     if args.budget < 1:
         raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")
@@ -70,40 +66,118 @@ def fit(args) -> int:
     refuse_same_file(args.specimen)  # by identity: ./a.csv, a symlink or a hard link of a.csv is a.csv
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
+    workers = threads.check(args.workers, "--workers")
+    threads.check(args.threads)
+    if args.each:
+        return _fit_each(args, options, workers)
     check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
     synthetic = all(manifest.is_synthetic(p) for p in args.specimen)
-    workers = threads.check(args.workers, "--workers")
-    with threads.limited(threads.check(args.threads)):  # 1 by default: see bwbench.threads
-        problem = problem_from_args(args)
-        extra = {"bounds_file": args.bounds, **provenance(args.specimen, args.bounds)}
-        if hasattr(problem, "box_probe_s"):
-            extra["box_probe_s"] = problem.box_probe_s  # not in wall_s, the backend's own time
+    problem = _read_problem(args)
+    return _fit_problem(args, problem, options, workers, synthetic, args.out, args.plot)
+
+
+def _read_problem(args):
+    """The fit's problem from the command line (reads and checks the specimens)."""
+    from bwbench.commands.simulate import problem_from_args
+
+    with threads.limited(args.threads):  # 1 by default: see bwbench.threads
+        return problem_from_args(args)
+
+
+def _fit_each(args, options, workers: int) -> int:
+    """``--each``: one fit of each specimen, with the same options, in this one process (a process pays
+    ~1.3 s of start-up for its libraries before it reads a file: numba's first call and scipy's imports;
+    a lab's dozens of tests pay it once). ``--out`` and ``--plot`` name folders: each file's result is
+    ``<stem>.json`` (and ``<stem>.png``) there. Every file is read and checked, and every output checked,
+    before the first fit. Exit 1 when a fit found nothing finite (the others are still made)."""
+    import argparse
+    import time
+    from pathlib import Path
+
+    from bwbench.data import manifest
+    from bwbench.data.output_paths import FIGURE_FORMATS, check_folder
+
+    stems: dict[str, str] = {}
+    for path in args.specimen:
+        stem = Path(path).stem
+        if stem in stems:
+            raise UserError(
+                f"{path}: --each writes <name>.json per file, and {stems[stem]} has the same name {stem!r}: "
+                "rename one, or fit them in two runs"
+            )
+        stems[stem] = path
+    folders = {"--out": Path(args.out), "--plot": Path(args.plot) if args.plot else None}
+    for flag, folder in folders.items():
+        if folder is None:
+            continue
+        check_folder(flag, folder)
+        if not folder.exists() and folder.suffix.lower() in (".json", *FIGURE_FORMATS):
+            raise UserError(
+                f"{flag} {folder}: with --each, {flag} names a folder (one file per specimen is written there)"
+            )
+    runs = []
+    for path in args.specimen:  # every file read (and refused, naming it) before any fit
+        one = argparse.Namespace(**{**vars(args), "specimen": [path]})
+        runs.append((one, _read_problem(one)))
+    for folder in {f for f in folders.values() if f is not None}:
+        folder.mkdir(parents=True, exist_ok=True)
+    outputs = []
+    for one, _ in runs:
+        stem = Path(one.specimen[0]).stem
+        out = folders["--out"] / f"{stem}.json"
+        plot = folders["--plot"] / f"{stem}.png" if folders["--plot"] is not None else None
+        check_outputs({"--out": out, "--plot": plot}, [*args.specimen, getattr(args, "bounds", None)])
+        outputs.append((out, plot))
+    started, statuses = time.perf_counter(), []
+    for k, ((one, problem), (out, plot)) in enumerate(zip(runs, outputs), start=1):
+        print(f"[{k}/{len(runs)}] {one.specimen[0]}")
+        synthetic = manifest.is_synthetic(one.specimen[0])
+        statuses.append(_fit_problem(one, problem, options, workers, synthetic, str(out), plot and str(plot)))
+    failed = sum(1 for status in statuses if status)
+    print(
+        f"{len(runs)} fit{'s' if len(runs) > 1 else ''} in {time.perf_counter() - started:.1f} s -> {folders['--out']}"
+        + (f" ({failed} found nothing finite)" if failed else "")
+    )
+    return 1 if failed else 0
+
+
+def _fit_problem(args, problem, options, workers: int, synthetic: bool, out: str, plot: str | None) -> int:
+    """Fit ``problem``, write ``out`` (and ``plot``), print what the fit found; the exit status."""
+    import math
+    import sys
+
+    from bwbench.optimize import fitting
+    from bwbench.problems.hysteresis.fit_result import provenance, run_fit
+
+    extra = {"bounds_file": args.bounds, **provenance(args.specimen, args.bounds)}
+    if hasattr(problem, "box_probe_s"):
+        extra["box_probe_s"] = problem.box_probe_s  # not in wall_s, the backend's own time
     with threads.for_workers(problem, max(workers, args.threads)):
         fitted = run_fit(
             problem, args.optimizer, args.budget, args.seed, options, synthetic, extra=extra, stop=args.stop
         )
     result, checks = fitted.result, fitted.checks
-    with writing(args.out):
-        fitted.write_json(args.out)
+    with writing(out):
+        fitted.write_json(out)
     where = " + ".join(args.specimen)
     if not math.isfinite(result.mse):
         print(
             f"error: {where}: none of the {result.nfev} evaluations gave a finite force: the model blows "
             "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
-            f"{args.out} written with null values",
+            f"{out} written with null values",
             file=sys.stderr,
         )
         return 1
-    if args.plot:
-        with writing(args.plot):
-            _plot(problem, fitted, args.plot, synthetic)
+    if plot:
+        with writing(plot):
+            _plot(problem, fitted, plot, synthetic)
     joint = len(fitted.files) > 1
     probe = f" (+ {problem.box_probe_s:.1f} s probing the --bounds box)" if hasattr(problem, "box_probe_s") else ""
     accuracy = "" if joint else f", {_nrmse_text(fitted.files[0])}"
     print(
         f"{args.optimizer}: {'loss' if joint else 'MSE'} {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE "
         f"{result.rmse_N:.3g} N{accuracy}) in {result.nfev} evaluations{' of every file' if joint else ''}, "
-        f"{result.wall_s:.2f} s{probe} -> {args.out}"
+        f"{result.wall_s:.2f} s{probe} -> {out}"
     )
     if result.nfev < args.budget:
         print(f"  {result.message} ({result.nfev} of {args.budget} evaluations)")
@@ -197,7 +271,13 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
         "specimen",
         nargs="+",
         help="specimen CSV; several: one joint fit of them all (one parameter "
-        "set; one evaluation simulates every file)",
+        "set; one evaluation simulates every file), or with --each one fit of each",
+    )
+    parser.add_argument(
+        "--each",
+        action="store_true",
+        help="several specimens: fit each on its own, in this one process (the libraries' ~1.3 s of "
+        "start-up paid once); --out (and --plot) then name folders, holding NAME.json (NAME.png) per file",
     )
     parser.add_argument(
         "--optimizer",
@@ -248,8 +328,10 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
         "parameters within 2%% of the box or the fitted curves within 5%% of the residual RMS), "
         "and says so; budget: spend the whole budget, as a study does",
     )
-    parser.add_argument("--out", required=True, help="result JSON")
-    parser.add_argument("--plot", help="PNG of measured and fitted hysteresis loops and force over time")
+    parser.add_argument("--out", required=True, help="result JSON (with --each: a folder)")
+    parser.add_argument(
+        "--plot", help="PNG of measured and fitted hysteresis loops and force over time (with --each: a folder)"
+    )
     parser.add_argument(
         "--threads", type=int, default=1, help="numba/BLAS threads (default 1: many more are slower on a busy machine)"
     )
