@@ -16,7 +16,8 @@ start-up floor: the fastest of ``--repeat`` processes that only import what a fi
 numba, scipy.optimize, bwbench's fit) and make numba's first call of a cached kernel — what every
 process pays before it reads a file (numba's first call installs its typing and target registries,
 ~0.4 s, even when the kernel is cached). Prints both ratios (process ÷ LSODA; process minus the floor
-÷ LSODA) and their medians.
+÷ LSODA) and their medians; then all the files in one ``bwbench fit --each`` process (the floor paid
+once) against one LSODA simulation of each.
 """
 
 from __future__ import annotations
@@ -50,10 +51,13 @@ import numpy as np, numba, scipy.optimize
 import bwbench.commands.fit, bwbench.commands.simulate
 from bwbench.models import spencer_kernel
 """
-FLOOR = IMPORTS + """
+FLOOR = (
+    IMPORTS
+    + """
 t = np.linspace(0.0, 1.0, 64)
 spencer_kernel.ydot_batch(np.array([[0.1, 2.0, 0.0, 10.0, 0.1, 1.0]]), t, np.sin(6 * t), 6 * np.cos(6 * t), -36 * np.sin(6 * t))
 """
+)
 
 
 def fastest_process(command: list[str], cwd: Path, repeat: int) -> float:
@@ -68,7 +72,9 @@ def fastest_process(command: list[str], cwd: Path, repeat: int) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--files", type=Path, help="a folder of CSV files with a velocity column (default: the rig tests)")
+    parser.add_argument(
+        "--files", type=Path, help="a folder of CSV files with a velocity column (default: the rig tests)"
+    )
     parser.add_argument("--repeat", type=int, default=2, help="processes per file; the fastest counts")
     args = parser.parse_args()
     bwbench = [sys.executable, "-m", "bwbench.cli"]
@@ -81,17 +87,27 @@ def main() -> None:
         else:
             files = sorted(args.files.resolve().glob("*.csv"))
         # compile (or load) every kernel once, outside the timing, as an installed bwbench has
-        subprocess.run([*bwbench, "fit", str(files[0]), "--model", "spencer", "--out", "warm.json"], cwd=scratch, check=True, capture_output=True)
+        subprocess.run(
+            [*bwbench, "fit", str(files[0]), "--model", "spencer", "--out", "warm.json"],
+            cwd=scratch,
+            check=True,
+            capture_output=True,
+        )
         imports = fastest_process([sys.executable, "-c", IMPORTS], scratch, args.repeat + 1)
         floor = fastest_process([sys.executable, "-c", FLOOR], scratch, args.repeat + 1)
-        print(f"start-up floor: {floor:.2f} s (imports of numpy, numba, scipy.optimize, bwbench: {imports:.2f} s; numba's first cached call: {floor - imports:.2f} s)\n")
-        print(f"{'file':<26} {'samples':>7} {'process s':>9} {'LSODA s':>8} {'ratio':>6} {'less floor':>10} {'NRMSE':>7}")
-        ratios, net = [], []
+        print(
+            f"start-up floor: {floor:.2f} s (imports of numpy, numba, scipy.optimize, bwbench: {imports:.2f} s; numba's first cached call: {floor - imports:.2f} s)\n"
+        )
+        print(
+            f"{'file':<26} {'samples':>7} {'process s':>9} {'LSODA s':>8} {'ratio':>6} {'less floor':>10} {'NRMSE':>7}"
+        )
+        ratios, net, references = [], [], []
         for path in files:
             command = [*bwbench, "fit", str(path), "--model", "spencer", "--optimizer", "lsq-trf", "--out", "fit.json"]
             seconds = fastest_process(command, scratch, args.repeat)
             fit = json.loads((scratch / "fit.json").read_text())
             reference = bench_real_fit.simulation_time(path, {k: fit["params"][k] for k in bench_real_fit.DIRECT}, 3)
+            references.append(reference)
             ratios.append(seconds / reference)
             net.append((seconds - floor) / reference)
             samples = sum(1 for _ in open(path)) - 1
@@ -100,7 +116,26 @@ def main() -> None:
                 f"{fit['files'][0]['nrmse']:>7.4f}",
                 flush=True,
             )
-        print(f"\nmedian process ÷ LSODA: {np.median(ratios):.1f} (target ≤ 5); less the start-up floor: {np.median(net):.1f}")
+        print(
+            f"\nmedian process ÷ LSODA: {np.median(ratios):.1f} (target ≤ 5); less the start-up floor: {np.median(net):.1f}"
+        )
+        each = [
+            *bwbench,
+            "fit",
+            *map(str, files),
+            "--each",
+            "--model",
+            "spencer",
+            "--optimizer",
+            "lsq-trf",
+            "--out",
+            "fits",
+        ]
+        seconds = fastest_process(each, scratch, args.repeat)
+        print(
+            f"all {len(files)} in one `fit --each` process: {seconds:.2f} s ({seconds / len(files):.2f} s a file), "
+            f"{seconds / sum(references):.1f}× one LSODA simulation of each"
+        )
 
 
 if __name__ == "__main__":
