@@ -106,7 +106,8 @@ def _fit_each(args, options, workers: int) -> int:
                 "rename one, or fit them in two runs"
             )
         stems[stem] = path
-    folders = {"--out": Path(args.out), "--plot": Path(args.plot) if args.plot else None}
+    out_dir, plot_dir = Path(args.out), Path(args.plot) if args.plot else None
+    folders = {"--out": out_dir, "--plot": plot_dir}
     for flag, folder in folders.items():
         if folder is None:
             continue
@@ -121,21 +122,21 @@ def _fit_each(args, options, workers: int) -> int:
         runs.append((one, _read_problem(one)))
     for folder in {f for f in folders.values() if f is not None}:
         folder.mkdir(parents=True, exist_ok=True)
-    outputs = []
+    outputs: list[tuple[str, str | None]] = []
     for one, _ in runs:
         stem = Path(one.specimen[0]).stem
-        out = folders["--out"] / f"{stem}.json"
-        plot = folders["--plot"] / f"{stem}.png" if folders["--plot"] is not None else None
+        out = str(out_dir / f"{stem}.json")
+        plot = str(plot_dir / f"{stem}.png") if plot_dir is not None else None
         check_outputs({"--out": out, "--plot": plot}, [*args.specimen, getattr(args, "bounds", None)])
         outputs.append((out, plot))
     started, statuses = time.perf_counter(), []
     for k, ((one, problem), (out, plot)) in enumerate(zip(runs, outputs), start=1):
         print(f"[{k}/{len(runs)}] {one.specimen[0]}")
         synthetic = manifest.is_synthetic(one.specimen[0])
-        statuses.append(_fit_problem(one, problem, options, workers, synthetic, str(out), plot and str(plot)))
+        statuses.append(_fit_problem(one, problem, options, workers, synthetic, out, plot))
     failed = sum(1 for status in statuses if status)
     print(
-        f"{len(runs)} fit{'s' if len(runs) > 1 else ''} in {time.perf_counter() - started:.1f} s -> {folders['--out']}"
+        f"{len(runs)} fit{'s' if len(runs) > 1 else ''} in {time.perf_counter() - started:.1f} s -> {out_dir}"
         + (f" ({failed} found nothing finite)" if failed else "")
     )
     return 1 if failed else 0
