@@ -298,3 +298,31 @@ def test_three_models_of_one_backend_are_three_line_styles_fixed_by_name():
     assert len({(s.linestyle, s.filled) for s in looks.values()}) == 3
     again = palette.styles_for(labels[::-1])  # another ranking: the same look for each model
     assert all((looks[n].linestyle, looks[n].filled) == (again[n].linestyle, again[n].filled) for n in labels)
+
+
+def test_the_theme_is_seaborns_whitegrid_notebook_without_importing_seaborn():
+    import subprocess
+    import sys
+    import textwrap
+
+    # In a fresh process: the theme must not import seaborn (~0.75 s with scipy.stats); then seaborn's own
+    # theme with the same sizes on top must leave every rcParam and colour code as ours did.
+    script = textwrap.dedent("""
+        import sys, matplotlib, matplotlib.pyplot as plt
+        from bwbench.render import palette
+        palette.theme()
+        ours = {k: str(v) for k, v in plt.rcParams.items()}
+        our_codes = {c: matplotlib.colors.to_rgb(c) for c in "bgrmyck"}
+        assert "seaborn" not in sys.modules and "scipy.stats" not in sys.modules
+        import seaborn as sns
+        plt.rcdefaults()
+        sns.set_theme(style="whitegrid", context="notebook")
+        plt.rcParams.update(palette.SIZES)
+        plt.rcParams["image.cmap"] = "viridis"  # seaborn's "rocket" is left out (see palette)
+        theirs = {k: str(v) for k, v in plt.rcParams.items()}
+        print(sorted(k for k in theirs if ours.get(k) != theirs[k]))
+        print(our_codes == {c: matplotlib.colors.to_rgb(c) for c in "bgrmyck"}, our_codes["k"])
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["[]", "True (0.1, 0.1, 0.1)"]

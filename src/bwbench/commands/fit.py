@@ -241,7 +241,7 @@ def worse_than_zero(problem, files) -> list[str]:
 def _plot(problem, fitted, path, synthetic: bool) -> None:
     """One fit: the loops, force and residual of ``plot_fit``; a joint fit: one row per file."""
     if len(fitted.files) == 1:
-        from bwbench.problems.hysteresis.report.figures import plot_fit
+        from bwbench.problems.hysteresis.report.fit_figures import plot_fit  # not report.figures: scipy.stats
 
         plot_fit(problem, fitted.result, path, synthetic=synthetic)
         return

@@ -27,7 +27,7 @@ matplotlib.use("Agg")  # files only: no display on test machines and CI
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-import seaborn as sns  # noqa: E402
+from cycler import cycler  # noqa: E402
 from matplotlib import patheffects  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
@@ -180,22 +180,101 @@ def palette(study, order=None) -> dict:
     return {label: s.colour for label, s in styles(study, order).items()}
 
 
+# seaborn's ``set_theme(style="whitegrid", context="notebook")`` written out: its rcParams, its "deep"
+# colour cycle, and the colour codes it maps (b g r m y c to "deep6", k to dark grey). Importing seaborn
+# costs ~0.75 s (it imports scipy.stats), more than a Spencer fit of a 5,000-sample test, and its theme
+# was all bwbench took from it. ``tests/report/test_figure_look.py`` checks this against seaborn's own.
+# (seaborn's default image colormap, "rocket", is left out: it is registered by importing seaborn, and no
+# figure draws an image without naming its colormap.)
+SEABORN_WHITEGRID_NOTEBOOK = {
+    "figure.facecolor": "white",
+    "axes.labelcolor": ".15",
+    "xtick.direction": "out",
+    "ytick.direction": "out",
+    "xtick.color": ".15",
+    "ytick.color": ".15",
+    "axes.axisbelow": True,
+    "grid.linestyle": "-",
+    "text.color": ".15",
+    "font.family": ["sans-serif"],
+    "font.sans-serif": ["Arial", "DejaVu Sans", "Liberation Sans", "Bitstream Vera Sans", "sans-serif"],
+    "lines.solid_capstyle": "round",
+    "patch.edgecolor": "w",
+    "patch.force_edgecolor": True,
+    "xtick.top": False,
+    "ytick.right": False,
+    "axes.grid": True,
+    "axes.facecolor": "white",
+    "axes.edgecolor": ".8",
+    "grid.color": ".8",
+    "axes.spines.left": True,
+    "axes.spines.bottom": True,
+    "axes.spines.right": True,
+    "axes.spines.top": True,
+    "xtick.bottom": False,
+    "ytick.left": False,
+    "axes.linewidth": 1.25,
+    "grid.linewidth": 1.0,
+    "lines.linewidth": 1.5,
+    "lines.markersize": 6.0,
+    "patch.linewidth": 1.0,
+    "xtick.major.width": 1.25,
+    "ytick.major.width": 1.25,
+    "xtick.minor.width": 1.0,
+    "ytick.minor.width": 1.0,
+    "xtick.major.size": 6.0,
+    "ytick.major.size": 6.0,
+    "xtick.minor.size": 4.0,
+    "ytick.minor.size": 4.0,
+    "font.size": 12.0,
+    "axes.labelsize": 12.0,
+    "axes.titlesize": 12.0,
+    "xtick.labelsize": 11.0,
+    "ytick.labelsize": 11.0,
+    "legend.fontsize": 11.0,
+    "legend.title_fontsize": 12.0,
+}
+SEABORN_DEEP = (
+    "#4c72b0",
+    "#dd8452",
+    "#55a868",
+    "#c44e52",
+    "#8172b3",
+    "#937860",
+    "#da8bc3",
+    "#8c8c8c",
+    "#ccb974",
+    "#64b5cd",
+)
+SEABORN_COLOR_CODES = dict(
+    zip("bgrmyck", ("#4c72b0", "#55a868", "#c44e52", "#8172b3", "#ccb974", "#64b5cd", (0.1, 0.1, 0.1)))
+)
+
+
+# bwbench's sizes over seaborn's: every text at least MIN_FONT_PT, in figures sized for the page
+SIZES = {
+    "font.size": 10,
+    "axes.titlesize": 10.5,
+    "axes.labelsize": 10,
+    "xtick.labelsize": 9.5,
+    "ytick.labelsize": 9.5,
+    "legend.fontsize": 9.5,
+    "legend.title_fontsize": 9.5,
+    "figure.titlesize": 12,
+    "lines.linewidth": 1.6,
+}
+
+
 def theme() -> None:
-    """Seaborn's white grid with every text at least ``MIN_FONT_PT``."""
-    sns.set_theme(style="whitegrid", context="notebook")
-    plt.rcParams.update(
-        {
-            "font.size": 10,
-            "axes.titlesize": 10.5,
-            "axes.labelsize": 10,
-            "xtick.labelsize": 9.5,
-            "ytick.labelsize": 9.5,
-            "legend.fontsize": 9.5,
-            "legend.title_fontsize": 9.5,
-            "figure.titlesize": 12,
-            "lines.linewidth": 1.6,
-        }
-    )
+    """Seaborn's white grid (``SEABORN_WHITEGRID_NOTEBOOK``) with bwbench's ``SIZES``."""
+    plt.rcParams.update(SEABORN_WHITEGRID_NOTEBOOK)
+    plt.rcParams["axes.prop_cycle"] = cycler(
+        color=[matplotlib.colors.to_rgb(c) for c in SEABORN_DEEP]
+    )  # as seaborn: RGB
+    named = matplotlib.colors.get_named_colors_mapping()  # "k", "b", ...: its cache is cleared on update
+    for code, colour in SEABORN_COLOR_CODES.items():
+        named[code] = matplotlib.colors.to_rgb(colour)
+    plt.rcParams.update(SIZES)
 
 
 def figure(width: float, height: float, **kw):
