@@ -1,8 +1,8 @@
 """The ``bwbench`` command line (docs/commands.md): the argument parser only.
 
 Each command's body lives with its concern; its module is imported only when that command runs
-(``--help`` included), so ``bwbench --help`` and ``bwbench data check`` do not pay for matplotlib,
-seaborn and scipy.stats. A user's mistake (bad file, bad option) prints one line ``error: ...`` on
+(``--help`` included), so ``bwbench --help`` and ``bwbench data check`` do not pay for matplotlib
+and scipy.stats. A user's mistake (bad file, bad option) prints one line ``error: ...`` on
 stderr and exits 2; it never shows a traceback.
 """
 
