@@ -20,6 +20,7 @@ import re
 import textwrap
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -186,7 +187,7 @@ def palette(study, order=None) -> dict:
 # was all bwbench took from it. ``tests/report/test_figure_look.py`` checks this against seaborn's own.
 # (seaborn's default image colormap, "rocket", is left out: it is registered by importing seaborn, and no
 # figure draws an image without naming its colormap.)
-SEABORN_WHITEGRID_NOTEBOOK = {
+SEABORN_WHITEGRID_NOTEBOOK: dict[Any, Any] = {  # Any: matplotlib types rcParams keys as literals
     "figure.facecolor": "white",
     "axes.labelcolor": ".15",
     "xtick.direction": "out",
@@ -246,13 +247,13 @@ SEABORN_DEEP = (
     "#ccb974",
     "#64b5cd",
 )
-SEABORN_COLOR_CODES = dict(
+SEABORN_COLOR_CODES: dict[str, Any] = dict(
     zip("bgrmyck", ("#4c72b0", "#55a868", "#c44e52", "#8172b3", "#ccb974", "#64b5cd", (0.1, 0.1, 0.1)))
 )
 
 
 # bwbench's sizes over seaborn's: every text at least MIN_FONT_PT, in figures sized for the page
-SIZES = {
+SIZES: dict[Any, Any] = {
     "font.size": 10,
     "axes.titlesize": 10.5,
     "axes.labelsize": 10,
