@@ -28,7 +28,6 @@ matplotlib.use("Agg")  # files only: no display on test machines and CI
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from cycler import cycler  # noqa: E402
 from matplotlib import patheffects  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
@@ -269,9 +268,8 @@ SIZES: dict[Any, Any] = {
 def theme() -> None:
     """Seaborn's white grid (``SEABORN_WHITEGRID_NOTEBOOK``) with bwbench's ``SIZES``."""
     plt.rcParams.update(SEABORN_WHITEGRID_NOTEBOOK)
-    plt.rcParams["axes.prop_cycle"] = cycler(
-        color=[matplotlib.colors.to_rgb(c) for c in SEABORN_DEEP]
-    )  # as seaborn: RGB
+    deep = [matplotlib.colors.to_rgb(c) for c in SEABORN_DEEP]  # RGB tuples, as seaborn sets them
+    plt.rcParams["axes.prop_cycle"] = plt.cycler(color=deep)
     named = matplotlib.colors.get_named_colors_mapping()  # "k", "b", ...: its cache is cleared on update
     for code, colour in SEABORN_COLOR_CODES.items():
         named[code] = matplotlib.colors.to_rgb(colour)
