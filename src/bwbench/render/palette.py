@@ -375,17 +375,17 @@ def _make_room_below(fig, engine, mark_in: float) -> None:
     below = mark_in
     leg = getattr(fig, "_bwbench_legend_below", None)
     if leg is not None:
-        # The legend measured with the canvas's renderer, not after drawing the whole figure (a draw of
-        # a 12,000-sample fit figure took ~0.5 s, for the legend's size alone).
-        renderer = fig.canvas.get_renderer()
+        # The legend is measured as it stands (matplotlib picks the figure's renderer, whatever the
+        # backend: a notebook's may be pdf), not after drawing the whole figure (a draw of a
+        # 12,000-sample fit figure took ~0.5 s, for the legend's size alone).
         width = fig.get_size_inches()[0] * fig.dpi
         # 6 % to spare: text grows a little more than the figure at the saving DPI (hinting)
-        while leg.get_window_extent(renderer).width > 0.94 * width and leg._ncols > 1:  # noqa: SLF001
+        while leg.get_window_extent().width > 0.94 * width and leg._ncols > 1:  # noqa: SLF001
             # long labels: fewer columns rather than a legend cut off at both sides
             handles, ncols, title = leg.legend_handles, leg._ncols - 1, leg.get_title().get_text() or None  # noqa: SLF001
             leg.remove()
             leg = legend(fig, handles, ncol=ncols, title=title)
-        leg_in = leg.get_window_extent(renderer).height / fig.dpi
+        leg_in = leg.get_window_extent().height / fig.dpi
         leg.set_bbox_to_anchor((0.5, mark_in / height_in), transform=fig.transFigure)
         below += leg_in + 0.08
     engine.set(rect=(0, below / height_in, 1, 1 - below / height_in))
