@@ -81,8 +81,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp)
         if args.files is None:
-            measured_like_mr.TESTS = RIG_TESTS
-            made = measured_like_mr.write_tests(scratch / "tests")
+            made = measured_like_mr.write_tests(scratch / "tests", RIG_TESTS)
             files = [path for path, _, _ in made.values()]
         else:
             files = sorted(args.files.resolve().glob("*.csv"))
@@ -110,9 +109,8 @@ def main() -> None:
             references.append(reference)
             ratios.append(seconds / reference)
             net.append((seconds - floor) / reference)
-            samples = sum(1 for _ in open(path)) - 1
             print(
-                f"{path.stem:<26} {samples:>7} {seconds:>9.2f} {reference:>8.3f} {ratios[-1]:>6.1f} {net[-1]:>10.1f} "
+                f"{path.stem:<26} {fit['files'][0]['n']:>7} {seconds:>9.2f} {reference:>8.3f} {ratios[-1]:>6.1f} {net[-1]:>10.1f} "
                 f"{fit['files'][0]['nrmse']:>7.4f}",
                 flush=True,
             )

@@ -115,12 +115,12 @@ def spencer_force(t, amplitude_mm, f_hz, cycles_total, volts):
     return c1 * yd + k1 * (x - x0)
 
 
-def write_tests(out: Path) -> dict:
-    """The CSV files of ``TESTS`` in ``out``; returns {name: (path, noise-free force)}."""
+def write_tests(out: Path, tests=TESTS) -> dict:
+    """The CSV files of ``tests`` (rows as ``TESTS``) in ``out``; returns {name: (path, noise-free force)}."""
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(SEED)
     made = {}
-    for name, a, f_hz, volts, rate, steady, tared in TESTS:
+    for name, a, f_hz, volts, rate, steady, tared in tests:
         cycles = steady + 2
         t = np.arange(0.0, cycles / f_hz + 0.5 / rate, 1.0 / rate)
         x, v = excitation(t, a, f_hz, cycles)

@@ -86,11 +86,10 @@ def _read_problem(args):
 
 def _fit_each(args, options, workers: int) -> int:
     """``--each``: one fit of each specimen, with the same options, in this one process (a process pays
-    ~1.3 s of start-up for its libraries before it reads a file: numba's first call and scipy's imports;
+    ~1.4 s of start-up for its libraries before it reads a file: numba's first call and scipy's imports;
     a lab's dozens of tests pay it once). ``--out`` and ``--plot`` name folders: each file's result is
     ``<stem>.json`` (and ``<stem>.png``) there. Every file is read and checked, and every output checked,
     before the first fit. Exit 1 when a fit found nothing finite (the others are still made)."""
-    import argparse
     import time
     from pathlib import Path
 
@@ -277,7 +276,7 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--each",
         action="store_true",
-        help="several specimens: fit each on its own, in this one process (the libraries' ~1.3 s of "
+        help="several specimens: fit each on its own, in this one process (the libraries' ~1.4 s of "
         "start-up paid once); --out (and --plot) then name folders, holding NAME.json (NAME.png) per file",
     )
     parser.add_argument(

@@ -246,8 +246,9 @@ SEABORN_DEEP = (
     "#ccb974",
     "#64b5cd",
 )
+# seaborn's "deep6": "deep" without its orange, brown, pink and grey
 SEABORN_COLOR_CODES: dict[str, Any] = dict(
-    zip("bgrmyck", ("#4c72b0", "#55a868", "#c44e52", "#8172b3", "#ccb974", "#64b5cd", (0.1, 0.1, 0.1)))
+    zip("bgrmyck", [SEABORN_DEEP[i] for i in (0, 2, 3, 4, 8, 9)] + [(0.1, 0.1, 0.1)])
 )
 
 
