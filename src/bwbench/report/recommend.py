@@ -195,9 +195,10 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     )
     out.append(per_variant_text(verdict, table, noun))
     if choice in verdict.avoid:
+        base = verdict.vs_baseline.set_index("a").loc[choice, "b"]
         out.append(
-            f"Even so, its final losses are significantly worse than random search's ({verdict.baselines[0]}): "
-            "no backend in this study beats the baseline."
+            f"Even so, its final losses are significantly worse than random search's on the same variant "
+            f"({base}): no backend in this study beats the baseline."
         )
     peers = [n for n in verdict.peers if n not in verdict.avoid]
     ref_rows = verdict.vs_reference.set_index("a") if verdict.vs_reference is not None else pd.DataFrame()
@@ -239,11 +240,11 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     if avoid:
         base = verdict.vs_baseline.set_index("a")
         items = [
-            f"**{n}** ({ratio_number(base.loc[n, 'ratio'])}× {verdict.baselines[0]}'s final losses, Holm p = "
+            f"**{n}** ({ratio_number(base.loc[n, 'ratio'])}× {base.loc[n, 'b']}'s final losses, Holm p = "
             f"{p_text(base.loc[n, 'p_holm'])})"
             for n in avoid
         ]
-        out.append(f"Avoid {join(items)}: significantly worse than random search.")
+        out.append(f"Avoid {join(items)}: significantly worse than random search on the same variant.")
     if verdict.baselines:
         out.append(
             "Random search is the baseline, never a candidate: "
@@ -301,7 +302,7 @@ def box(verdict: Verdict, table, budget, noun: str | None, what: dict | None = N
         )
     avoid = [n for n in verdict.avoid if n != choice]
     parts = [
-        f"**Avoid** {join(avoid)} (worse than random search)."
+        f"**Avoid** {join(avoid)} (worse than random search on its own variant)."
         if avoid
         else "**Avoid**: no label is worse than random search."
     ]
