@@ -38,9 +38,9 @@ class StudyDecision:
         return self.verdict.choice
 
     @property
-    def best(self) -> str | None:
+    def best(self) -> str:
         """The recommended label, else the reference of the rule."""
-        return self.verdict.choice or self.verdict.reference or self.verdict.order[0]
+        return str(self.verdict.choice or self.verdict.reference or self.verdict.order[0])
 
     @property
     def as_dict(self) -> dict:

@@ -160,7 +160,7 @@ def decide(
     verdict.vs_baseline = comparisons.family(
         values,
         [(c, base) for c in candidates if (base := own_baseline(c, baselines)) is not None],
-        "against random search of the same variant",
+        f"against {baselines[0]}" if len(baselines) == 1 else "against random search of the same variant",
         ALPHA,
     )
     against_ref = verdict.vs_reference.set_index("a")
