@@ -71,7 +71,8 @@ def rule(test_name: str, noun: str | None = None) -> list[str]:
         f"one label's times by ±{time_noise.LOAD:.0%} against another's) still below the other's lower end. The "
         "labels left are *tied on time*; of these the one with the fewest evaluations to the target (ERT) is "
         "recommended, then the order above. The same seeds give the same answer on any machine at any load.",
-        f"**Avoid**: final losses significantly (Holm) and more than {PRACTICAL:.0%} worse than the best baseline's.",
+        f"**Avoid**: final losses significantly (Holm) and more than {PRACTICAL:.0%} worse than random search's on "
+        "the same model and formulation (never against random search on another model).",
         f"**Statistics.** Each comparison: {test_name} on log10 final losses (a failed run counts one decade "
         f"worse than the worst finished run on its specimen); effect size = Hodges–Lehmann ratio of final losses "
         f"with a {comparisons.LEVEL:.0%} bootstrap interval ({comparisons.BOOTSTRAP:,} resamples of the seeds within "
