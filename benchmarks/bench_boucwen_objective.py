@@ -20,7 +20,7 @@ import time
 import numba
 import numpy as np
 
-from bwbench.optimize.objective import Objective
+from bwbench.engine.objective import Objective
 from bwbench.problems.noel_schoukens.problem import (
     STEPS_PER_SAMPLE,
     TRUE_PARAMS,

@@ -30,8 +30,8 @@ import numba
 import numpy as np
 
 from bwbench.data.specimen import read_specimen
+from bwbench.engine.objective import Objective
 from bwbench.models.base import Model
-from bwbench.optimize.objective import Objective
 from bwbench.problems.hysteresis.formulations import make_problem
 
 REPO = Path(__file__).resolve().parents[1]
@@ -105,7 +105,7 @@ def main():
         if has_sensitivities(problem):
             sensitivity_price(problem, P, "random points")
             if args.optimum:
-                from bwbench.optimize import fitting
+                from bwbench.engine import fitting
 
                 best = fitting.run(problem, "lsq-trf", args.optimum, 0)
                 p = np.array([best.params[n] for n in problem.param_names])

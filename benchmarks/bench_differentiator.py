@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import exact_motions as em  # noqa: E402
 from bwbench.datasets.synthetic import read_paper_parameters  # noqa: E402
 from bwbench.models import derivatives  # noqa: E402
-from bwbench.models import switched_bouc_wen as model  # noqa: E402
+from bwbench.models.switched import simulation as model  # noqa: E402
 
 RESOLUTION_MM = 1e-5  # the files print displacement with 5 decimals
 

@@ -24,7 +24,7 @@ import numba
 import numpy as np
 
 from bwbench.data.specimen import read_specimen
-from bwbench.optimize import fitting
+from bwbench.engine import fitting
 from bwbench.problems.hysteresis.formulations import make_problem
 
 REPO = Path(__file__).resolve().parents[1]

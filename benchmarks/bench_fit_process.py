@@ -49,7 +49,7 @@ RIG_TESTS = (
 IMPORTS = """
 import numpy as np, numba, scipy.optimize
 import bwbench.commands.fit, bwbench.commands.simulate
-from bwbench.models import spencer_kernel
+from bwbench.models.spencer import kernel as spencer_kernel
 """
 FLOOR = (
     IMPORTS

@@ -5,7 +5,7 @@
 
 Every backend runs on the 3 specimens of studies/quick.toml (POM MT24u01 at 0.01/0.05/0.09 MPa,
 repeat 1; shared state, measured excitation) under both formulations (``paper``:
-``SwitchedBoucWenProblem``, ``identifiable``: ``IdentifiableProblem``) with the same seeds. The
+``DirectProblem``, ``identifiable``: ``IdentifiableProblem``, of the switched model) with the same seeds. The
 noise floor of a specimen is the MSE of its generating parameters (data/specimens/manifest.json)
 under the paper problem's ``loss_batch``; a run "hits" when its final MSE is within 2 % of it
 (the identifiable formulation has 2 more linear coefficients, m and an offset per branch, so it
@@ -52,17 +52,17 @@ def _init_worker():
 @functools.lru_cache(maxsize=None)
 def _problem(path: str, formulation: str):
     from bwbench.data.specimen import read_specimen
-    from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
-    from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+    from bwbench.models.switched.model import MODEL
+    from bwbench.problems.hysteresis.model_problem import DirectProblem, IdentifiableProblem
 
     specimen = read_specimen(path)
-    make = IdentifiableProblem if formulation == "identifiable" else SwitchedBoucWenProblem
-    return make(specimen, state="shared", excitation="measured")
+    make = IdentifiableProblem if formulation == "identifiable" else DirectProblem
+    return make(MODEL, specimen, state="shared", excitation="measured")
 
 
 def noise_floor(path: str) -> float:
     """MSE (N²) of the specimen's generating parameters under the paper problem."""
-    from bwbench.models.switched_parameters import truth_params
+    from bwbench.models.switched.parameters import truth_params
 
     truth = truth_params(path)
     if truth is None:
@@ -71,7 +71,7 @@ def noise_floor(path: str) -> float:
 
 
 def run_one(path: str, formulation: str, backend: str, replicate: int, budget: int) -> dict:
-    from bwbench.optimize import fitting
+    from bwbench.engine import fitting
 
     problem = _problem(path, formulation)
     # One seed per (specimen, replicate), shared by every backend and both formulations.
@@ -105,7 +105,7 @@ def main(argv=None) -> int:
     unknown = set(formulations) - set(FORMULATIONS)
     if unknown:
         parser.error(f"unknown formulation(s) {', '.join(sorted(unknown))}")
-    from bwbench.optimize import registry
+    from bwbench.engine import registry
 
     for b in backends:
         registry.get(b)  # unknown names fail here, before any work

@@ -30,7 +30,7 @@ import numpy as np
 from bwbench import threads
 from bwbench.datasets import mr_damper
 from bwbench.models import excitation
-from bwbench.models.switched import LAYOUT, MODEL
+from bwbench.models.switched.model import LAYOUT, MODEL
 from bwbench.problems.hysteresis.joint_problem import stack_signals
 from bwbench.problems.hysteresis.linear import solve as ls
 from bwbench.problems.hysteresis.linear.bounds import physical_bounds
@@ -112,7 +112,7 @@ def main() -> None:
 def whole_fits(part, budget: int, fits: int) -> None:
     """lsq-trf with the default (physical) bounds and with none, alternated; medians and their ratio."""
     from bwbench.data.specimen import Specimen
-    from bwbench.optimize import fitting
+    from bwbench.engine import fitting
     from bwbench.problems.hysteresis.model_problem import IdentifiableProblem
 
     e, f = part

@@ -30,11 +30,12 @@ import pandas as pd
 from scipy.integrate import solve_ivp
 
 from bwbench.data.specimen import read_specimen
-from bwbench.models import switched_bouc_wen as model
-from bwbench.models.switched_parameters import LOWER, UPPER
-from bwbench.optimize.objective import Objective
-from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+from bwbench.engine.objective import Objective
+from bwbench.models.switched import simulation as model
+from bwbench.models.switched.kernel import PARAM_NAMES
+from bwbench.models.switched.model import MODEL
+from bwbench.models.switched.parameters import LOWER, UPPER
+from bwbench.problems.hysteresis.model_problem import DirectProblem, IdentifiableProblem
 
 REPO = Path(__file__).resolve().parents[1]
 SPECIMEN = REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
@@ -77,7 +78,7 @@ def rate(fn, n, repeat, clock=time.perf_counter):
 def population(rng, size):
     """Half uniform in the Table 5 box, half within ±5 % of the box around the Table 6 fits (unit cube)."""
     fits = pd.read_csv(PAPER_FITS)
-    table6 = fits.loc[fits["table"] == 6, list(model.PARAM_NAMES)].to_numpy(dtype=float)
+    table6 = fits.loc[fits["table"] == 6, list(PARAM_NAMES)].to_numpy(dtype=float)
     uniform = rng.random((size - size // 2, 14))
     centres = (table6 - LOWER) / (UPPER - LOWER)
     near = centres[rng.integers(len(centres), size=size // 2)] + rng.uniform(-0.05, 0.05, (size // 2, 14))
@@ -87,7 +88,7 @@ def population(rng, size):
 def identifiable_population(problem, rng, P):
     """Half uniform in the identifiable box, half the paper rows P's second half (near Table 6) mapped
     to the identifiable coordinates (unit cube, clipped)."""
-    from bwbench.models import switched_identifiable as fm
+    from bwbench.models.switched import identifiable as fm
 
     half = len(P) // 2
     near = np.array([fm.from_paper(p, problem.state)[0] for p in P[len(P) - half :]])
@@ -96,7 +97,7 @@ def identifiable_population(problem, rng, P):
 
 def identifiable_rates(specimen, P, repeat, clock):
     """(one call per point, batched, linear solve per evaluation in s) of the identifiable formulation."""
-    problem = IdentifiableProblem(specimen)
+    problem = IdentifiableProblem(MODEL, specimen)
     U = identifiable_population(problem, np.random.default_rng(1), P)
     Objective(problem, 4).batch(U[:2])  # compile outside the timing
     Objective(problem, 4)(U[0])
@@ -116,7 +117,7 @@ def main():
     args = parser.parse_args()
     clock = time.perf_counter if args.clock == "wall" else time.process_time
 
-    problem = SwitchedBoucWenProblem(read_specimen(SPECIMEN))
+    problem = DirectProblem(MODEL, read_specimen(SPECIMEN))
     s = problem.signal
     U = population(np.random.default_rng(0), args.population)
     P = problem.from_unit(U)

@@ -30,8 +30,8 @@ import numpy as np
 
 from bwbench.analysis import nested
 from bwbench.data.specimen import read_specimen
-from bwbench.optimize import fitting
-from bwbench.optimize.objective import Objective
+from bwbench.engine import fitting
+from bwbench.engine.objective import Objective
 from bwbench.optimizers.nested_sampler import equal_weight_draws
 from bwbench.problems.hysteresis.formulations import make_problem
 from bwbench.threads import limited

@@ -16,7 +16,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicHermiteSpline
 
-from bwbench.models.spencer import MODEL
+from bwbench.models.spencer.model import MODEL
 
 # Spencer et al. (1997)'s damper at 1 V, mm units (see tests/models/test_spencer.py).
 P = {

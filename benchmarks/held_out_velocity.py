@@ -26,7 +26,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import exact_motions as em  # noqa: E402
 from bwbench.data.specimen import read_specimen  # noqa: E402
 from bwbench.datasets.synthetic import read_paper_parameters  # noqa: E402
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem  # noqa: E402
+from bwbench.models.switched.model import MODEL  # noqa: E402
+from bwbench.problems.hysteresis.model_problem import DirectProblem  # noqa: E402
 from reference import reference_force_of_motion  # noqa: E402
 
 RATE_HZ = 2.0
@@ -35,7 +36,7 @@ ENCODER_NOISE_MM = 1e-3
 
 
 def truth_loss(path, truth) -> float:
-    return float(SwitchedBoucWenProblem(read_specimen(path)).loss_batch(np.asarray(truth)[None])[0])
+    return float(DirectProblem(MODEL, read_specimen(path)).loss_batch(np.asarray(truth)[None])[0])
 
 
 def main():

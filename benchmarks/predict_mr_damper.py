@@ -8,7 +8,7 @@ force noise, 1 µm displacement noise and an 8 N load-cell offset (``bwbench.dat
 
 - training: sine tests at 25 mm 1 Hz, 10 mm 2.5 Hz and 15 mm 0.5 Hz;
 - predicted: a sine at 20 mm 1.5 Hz, and a random-displacement record (8 s, band-limited noise of
-  0.2–3 Hz, ±20 mm, starting at rest), its force simulated with ``bwbench.models.spencer`` on that
+  0.2–3 Hz, ±20 mm, starting at rest), its force simulated with ``bwbench.models.spencer.model`` on that
   motion, the same noise and offset.
 
 For Spencer's model and the switched Bouc-Wen (both identifiable), `bwbench fit` of the three

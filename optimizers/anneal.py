@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from bwbench.optimize.finite_penalty import WorstFinitePenalty
-from bwbench.optimize.options import Bool, Int
-from bwbench.optimize.registry import register
+from bwbench.engine.finite_penalty import WorstFinitePenalty
+from bwbench.engine.options import Bool, Int
+from bwbench.engine.registry import register
 
 
 @register(

@@ -34,8 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bwbench.optimize.options import Float, Int
-from bwbench.optimize.registry import register
+from bwbench.engine.options import Float, Int
+from bwbench.engine.registry import register
 
 
 @register(

@@ -36,8 +36,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bwbench.optimize.options import Choice, Float, FloatOrPair, Int
-from bwbench.optimize.registry import register
+from bwbench.engine.options import Choice, Float, FloatOrPair, Int
+from bwbench.engine.registry import register
 
 # scipy 1.17's differential_evolution strategies (its _binomial and _exponential tables)
 STRATEGIES = (

@@ -16,10 +16,10 @@ Gaussian likelihood with the noise σ integrated out under Jeffreys' prior p(σ)
 Start (option ``start``): "uniform": walkers uniform in the box (a sampler used as an optimiser, as in
 the ranking); "optimum": a CMA-ES run on ``start_fraction`` of the budget, then the walkers in a ball
 of radius ``start_radius`` (unit coordinates) around its best point; "optima" (what a study's
-``[posterior]`` uses): ``bwbench.optimizers.mcmc_start`` — independent local searches on
+``[posterior]`` uses): ``bwbench.optimizers.sampling.start`` — independent local searches on
 ``start_fraction`` of the budget, the good optima farthest apart (one per ensemble), walkers drawn
 around each from the local curvature, overdispersed. With "optima", a branch the data cannot tell
-from a linear one is sampled with its shape parameters held fixed (``bwbench.optimizers.mcmc_reduce``).
+from a linear one is sampled with its shape parameters held fixed (``bwbench.optimizers.sampling.reduce``).
 
 Ensembles (option ``ensembles``, K): K independent ``emcee.EnsembleSampler``s of ``n_walkers`` each,
 stepped in turn so they always have the same length; the chain stores them side by side on the
@@ -66,9 +66,9 @@ import math
 
 import numpy as np
 
+from bwbench.engine.options import Choice, Float, Int, OptionError
+from bwbench.engine.registry import register
 from bwbench.errors import BudgetExhausted
-from bwbench.optimize.options import Choice, Float, Int, OptionError
-from bwbench.optimize.registry import register
 
 MAX_STORED = 2000  # stored steps per walker at the longest chain the budget allows
 FIRST_CHECK = 100  # stored steps before the first convergence check
@@ -120,7 +120,7 @@ def minimize(
     # uniform in the box) draws exactly what it drew then
     streams = [int(rng.integers(2**63)) for _ in range(K)]
     if start == "optima":
-        from bwbench.optimizers import mcmc_start
+        from bwbench.optimizers.sampling import start as mcmc_start
 
         plan = mcmc_start.plan(objective, rng, log_prob, K, W, start_fraction)
         starts, start_lp, fixed, notes = plan.walkers, plan.log_prob, plan.fixed, plan.notes
@@ -276,8 +276,8 @@ def _message(verdict, stuck, objective, stored, thin) -> str:
 def _ball_at_optimum(objective, rng, n_walkers: int, fraction: float, radius: float) -> np.ndarray:
     """Walkers in a ball of ``radius`` (unit coordinates) around the best point a CMA-ES run on ``fraction`` of the
     remaining budget found (every evaluation counts against the objective's budget)."""
-    from bwbench.optimizers.budget_share import Share
     from bwbench.optimizers.cmaes import minimize as cmaes
+    from bwbench.optimizers.sampling.budget_share import Share
 
     share = Share(objective, int(fraction * objective.remaining))
     try:

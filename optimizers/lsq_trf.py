@@ -31,7 +31,7 @@ iteration; or "unit": no scaling), ``max_nfev_per_start`` (None: until converged
 of one local search, i.e. its residual evaluations, Jacobians not included), ``stall_iters`` (5;
 0 = never) and ``stall_rtol`` (1e-3); ``stop_agree`` (0: spend the whole budget, as a study does)
 and ``agree_rtol`` (1e-2): stop once ``stop_agree`` local searches, each from its own random start,
-ended at the best optimum found (``_agreed``: MSE within ``agree_rtol``, and every parameter within 2 %
+ended at the best optimum found (``agreed_searches``: MSE within ``agree_rtol``, and every parameter within 2 %
 of its range or, with ``agree_same_fit`` (true), the fitted curves within ``AGREE_FTOL`` (``lsq_agreement``) = 5 % of the
 residual RMS of each other) after at least 9 searches (a basin attracting 30 % of starts is then missed
 with probability < 5 %) — more starts would spend the budget finding it again (``bwbench fit`` sets 3
@@ -95,11 +95,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from bwbench.engine.options import Bool, Choice, Float, Int
+from bwbench.engine.registry import register
 from bwbench.errors import BudgetExhausted
-from bwbench.optimize.options import Bool, Choice, Float, Int
-from bwbench.optimize.registry import register
-from bwbench.optimizers.lsq_agreement import _agreed, _how_agreed, _rule, _same_optimum
-from bwbench.optimizers.lsq_residuals import _Arrived, _Residuals, _Stalled
+from bwbench.optimizers.lsq.agreement import agreed_searches, agreement_rule, how_agreed, same_optimum
+from bwbench.optimizers.lsq.residuals import Arrived, Residuals, Stalled
 from bwbench.threads import blas_limits
 
 OPTIONS = {
@@ -201,14 +201,14 @@ POLISH_ENDS, POLISH_RTOL = 3, 2.0
 
 def _distinct_ends(ends: list[tuple], agree_rtol: float) -> list:
     """Where to polish from: the best end's u, then those of ends that are other optima (neither the same
-    place nor the same fitted curve as one already taken, ``_same_optimum``) with MSE within ``POLISH_RTOL``
+    place nor the same fitted curve as one already taken, ``same_optimum``) with MSE within ``POLISH_RTOL``
     × ``agree_rtol`` of the best's, best first, at most ``POLISH_ENDS``."""
     finite = sorted((e for e in ends if np.isfinite(e[0]) and e[1] is not None), key=lambda e: e[0])
     taken: list[tuple] = []
     for end in finite:
         if len(taken) == POLISH_ENDS or end[0] > finite[0][0] * (1.0 + POLISH_RTOL * agree_rtol):
             break
-        if not any(_same_optimum(end, other, np.inf) for other in taken):
+        if not any(same_optimum(end, other, np.inf) for other in taken):
             taken.append(end)
     return [end[1] for end in taken]
 
@@ -222,7 +222,7 @@ def _polish(objective, cheaper, rng, search, extras, starts) -> dict:
     # Each starts where a search ended, within ~1 % of the optimum's MSE: stalled after two iterations
     # (not five) of less than a tenth of ``stall_rtol`` in all.
     stall = min(int(search["stall"][0]), POLISH_STALL_ITERS)
-    residuals = _Residuals(
+    residuals = Residuals(
         objective, search["diff_step"], stall, 0.1 * search["stall"][1], exact=search["exact"], fused=search["fused"]
     )
     polished = 0
@@ -233,7 +233,7 @@ def _polish(objective, cheaper, rng, search, extras, starts) -> dict:
         polished += 1
         try:
             _local_search(residuals, u0, search)
-        except _Stalled:
+        except Stalled:
             pass
         except BudgetExhausted:
             how += " until the budget ran out"
@@ -257,7 +257,7 @@ def _polish(objective, cheaper, rng, search, extras, starts) -> dict:
 
 
 def _local_search(residuals, u0, search) -> None:
-    """One trf search from u0 (already ``start``ed); ``_Stalled`` (and ``_Arrived``) propagate."""
+    """One trf search from u0 (already ``start``ed); ``Stalled`` (and ``Arrived``) propagate."""
     search["least_squares"](
         residuals.fun,
         u0,
@@ -277,7 +277,7 @@ def _restarts(objective, rng, search, stop_agree, agree_rtol, stop_on_arrival, a
     to keep the searches' ends in (MSE, u, residual vector or None), for the caller."""
     d = objective.dim
     stall_iters, stall_rtol = search["stall"]
-    residuals = _Residuals(
+    residuals = Residuals(
         objective, search["diff_step"], stall_iters, stall_rtol, exact=search["exact"], fused=search["fused"]
     )
     ends = [] if ends is None else ends  # (lowest MSE, where, its residual vector or None) of each finished search
@@ -290,21 +290,21 @@ def _restarts(objective, rng, search, stop_agree, agree_rtol, stop_on_arrival, a
             continue  # blew up at the start: draw another
         try:
             _local_search(residuals, u0, search)
-        except _Arrived:
+        except Arrived:
             arrivals += 1
-        except _Stalled:
+        except Stalled:
             pass
         # The fitted curve joins the end only where the problem has residuals: a loss alone says nothing about it.
         fit = residuals.search_best_r if agree_same_fit and residuals.has_residuals else None
         ends.append((residuals.search_best, residuals.search_best_u, fit))
         floor = 1e-12 * residuals.penalty.worst_finite
         residuals.arrival_floor = floor
-        agreed = _agreed(ends, int(stop_agree), float(agree_rtol), floor)
+        agreed = agreed_searches(ends, int(stop_agree), float(agree_rtol), floor)
         if agreed:
             arrived = f"; {arrivals} of them stopped on reaching an optimum an earlier one ended at" if arrivals else ""
-            by_fit = _how_agreed(ends, float(agree_rtol), floor).count("fit")
+            by_fit = how_agreed(ends, float(agree_rtol), floor).count("fit")
             fit = f", {by_fit} of them by their fitted curve only" if by_fit else ""
-            rule = _rule(agree_rtol, agree_same_fit and residuals.has_residuals)
+            rule = agreement_rule(agree_rtol, agree_same_fit and residuals.has_residuals)
             message = (
                 f"stopped early: {agreed} of {len(ends)} independent local searches ended at the best "
                 f"optimum{fit}, none better{arrived} (agreement: {rule})"

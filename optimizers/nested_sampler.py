@@ -20,7 +20,7 @@ functions, not the likelihood, so it cannot batch.
 Runs: ``runs`` independent ``ultranest.ReactiveNestedSampler`` runs in turn, each on an equal share
 of what is left of the budget (a run that stops early leaves more to the next), each from its own
 stream of ``rng`` (UltraNest draws from numpy's global generator:
-``bwbench.optimize.global_rng.seeded_global_rng``). A run stops when the evidence left in its live
+``bwbench.engine.global_rng.seeded_global_rng``). A run stops when the evidence left in its live
 points is below ``dlogz`` and it holds ``min_ess`` effective draws (UltraNest's own criteria), or when
 its share is spent (then it is "cut" and says so). Sampling inside the likelihood contour: UltraNest's
 MLFriends region (rejection from ellipsoids around the live points) up to ``REGION_MAX_DIM``
@@ -56,8 +56,8 @@ import warnings
 
 import numpy as np
 
-from bwbench.optimize.options import Choice, Float, Int
-from bwbench.optimize.registry import register
+from bwbench.engine.options import Choice, Float, Int
+from bwbench.engine.registry import register
 
 # MLFriends' rejection sampling: efficient on round posteriors of a few parameters; on the models' thin
 # curved ridges (7 parameters of the switched model's identifiable formulation) it accepted 0 of 1,024
@@ -87,7 +87,7 @@ IMPOSSIBLE = -1e300  # the log-likelihood UltraNest gets for a blow-up (it refus
     },
 )
 def minimize(objective, *, rng, runs=4, live_points=100, dlogz=0.5, min_ess=150, step_sampler="auto", n_data=None):
-    from bwbench.optimize.global_rng import seeded_global_rng
+    from bwbench.engine.global_rng import seeded_global_rng
 
     _quiet()
     d = objective.dim

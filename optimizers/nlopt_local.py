@@ -36,10 +36,10 @@ from __future__ import annotations
 import nlopt
 import numpy as np
 
+from bwbench.engine.finite_penalty import WorstFinitePenalty
+from bwbench.engine.options import Float, Int
+from bwbench.engine.registry import register
 from bwbench.errors import BudgetExhausted
-from bwbench.optimize.finite_penalty import WorstFinitePenalty
-from bwbench.optimize.options import Float, Int
-from bwbench.optimize.registry import register
 
 _OPTIONS = {
     "xtol_rel": Float(1e-6, minimum=0.0),

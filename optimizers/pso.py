@@ -31,7 +31,7 @@ box widths, so it never fires there (runs stay bit-identical to runs without the
 
 Two pieces of global state need containing:
 - pyswarms draws every random number from numpy's legacy global generator (``np.random.uniform``
-  in the swarm initialisation and the velocity update). ``bwbench.optimize.global_rng.seeded_global_rng``
+  in the swarm initialisation and the velocity update). ``bwbench.engine.global_rng.seeded_global_rng``
   sets that state from ``rng`` and restores it afterwards, so the run is repeatable and the caller's
   global state is untouched.
 - every pyswarms ``Reporter`` (created at import and in each optimiser, topology and handler
@@ -49,9 +49,9 @@ import sys
 
 import numpy as np
 
-from bwbench.optimize.global_rng import seeded_global_rng
-from bwbench.optimize.options import Float, Int
-from bwbench.optimize.registry import register
+from bwbench.engine.global_rng import seeded_global_rng
+from bwbench.engine.options import Float, Int
+from bwbench.engine.registry import register
 
 # Box widths from the box beyond which the swarm has diverged (see the module docstring); reflecting
 # such a position back costs pyswarms about that many passes, a few milliseconds.

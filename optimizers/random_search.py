@@ -6,8 +6,8 @@ spends at least one evaluation, so the loop always ends; the cap only bounds mem
 
 from __future__ import annotations
 
-from bwbench.optimize.options import Int
-from bwbench.optimize.registry import register
+from bwbench.engine.options import Int
+from bwbench.engine.registry import register
 
 
 @register(

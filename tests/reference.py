@@ -1,7 +1,7 @@
 """An independent reference for the switched model: scipy solve_ivp (DOP853, rtol 1e-10) in time,
 integrated piecewise between the analytic velocity reversals of a sine excitation.
 
-Deliberately written from the equations, not from bwbench.models.switched_bouc_wen: time instead of displacement
+Deliberately written from the equations, not from bwbench.models.switched.simulation: time instead of displacement
 as the integration variable, scipy instead of numba, analytic instead of located reversals.
 """
 

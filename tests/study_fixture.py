@@ -1,6 +1,6 @@
 """A small, realistic study database written without running any optimiser.
 
-The schema is the contract of ``bwbench.study.store`` (written out here on purpose, so the analysis
+The schema is the contract of ``bwbench.database.writer`` (written out here on purpose, so the analysis
 tests do not depend on the runner). The numbers are synthetic but consistent: every run's
 parameters are drawn around the specimen's truth (closer for the "good" backends), and its MSE
 is the model's real MSE at those parameters, so the fitted loops and the identifiability analysis
@@ -22,11 +22,11 @@ import numpy as np
 from bwbench.data import manifest as manifest_mod
 from bwbench.data.specimen import read_specimen
 from bwbench.datasets import synthetic
-from bwbench.models import switched_parameters
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.models.switched_parameters import LOWER, UPPER
-from bwbench.optimize import registry
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+from bwbench.engine import registry
+from bwbench.models.switched import parameters as switched_parameters
+from bwbench.models.switched.kernel import PARAM_NAMES
+from bwbench.models.switched.parameters import LOWER, UPPER
+from paper_problems import SwitchedBoucWenProblem
 
 DATA_DIR = synthetic.SPECIMEN_DIR
 SPECIMENS = ("pom-mt24u01_0.01MPa_r1", "pom-mt24u01_0.09MPa_r1")
@@ -269,7 +269,7 @@ def make_study_db(
                 ("config_hash", "0" * 64),
                 ("created_utc", "2024-01-01T00:00:00Z"),
                 ("bwbench_version", "fixture"),
-                # as the runner records them (bwbench.study.store.backend_facts); the fixture's backends are real ones
+                # as the runner records them (bwbench.database.writer.backend_facts); the fixture's backends are real ones
                 (
                     "backends",
                     json.dumps(

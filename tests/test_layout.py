@@ -94,9 +94,9 @@ def test_no_module_over_400_lines(name, path):
 # The layers the issue of models as plug-ins asked for: the report and the store read results and
 # never the runner or the optimiser registry; models know nothing of problems, studies or reports.
 LOWER_LAYERS = {
-    "bwbench.report": ("bwbench.study", "bwbench.optimize"),
-    "bwbench.store": ("bwbench.study", "bwbench.optimize", "bwbench.report"),
-    "bwbench.models": ("bwbench.problems", "bwbench.study", "bwbench.optimize", "bwbench.report", "bwbench.store"),
+    "bwbench.report": ("bwbench.study", "bwbench.engine"),
+    "bwbench.database": ("bwbench.study", "bwbench.engine", "bwbench.report"),
+    "bwbench.models": ("bwbench.problems", "bwbench.study", "bwbench.engine", "bwbench.report", "bwbench.database"),
 }
 
 
@@ -122,10 +122,10 @@ LAYERS = (
     ("bwbench.api", "bwbench.testing"),
     ("bwbench.study",),
     ("bwbench.report",),
-    ("bwbench.store",),
+    ("bwbench.database",),
     ("bwbench.problems",),
     ("bwbench.optimizers",),
-    ("bwbench.optimize",),
+    ("bwbench.engine",),
     ("bwbench.datasets",),
     ("bwbench.models",),
     ("bwbench.render",),

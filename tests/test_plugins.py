@@ -7,9 +7,9 @@ from importlib.metadata import EntryPoint
 import pytest
 
 from bwbench import plugins, problems
+from bwbench.engine import registry as optimizers
 from bwbench.errors import UserError
 from bwbench.models import registry as models
-from bwbench.optimize import registry as optimizers
 
 MISSING = "ModuleNotFoundError: No module named 'no_such_plugin_module'"
 

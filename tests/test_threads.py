@@ -14,7 +14,7 @@ from threadpoolctl import threadpool_info
 
 from bwbench import threads
 from bwbench.cli import main
-from bwbench.optimize import fitting
+from bwbench.engine import fitting
 
 SPECIMEN = Path(__file__).resolve().parents[1] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 
@@ -55,7 +55,7 @@ def test_threads_opts_in_to_more(tmp_path):
         os.environ.pop("NUMBA_NUM_THREADS", None)
         import numba
         from bwbench.cli import main
-        from bwbench.optimize import fitting
+        from bwbench.engine import fitting
         seen, real = [], fitting.run
         fitting.run = lambda *a, **k: seen.append(numba.get_num_threads()) or real(*a, **k)
         code = main(["fit", {str(SPECIMEN)!r}, "--optimizer", "random", "--budget", "20", "--out", "r.json", "--threads", "2"])

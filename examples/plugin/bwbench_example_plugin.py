@@ -1,7 +1,7 @@
 """An example bwbench optimiser plugin: coordinate search with a shrinking step.
 
 Found through the entry-point group ``bwbench.optimizers`` (see ``pyproject.toml``); the contract it
-keeps is in ``bwbench.optimize.registry``'s docstring, and ``tests/test_contract.py`` checks it
+keeps is in ``bwbench.engine.registry``'s docstring, and ``tests/test_contract.py`` checks it
 with ``bwbench.testing`` (including a run at each edge of every declared option's range).
 
 Its one option is declared with a type and a valid range, so ``bwbench fit --option step=...`` and a
@@ -9,8 +9,8 @@ study's ``[optimizers]`` table refuse a bad value in one line before anything ru
 ``bwbench optimizers`` shows ``step  float in (0, 1], default 0.25``.
 """
 
-from bwbench.optimize.options import Float
-from bwbench.optimize.registry import register
+from bwbench.engine.options import Float
+from bwbench.engine.registry import register
 
 
 @register(

@@ -1,5 +1,5 @@
 """The one registry class and failure policy of bwbench's three plug-in registries: optimiser backends
-(``bwbench.optimize.registry``), problems (``bwbench.problems``) and models (``bwbench.models.registry``).
+(``bwbench.engine.registry``), problems (``bwbench.problems``) and models (``bwbench.models.registry``).
 
 An installed plug-in that fails to load (a missing module, an exception at import, a value of the
 wrong type) breaks only itself: its registry keeps the others working, and whoever asks for it by

@@ -5,7 +5,7 @@
     def test_my_backend_keeps_the_contract():
         check_backend("my-backend")            # raises AssertionError naming what broke
 
-Each check runs the backend through ``bwbench.optimize.fitting.run`` on ``SphereProblem``, a cheap
+Each check runs the backend through ``bwbench.engine.fitting.run`` on ``SphereProblem``, a cheap
 14-D stand-in for a model (a shifted sphere in unit coordinates with a region of +inf, the "blow-up"
 of a real model; it has residuals too, for least-squares backends), which counts every evaluation
 itself, independently of the ``Objective``:
@@ -29,9 +29,9 @@ import threading
 
 import numpy as np
 
+from bwbench.engine import fitting, registry
+from bwbench.engine.options import show
 from bwbench.errors import UserError
-from bwbench.optimize import fitting, registry
-from bwbench.optimize.options import show
 
 BUDGETS = (1, 57, 600, 1500)
 # A run at an option's edge that has not ended after this long counts as hung. A hang detector,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from bwbench.analysis import mcmc, nested, sampler_comparison
-from bwbench.optimize import fitting
+from bwbench.engine import fitting
 from bwbench.problems.hysteresis.report.posterior_draws import PosteriorChain
 from bwbench.problems.hysteresis.report.samplers_section import comparison_table, groups
 from bwbench.study.posterior_config import POSTERIOR_OPTIONS

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from bwbench.analysis import spread
-from bwbench.optimize import fitting
+from bwbench.engine import fitting
 from bwbench.study.posterior_config import POSTERIOR_OPTIONS
 from toy_posteriors import LinearToy
 

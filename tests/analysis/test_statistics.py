@@ -8,8 +8,8 @@ import pytest
 import scipy.stats
 
 from bwbench.analysis import comparisons, mcmc, statistics
+from bwbench.database import reader as results_db
 from bwbench.errors import UserError
-from bwbench.store import reader as results_db
 from study_fixture import make_study_db
 
 

@@ -10,8 +10,8 @@ import pytest
 from bwbench.data import manifest
 from bwbench.data.specimen import read_specimen
 from bwbench.datasets import mr_dataset
-from bwbench.models import switched_parameters
-from bwbench.models.spencer import MODEL
+from bwbench.models.spencer.model import MODEL
+from bwbench.models.switched import parameters as switched_parameters
 from bwbench.problems.hysteresis.formulations import make_problem
 
 SHIPPED = Path(__file__).resolve().parents[2] / "data" / "mr_damper"

@@ -121,7 +121,7 @@ def test_mechanical_properties_tables_2_to_4():
 
 
 def test_code_bounds_are_the_transcribed_table5():
-    from bwbench.models.switched_parameters import LOWER, UPPER
+    from bwbench.models.switched.parameters import LOWER, UPPER
 
     bounds = pd.read_csv(Path(__file__).resolve().parents[2] / "data" / "paper" / "table5_bounds.csv")
     np.testing.assert_array_equal(bounds.lower.to_numpy(), LOWER)

@@ -11,8 +11,8 @@ from bwbench.cli import main
 from bwbench.data import manifest as manifest_mod
 from bwbench.data.specimen import read_specimen
 from bwbench.datasets import synthetic
-from bwbench.models import switched_parameters
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+from bwbench.models.switched import parameters as switched_parameters
+from paper_problems import SwitchedBoucWenProblem
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 

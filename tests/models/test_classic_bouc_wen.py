@@ -5,8 +5,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bwbench.models import switched_bouc_wen as switched
 from bwbench.models.classic_bouc_wen import MODEL
+from bwbench.models.switched import simulation as switched
+from bwbench.models.switched.kernel import symmetric_params
 from reference_mr import classic_force, random_motion
 
 # Hysteresis that matters in the force: Table 6's compression set with ξ made positive, a sharp
@@ -50,7 +51,7 @@ def test_is_the_switched_model_with_equal_sets():
     signal = SimpleNamespace(t=t, x=x_of(t), v=v_of(t), a=a_of(t))
     np.testing.assert_array_equal(
         MODEL.force_batch(p[None], signal)[0],
-        switched.simulate(switched.symmetric_params(*p), t, signal.x, signal.v, signal.a),
+        switched.simulate(symmetric_params(*p), t, signal.x, signal.v, signal.a),
     )
     mse = MODEL.mse_batch(p[None], signal, signal.x * 3.0)[0]
     assert mse == pytest.approx(np.mean((MODEL.force_batch(p[None], signal)[0] - signal.x * 3.0) ** 2), rel=1e-12)

@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 
 from bwbench.data.specimen import read_specimen
-from bwbench.models import excitation, lockstep
-from bwbench.models import switched_bouc_wen as model
-from bwbench.models.switched_parameters import LOWER, UPPER
+from bwbench.models import excitation
+from bwbench.models.switched import lockstep
+from bwbench.models.switched import simulation as model
+from bwbench.models.switched.kernel import HYSTERETIC_INDEX, STATES, symmetric_params
+from bwbench.models.switched.parameters import LOWER, UPPER
 
 SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 TABLE6 = [0.005, 5.019, 1.009, 1.171, 3.600, 261.893, 3.589, 0.341, 2.825, 0.068, 0.014, 2.814, -151.740, 17.333]
@@ -63,7 +65,7 @@ SCALAR_WORK = pytest.mark.parametrize("scalar_work", [lockstep.SCALAR_WORK, np.i
 
 
 @SCALAR_WORK
-@pytest.mark.parametrize("state", model.STATES)
+@pytest.mark.parametrize("state", STATES)
 def test_lockstep_mse_is_bit_identical_to_scalar(specimen, population, state, scalar_work, monkeypatch):
     monkeypatch.setattr(lockstep, "SCALAR_WORK", scalar_work)
     ex, f = specimen
@@ -81,11 +83,11 @@ def test_lockstep_mse_is_bit_identical_to_scalar(specimen, population, state, sc
 
 
 @SCALAR_WORK
-@pytest.mark.parametrize("state", model.STATES)
+@pytest.mark.parametrize("state", STATES)
 def test_lockstep_z_is_bit_identical_to_scalar(specimen, population, state, scalar_work, monkeypatch):
     monkeypatch.setattr(lockstep, "SCALAR_WORK", scalar_work)
     ex, _ = specimen
-    H = population[:, list(model.HYSTERETIC_INDEX)]
+    H = population[:, list(HYSTERETIC_INDEX)]
     scalar = model.hysteretic_state_batch(H, ex.t, ex.x, ex.v, state, kernel="scalar")
     assert scalar.shape == (len(H), len(ex.t))
     rows_inf = np.all(np.isposinf(scalar), axis=1)
@@ -104,13 +106,11 @@ def test_grouping_does_not_change_results(specimen, population, monkeypatch):
     np.testing.assert_array_equal(model.mse_batch(population, ex.t, ex.x, ex.v, ex.a, f), default)
 
 
-@pytest.mark.parametrize("state", model.STATES)
+@pytest.mark.parametrize("state", STATES)
 def test_force_is_linear_in_the_hysteretic_state(specimen, state):
     ex, _ = specimen
-    for p in np.array(
-        [TABLE6, EXTREME[0], EXTREME[1], EXTREME[7], model.symmetric_params(0.3, 1.5, 0.2, 0.5, 1.5, 50, 10)]
-    ):
-        z = model.hysteretic_state(p[list(model.HYSTERETIC_INDEX)], ex.t, ex.x, ex.v, state)
+    for p in np.array([TABLE6, EXTREME[0], EXTREME[1], EXTREME[7], symmetric_params(0.3, 1.5, 0.2, 0.5, 1.5, 50, 10)]):
+        z = model.hysteretic_state(p[list(HYSTERETIC_INDEX)], ex.t, ex.x, ex.v, state)
         force = model.simulate(p, ex.t, ex.x, ex.v, ex.a, state)
         assert np.all(np.isfinite(z)) and np.ptp(z) > 0
         branch = np.where(ex.v >= 0, 0, 7)
@@ -122,14 +122,14 @@ def test_force_is_linear_in_the_hysteretic_state(specimen, state):
 def test_runaway_gives_inf_z_and_force(specimen):
     ex, _ = specimen
     p = np.array(EXTREME[2])  # β₊ + γ₊ < 0: z runs away on the first loading
-    for state in model.STATES:
-        assert np.all(np.isposinf(model.hysteretic_state(p[list(model.HYSTERETIC_INDEX)], ex.t, ex.x, ex.v, state)))
+    for state in STATES:
+        assert np.all(np.isposinf(model.hysteretic_state(p[list(HYSTERETIC_INDEX)], ex.t, ex.x, ex.v, state)))
         assert np.all(np.isposinf(model.simulate(p, ex.t, ex.x, ex.v, ex.a, state)))
 
 
 def test_batched_z_equals_row_by_row(specimen, population):
     ex, _ = specimen
-    H = population[:20, list(model.HYSTERETIC_INDEX)]
+    H = population[:20, list(HYSTERETIC_INDEX)]
     Z = model.hysteretic_state_batch(H, ex.t, ex.x, ex.v, "split")
     for i, h in enumerate(H):
         np.testing.assert_array_equal(Z[i], model.hysteretic_state(h, ex.t, ex.x, ex.v, "split"))
@@ -137,7 +137,7 @@ def test_batched_z_equals_row_by_row(specimen, population):
 
 def test_edge_sizes_and_bad_arguments(specimen):
     ex, f = specimen
-    H = np.array(TABLE6)[list(model.HYSTERETIC_INDEX)]
+    H = np.array(TABLE6)[list(HYSTERETIC_INDEX)]
     assert model.mse_batch(np.empty((0, 14)), ex.t, ex.x, ex.v, ex.a, f).shape == (0,)
     assert model.hysteretic_state_batch(np.empty((0, 8)), ex.t, ex.x, ex.v).shape == (0, len(ex.t))
     one = model.hysteretic_state_batch(np.tile(H, (2, 1)), ex.t[:1], ex.x[:1], ex.v[:1])
@@ -154,12 +154,12 @@ def test_stiff_rows_go_to_the_scalar_kernel(specimen, population, monkeypatch):
     """Rows whose attractor rate times the longest sample step exceeds ``SCALAR_WORK`` run in the
     scalar kernel, the others in lockstep: the population has both kinds."""
     ex, _ = specimen
-    H = population[:, list(model.HYSTERETIC_INDEX)]
+    H = population[:, list(HYSTERETIC_INDEX)]
     work = lockstep._stiffness_key(H) * np.max(np.abs(np.diff(ex.x)))
     stiff = work > lockstep.SCALAR_WORK
     assert 0 < stiff.sum() < len(H)
     calls = []
-    scalar = lockstep.kernel._hysteretic_batch_scalar
+    scalar = lockstep.kernel.hysteretic_batch_scalar
     monkeypatch.setattr(
         lockstep.kernel, "_hysteretic_batch_scalar", lambda rows, *args: calls.append(len(rows)) or scalar(rows, *args)
     )

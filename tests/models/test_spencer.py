@@ -6,7 +6,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bwbench.models.spencer import MODEL, direct_from_theta, theta_from_direct
+from bwbench.models.spencer.model import MODEL, direct_from_theta, theta_from_direct
 from reference_mr import hermite_excitation, random_motion, spencer_force
 
 # Spencer et al. (1997)'s identified damper at 1 V in mm units (paper: N, cm; c/10, k/10, α/10,
@@ -205,7 +205,7 @@ def test_a_corner_past_the_step_budget_is_inf_with_its_reason_counted():
     with the noise and the step control takes hundreds of steps per sample there. The simulation
     stops at its step budget (+inf, counted as such), while a fit's optimum beside it in the same
     batch runs to the end."""
-    from bwbench.models import spencer_kernel
+    from bwbench.models.spencer import kernel as spencer_kernel
 
     rng = np.random.default_rng(5)
     t = np.arange(0.0, 2.0, 1.0 / 500.0)

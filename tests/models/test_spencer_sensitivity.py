@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from bwbench.data.specimen import read_specimen
+from bwbench.engine.objective import Objective
 from bwbench.errors import BudgetExhausted
-from bwbench.models.spencer import MODEL
-from bwbench.models.spencer_kernel import ydot_batch
-from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
-from bwbench.optimize.objective import Objective
+from bwbench.models.spencer.kernel import ydot_batch
+from bwbench.models.spencer.model import MODEL
+from bwbench.models.spencer.sensitivity import ydot_sensitivity_batch
 from bwbench.problems.hysteresis.formulations import make_problem
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "mr_damper"
@@ -136,7 +136,7 @@ def test_an_exact_jacobian_past_the_budget_spends_what_is_left_and_stops():
 def test_lsq_trf_with_exact_jacobians_reaches_the_optimum_differences_reach():
     """On a generator test (6 N force noise) both reach the noise; exact Jacobians, charged 2
     evaluations instead of 6, leave more of the budget to restarts."""
-    from bwbench.optimize import fitting
+    from bwbench.engine import fitting
 
     problem, _ = arrays(DATA / "mr_10mm_5Hz_0V.csv")
     exact = fitting.run(problem, "lsq-trf", 800, 1)
@@ -147,7 +147,7 @@ def test_lsq_trf_with_exact_jacobians_reaches_the_optimum_differences_reach():
 
 def test_the_direct_jacobian_matches_differences():
     """The direct formulation: F = c₁·ẏ(θ(P)) + k₁·(x − x₀), the map θ(P) differentiated by hand."""
-    from bwbench.models.spencer import direct_from_theta
+    from bwbench.models.spencer.model import direct_from_theta
 
     problem = make_problem(read_specimen(DATA / "mr_25mm_1Hz_0V.csv"), {"model": "spencer", "formulation": "direct"})
     objective = Objective(problem, 100)
@@ -174,7 +174,7 @@ def test_a_record_from_rest_is_simulated_from_rest_with_its_sensitivities_too():
     Jacobians (and, with lsq-trf's fused evaluations, its residuals) are those of a pre-rolled start
     (measured: 17 mm/s of ẏ apart on a 62 mm/s range)."""
     from bwbench.models import excitation
-    from bwbench.models.spencer import starts_from_rest
+    from bwbench.models.spencer.start import starts_from_rest
 
     t = np.arange(0.0, 3.0, 0.002)
     x = 25.0 * np.sin(2 * np.pi * t) * np.minimum(1.0, t / 0.5) ** 2

@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from bwbench.models import switched_bouc_wen as model
-from bwbench.models.switched_parameters import LOWER, UPPER
+from bwbench.models.switched import simulation as model
+from bwbench.models.switched.kernel import STATES, symmetric_params
+from bwbench.models.switched.parameters import LOWER, UPPER
 from reference import reference_force, sine_excitation
 
 # Spanning Table 5: the paper's own fits, n below 1 and above 10, the box corners, the
@@ -47,14 +48,14 @@ PARAMETER_SETS = {
     "n+_0.5": [0.01, 0.5, 0.5, 0.5, 1.0, 100, 5.0, 0.5, 2, 0.1, 0.02, 1.0, -300, 30],
     "table5_lower_corner": list(LOWER),
     "table5_upper_corner": list(UPPER),
-    "symmetric_7_parameter": list(model.symmetric_params(0.3, 1.5, 0.2, 0.5, 1.5, 50.0, 10.0)),
+    "symmetric_7_parameter": list(symmetric_params(0.3, 1.5, 0.2, 0.5, 1.5, 50.0, 10.0)),
 }
 
 T = np.arange(0.0, 1921.0)  # the specimens' grid: 1 Hz, 4 cycles of 480 s
 AMPLITUDE, PERIOD = 10.0, 480.0
 
 
-@pytest.mark.parametrize("state", model.STATES)
+@pytest.mark.parametrize("state", STATES)
 @pytest.mark.parametrize("name", PARAMETER_SETS)
 @pytest.mark.parametrize("offset", [0.0, 0.37], ids=["reversal_on_sample", "reversal_between"])
 def test_matches_reference_within_a_thousandth_of_force_range(name, state, offset):
@@ -124,7 +125,7 @@ def test_a_backward_euler_step_on_the_attractor_stays_there():
     to the RK4 fallback, unstable there — a blow-up of random identifiable-box points. The step stays."""
     import math
 
-    from bwbench.models.switched_kernel import _backward_euler
+    from bwbench.models.switched.kernel import backward_euler
 
     A, n, beta, gamma = 15.282839, 6.54174115, -1.98254158e08, 6.19889082e09  # a '−' branch, η ≈ −1.07
     z_att = -math.pow(A / (beta + gamma), 1.0 / n)  # moving in −x: the attractor at −z_s
@@ -136,7 +137,7 @@ def test_a_backward_euler_step_on_the_attractor_stays_there():
             z = float(np.nextafter(z, toward))
             starts.append(z)
     for z0 in starts:
-        assert _backward_euler(z0, h, A, n, beta, gamma, z_att) == z0
+        assert backward_euler(z0, h, A, n, beta, gamma, z_att) == z0
     # and a start clearly off the attractor still takes a real step towards it
-    z1 = _backward_euler(0.9 * z_att, h, A, n, beta, gamma, z_att)
+    z1 = backward_euler(0.9 * z_att, h, A, n, beta, gamma, z_att)
     assert 0.9 * z_att > z1 >= z_att

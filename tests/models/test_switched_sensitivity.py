@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from bwbench.data.specimen import read_specimen
-from bwbench.models import switched_bouc_wen as kernel
-from bwbench.models.switched_identifiable import kernel_hysteretic
-from bwbench.models.switched_sensitivity import hysteretic_sensitivity, identifiable_jacobian
-from bwbench.optimize.objective import Objective
+from bwbench.engine.objective import Objective
+from bwbench.models.switched import simulation as kernel
+from bwbench.models.switched.identifiable import kernel_hysteretic
+from bwbench.models.switched.sensitivity import hysteretic_sensitivity, identifiable_jacobian
 from bwbench.problems.hysteresis.formulations import make_problem
 
 SPECIMENS = Path(__file__).resolve().parents[2] / "data" / "specimens"
@@ -155,7 +155,7 @@ def test_the_joint_jacobian_matches_differences():
 @pytest.mark.parametrize("model, formulation", [("switched-bouc-wen", "identifiable"), ("bouc-wen", "identifiable")])
 def test_lsq_trf_with_exact_jacobians_reaches_what_differences_reach(model, formulation):
     """On the 0.01 MPa specimen (noise ≈ 1 N): both Jacobians end at the same optimum within 1 %."""
-    from bwbench.optimize import fitting
+    from bwbench.engine import fitting
 
     problem = problem_of(model, formulation, None)
     exact = fitting.run(problem, "lsq-trf", 600, 0)

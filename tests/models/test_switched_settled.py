@@ -1,5 +1,5 @@
 """The switched kernels' backward-Euler substeps on a piece settled on its loading attractor
-(``switched_kernel._implicit``): the relaxation onto z_s they take instead of up to 32 RK4 substeps,
+(``switched_kernel.takes_implicit``): the relaxation onto z_s they take instead of up to 32 RK4 substeps,
 against solve_ivp, on single pieces and on stiff rows of the identifiable box over a whole record."""
 
 import math
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from bwbench.models import switched_bouc_wen as model
-from bwbench.models import switched_kernel as kernel
+from bwbench.models.switched import kernel
+from bwbench.models.switched import simulation as model
 from reference import sine_excitation
 
 
@@ -35,13 +35,15 @@ def test_a_settled_piece_relaxes_onto_its_attractor_as_the_ode_does(n, deviation
     rate = n * A / z_s  # the attractor's relaxation rate per mm: the kernel's stiffness there
     dx = direction * work / rate  # work = stiffness · |dx| in (8, 32]: RK4's range before
     z0 = direction * z_s * (1.0 + deviation)
-    assert kernel._implicit(work, z0, direction, z_s)
+    assert kernel.takes_implicit(work, z0, direction, z_s)
     ours = kernel._advance_z(z0, dx, A, n, beta, gamma, z_s, rate)
     exact = _exact_piece(z0, dx, A, n, beta, gamma)
     # backward Euler leaves at most (1 + work/16)^-16 of the deviation: 1.5e-3 of 9e-3·z_s at work 8
     assert abs(ours - exact) <= 2e-5 * z_s
     # a piece off its attractor (a reversal's transition) keeps RK4
-    assert not kernel._implicit(work, -z0, direction, z_s) and not kernel._implicit(work, 0.5 * z0, direction, z_s)
+    assert not kernel.takes_implicit(work, -z0, direction, z_s) and not kernel.takes_implicit(
+        work, 0.5 * z0, direction, z_s
+    )
 
 
 # Kernel rows H = (A, n, β, γ) per branch of the identifiable box (bench_objective's specimen box, seed 7)

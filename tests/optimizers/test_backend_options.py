@@ -13,9 +13,9 @@ import pytest
 
 from bwbench import testing
 from bwbench.cli import main
+from bwbench.engine import fitting, registry
+from bwbench.engine.options import Bool, Choice, Float, FloatOrPair, Int, OptionError
 from bwbench.errors import UserError
-from bwbench.optimize import fitting, registry
-from bwbench.optimize.options import Bool, Choice, Float, FloatOrPair, Int, OptionError
 from bwbench.study.config import load_study_config
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -11,8 +11,8 @@ import pytest
 
 from bwbench import testing
 from bwbench.data.specimen import read_specimen
-from bwbench.optimize import fitting, registry
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+from bwbench.engine import fitting, registry
+from paper_problems import SwitchedBoucWenProblem
 
 ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from bwbench.data.specimen import read_specimen
-from bwbench.optimize import fitting, registry
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+from bwbench.engine import fitting, registry
+from paper_problems import SwitchedBoucWenProblem
 
 SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
 SEEDS = range(5)

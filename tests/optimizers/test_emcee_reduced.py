@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from bwbench.data.specimen import read_specimen
-from bwbench.optimize import fitting
+from bwbench.engine import fitting
 from bwbench.problems.hysteresis.formulations import make_problem
 from bwbench.study.posterior_config import POSTERIOR_OPTIONS
 from bwbench.threads import limited

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from bwbench.engine.objective import Objective
 from bwbench.errors import BudgetExhausted
-from bwbench.optimize.objective import Objective
 from bwbench.optimizers import firefly, random_search
 from fakes import SphereProblem
 

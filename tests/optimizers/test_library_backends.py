@@ -8,7 +8,7 @@ import logging
 import numpy as np
 import pytest
 
-from bwbench.optimize import fitting
+from bwbench.engine import fitting
 from fakes import SphereProblem
 
 BACKENDS = ["pso", "anneal", "nlopt-bobyqa", "nlopt-sbplx", "nlopt-neldermead", "cmaes", "de", "emcee"]

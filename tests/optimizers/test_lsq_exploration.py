@@ -8,9 +8,9 @@ import pytest
 
 from bwbench import testing
 from bwbench.data.specimen import read_specimen
-from bwbench.models.spencer import EXPLORATION_PACE, EXPLORATION_TOLERANCE, MODEL
-from bwbench.optimize import fitting
-from bwbench.optimize.objective import Objective
+from bwbench.engine import fitting
+from bwbench.engine.objective import Objective
+from bwbench.models.spencer.model import EXPLORATION_PACE, EXPLORATION_TOLERANCE, MODEL
 from bwbench.problems.hysteresis.formulations import make_problem
 
 MR = Path(__file__).resolve().parents[2] / "data" / "mr_damper" / "mr_10mm_2Hz_1V.csv"
@@ -128,11 +128,11 @@ def test_a_joint_fit_explores_on_every_kth_sample_of_its_oversampled_files_on_it
 
 
 def test_the_exploring_step_budget_stops_a_stiff_simulation_sooner_and_spares_the_optimums():
-    from bwbench.models import spencer_kernel as kernel
-    from bwbench.models.spencer_start import _kernel_inputs
+    from bwbench.models.spencer import kernel
+    from bwbench.models.spencer.start import kernel_inputs
 
     problem = _problem()
-    t, x, v, a = _kernel_inputs(problem.signal)
+    t, x, v, a = kernel_inputs(problem.signal)
     intervals = len(x) - 1
 
     def run(theta, pace):  # (steps per interval tried, status) at the exploring tolerance, after the pre-roll's share

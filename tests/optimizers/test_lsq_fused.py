@@ -7,8 +7,8 @@ import numpy as np
 
 from bwbench import testing
 from bwbench.data.specimen import read_specimen
-from bwbench.optimize import fitting
-from bwbench.optimize.objective import Objective
+from bwbench.engine import fitting
+from bwbench.engine.objective import Objective
 from bwbench.optimizers import lsq_trf
 from bwbench.problems.hysteresis.formulations import make_problem
 

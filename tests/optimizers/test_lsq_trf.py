@@ -7,13 +7,12 @@ import pytest
 
 from bwbench import testing
 from bwbench.data.specimen import read_specimen
+from bwbench.engine import fitting, registry
+from bwbench.engine.objective import Objective
 from bwbench.errors import BudgetExhausted
-from bwbench.models.switched_parameters import truth_params
-from bwbench.optimize import fitting, registry
-from bwbench.optimize.objective import Objective
+from bwbench.models.switched.parameters import truth_params
 from bwbench.optimizers import lsq_trf
-from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+from paper_problems import IdentifiableProblem, SwitchedBoucWenProblem
 
 ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
@@ -105,7 +104,7 @@ def test_budget_exhausted_propagates_out_of_least_squares():
 
 
 def test_bad_options_are_refused():
-    from bwbench.optimize import registry
+    from bwbench.engine import registry
 
     for bad in ({"x_scale": "auto"}, {"diff_step": 0.0}, {"stall_iters": -1}):
         with pytest.raises(ValueError):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from bwbench.analysis import nested
-from bwbench.optimize import fitting
+from bwbench.engine import fitting
 from toy_posteriors import GaussianToy, MixtureToy, RidgeToy
 
 

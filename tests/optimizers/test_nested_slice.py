@@ -5,7 +5,7 @@ converged across runs, and at a cost per iteration that fits a real posterior in
 import numpy as np
 
 from bwbench.analysis import nested
-from bwbench.optimize import fitting
+from bwbench.engine import fitting
 from toy_posteriors import DensityToy
 
 

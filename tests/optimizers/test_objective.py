@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from bwbench.engine.objective import Objective
 from bwbench.errors import BudgetExhausted
-from bwbench.optimize.objective import Objective
 
 
 class CountingSphere:

@@ -6,11 +6,10 @@ import numpy as np
 import pytest
 
 from bwbench.data.specimen import read_specimen
+from bwbench.engine.objective import Objective
 from bwbench.errors import BudgetExhausted
-from bwbench.optimize.objective import Objective
-from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
 from bwbench.testing import LossOnlySphereProblem, SphereProblem
+from paper_problems import IdentifiableProblem, SwitchedBoucWenProblem
 
 ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN = ROOT / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"

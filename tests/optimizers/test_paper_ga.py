@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bwbench.engine.objective import Objective
 from bwbench.errors import BudgetExhausted
-from bwbench.optimize.objective import Objective
 from bwbench.optimizers import paper_ga, random_search
 from bwbench.optimizers.paper_ga import crossover, mutate, survivors, tournament
 from fakes import SphereProblem

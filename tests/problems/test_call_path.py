@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bwbench.data.specimen import read_specimen
-from bwbench.optimize.objective import Objective
+from bwbench.engine.objective import Objective
 from bwbench.problems.hysteresis.formulations import make_problem
 
 DATA = Path(__file__).resolve().parents[2] / "data"

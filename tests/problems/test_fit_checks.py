@@ -9,9 +9,9 @@ import pytest
 
 from bwbench.cli import main
 from bwbench.data.specimen import read_specimen
-from bwbench.models.switched_parameters import UNITS
+from bwbench.models.switched.parameters import UNITS
 from bwbench.problems.hysteresis import fit_checks
-from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
+from paper_problems import IdentifiableProblem
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 SPECIMEN = DATA / "pom-mt24u01_0.01MPa_r1.csv"
@@ -112,7 +112,7 @@ def test_a_linear_branch_is_named_and_its_cap_is_not_an_edge_warning():
     assert checks.json["linear_branches"] == {"+": True, "-": False}
     assert any(n.startswith("branch + is linear (no yield within the stroke)") for n in checks.notes)
     # the truth's '+' branch has x_y₊ = 5·a but starts where the '−' branch left w: it is not linear
-    from bwbench.models.switched_identifiable import from_paper
-    from bwbench.models.switched_parameters import truth_params
+    from bwbench.models.switched.identifiable import from_paper
+    from bwbench.models.switched.parameters import truth_params
 
     assert fit_checks.linear_branches(problem, from_paper(truth_params(SPECIMEN))[0]) == {"+": False, "-": False}

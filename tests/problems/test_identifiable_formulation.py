@@ -8,13 +8,15 @@ import pytest
 from scipy.special import logsumexp
 
 from bwbench.data.specimen import read_specimen
-from bwbench.models import excitation, switched_parameters
-from bwbench.models import switched_bouc_wen as model
-from bwbench.models import switched_identifiable as fm
-from bwbench.models.switched import LAYOUT
+from bwbench.models import excitation
+from bwbench.models.switched import identifiable as fm
+from bwbench.models.switched import parameters as switched_parameters
+from bwbench.models.switched import simulation as model
+from bwbench.models.switched.kernel import STATES
+from bwbench.models.switched.model import LAYOUT
 from bwbench.problems.hysteresis import marginal as mg
 from bwbench.problems.hysteresis.linear import solve as ls
-from bwbench.problems.hysteresis.paper.identifiable import IdentifiableModel
+from paper_problems import IdentifiableModel
 
 DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 SPECIMENS = ["pom-mt24u01_0.01MPa_r1", "pom-c9021_0.03MPa_r2", "pc-abs-c12hf_0.07MPa_r3"]
@@ -42,7 +44,7 @@ def gauge_transform(p, s_plus, s_minus, state):
     return q
 
 
-@pytest.mark.parametrize("state", model.STATES)
+@pytest.mark.parametrize("state", STATES)
 def test_the_gauge_symmetry_leaves_the_paper_force_unchanged(state):
     e, _, p = load("pom-mt24u01_0.01MPa_r1")
     f0 = paper_force(p, e, state)
@@ -54,7 +56,7 @@ def test_the_gauge_symmetry_leaves_the_paper_force_unchanged(state):
         assert np.max(np.abs(f1 - f0)) <= 1e-9 * np.ptp(f0)
 
 
-@pytest.mark.parametrize("state", model.STATES)
+@pytest.mark.parametrize("state", STATES)
 @pytest.mark.parametrize("name", SPECIMENS)
 def test_w_dynamics_integrate_z_over_the_gauge(name, state):
     """trajectories(θ) = z/z_s₊ (split: z_b/z_s_b) of the paper's own hysteretic parameters."""
@@ -67,7 +69,7 @@ def test_w_dynamics_integrate_z_over_the_gauge(name, state):
     np.testing.assert_allclose(w * scale, z, rtol=0, atol=1e-9 * np.ptp(z))
 
 
-@pytest.mark.parametrize("state", model.STATES)
+@pytest.mark.parametrize("state", STATES)
 @pytest.mark.parametrize("name", SPECIMENS)
 def test_paper_to_identifiable_to_paper_gives_the_same_force(name, state):
     e, _, p = load(name)
@@ -82,7 +84,7 @@ def test_paper_to_identifiable_to_paper_gives_the_same_force(name, state):
     np.testing.assert_allclose(linear2, linear, rtol=1e-9, atol=0)
 
 
-@pytest.mark.parametrize("state", model.STATES)
+@pytest.mark.parametrize("state", STATES)
 def test_identifiable_to_paper_to_identifiable_round_trips(state):
     e, f, _ = load("pom-mt24u01_0.01MPa_r1")
     bounds = fm.scaled_bounds(e.x, f, state)
@@ -123,7 +125,7 @@ def test_the_gauge_rule_picks_the_table5_centre_among_equivalent_vectors():
     _, _, p = load("pom-mt24u01_0.01MPa_r1")
     theta, linear = fm.from_paper(p)
     chosen = fm.to_paper(theta, linear).params
-    from bwbench.models.switched_parameters import LOWER, UPPER
+    from bwbench.models.switched.parameters import LOWER, UPPER
 
     def dist(q):
         return np.sum(((q - LOWER) / (UPPER - LOWER) - 0.5) ** 2)
@@ -132,7 +134,7 @@ def test_the_gauge_rule_picks_the_table5_centre_among_equivalent_vectors():
     assert dist(chosen) <= min(dist(q) for q in others + [p]) + 1e-12
 
 
-@pytest.mark.parametrize("state", model.STATES)
+@pytest.mark.parametrize("state", STATES)
 @pytest.mark.parametrize("fix_mass", [1.0, None], ids=["m_fixed_1", "m_free"])
 def test_noise_free_identifiable_optimum_is_the_paper_optimum(state, fix_mass):
     e, _, p = load("pom-mt24u01_0.05MPa_r1")
@@ -246,7 +248,7 @@ def test_inertia_of_a_two_tone_test_is_fitted():
 def test_scaled_bounds_contain_every_synthetic_truth():
     for name in sorted(Path(p).stem for p in glob.glob(str(DATA / "*.csv"))):
         e, f, p = load(name)
-        for state in model.STATES:
+        for state in STATES:
             b = fm.scaled_bounds(e.x, f, state)
             assert np.all(np.isfinite(b.lower)) and np.all(np.isfinite(b.upper)) and np.all(b.lower < b.upper)
             assert b.names == fm.hysteretic_names(state)
@@ -332,7 +334,7 @@ def test_residual_vector_is_model_minus_measured_and_finite_on_blow_up():
 def test_a_finite_but_huge_trajectory_is_a_blow_up_not_a_crash():
     # Found by lsq-trf on this specimen: w reaches 1.5e277 (finite), and the linear solve overflowed
     # into "array must not contain infs or NaNs" from scipy instead of a loss of +inf.
-    from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
+    from paper_problems import IdentifiableProblem
 
     problem = IdentifiableProblem(read_specimen(DATA / "pc-abs-c12hf_0.01MPa_r1.csv"))
     theta = np.array([0.50669315, 1.14039746, 0.88825619, 0.00194327, 0.99384954, 0.80172319, 0.23632528])

@@ -6,7 +6,7 @@ from scipy.optimize import lsq_linear
 
 from bwbench.datasets import mr_damper
 from bwbench.models import excitation
-from bwbench.models.switched import LAYOUT
+from bwbench.models.switched.model import LAYOUT
 from bwbench.problems.hysteresis.joint_problem import stack_signals
 from bwbench.problems.hysteresis.linear import solve as ls
 from bwbench.problems.hysteresis.linear.bounds import M_MAX, physical_bounds

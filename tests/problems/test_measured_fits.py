@@ -13,7 +13,7 @@ from bwbench.cli import main
 from bwbench.data.specimen import read_specimen
 from bwbench.data.steady_part import steady_part
 from bwbench.models import excitation, registry
-from bwbench.models.spencer import starts_from_rest
+from bwbench.models.spencer.start import starts_from_rest
 from bwbench.problems.hysteresis import fit_checks
 from bwbench.problems.hysteresis.inertia_rule import SINE_TOLERANCE, inertia_check, sine_test
 from bwbench.problems.hysteresis.model_problem import IdentifiableProblem
@@ -153,7 +153,7 @@ def test_a_record_that_starts_from_rest_starts_the_model_from_rest_without_a_spi
     assert force[0] == pytest.approx(-SPENCER_1V[3] * SPENCER_1V[4], abs=1.0)
     # the kernel given the noisy first velocity as it is pre-rolls one cycle and starts at the yield force:
     # the spike the rest test removes
-    from bwbench.models.spencer_kernel import ydot_batch
+    from bwbench.models.spencer.kernel import ydot_batch
 
     theta, coef = SPENCER.from_direct(SPENCER_1V)
     arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]

@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bwbench.engine import fitting
+from bwbench.engine.objective import Objective
 from bwbench.errors import InputFileError
-from bwbench.models.force_driven_bouc_wen import identifiable_combinations
-from bwbench.optimize import fitting
-from bwbench.optimize.objective import Objective
+from bwbench.problems.noel_schoukens.force_driven_bouc_wen import identifiable_combinations
 from bwbench.problems.noel_schoukens.problem import (
     LOWER,
     NOISE_RMS_M,

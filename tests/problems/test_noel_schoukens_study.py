@@ -238,7 +238,7 @@ def test_missing_data_folder_is_one_line_saying_where_and_how(tmp_path):
 
 
 def test_a_database_of_the_old_format_still_resumes_the_same_study(tmp_path):
-    from bwbench.study.store import extension_conflicts
+    from bwbench.database.writer import extension_conflicts
 
     # quick.toml as it was when such databases were written: 5 seeds, the paper's formulation only
     text = (REPO / "studies" / "quick.toml").read_text(encoding="utf-8")

@@ -9,8 +9,7 @@ import pytest
 import exact_motions as em
 from bwbench.data.specimen import read_specimen
 from bwbench.datasets.synthetic import read_paper_parameters
-from bwbench.problems.hysteresis.paper.identifiable_problem import IdentifiableProblem
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+from paper_problems import IdentifiableProblem, SwitchedBoucWenProblem
 from reference import reference_force_of_motion
 
 # POM C9021 0.05 MPa: the largest viscous coefficient of Tables 6-8 (2·ξ₋·ωn₋ ≈ 18,000 N·s/mm), where

@@ -9,7 +9,7 @@ import pytest
 
 from bwbench.data import manifest
 from bwbench.errors import UserError
-from bwbench.models import switched_parameters
+from bwbench.models.switched import parameters as switched_parameters
 from bwbench.problems.hysteresis import identifiability
 
 SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
@@ -69,7 +69,7 @@ def test_the_exact_symmetry_is_named_and_verified_along_its_orbit(state, names):
 
 
 def test_the_identifiable_coordinates_have_no_symmetry(tmp_path):
-    from bwbench.models.switched_identifiable import from_paper
+    from bwbench.models.switched.identifiable import from_paper
 
     theta, _ = from_paper(switched_parameters.truth_params(SPECIMEN), "shared")
     result = identifiability.analyse(SPECIMEN, theta, "shared", formulation="identifiable")

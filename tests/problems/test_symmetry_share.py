@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from bwbench.problems.hysteresis.paper.non_uniqueness import symmetry_share
+from bwbench.analysis.spread import symmetry_share
 
 
 def test_share_is_the_variance_that_fixing_the_gauge_removes():

@@ -11,13 +11,14 @@ import pandas as pd
 import pytest
 
 from bwbench.data.specimen import read_specimen
-from bwbench.models import switched_identifiable as fm
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.hysteresis.paper import non_uniqueness
-from bwbench.problems.hysteresis.report import figures as switched_figures
+from bwbench.database import reader as results_db
+from bwbench.models.switched import identifiable as fm
+from bwbench.models.switched.kernel import PARAM_NAMES
+from bwbench.problems.hysteresis.report import fit_figures, non_uniqueness, posterior_figures, profile_figures
+from bwbench.problems.hysteresis.report import parameter_figures as switched_figures
 from bwbench.problems.hysteresis.report.figure_common import problem_for
-from bwbench.render import ecdf_figures, figures, palette, waterfall
-from bwbench.store import reader as results_db
+from bwbench.render import ecdf_figures, palette, waterfall
+from bwbench.render import run_figures as figures
 from study_fixture import make_study_db
 
 ORDER = ["de", "cmaes", "random"]  # not the configuration's order, nor the median loss's
@@ -110,7 +111,7 @@ def test_every_backend_has_one_style_in_every_figure_in_ranking_order(study, dra
     specimen = study.specimens[0]
     figures.convergence(study, tmp_path, order=ORDER)
     ecdf_figures.runtime_distributions(study, tmp_path, order=ORDER)
-    switched_figures.hysteresis_loops(study, tmp_path, specimen, order=ORDER)
+    fit_figures.hysteresis_loops(study, tmp_path, specimen, order=ORDER)
     switched_figures.parameter_spread(study, tmp_path, order=ORDER)
     expected = palette.styles(study, ORDER)
     seen = {}
@@ -142,10 +143,10 @@ def test_one_legend_per_figure_and_sized_for_the_page(study, drawn, tmp_path):
     figures.convergence(study, tmp_path, order=ORDER)
     ecdf_figures.runtime_distributions(study, tmp_path, order=ORDER)
     waterfall.waterfall(study, tmp_path, order=ORDER)
-    switched_figures.hysteresis_loops(study, tmp_path, study.specimens[0], order=ORDER)
+    fit_figures.hysteresis_loops(study, tmp_path, study.specimens[0], order=ORDER)
     switched_figures.parameter_spread(study, tmp_path, order=ORDER)
     switched_figures.parameters_vs_underpressure(study, tmp_path, "cmaes", material, order=ORDER)
-    switched_figures.posterior(study, tmp_path, study.chains[0], order=ORDER)
+    posterior_figures.posterior(study, tmp_path, study.chains[0], order=ORDER)
     non_uniqueness.figure(study, tmp_path, study.specimens[0], order=ORDER)
     names = ("wn-", "A+", "n-", "xi+")  # four profiles: two rows of panels
     analysis = {
@@ -159,7 +160,7 @@ def test_one_legend_per_figure_and_sized_for_the_page(study, drawn, tmp_path):
             for name in names
         },
     }
-    switched_figures.profiles(analysis, tmp_path)
+    profile_figures.profiles(analysis, tmp_path)
     assert len(drawn) == 9
     for record in drawn:
         assert record.figure_legends == 1 and record.axes_legends == 0
@@ -174,8 +175,8 @@ def _diagnostics(r_hat, ess):
 
 def test_posterior_states_whether_the_chain_converged(study, drawn, tmp_path):
     chain = study.chains[0]
-    switched_figures.posterior(study, tmp_path, chain, diagnostics=_diagnostics(1.002, 900.0))
-    switched_figures.posterior(study, tmp_path, chain, diagnostics=_diagnostics(np.linspace(1.0, 1.3, 14), 40.0))
+    posterior_figures.posterior(study, tmp_path, chain, diagnostics=_diagnostics(1.002, 900.0))
+    posterior_figures.posterior(study, tmp_path, chain, diagnostics=_diagnostics(np.linspace(1.0, 1.3, 14), 40.0))
     converged, unconverged = drawn
     assert "converged: R̂ ≤ 1.01 and bulk ESS ≥ 400 for every parameter" in converged.texts
     assert "NOT converged" not in converged.texts
@@ -190,7 +191,7 @@ def test_posterior_in_the_identifiable_coordinates(study, tmp_path):
     rng = np.random.default_rng(3)
     unit = np.clip(0.5 + 0.02 * rng.standard_normal((200, 20, len(names))), 0, 1)
     ident = results_db.Chain("posterior", chain.specimen, "emcee", 0, unit, None, 0.3, None)
-    png = switched_figures.posterior(study, tmp_path, ident, names=names, from_unit=box.from_unit)
+    png = posterior_figures.posterior(study, tmp_path, ident, names=names, from_unit=box.from_unit)
     frame = pd.read_csv(png.with_suffix(".csv"))
     assert list(frame.columns) == ["source", "optimizer", *names]
     samples = frame[frame["source"] == "posterior"][names].to_numpy()
@@ -213,7 +214,7 @@ def test_profiles_say_when_the_profile_found_a_better_fit(drawn, tmp_path):
             ]
         },
     }
-    frame = pd.read_csv(switched_figures.profiles(analysis, tmp_path).with_suffix(".csv"))
+    frame = pd.read_csv(profile_figures.profiles(analysis, tmp_path).with_suffix(".csv"))
     assert "the profile found a better fit: 1.5 N², 25.00% below the analysed fit's 2 N²" in drawn[0].texts
     assert "95 % region bounded below only" in drawn[0].texts
     assert set(frame["bounded"]) == {"below only"}
@@ -251,7 +252,7 @@ def test_profiles_claim_a_bound_only_from_converged_points(drawn, tmp_path):
             ]
         },
     }
-    switched_figures.profiles(analysis, tmp_path)
+    profile_figures.profiles(analysis, tmp_path)
     assert "95 % region no bound shown (not converged)" in drawn[0].texts
     assert "bounded on both sides" not in drawn[0].texts
 
@@ -264,7 +265,7 @@ def test_plot_fit_titles_the_formulation_and_shows_the_residual(study, drawn, tm
     result = types.SimpleNamespace(
         params=params, optimizer="cmaes", seed=1, nfev=400, rmse_N=float(np.sqrt(run["mse"])), f_err=-float(run["mse"])
     )
-    switched_figures.plot_fit(problem, result, tmp_path / "fit.png", synthetic=True)
+    fit_figures.plot_fit(problem, result, tmp_path / "fit.png", synthetic=True)
     assert (tmp_path / "fit.png").stat().st_size > 10_000
     (record,) = drawn
     # the model is named in every title (the switched model too), and NRMSE is given with its definition

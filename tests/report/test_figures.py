@@ -7,10 +7,12 @@ import pandas as pd
 import pytest
 
 from bwbench.analysis import statistics
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.problems.hysteresis.report import figures as switched_figures
-from bwbench.render import ecdf_figures, figures, waterfall
-from bwbench.store import reader as results_db
+from bwbench.database import reader as results_db
+from bwbench.models.switched.kernel import PARAM_NAMES
+from bwbench.problems.hysteresis.report import fit_figures, posterior_figures, profile_figures
+from bwbench.problems.hysteresis.report import parameter_figures as switched_figures
+from bwbench.render import ecdf_figures, waterfall
+from bwbench.render import run_figures as figures
 from study_fixture import make_study_db
 
 MISS = ("pom-mt24u01_0.01MPa_r1", "cmaes", 0)
@@ -148,7 +150,7 @@ BAND = "posterior predictive 95 %"
 
 def test_loops_show_the_best_ranking_run_of_the_best_backends_and_random(study, out):
     specimen = study.specimens[0]
-    frame = _read(switched_figures.hysteresis_loops(study, out, specimen, order=["de", "cmaes", "random"], backends=1))
+    frame = _read(fit_figures.hysteresis_loops(study, out, specimen, order=["de", "cmaes", "random"], backends=1))
     band = frame[frame["optimizer"] == BAND]
     frame = frame[frame["optimizer"] != BAND]
     runs = study.ranking[study.ranking["specimen"] == specimen]
@@ -174,7 +176,7 @@ def test_loops_never_show_a_posterior_run_even_when_it_fits_best(study, out):
     assert posterior.sum() == 1
     runs.loc[posterior, "mse"] = 1e-6  # the posterior's 200,000-evaluation run "wins"
     rigged = dataclasses.replace(study, runs=runs)
-    frame = _read(switched_figures.hysteresis_loops(rigged, out, specimen))
+    frame = _read(fit_figures.hysteresis_loops(rigged, out, specimen))
     frame = frame[frame["optimizer"] != BAND]
     assert set(frame["kind"]) == {"ranking"}
     assert "emcee" not in set(frame["optimizer"])
@@ -196,7 +198,7 @@ def test_spread_holds_only_runs_within_tolerance_and_the_truth(study, out):
 
 def test_posterior_csv_has_samples_the_best_fit_truth_and_diagnostics(study, out):
     (chain,) = study.chains
-    frame = _read(switched_figures.posterior(study, out, chain))
+    frame = _read(posterior_figures.posterior(study, out, chain))
     assert list(frame.columns) == ["source", "optimizer", *PARAM_NAMES]
     assert set(frame["source"]) == {"posterior", "best fit", "truth", "r_hat", "ess_bulk"}
     assert (frame["source"] == "posterior").sum() <= 4000
@@ -244,7 +246,7 @@ def test_profiles_figure(out):
             ]
         },
     }
-    frame = _read(switched_figures.profiles(analysis, out))
+    frame = _read(profile_figures.profiles(analysis, out))
     assert len(frame) == 4 and frame["threshold_mse"].iloc[0] == pytest.approx(1.0 + 1.96**2 / 100, rel=1e-5)
     assert set(frame["bounded"]) == {"both sides"}
 
@@ -273,7 +275,7 @@ def test_reversals_are_the_turning_points_not_the_noise():
 def test_panel_titles_name_the_material_when_a_study_has_several(study):
     import dataclasses
 
-    from bwbench.render.figures import specimen_title
+    from bwbench.render.run_figures import specimen_title
 
     specimen = study.runs["specimen"].iloc[0]
     one = specimen_title(study, specimen)

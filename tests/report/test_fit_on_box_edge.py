@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bwbench.data.specimen import read_specimen
-from bwbench.optimize.box import box_from_unit
+from bwbench.engine.box import box_from_unit
 from bwbench.problems.hysteresis.formulations import make_problem
 from bwbench.problems.hysteresis.report.nested_section import _on_box_edge
 

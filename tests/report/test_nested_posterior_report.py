@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from bwbench.data.specimen import read_specimen
-from bwbench.problems.hysteresis.paper.problem import SwitchedBoucWenProblem
+from bwbench.database import reader as results_db
 from bwbench.problems.hysteresis.report.posterior_draws import log_posterior, posterior_chains
-from bwbench.store import reader as results_db
+from paper_problems import SwitchedBoucWenProblem
 from study_fixture import DATA_DIR, SPECIMENS, make_study_db
 
 RUNS, DRAWS = 4, 150

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from bwbench.datasets import mr_damper
-from bwbench.problems.hysteresis import adequacy
-from bwbench.problems.hysteresis.paper.parameter_tables import aggregate_label, aggregate_text
+from bwbench.problems.hysteresis.report import adequacy
+from bwbench.problems.hysteresis.report.parameter_tables import aggregate_label, aggregate_text
 from bwbench.render.floors import FACTOR, is_noise_floor
 from bwbench.report import build as report
 

@@ -10,9 +10,9 @@ import pandas as pd
 import pytest
 
 from bwbench.analysis import statistics
+from bwbench.database import reader as results_db
 from bwbench.errors import UserError
 from bwbench.report import build as report
-from bwbench.store import reader as results_db
 from study_fixture import SCHEMA, make_study_db
 
 
@@ -96,7 +96,7 @@ def test_cli_refuses_a_missing_database(tmp_path):
 
 
 def test_fixture_schema_is_the_runners_contract():
-    from bwbench.study import store as study
+    from bwbench.database import writer as study
 
     def columns(schema):
         with sqlite3.connect(":memory:") as conn:

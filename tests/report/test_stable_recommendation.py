@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bwbench.database import reader
 from bwbench.report import time_noise
 from bwbench.report.decision import decide_study
-from bwbench.store import reader
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from report.test_recommend import always, decide, tables  # noqa: E402

@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from bwbench.store.timing import compute_time, machine_description
+from bwbench.database.timing import compute_time, machine_description
 
 
 def _runs(rows):

@@ -6,9 +6,9 @@ import io
 import numpy as np
 import pytest
 
+from bwbench.database import reader
 from bwbench.problems.hysteresis.report import model_evidence
 from bwbench.problems.hysteresis.report.posterior_draws import posterior_chains
-from bwbench.store import reader
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from robustness_helpers import REPO

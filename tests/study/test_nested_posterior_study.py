@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench.store import reader
+from bwbench.database import reader
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 

@@ -67,7 +67,7 @@ def test_a_study_comparing_models_samples_every_model_with_every_sampler(tmp_pat
         f"{s} [{m}]" for m in ("switched-bouc-wen", "spencer", "bouc-wen") for s in ("nested", "emcee")
     ]
     assert planned_runs(config) == 3 + 6
-    from bwbench.store.plan import planned_from_config  # a stored configuration counts the same
+    from bwbench.database.plan import planned_from_config  # a stored configuration counts the same
 
     assert planned_from_config(config.to_json_dict()) == 3 + 6
 

@@ -15,12 +15,12 @@ from pathlib import Path
 import pytest
 
 from bwbench.commands.compare import run_cli
-from bwbench.optimize import registry
+from bwbench.database.writer import open_database
+from bwbench.engine import registry
 from bwbench.study import execute, failures
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.lock import lock_path
-from bwbench.study.store import open_database
 from robustness_helpers import (
     HANG,
     REPO,
@@ -385,8 +385,8 @@ def test_a_full_disk_mid_study_stops_with_one_line_and_what_was_committed_resume
 
 
 def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_path):
+    from bwbench.database import reader as results
     from bwbench.report.build import build_report
-    from bwbench.store import reader as results
 
     _, reference = tiny_db
     db = tmp_path / "part.sqlite"
@@ -418,7 +418,7 @@ def test_the_report_of_an_unfinished_study_says_it_is_provisional(tiny_db, tmp_p
 
 
 def test_planned_runs_are_counted_from_a_stored_configuration_when_possible():
-    from bwbench.store.plan import planned_from_config
+    from bwbench.database.plan import planned_from_config
 
     config = {
         "study": {"seeds": 5},

@@ -21,9 +21,9 @@ import pytest
 import robustness_helpers
 from bwbench.commands.compare import run_cli
 from bwbench.commands.compare_run import export_csv
+from bwbench.engine import registry
 from bwbench.errors import UserError
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.optimize import registry
+from bwbench.models.switched.kernel import PARAM_NAMES
 from bwbench.study.config import load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.tasks import plan_tasks, task_seed
@@ -267,7 +267,7 @@ def test_workers_must_be_positive(tmp_path, capsys):
 
 
 def test_a_database_from_before_the_generic_columns_resumes_and_reads(tmp_path):
-    from bwbench.store import reader as results_db
+    from bwbench.database import reader as results_db
 
     config = load_study_config(
         write_config(tmp_path / "old.toml", budget=50, seeds=1, optimizers="random = {}", underpressures="[0.01, 0.05]")

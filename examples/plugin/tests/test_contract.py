@@ -1,6 +1,6 @@
 """The plugin keeps bwbench's backend contract (run with the plugin installed)."""
 
-from bwbench.optimize import registry
+from bwbench.engine import registry
 from bwbench.testing import check_backend
 
 

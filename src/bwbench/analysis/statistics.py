@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
-from bwbench.analysis.comparisons import holm, log_losses, method_name  # noqa: F401  (holm: used from here too)
+from bwbench.analysis.comparisons import log_losses, method_name
 
 TOLERANCES = (0.01, 0.10)  # success at 1 % and 10 % above the best known MSE
 ALPHA = 0.05

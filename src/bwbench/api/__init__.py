@@ -97,7 +97,7 @@ def fit(
     import bwbench.limits as limits
     import bwbench.threads as threads_mod
     from bwbench.api.arguments import count
-    from bwbench.optimize import registry as backends
+    from bwbench.engine import registry as backends
     from bwbench.problems.hysteresis import findings
     from bwbench.problems.hysteresis.fit_result import run_fit
     from bwbench.problems.hysteresis.setup import setup_fit

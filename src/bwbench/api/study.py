@@ -54,7 +54,7 @@ class Study:
     """A study database read for Python (see the module docstring)."""
 
     def __init__(self, stored):
-        self._stored = stored  # bwbench.store.reader.Study
+        self._stored = stored  # bwbench.database.reader.Study
 
     def __getattr__(self, name):
         if name.startswith("__"):
@@ -201,7 +201,7 @@ def _plain(markdown: str) -> str:
 
 
 def load(db, data_dir=None) -> Study:
-    from bwbench.store.reader import load_study
+    from bwbench.database.reader import load_study
 
     return Study(load_study(db, data_dir))
 

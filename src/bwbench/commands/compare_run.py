@@ -27,8 +27,8 @@ def read_runs(db):
     (``store.reader.read_runs``): a cell edited by hand is one ``UserError`` naming the run and column."""
     import pandas as pd
 
-    from bwbench.store.reader import connect_read_only
-    from bwbench.store.reader import read_runs as read_all
+    from bwbench.database.reader import connect_read_only
+    from bwbench.database.reader import read_runs as read_all
 
     with closing(connect_read_only(Path(db))) as conn:
         try:
@@ -40,7 +40,7 @@ def read_runs(db):
 def refuse_edited_runs(db) -> None:
     """``UserError`` naming the run and column when an existing study database holds a cell edited by hand:
     before any run, not after them. A file that is no study database yet is left to ``run_study``."""
-    from bwbench.store.reader import connect_read_only
+    from bwbench.database.reader import connect_read_only
 
     if not Path(db).is_file():
         return
@@ -134,8 +134,8 @@ def summary_table(db, problem_type=None) -> str:
 
 def recommendation_line(db) -> str:
     """The report's recommendation in one line (``StudyDecision.line``), or why there is none."""
+    from bwbench.database.reader import load_study
     from bwbench.report.decision import decide_study
-    from bwbench.store.reader import load_study
 
     try:
         study = load_study(db)

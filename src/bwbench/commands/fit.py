@@ -15,8 +15,8 @@ def list_backends(args) -> int:
     """One line per backend (name, family, how it asks, description), then one line per option."""
     import sys
 
-    from bwbench.optimize import registry
-    from bwbench.optimize.options import show
+    from bwbench.engine import registry
+    from bwbench.engine.options import show
 
     backends = registry.available()
     for line in registry.broken().values():  # the others are listed; this one is named with its error
@@ -54,7 +54,7 @@ def fit(args) -> int:
     ``findings.failure_reasons``); 2 for a mistake in the input. Several specimens: one joint fit
     (``bwbench.problems.hysteresis.joint_problem``), or with ``--each`` one fit of each in this one
     process (``_fit_each``)."""
-    from bwbench.optimize import registry
+    from bwbench.engine import registry
 
     if args.budget < 1:
         raise UserError(f"--budget must be a positive number of evaluations, got {args.budget}")

@@ -100,7 +100,7 @@ def read_for(path, problem):
     """The parameters of ``path`` in ``problem``'s coordinates: its own names, or the model's direct
     parameters mapped into the identifiable formulation when that is the problem's."""
     from bwbench.errors import InputFileError, UserError
-    from bwbench.models.switched_parameters import read_json
+    from bwbench.models.switched.parameters import read_json
 
     try:
         return read_json(path, problem.param_names)

@@ -112,7 +112,7 @@ def read_specimen(path) -> Specimen:
 
     t, x, f = (np.ascontiguousarray(values[:, j]) for j in order[:3])  # always there
     v, a = (None if j is None else np.ascontiguousarray(values[:, j]) for j in order[3:])
-    _check_values(path, t, x, line_of)
+    check_values(path, t, x, line_of)
     for column in (t, x, f, v, a):
         if column is not None:
             column.flags.writeable = False  # a frozen Specimen should not change under its users
@@ -250,7 +250,7 @@ def _parse_cell(path: str, line_no: int, cell: str, column: str, sep: str) -> fl
     return value
 
 
-def _check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
+def check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         i = int(bad[0]) + 1

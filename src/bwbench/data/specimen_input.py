@@ -30,7 +30,7 @@ def as_specimen(data, name: str | None = None):
 
 def from_frame(frame, name: str | None = None):
     """The ``Specimen`` of a DataFrame with the specimen file's columns (see the module docstring)."""
-    from bwbench.data.specimen import COLUMNS, OPTIONAL_COLUMNS, Specimen, _check_values
+    from bwbench.data.specimen import COLUMNS, OPTIONAL_COLUMNS, Specimen, check_values
 
     name = str(name or frame.attrs.get("name") or "data")
     where = f"DataFrame {name!r}"
@@ -66,7 +66,7 @@ def from_frame(frame, name: str | None = None):
         return row
 
     try:
-        _check_values(where, values["time_s"], values["displacement_mm"], line_of)
+        check_values(where, values["time_s"], values["displacement_mm"], line_of)
     except UserError as err:  # "DataFrame 'x':12: ..." reads better as a row
         text = str(err)
         if getattr(err, "line", None) is not None:

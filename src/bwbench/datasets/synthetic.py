@@ -35,7 +35,8 @@ import numpy as np
 
 from bwbench.data import strict_json
 from bwbench.data.manifest import MANIFEST
-from bwbench.models import switched_bouc_wen as model
+from bwbench.models.switched import simulation as model
+from bwbench.models.switched.kernel import PARAM_NAMES
 
 REPO = Path(__file__).resolve().parents[3]
 PAPER_PARAMETERS = REPO / "data" / "paper" / "identified_parameters.csv"
@@ -116,7 +117,7 @@ def read_paper_parameters(path=PAPER_PARAMETERS) -> list[dict]:
     with open(path, newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
     for row in rows:
-        row["params"] = np.array([float(row[name]) for name in model.PARAM_NAMES])
+        row["params"] = np.array([float(row[name]) for name in PARAM_NAMES])
     return rows
 
 
@@ -180,7 +181,7 @@ def generate(out_dir=SPECIMEN_DIR, settings: Settings = Settings(), paper=PAPER_
                     "state": s.state,
                     "force_scale": round(1.0 + delta, 6),
                     "peak_force_N": round(float(np.max(np.abs(force))), 4),
-                    "truth": {name_: float(f"{value:.6g}") for name_, value in zip(model.PARAM_NAMES, truth)},
+                    "truth": {name_: float(f"{value:.6g}") for name_, value in zip(PARAM_NAMES, truth)},
                 }
             )
     document = {

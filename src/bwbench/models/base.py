@@ -237,7 +237,7 @@ class Model:
         """{branch: {identifiable parameter name: value}}: for each branch (the keys of
         ``linear_branches``), the values of its shape parameters that make it linear until it yields,
         whatever its other parameters — what a posterior holds fixed when the data cannot tell the
-        branch's shape from that (a reduced model, ``bwbench.optimizers.mcmc_reduce``); {} when the
+        branch's shape from that (a reduced model, ``bwbench.optimizers.sampling.reduce``); {} when the
         model has no such notion."""
         return {}
 

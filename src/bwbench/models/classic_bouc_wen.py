@@ -6,7 +6,7 @@ Bouc (1967), Wen (1976); the paper's eq 1 with ωn² in the z term (docs/design.
     dz = (A − (β + γ·sign(z·dx))·|z|^n)·dx
 
 It is the switched model with equal '+' and '−' sets, and is simulated by the switched model's
-kernel (``bwbench.models.switched_bouc_wen``), so both share one tested integration path.
+kernel (``bwbench.models.switched.simulation``), so both share one tested integration path.
 
 Direct parameters (A, n, α, β, γ, ξ, ωn) searched in the paper's Table 5 ranges of the tension
 ('+') set: a box for specimens like the paper's; for anything else use the identifiable
@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bwbench.models import switched_bouc_wen as switched
 from bwbench.models.base import Box, LinearLayout, Model, Parameter, amplitude
+from bwbench.models.switched import simulation as switched
 
 DIRECT = (
     Parameter("A", "-", "A"),
@@ -54,7 +54,7 @@ TABLE5_PLUS = {
     "xi": (20.0, 500.0),
     "wn": (0.3, 7.5),
 }
-# As the switched model's identifiable box (bwbench.models.switched_identifiable), except η: an MR
+# As the switched model's identifiable box (bwbench.models.switched.identifiable), except η: an MR
 # damper's sharp reversals want η well below −1 (β < 0, unloading faster than loading: −11.5 on a
 # measured-like Spencer damper test, where the old floor −2 ended on its edge), so as Spencer's box.
 XY_RANGE = (1e-4, 1e2)
@@ -127,7 +127,7 @@ class ClassicBoucWen(Model):
     def trajectory_sensitivities(self, theta, signal, state=None):
         """(w (L,), ∂w/∂θ (L, 3)) of one θ = (x_y, n, η), by forward sensitivities integrated with w
         by the switched kernel's own steps (``switched_sensitivity``); None on a blow-up."""
-        from bwbench.models.switched_sensitivity import hysteretic_sensitivity
+        from bwbench.models.switched.sensitivity import hysteretic_sensitivity
 
         xy, n, eta = np.asarray(theta, dtype=float)
         half = np.array([1.0 / xy, n, (1 + eta) / (2 * xy), (1 - eta) / (2 * xy)])
@@ -145,7 +145,7 @@ class ClassicBoucWen(Model):
     def force_sensitivities(self, P, signal, state=None):
         """(force (L,) N, ∂F/∂P (L, 7)) of one direct vector (A, n, α, β, γ, ξ, ωn), exact: the
         switched kernel's sensitivities with both branches' (A, n, β, γ) the same; None on a blow-up."""
-        from bwbench.models.switched_sensitivity import branch_force
+        from bwbench.models.switched.sensitivity import branch_force
 
         P = np.asarray(P, dtype=float)
         H = P[[0, 1, 3, 4]]

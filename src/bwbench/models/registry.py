@@ -18,9 +18,9 @@ from bwbench.models.base import Model
 ENTRY_POINT_GROUP = "bwbench.models"
 DEFAULT = "switched-bouc-wen"
 BUILTIN = {
-    "switched-bouc-wen": "bwbench.models.switched",
+    "switched-bouc-wen": "bwbench.models.switched.model",
     "bouc-wen": "bwbench.models.classic_bouc_wen",
-    "spencer": "bwbench.models.spencer",
+    "spencer": "bwbench.models.spencer.model",
 }
 
 

@@ -9,7 +9,6 @@ import numpy as np
 from matplotlib.lines import Line2D
 
 from bwbench.analysis import statistics
-from bwbench.render.figures import specimen_order, specimen_title
 from bwbench.render.palette import (
     MAX_WIDTH_IN,
     figure,
@@ -19,6 +18,7 @@ from bwbench.render.palette import (
     styles,
     theme,
 )
+from bwbench.render.run_figures import specimen_order, specimen_title
 
 
 def waterfall(study, out_dir, order=None, specimens=None) -> Path:

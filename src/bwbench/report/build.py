@@ -16,11 +16,11 @@ from pathlib import Path
 
 from bwbench.analysis import statistics
 from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder
+from bwbench.database import reader as results_db
 from bwbench.errors import UserError
 from bwbench.render.document import Document
 from bwbench.report import sections
 from bwbench.report.decision import StudyDecision, decide_study
-from bwbench.store import reader as results_db
 
 # What the report writes into its folder: a data file of one of these kinds there could be overwritten.
 REPORT_SUFFIXES = (".csv", ".png", ".md", ".html")

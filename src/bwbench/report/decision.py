@@ -68,7 +68,7 @@ class StudyDecision:
 
 
 def decide_study(study) -> StudyDecision:
-    """The decision of a loaded study (``bwbench.store.reader.Study``) with its measured times: the one
+    """The decision of a loaded study (``bwbench.database.reader.Study``) with its measured times: the one
     function every entry point calls."""
     table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
     tests = statistics.compare_backends(study.runs)

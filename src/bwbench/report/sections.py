@@ -8,13 +8,14 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import statistics
-from bwbench.render import ecdf_figures, figures, waterfall
+from bwbench.database.timing import compute_time
+from bwbench.render import ecdf_figures, waterfall
+from bwbench.render import run_figures as figures
 from bwbench.render.floors import noise_floors
 from bwbench.render.format import evals_text, number, p_text
 from bwbench.render.palette import split_label
 from bwbench.report.recommend import ALPHA, ratio_text, rule
 from bwbench.report.verdict import TARGET
-from bwbench.store.timing import compute_time
 
 
 def backends_table(study) -> pd.DataFrame:

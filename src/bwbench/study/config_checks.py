@@ -6,8 +6,8 @@ from __future__ import annotations
 import json
 
 import bwbench.limits as limits
+from bwbench.engine import registry
 from bwbench.errors import UserError
-from bwbench.optimize import registry
 from bwbench.problems.base import Fail
 
 

@@ -20,13 +20,7 @@ from contextlib import closing
 from dataclasses import dataclass
 
 import bwbench.limits as limits
-from bwbench.errors import UserError
-from bwbench.study.cluster import SchedulerLost, on_cluster
-from bwbench.study.config import StudyConfig
-from bwbench.study.lock import StudyLock
-from bwbench.study.pool import in_pool
-from bwbench.study.stop import StudyStopped
-from bwbench.study.store import (
+from bwbench.database.writer import (
     database_fault,
     failed_runs,
     finished_keys,
@@ -34,6 +28,12 @@ from bwbench.study.store import (
     prepare_database_path,
     record_run,
 )
+from bwbench.errors import UserError
+from bwbench.study.cluster import SchedulerLost, on_cluster
+from bwbench.study.config import StudyConfig
+from bwbench.study.lock import StudyLock
+from bwbench.study.pool import in_pool
+from bwbench.study.stop import StudyStopped
 from bwbench.study.tasks import plan_tasks, refuse_plugins_only_here, run_task
 
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections import defaultdict
 
-from bwbench.store.reader import TRANSIENT, is_transient_text  # noqa: F401 (the stored-text check is this module's too)
+from bwbench.database.reader import TRANSIENT
 
 SHOWN_KEYS = 6  # keys listed per distinct error; the rest are counted
 SHOWN_TEXT = 160  # characters of an error's text shown in the summary

@@ -19,12 +19,12 @@ from dataclasses import dataclass
 import numpy as np
 
 import bwbench.problems as problems
+from bwbench.database.writer import RUN_COLUMNS, utc_now
 from bwbench.errors import UserError
 from bwbench.problems.base import SpecimenEntry
 from bwbench.study import failures
 from bwbench.study.config import StudyConfig, canonical_json
 from bwbench.study.posterior_config import posterior_variants
-from bwbench.study.store import RUN_COLUMNS, utc_now
 
 
 @dataclass(frozen=True)
@@ -166,7 +166,7 @@ def run_task(task: Task, threads: int = 1) -> dict:
     environment's (``bwbench.study.failures``): then the dict is ``{"key": ..., "lost": why}``, not a
     result, and the run is left for the next call.
     """
-    from bwbench.optimize import fitting
+    from bwbench.engine import fitting
     from bwbench.threads import limited
 
     row = dict.fromkeys(RUN_COLUMNS)

@@ -100,7 +100,7 @@ def fit_findings(fit) -> list[Finding]:
         out += [Finding("info" if any(f in n for f in _FACTS) else "note", n) for n in checks.notes]
         out += [Finding("finding", n) for n in checks.findings]
     if fit.success:
-        from bwbench.optimize.fitting import edge_warnings
+        from bwbench.engine.fitting import edge_warnings
 
         out += [
             Finding("warning", w) for w in edge_warnings(fit.problem, fit.result, checks.explained if checks else ())

@@ -18,7 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from bwbench.optimize.result import Result, finite_or_null
+from bwbench.data.strict_json import finite_or_null
+from bwbench.engine.result import Result
 
 # Two normalisations of the RMSE: by the largest force magnitude (bwbench's ``nrmse``, symmetric in the
 # sign of F) and by the largest force (``nrmse_max_F``), the one the MR-damper literature reports (e.g.
@@ -333,7 +334,7 @@ def run_fit(
     ``AGREEING_SEARCHES`` of its independent local searches ended at the same optimum, unless
     ``options`` set it. ``synthetic``: the data are the manifest's synthetic specimens (changes the
     wording of a check). Raises ``UserError`` for a bad option or seed."""
-    from bwbench.optimize import fitting, registry
+    from bwbench.engine import fitting, registry
 
     if stop not in ("budget", "agreed"):
         raise ValueError(f"stop must be 'budget' or 'agreed', got {stop!r}")

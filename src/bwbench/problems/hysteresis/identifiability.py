@@ -168,8 +168,8 @@ def _at(u, i, value):
 
 
 def label(name: str) -> str:
-    from bwbench.models.switched_identifiable import LABELS as IDENTIFIABLE
-    from bwbench.models.switched_parameters import LABELS
+    from bwbench.models.switched.identifiable import LABELS as IDENTIFIABLE
+    from bwbench.models.switched.parameters import LABELS
 
     return LABELS.get(name) or IDENTIFIABLE.get(name, name)
 

@@ -159,12 +159,12 @@ class JointProblem:
         return exploration(self)
 
     def from_unit(self, U) -> np.ndarray:
-        from bwbench.optimize.box import box_from_unit
+        from bwbench.engine.box import box_from_unit
 
         return box_from_unit(U, self.lower, self.upper, self.log_scaled)
 
     def to_unit(self, P) -> np.ndarray:
-        from bwbench.optimize.box import box_to_unit
+        from bwbench.engine.box import box_to_unit
 
         return box_to_unit(P, self.lower, self.upper, self.log_scaled)
 

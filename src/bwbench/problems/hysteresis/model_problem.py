@@ -4,7 +4,7 @@
 switched model). ``IdentifiableProblem``: the model's symmetry-free nonlinear parameters θ searched
 in a box scaled from the data, the coefficients that enter the force linearly solved by least
 squares for every simulated trajectory (``linear_solve``). One evaluation is one simulation either
-way. Both know nothing of optimisers (``bwbench.optimize.objective.Objective`` wraps them).
+way. Both know nothing of optimisers (``bwbench.engine.objective.Objective`` wraps them).
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from bwbench.data import bounds as bounds_mod
+from bwbench.engine.box import box_from_unit, box_to_unit
 from bwbench.models import excitation as excitation_mod
-from bwbench.optimize.box import box_from_unit, box_to_unit
 
 
 class ModelFit:
@@ -147,7 +147,8 @@ class IdentifiableProblem(ModelFit):
         bounds: dict | None = None,
         coefficient_bounds: dict | None = None,
     ):
-        from bwbench.problems.hysteresis.linear.solve import LinearDesign, coefficient_units
+        from bwbench.problems.hysteresis.linear.columns import coefficient_units
+        from bwbench.problems.hysteresis.linear.solve import LinearDesign
 
         self._setup(model, specimen, state, excitation)
         layout = model.linear_layout(self.state)

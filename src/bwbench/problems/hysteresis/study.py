@@ -44,7 +44,7 @@ import numpy as np
 from bwbench.data import manifest as manifest_mod
 from bwbench.models import registry as model_registry
 from bwbench.models.excitation import EXCITATIONS
-from bwbench.models.switched_bouc_wen import STATES
+from bwbench.models.switched.kernel import STATES
 from bwbench.problems.base import ProblemSetup, ProblemType, SpecimenEntry, choice
 from bwbench.problems.hysteresis.formulations import bound_names, check_pairs, parse_models
 from bwbench.problems.hysteresis.formulations import parse as _formulations

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from bwbench.errors import InputFileError
-from bwbench.models.force_driven_bouc_wen import SAMPLE_RATE_HZ
+from bwbench.problems.noel_schoukens.force_driven_bouc_wen import SAMPLE_RATE_HZ
 
 PERIOD_SAMPLES = 8192
 TRAIN_PERIODS = 5

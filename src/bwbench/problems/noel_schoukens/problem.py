@@ -1,6 +1,6 @@
 """The Noël–Schoukens Bouc-Wen benchmark (2016): a second problem whose answer is known.
 
-Fit the 8 parameters of the force-driven Bouc-Wen system (``bwbench.models.force_driven_bouc_wen``)
+Fit the 8 parameters of the force-driven Bouc-Wen system (``bwbench.problems.noel_schoukens.force_driven_bouc_wen``)
 to the measured displacement, with the true parameters ``TRUE_PARAMS`` (m = 2 kg, c = 10 N·s/m,
 k = α = 5·10⁴ N/m, β = 10³ m⁻¹, γ = 0.8, δ = −1.1, ν = 1) known. Data: ``data.py``.
 
@@ -44,7 +44,15 @@ from pathlib import Path
 
 import numpy as np
 
-from bwbench.models.force_driven_bouc_wen import (
+from bwbench.engine.box import box_from_unit, box_to_unit
+from bwbench.problems.noel_schoukens.data import (
+    PERIOD_SAMPLES,
+    TRAIN_PERIODS,
+    default_data_dir,
+    one_period,
+    read_benchmark_csv,
+)
+from bwbench.problems.noel_schoukens.force_driven_bouc_wen import (
     PARAM_NAMES,
     SAMPLE_RATE_HZ,
     STEPS_PER_SAMPLE,
@@ -53,14 +61,6 @@ from bwbench.models.force_driven_bouc_wen import (
     simulate,
     upsample_from_rest,
     upsample_periodic,
-)
-from bwbench.optimize.box import box_from_unit, box_to_unit
-from bwbench.problems.noel_schoukens.data import (
-    PERIOD_SAMPLES,
-    TRAIN_PERIODS,
-    default_data_dir,
-    one_period,
-    read_benchmark_csv,
 )
 
 TRUE_PARAMS = np.array([2.0, 10.0, 5e4, 5e4, 1e3, 0.8, -1.1, 1.0])

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bwbench.problems.noel_schoukens import figures as benchmark_figures
+from bwbench.problems.noel_schoukens import benchmark_figures
 from bwbench.problems.noel_schoukens.analysis import (
     analyse_identifiability,
     backend_results,

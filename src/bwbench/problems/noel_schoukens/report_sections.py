@@ -9,13 +9,13 @@ import numpy as np
 import pandas as pd
 
 from bwbench.analysis import identifiability, mcmc
-from bwbench.models.force_driven_bouc_wen import identifiable_combinations
-from bwbench.problems.noel_schoukens import figures as benchmark_figures
+from bwbench.problems.noel_schoukens import benchmark_figures
 from bwbench.problems.noel_schoukens import problem as bm
 from bwbench.problems.noel_schoukens.analysis import (
     JACOBIAN_STEP,
     finished,
 )
+from bwbench.problems.noel_schoukens.force_driven_bouc_wen import identifiable_combinations
 from bwbench.problems.noel_schoukens.problem import TARGET_ERMS_M
 from bwbench.render.format import evals_text, join, number
 

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from bwbench.data.identity import files_sha256
-from bwbench.models.force_driven_bouc_wen import STEPS_PER_SAMPLE, WARMUP_SAMPLES
 from bwbench.problems.base import ProblemSetup, ProblemType, SpecimenEntry
 from bwbench.problems.noel_schoukens import data as bench_data
+from bwbench.problems.noel_schoukens.force_driven_bouc_wen import STEPS_PER_SAMPLE, WARMUP_SAMPLES
 from bwbench.problems.noel_schoukens.problem import TARGET_ERMS_M, TEST_SETS
 
 SPECIMEN = "train_multisine"
@@ -120,7 +120,7 @@ class NoelSchoukens(ProblemType):
     def is_synthetic(self, study) -> str:
         """The benchmark's data are a simulated Bouc-Wen system with noise, published as a benchmark:
         the mark on every figure and the banner say so."""
-        from bwbench.problems.noel_schoukens.figures import DATA_MARK
+        from bwbench.problems.noel_schoukens.benchmark_figures import DATA_MARK
 
         return DATA_MARK
 

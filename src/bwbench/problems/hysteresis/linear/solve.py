@@ -31,18 +31,15 @@ from typing import Any
 
 import numpy as np
 
-from bwbench.problems.hysteresis.inertia_rule import (  # noqa: F401 (re-exported: the rule's home was here)
+from bwbench.problems.hysteresis.inertia_rule import (
     M_REF,
     M_UNFITTED,
-    InertiaCheck,
-    force_noise,
     inertia_check,
     pivoted_qr,
 )
-from bwbench.problems.hysteresis.linear.columns import (  # noqa: F401 (re-exported)
+from bwbench.problems.hysteresis.linear.columns import (
     branch_masks,
     coefficient_names,
-    coefficient_units,
     fixed_columns,
     offsets_mode,
     tied_offsets,

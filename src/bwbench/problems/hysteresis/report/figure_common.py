@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from bwbench.data import manifest
-from bwbench.models import switched_identifiable as fm
-from bwbench.models import switched_parameters
-from bwbench.models.switched_parameters import LABELS, UNITS
+from bwbench.models.switched import identifiable as fm
+from bwbench.models.switched import parameters as switched_parameters
+from bwbench.models.switched.parameters import LABELS, UNITS
 from bwbench.render.palette import split_label
 
 EDGE = 0.06  # values beyond a parameter's Table 5 range are drawn this far beyond it (fraction of the range)
@@ -31,8 +31,8 @@ def pretty_unit(unit: str) -> str:
 
 def axis_label(name: str) -> str:
     """``"ωn₊ (rad/s)"``: symbol and unit of a paper, identifiable or linear parameter."""
-    from bwbench.models.switched import LAYOUT
-    from bwbench.problems.hysteresis.linear.solve import coefficient_units
+    from bwbench.models.switched.model import LAYOUT
+    from bwbench.problems.hysteresis.linear.columns import coefficient_units
 
     LINEAR_UNITS = coefficient_units(LAYOUT)
     if name in LABELS:

@@ -62,7 +62,7 @@ def good_run_spread(study, specimen, formulation, cache, tolerance=GOOD, label: 
 
 def section(report, formulation: str, paper_data: bool) -> list:
     """Write the section; return the analyses (one dict per specimen analysed)."""
-    from bwbench.problems.hysteresis.report import figures
+    from bwbench.problems.hysteresis.report import profile_figures
 
     doc, study, log = report.doc, report.study, report.log
     box = box_name(formulation, paper_data)
@@ -168,7 +168,7 @@ def section(report, formulation: str, paper_data: bool) -> list:
         doc.table(pd.DataFrame(rows), f"{specimen}: local identifiability at the best fit (ranges: {box})")
         doc.p(_spread_text(names, poor, spread, n_good, label))
         if result["profiles"]:
-            png = figures.profiles(result, doc.out_dir, synthetic(study, [specimen]))  # names the data's source
+            png = profile_figures.profiles(result, doc.out_dir, synthetic(study, [specimen]))  # names the data's source
             doc.figure(
                 png,
                 f"Profile likelihoods on {specimen}: each point re-optimises the other parameters "

@@ -160,7 +160,7 @@ def evidence_table(chains) -> pd.DataFrame:
 
 
 def _nested_subsection(report, pc, rng, order):
-    from bwbench.problems.hysteresis.report import figures
+    from bwbench.problems.hysteresis.report import parameter_figures as figures
 
     doc, study, chain, v = report.doc, report.study, pc.chain, pc.nested
     table = v["diagnostics"]

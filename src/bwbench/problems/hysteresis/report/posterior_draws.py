@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from bwbench.analysis import mcmc
-from bwbench.models import switched_parameters
+from bwbench.models.switched import parameters as switched_parameters
 
 DRAWS = 1000  # kept draws summarised and pushed through the model (thinned evenly)
 
@@ -26,7 +26,7 @@ class PosteriorChain:
     ``study.runs``), ``ensembles``, ``assessment`` (``mcmc.assess``), ``names`` (the chain's
     coordinates), ``fixed`` (names held fixed by a reduced model) and ``burn``."""
 
-    chain: Any  # bwbench.store.reader.Chain
+    chain: Any  # bwbench.database.reader.Chain
     problem: Any  # the problem the chain sampled
     run: dict
     ensembles: int

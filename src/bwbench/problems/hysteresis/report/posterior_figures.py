@@ -16,9 +16,9 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from bwbench.analysis import mcmc
-from bwbench.models import switched_identifiable as fm
-from bwbench.models.switched_bouc_wen import PARAM_NAMES
-from bwbench.models.switched_parameters import LOWER, UPPER
+from bwbench.models.switched import identifiable as fm
+from bwbench.models.switched.kernel import PARAM_NAMES
+from bwbench.models.switched.parameters import LOWER, UPPER
 from bwbench.problems.hysteresis.report.figure_common import axis_label, synthetic, truth
 from bwbench.render.palette import MAX_WIDTH_IN, OKABE_ITO, TRUTH, canvas, legend, save, slug, styles, theme, title
 

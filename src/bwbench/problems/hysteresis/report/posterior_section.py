@@ -29,7 +29,7 @@ R_HAT_MAX, ESS_MIN = mcmc.R_HAT_MAX, mcmc.ESS_MIN
 
 
 def section(report) -> list:
-    from bwbench.problems.hysteresis.report import figures, model_evidence, samplers_section
+    from bwbench.problems.hysteresis.report import model_evidence, posterior_figures, samplers_section
 
     doc, study = report.doc, report.study
     chains = cached(report)
@@ -122,7 +122,7 @@ def section(report) -> list:
                 + "; ".join(f"{labels[x][0]}–{labels[y][0]} r = {r:+.2f}" for x, y, r in pairs)
                 + "."
             )
-        png = figures.posterior(study, doc.out_dir, chain, problem=pc.problem, posterior=pc, order=order)
+        png = posterior_figures.posterior(study, doc.out_dir, chain, problem=pc.problem, posterior=pc, order=order)
         doc.figure(
             png,
             f"{chain.specimen}: posterior marginals and the most correlated pairs, with the best fit on "

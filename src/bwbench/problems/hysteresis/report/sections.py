@@ -12,7 +12,8 @@ from pathlib import Path
 import pandas as pd
 
 from bwbench.errors import UserError
-from bwbench.problems.hysteresis.report import figures, posterior_section, signals_section, validation_section
+from bwbench.problems.hysteresis.report import fit_figures, posterior_section, signals_section, validation_section
+from bwbench.problems.hysteresis.report import parameter_figures as figures
 from bwbench.problems.hysteresis.report.figure_common import formulation_of
 from bwbench.render.floors import floors as truth_losses
 from bwbench.render.format import number, unit_of
@@ -167,15 +168,13 @@ def coordinates(report) -> str:
 
 
 def add_sections(report) -> None:
-    from bwbench.problems.hysteresis import adequacy
-    from bwbench.problems.hysteresis.paper import non_uniqueness, parameter_tables
-    from bwbench.problems.hysteresis.report import identifiability_section
+    from bwbench.problems.hysteresis.report import adequacy, identifiability_section, non_uniqueness, parameter_tables
 
     study, doc, out = report.study, report.doc, report.out
     featured, paper = report.featured, paper_data(report)
     order = list(report.table["optimizer"])
     report.progress("hysteresis loops and signals")
-    png = figures.hysteresis_loops(study, out, featured[0], order=order)
+    png = fit_figures.hysteresis_loops(study, out, featured[0], order=order)
     residuals = pd.read_csv(png.with_suffix(".csv")).drop_duplicates("optimizer")["optimizer"]
     others = [o for o in residuals if split_label(o)[0] != "random"]
     doc.figure(

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from bwbench.engine.fitting import on_box_edge
 from bwbench.models.derivatives import SPLINE_NAME
-from bwbench.optimize.fitting import on_box_edge
 from bwbench.problems.hysteresis.fit_checks import expected_force_error, linear_branches
 from bwbench.problems.hysteresis.report.figure_common import problem_for
 from bwbench.render.format import number

@@ -1,0 +1,1 @@
+"""bwbench.optimizers.sampling."""
