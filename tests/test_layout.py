@@ -1,4 +1,5 @@
-"""The layout's promises: no import cycle inside bwbench (lazy imports included), no module over 400 lines."""
+"""The layout's promises: no import cycle inside bwbench (lazy imports included), layers that run one way,
+no private name imported from another module, and no module so long that it is surely two ideas."""
 
 import ast
 from pathlib import Path
@@ -86,9 +87,41 @@ def test_no_import_cycle_inside_bwbench():
     assert find_cycle(graph) is None, " -> ".join(find_cycle(graph))
 
 
+# A smoke alarm, not a rule: modules are split by idea, never by size (docs/contributing.md).
+LONGEST = 800
+
+
 @pytest.mark.parametrize("name, path", sorted(_modules().items()))
-def test_no_module_over_400_lines(name, path):
-    assert len(path.read_text(encoding="utf-8").splitlines()) <= 400, name
+def test_no_module_is_so_long_that_it_is_surely_two_ideas(name, path):
+    assert len(path.read_text(encoding="utf-8").splitlines()) <= LONGEST, name
+
+
+def private_imports(modules: dict) -> list[str]:
+    """``path:line: module imports _name from other`` for every private name (one leading underscore)
+    one module imports from another bwbench module: a name another module needs is public."""
+    found = []
+    for name, path in sorted(modules.items()):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("bwbench"):
+                for alias in node.names:
+                    if alias.name.startswith("_") and not alias.name.startswith("__"):
+                        shown = path.relative_to(ROOT) if ROOT in path.parents else path
+                        found.append(f"{shown}:{node.lineno}: {name} imports {alias.name} from {node.module}")
+    return found
+
+
+def test_no_module_imports_another_modules_private_names():
+    wrong = private_imports(_modules())
+    assert not wrong, "private names imported across modules (make them public where they are shared):\n" + "\n".join(
+        wrong
+    )
+
+
+def test_a_private_import_is_named_with_its_line(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("from bwbench.models.switched.kernel import _HA\n", encoding="utf-8")
+    wrong = private_imports({"bwbench.models.bad": bad})
+    assert wrong == [f"{bad}:1: bwbench.models.bad imports _HA from bwbench.models.switched.kernel"]
 
 
 # The layers the issue of models as plug-ins asked for: the report and the store read results and

@@ -41,10 +41,10 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from bwbench.data.input_files import not_regular
+from bwbench.data.strict_json import dumps
 from bwbench.database.reader import is_transient_text
 from bwbench.database.timing import machine_description
 from bwbench.errors import UserError
-from bwbench.study.config import StudyConfig, canonical_json, describe_differences
 from bwbench.version import __version__
 
 GENERIC_COLUMNS = ("problem", "params_json", "metrics_json", "model", "formulation", "variant")  # any problem
@@ -161,10 +161,12 @@ def database_fault(path, err: sqlite3.Error) -> str:
     return f"{path}: {text}"
 
 
-def open_database(path, config: StudyConfig, planned_runs: int | None = None) -> sqlite3.Connection:
-    """Create the study database, or reopen it after checking it holds this very configuration.
+def open_database(path, config, planned_runs: int | None = None, backends: str = "{}") -> sqlite3.Connection:
+    """Create the study database, or reopen it after checking it holds this very configuration
+    (``config``: a ``bwbench.study.config.StudyConfig``, read for its JSON, hash and backends).
 
-    ``planned_runs``: how many runs the study has (stored for the report). Writes on every open, so
+    ``planned_runs``: how many runs the study has (stored for the report); ``backends``: JSON of what
+    each backend is (family, batched), for the report, which never reads the registry. Writes on every open, so
     a database that cannot be written fails here, before any run starts. Raises ``UserError`` (one
     line naming the file) if it is not a study database, was made by another configuration, or
     cannot be written.
@@ -200,11 +202,11 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('planned_runs', ?)", (str(planned_runs),))
         conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('machine', ?)", (machine_description(),))
         # What each backend is, for the report, which reads the database and never the registry.
-        conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('backends', ?)", (backend_facts(config),))
+        conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('backends', ?)", (backends,))
         location = config.setup.data_location  # where the data are now: for the report, not the identity
         if isinstance(location, dict):
             conn.execute(
-                "INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)", (canonical_json(location),)
+                "INSERT OR REPLACE INTO study (key, value) VALUES ('data_paths', ?)", (dumps(location, canonical=True),)
             )
         elif location:
             conn.execute("INSERT OR REPLACE INTO study (key, value) VALUES ('data_dir', ?)", (location,))
@@ -220,18 +222,6 @@ def open_database(path, config: StudyConfig, planned_runs: int | None = None) ->
     return conn
 
 
-def backend_facts(config: StudyConfig) -> str:
-    """JSON {backend: {"family", "batched"}} of the study's backends (ranking and posterior)."""
-    from bwbench.engine import registry
-
-    names = [*config.optimizers, *([config.posterior.optimizer] if config.posterior else [])]
-    facts = {}
-    for name in dict.fromkeys(names):
-        backend = registry.get(name)
-        facts[name] = {"family": backend.family, "batched": bool(backend.batched)}
-    return json.dumps(facts, sort_keys=True)
-
-
 def _add_generic_columns(conn) -> None:
     """Give a database from before the generic columns existed those columns (NULL in old rows)."""
     present = {r[1] for r in conn.execute("PRAGMA table_info(runs)")}
@@ -241,7 +231,7 @@ def _add_generic_columns(conn) -> None:
     conn.execute(EVIDENCE_SQL)
 
 
-def _check_same_study(conn, path, config: StudyConfig) -> None:
+def _check_same_study(conn, path, config) -> None:
     """The configuration must be the stored one, or extend it (more seeds, backends or specimens, the
     same settings for what both have): then the stored one is replaced and only the new runs run."""
     stored = dict(conn.execute("SELECT key, value FROM study"))
@@ -390,3 +380,20 @@ def record_run(conn, outcome: dict) -> bool:
                 pass
         raise
     return True
+
+
+def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
+    """Human-readable differences between two ``to_json_dict()`` values, e.g. ``study.budget: 200 -> 300``."""
+    out = []
+    for key in sorted(set(old) | set(new), key=str):
+        label = f"{prefix}{key}"
+        if key not in old:
+            out.append(f"{label} added")
+        elif key not in new:
+            out.append(f"{label} removed")
+        elif isinstance(old[key], dict) and isinstance(new[key], dict):
+            out.extend(describe_differences(old[key], new[key], label + "."))
+        elif old[key] != new[key]:
+            a, b = dumps(old[key], canonical=True), dumps(new[key], canonical=True)
+            out.append(f"{label}: {a} -> {b}" if len(a) + len(b) <= 80 else f"{label} changed")
+    return out

@@ -275,23 +275,6 @@ def check_plan_size(fail, config: StudyConfig) -> StudyConfig:
     return config
 
 
-def describe_differences(old: dict, new: dict, prefix: str = "") -> list[str]:
-    """Human-readable differences between two ``to_json_dict()`` values, e.g. ``study.budget: 200 -> 300``."""
-    out = []
-    for key in sorted(set(old) | set(new), key=str):
-        label = f"{prefix}{key}"
-        if key not in old:
-            out.append(f"{label} added")
-        elif key not in new:
-            out.append(f"{label} removed")
-        elif isinstance(old[key], dict) and isinstance(new[key], dict):
-            out.extend(describe_differences(old[key], new[key], label + "."))
-        elif old[key] != new[key]:
-            a, b = canonical_json(old[key]), canonical_json(new[key])
-            out.append(f"{label}: {a} -> {b}" if len(a) + len(b) <= 80 else f"{label} changed")
-    return out
-
-
 def config_from_arguments(
     specimens,
     optimizers: str,

@@ -78,7 +78,10 @@ def run_study(
         refuse_plugins_only_here(tasks, f"the Dask cluster at {scheduler}" if scheduler else "its worker processes")
     db = prepare_database_path(db)
     resume = f"finished runs are in {db}, run the same command again to resume"
-    with StudyLock(db), closing(open_database(db, config, planned_runs=len(tasks))) as conn:
+    with (
+        StudyLock(db),
+        closing(open_database(db, config, planned_runs=len(tasks), backends=backend_facts(config))) as conn,
+    ):
         try:
             return _run_pending(config, db, conn, tasks, workers, scheduler, log, threads)
         except sqlite3.Error as err:  # a full disk, an I/O error: what was committed stays
@@ -196,3 +199,17 @@ def _duration(seconds: float) -> str:
         return "?"
     seconds = int(round(seconds))
     return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+
+
+def backend_facts(config) -> str:
+    """JSON {backend: {"family", "batched"}} of the study's backends (ranking and posterior)."""
+    from bwbench.engine import registry
+
+    names = [*config.optimizers, *([config.posterior.optimizer] if config.posterior else [])]
+    facts = {}
+    for name in dict.fromkeys(names):
+        backend = registry.get(name)
+        facts[name] = {"family": backend.family, "batched": bool(backend.batched)}
+    import json
+
+    return json.dumps(facts, sort_keys=True)

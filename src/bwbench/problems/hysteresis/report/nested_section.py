@@ -10,7 +10,7 @@ from bwbench.analysis.mcmc import ESS_MIN, R_HAT_MAX
 from bwbench.problems.hysteresis.report.posterior_draws import axis, parameters
 from bwbench.problems.hysteresis.report.posterior_tables import (
     LEVEL,
-    _summary_against_truth,
+    summary_against_truth,
     convergence_table,
     model_name,
     write_inference_data,
@@ -159,7 +159,7 @@ def evidence_table(chains) -> pd.DataFrame:
     return frame
 
 
-def _nested_subsection(report, pc, rng, order):
+def nested_subsection(report, pc, rng, order):
     from bwbench.problems.hysteresis.report import parameter_figures as figures
 
     doc, study, chain, v = report.doc, report.study, pc.chain, pc.nested
@@ -188,7 +188,7 @@ def _nested_subsection(report, pc, rng, order):
         doc.table(
             placed, "The good ranking fits (final MSE within 10 % of the best known) against the posterior's draws"
         )
-    _summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals over every mode")
+    summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals over every mode")
     written = write_inference_data(pc, doc.out_dir)
     if written:
         doc.p(f"The draws in physical units, one chain per run, are in `{written}` (ArviZ InferenceData, netCDF).")

@@ -15,11 +15,11 @@ import numpy as np
 
 from bwbench.analysis import mcmc
 from bwbench.analysis.identifiability import posterior_correlation, strongest_pairs
-from bwbench.problems.hysteresis.report.nested_section import PRIOR_TEXT, _nested_subsection
+from bwbench.problems.hysteresis.report.nested_section import PRIOR_TEXT, nested_subsection
 from bwbench.problems.hysteresis.report.posterior_draws import cached, parameters
 from bwbench.problems.hysteresis.report.posterior_tables import (
     LEVEL,
-    _summary_against_truth,
+    summary_against_truth,
     convergence_table,
     modes_table,
 )
@@ -65,7 +65,7 @@ def section(report) -> list:
     order = list(report.table["optimizer"])
     for pc in chains:
         if pc.nested is not None:
-            verdicts.append(_nested_subsection(report, pc, rng, order))
+            verdicts.append(nested_subsection(report, pc, rng, order))
             continue
         chain, a = pc.chain, pc.assessment
         worst = max((float(d["r_hat"].max()) for d in a["diagnostics"]), default=float("nan"))
@@ -111,7 +111,7 @@ def section(report) -> list:
                 "ensembles. Separate ensembles cannot weigh one mode against another."
             )
             doc.table(modes_table(pc), "Modes: median log-probability and the median of each sampled parameter")
-        _summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals")
+        summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals")
         kept = pc.problem.from_unit(pc.unit_draws())
         moving = [j for j, n in enumerate(pc.names) if n not in pc.fixed]
         labels = parameters(pc.problem)

@@ -132,7 +132,7 @@ def write_inference_data(pc, out_dir) -> str | None:
     return f"{name}.nc"
 
 
-def _summary_against_truth(doc, study, pc, rng, caption: str) -> None:
+def summary_against_truth(doc, study, pc, rng, caption: str) -> None:
     """The table of posterior medians and intervals, and where the truth (a synthetic specimen's) lies."""
     true = truth(study, pc.problem, pc.chain.specimen)
     table, outside = summary(pc, rng, true)
