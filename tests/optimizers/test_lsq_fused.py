@@ -55,7 +55,7 @@ def test_a_study_keeps_the_plain_residual_and_the_separate_jacobian(monkeypatch)
 
 def test_fused_needs_exact_jacobians():
     sphere = Objective(testing.SphereProblem(dim=3), 100)  # residuals, no exact Jacobian
-    residuals = lsq_trf._Residuals(sphere, diff_step=1e-5, exact=True, fused=True)
+    residuals = lsq_trf.Residuals(sphere, diff_step=1e-5, exact=True, fused=True)
     assert not residuals.fused
     u = np.full(3, 0.3)
     r = residuals.start(u)
@@ -73,7 +73,7 @@ def test_a_simulation_that_does_not_finish_is_not_run_again_without_its_sensitiv
     assert J is None and np.all(np.isinf(r)) and objective.nfev == problem.jacobian_cost  # charged, as tried
     assert not np.isfinite(problem.loss_batch(problem.from_unit(stiff)[None, :])[0])  # nor the plain one
     calls = _counting(monkeypatch)
-    residuals = lsq_trf._Residuals(Objective(problem, 100), diff_step=1e-5, exact=True, fused=True)
+    residuals = lsq_trf.Residuals(Objective(problem, 100), diff_step=1e-5, exact=True, fused=True)
     residuals.penalty(50.0)
     assert np.allclose(residuals.fun(stiff), np.sqrt(residuals.penalty.value))  # above every finite cost
     assert calls == {"residuals": 0, "residual_jacobian": 1}

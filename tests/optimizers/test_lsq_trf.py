@@ -56,7 +56,7 @@ def test_a_jacobian_is_one_batch_of_d_points_after_one_point():
 
 def test_jacobian_is_exact_on_the_sphere_and_steps_inward_at_the_upper_bound():
     problem = testing.SphereProblem(dim=3, centre=0.5, n_data=4)
-    residuals = lsq_trf._Residuals(Objective(problem, 100), diff_step=1e-5)
+    residuals = lsq_trf.Residuals(Objective(problem, 100), diff_step=1e-5)
     for u in (np.array([0.2, 0.5, 0.7]), np.array([0.2, 1.0, 1.0 - 1e-7])):
         J = residuals.jac(u)
         expected = np.vstack([2.0 * np.eye(3), np.zeros((1, 3))])  # √n_data = 2
@@ -67,13 +67,13 @@ def test_jacobian_is_exact_on_the_sphere_and_steps_inward_at_the_upper_bound():
 def test_a_blown_up_neighbour_is_differenced_from_the_other_side():
     problem = testing.SphereProblem(dim=3, centre=0.5, n_data=4, blow_up=lambda P: P[:, 0] > 0.3)
     objective = Objective(problem, 100)
-    residuals = lsq_trf._Residuals(objective, diff_step=1e-3)
+    residuals = lsq_trf.Residuals(objective, diff_step=1e-3)
     J = residuals.jac(np.array([0.3, 0.5, 0.5]))  # u₀ + h blows up, u₀ − h does not
     np.testing.assert_allclose(J[:3], 2.0 * np.eye(3), atol=1e-9)
     assert problem.call_sizes == [1, 3, 1]  # the point, the Jacobian batch, the retried column
     # both sides blown up: a zero column, and the trial point itself gets the finite penalty
     squeezed = testing.SphereProblem(dim=2, centre=0.5, n_data=2, blow_up=lambda P: np.abs(P[:, 0] - 0.5) > 1e-4)
-    residuals = lsq_trf._Residuals(Objective(squeezed, 100), diff_step=1e-3)
+    residuals = lsq_trf.Residuals(Objective(squeezed, 100), diff_step=1e-3)
     J = residuals.jac(np.array([0.5, 0.2]))
     np.testing.assert_array_equal(J[:, 0], 0.0)
     penalised = residuals.fun(np.array([0.9, 0.2]))
@@ -162,16 +162,16 @@ def test_searches_agree_only_on_one_optimum_found_often_enough():
     stopping also needs nine searches (a basin attracting 30 % of starts missed with probability < 5 %)."""
     rng = np.random.default_rng(0)
     plateau = [(7474.16, rng.random(6)) for _ in range(9)]
-    assert lsq_trf._agreed(plateau, 3, 1e-2) == 0
+    assert lsq_trf.agreed_searches(plateau, 3, 1e-2) == 0
     centre = rng.random(6)
     same = [(34.51 + 0.01 * i, centre + 0.002 * i) for i in range(3)]
-    assert lsq_trf._agreed(same, 3, 1e-2) == 0  # 3 of 3: too few searches to say
-    assert lsq_trf._agreed(same + plateau[:5], 3, 1e-2) == 0  # 8 searches
-    assert lsq_trf._agreed(same + plateau[:6], 3, 1e-2) == 3  # 9: stop
-    assert lsq_trf._agreed(same[:2] + plateau, 3, 1e-2) == 0  # the best found twice only
-    assert lsq_trf._agreed(same + plateau, 0, 1e-2) == 0  # 0: never stop early
+    assert lsq_trf.agreed_searches(same, 3, 1e-2) == 0  # 3 of 3: too few searches to say
+    assert lsq_trf.agreed_searches(same + plateau[:5], 3, 1e-2) == 0  # 8 searches
+    assert lsq_trf.agreed_searches(same + plateau[:6], 3, 1e-2) == 3  # 9: stop
+    assert lsq_trf.agreed_searches(same[:2] + plateau, 3, 1e-2) == 0  # the best found twice only
+    assert lsq_trf.agreed_searches(same + plateau, 0, 1e-2) == 0  # 0: never stop early
     worse = [(34.51 * 1.02, centre)] * 2 + [(34.51, centre)] + plateau  # MSE 2 % apart: not one optimum
-    assert lsq_trf._agreed(worse, 3, 1e-2) == 0
+    assert lsq_trf.agreed_searches(worse, 3, 1e-2) == 0
 
 
 class _FlatValleyProblem(testing.SphereProblem):
@@ -242,15 +242,15 @@ def test_two_separate_optima_of_equal_mse_do_not_agree():
     best, other = ends
     assert other[0] / best[0] == pytest.approx(1.005, abs=1e-4)  # within agree_rtol's 1 %
     assert problem.loss_batch((best[1] + other[1]) / 2)[0] / best[0] == pytest.approx(1.339, abs=1e-3)  # a barrier
-    assert not lsq_trf._same_optimum(other, best, 1.01 * best[0])
-    assert lsq_trf._agreed([best] + [other] * 8, 3, 1e-2) == 0  # the other optimum found 8 times: no stop
-    assert lsq_trf._agreed([best] * 3 + [other] * 6, 3, 1e-2) == 3
+    assert not lsq_trf.same_optimum(other, best, 1.01 * best[0])
+    assert lsq_trf.agreed_searches([best] + [other] * 8, 3, 1e-2) == 0  # the other optimum found 8 times: no stop
+    assert lsq_trf.agreed_searches([best] * 3 + [other] * 6, 3, 1e-2) == 3
     # The same fitted curve, 0.3 away along a direction the data do not determine, agrees, once 18
     # searches ran (a valley or a plateau of one fit attracts starts broadly: more evidence is asked).
     valley = (best[0] * 1.001, best[1] + 0.3, best[2] * (1 + 1e-3))
-    assert lsq_trf._same_optimum(valley, best, 1.01 * best[0]) == "fit"
-    assert lsq_trf._agreed([best] * 2 + [valley] + [other] * 6, 3, 1e-2) == 0
-    assert lsq_trf._agreed([best] * 2 + [valley] + [other] * 15, 3, 1e-2) == 3
+    assert lsq_trf.same_optimum(valley, best, 1.01 * best[0]) == "fit"
+    assert lsq_trf.agreed_searches([best] * 2 + [valley] + [other] * 6, 3, 1e-2) == 0
+    assert lsq_trf.agreed_searches([best] * 2 + [valley] + [other] * 15, 3, 1e-2) == 3
     # Fits stop at the lower optimum, whichever the starts found first.
     for seed in range(3):
         result = fitting.run(_TwoOptimaProblem(), "lsq-trf", 3000, seed, {"stop_agree": 3})

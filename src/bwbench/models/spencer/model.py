@@ -104,7 +104,7 @@ KAPPA0_MAX = 10.0
 # sensitivities ran away at 7–9 % of random points of the box.
 EXPLORATION_TOLERANCE = 1e-4
 # The step budget of the exploring simulations, in steps per interval of the record's own sampling (the
-# model's is ``spencer_kernel.STEPS_PER_SAMPLE`` = 16): a simulation that needs more than the pace runs
+# model's is ``kernel.STEPS_PER_SAMPLE`` = 16): a simulation that needs more than the pace runs
 # until the head start of a quarter of the budget is spent, so one at 17–30 steps per interval (a stiff
 # corner) ran nearly to the record's end at 16 and failed there: 10–25 % of the steps of a fit's searches
 # on MR-damper tests, in 1–6 simulations. At 10 it fails after a fraction of the record; the optimum needs
@@ -202,7 +202,7 @@ class Spencer(Model):
         "magnetorheological dampers, J. Eng. Mech. 123(3):230-238, 1997"
     )
     default_formulation = "identifiable"
-    # The integration's tolerance per step (None: the kernel's own, ``spencer_kernel._TOL`` = 1e-5);
+    # The integration's tolerance per step (None: the kernel's own, ``kernel._TOL`` = 1e-5);
     # ``exploring`` gives a copy at ``EXPLORATION_TOLERANCE``.
     tolerance: float | None = None
     # The step budget in steps per sample interval (None: the kernels' ``STEPS_PER_SAMPLE``); ``exploring``

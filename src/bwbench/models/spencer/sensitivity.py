@@ -172,7 +172,7 @@ def _interval_sens(
     fSy0,
     fSw0,
 ):
-    """``spencer_kernel._interval`` with the sensitivities (Sy, Sw updated in place). Returns
+    """``kernel._interval`` with the sensitivities (Sy, Sw updated in place). Returns
     (y, w, h, steps, status); STATUS_STEP_BUDGET past ``allowance`` steps, STATUS_BLOW_UP on a state
     that is not finite. The state's arithmetic is the plain kernel's, stage for stage."""
     span = t1 - t0
@@ -259,7 +259,7 @@ def _interval_sens(
 
 @numba.njit(cache=True, error_model="numpy")
 def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total, tol, pace):
-    """``spencer_kernel._run`` with the sensitivities; writes ẏ and ∂ẏ/∂θ when ``out`` is not empty.
+    """``kernel._run`` with the sensitivities; writes ẏ and ∂ẏ/∂θ when ``out`` is not empty.
     Returns (y, w, steps used, status)."""
     kSy, kSw = np.empty((4, _D)), np.empty((4, _D))  # the stages' work space, once per run
     fSy, fSw, tmp_y, tmp_w, gy, gw = np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D)
@@ -310,7 +310,7 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total,
 
 @numba.njit(cache=True, error_model="numpy")
 def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S, tol, pace):
-    """ẏ (mm/s) and ∂ẏ/∂θ at every sample (as ``spencer_kernel._ydot_into``); the status."""
+    """ẏ (mm/s) and ∂ẏ/∂θ at every sample (as ``kernel._ydot_into``); the status."""
     total = pace * (x.shape[0] - 1 + preroll)
     p = with_reciprocals(p)
     y, w = x[0], 0.0
@@ -339,7 +339,7 @@ def _ydot_sens_serial(TH, t, x, v, a, preroll, out, out_S, status, tol, pace):
 def ydot_sensitivity_batch(TH, t, x, v, a, tol=TOL, pace=STEPS_PER_SAMPLE):
     """(ẏ (m, L) mm/s, ∂ẏ/∂θ (m, L, 6), status (m,)) of each θ row of TH (m, 6); rows that did not
     finish are +inf (ẏ) and NaN (∂ẏ/∂θ), their status saying why (``STATUS_*``). ``tol``, ``pace``: as
-    ``spencer_kernel.ydot_batch``'s."""
+    ``kernel.ydot_batch``'s."""
     TH = np.ascontiguousarray(TH, dtype=float)
     t, x, v, a = kernel_arrays(t, x, v, a)
     out = np.empty((TH.shape[0], x.shape[0]))

@@ -1,6 +1,6 @@
 """How Spencer's model starts a record, and the arrays its kernels read: a record that starts from rest
 starts the model at rest (y = x, z = 0), one cut from a running test after a pre-roll cycle of its own
-motion (``spencer_kernel.preroll_end``); the kernels tell the two apart by the first velocity sample,
+motion (``kernel.preroll_end``); the kernels tell the two apart by the first velocity sample,
 exactly 0 for a start from rest (``kernel_inputs``)."""
 
 from __future__ import annotations

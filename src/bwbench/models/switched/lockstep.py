@@ -41,15 +41,15 @@ from bwbench.models.switched.lockstep_inputs import excitation_pieces, load_rows
 LANES = 16  # rows per group; on AMD EPYC (Zen 4), one core: 4 is ~15% slower, 8 ~3%, 24 the same
 SCALAR_WORK = 32.0  # stiffness × longest dx above which a row runs in the scalar kernel (``_run``)
 
-_STIFF_WORK = RK4_STIFFNESS_PER_SUBSTEP * RK4_MAX_SUBSTEPS  # as in switched_kernel._advance_z
-_NEWTON_ITERATIONS = 60  # as in switched_kernel._backward_euler
+_STIFF_WORK = RK4_STIFFNESS_PER_SUBSTEP * RK4_MAX_SUBSTEPS  # as in kernel._advance_z
+_NEWTON_ITERATIONS = 60  # as in kernel.backward_euler
 _BE_START, _NEWTON, _DONE = 0, 1, 2  # a lane's backward-Euler state: pending power
 _MODE_Z, _MODE_MSE = 0, 1  # what a group writes: z rows, or MSEs
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _rate_from_pow(z, p, direction, A, beta_plus_gamma, beta_minus_gamma):
-    """switched_kernel._rate with p = |z|^n already computed (ignored at z = 0, as there)."""
+    """kernel._rate with p = |z|^n already computed (ignored at z = 0, as there)."""
     if z == 0.0:
         return A
     if (z > 0.0) == (direction > 0.0):
@@ -59,7 +59,7 @@ def _rate_from_pow(z, p, direction, A, beta_plus_gamma, beta_minus_gamma):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _work(z, p, dx, direction, n, bg, bm, z_s, attractor_rate):
-    """switched_kernel._advance_z's stiffness·|dx| at the start of a piece, p = |z|^n."""
+    """kernel._advance_z's stiffness·|dx| at the start of a piece, p = |z|^n."""
     stiffness = attractor_rate
     if z != 0.0:
         c = bg if (z > 0.0) == (direction > 0.0) else bm
@@ -91,7 +91,7 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
     for k in range(x.shape[0] - 1):
         for j in range(2):
             dx = dxs[k, j]
-            if dx == 0.0:  # switched_kernel._advance_z leaves z as it is
+            if dx == 0.0:  # kernel._advance_z leaves z as it is
                 continue
             b = branch[k, j]
             s = slot[k, j]
@@ -178,7 +178,7 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
                                 cbm[lane],
                             )
                             bdone[lane] = IMPLICIT_SUBSTEPS
-                        elif z_new == zc[lane] and z_new != 0.0:  # a fixed point: switched_kernel._advance_z stops
+                        elif z_new == zc[lane] and z_new != 0.0:  # a fixed point: kernel._advance_z stops
                             bdone[lane] = IMPLICIT_SUBSTEPS
                         else:
                             bdone[lane] += 1
@@ -245,7 +245,7 @@ def _run_group(H, rows, dxs, branch, slot, active, mode, Z, P, x, v, a, f_meas, 
 
 @numba.njit(cache=True, error_model="numpy")
 def _implicit_round(st, z, p, z0, h, A, n, bg, bm, z_att, lo, hi, f_hi, it):
-    """One power's worth of switched_kernel._backward_euler: p = |z|^n at z = z0 (start) or an iterate.
+    """One power's worth of kernel.backward_euler: p = |z|^n at z = z0 (start) or an iterate.
 
     Returns (z, _NEWTON, bracket lo, hi, f(hi), iterations) when iterate z needs its power next,
     else (step result, -1, ...), the result being NaN for "no bracket" as in the scalar function.
@@ -288,7 +288,7 @@ def _rate_of(z, n, direction, A, bg, bm):
 
 @numba.njit(cache=True, error_model="numpy")
 def _rk_fallback(z, dx, direction, A, n, bg, bm):
-    """The RK4 with which switched_kernel._advance_z finishes a piece after a bracket-less implicit step."""
+    """The RK4 with which kernel._advance_z finishes a piece after a bracket-less implicit step."""
     m = rk4_substeps(_STIFF_WORK)
     h = dx / m
     for _ in range(m):
@@ -365,9 +365,9 @@ def _run(H, t, x, v, split, mode, Z, P, a, f_meas, out):
         if stiff.any():
             rows = np.sort(order[stiff])
             if mode == _MODE_MSE:
-                out[rows] = kernel._mse_serial(np.ascontiguousarray(P[rows]), t, x, v, a, f_meas, split)
+                out[rows] = kernel.mse_serial(np.ascontiguousarray(P[rows]), t, x, v, a, f_meas, split)
             else:
-                Z[rows] = kernel._hysteretic_batch_scalar(np.ascontiguousarray(H[rows]), t, x, v, split)
+                Z[rows] = kernel.hysteretic_batch_scalar(np.ascontiguousarray(H[rows]), t, x, v, split)
             order = order[~stiff]
         if order.shape[0]:
             K = -(-order.shape[0] // -(-order.shape[0] // LANES))
@@ -380,7 +380,7 @@ def _run(H, t, x, v, split, mode, Z, P, a, f_meas, out):
 def run_mse(P, t, x, v, a, f_meas, split):
     """The kernel behind ``switched_bouc_wen.mse_batch``: inputs already checked (contiguous float64)."""
     if P.shape[0] == 1 and x.shape[0] > 0:  # nothing to interleave
-        return kernel._mse_serial(P, t, x, v, a, f_meas, split)
+        return kernel.mse_serial(P, t, x, v, a, f_meas, split)
     out = np.empty(P.shape[0])
     H = np.ascontiguousarray(P[:, list(kernel.HYSTERETIC_INDEX)])
     _run(H, t, x, v, split, _MODE_MSE, np.empty((0, 0)), P, a, f_meas, out)
@@ -390,7 +390,7 @@ def run_mse(P, t, x, v, a, f_meas, split):
 def run_hysteretic(H, t, x, v, split):
     """The kernel behind ``switched_bouc_wen.hysteretic_state_batch``: inputs already checked."""
     if H.shape[0] == 1 and x.shape[0] > 0:  # nothing to interleave
-        return kernel._hysteretic_batch_scalar(H, t, x, v, split)
+        return kernel.hysteretic_batch_scalar(H, t, x, v, split)
     Z = np.empty((H.shape[0], x.shape[0]))
     _run(H, t, x, v, split, _MODE_Z, Z, np.empty((0, 0)), x, x, np.empty(0))
     return Z

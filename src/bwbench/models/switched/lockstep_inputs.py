@@ -22,7 +22,7 @@ def excitation_pieces(t, x, v, split):
     slot = np.zeros((n, 2), dtype=np.int64)
     active = np.zeros(n, dtype=np.int64)
     for k in range(n):
-        b0 = 0 if v[k] >= 0.0 else 1  # as switched_kernel._branch
+        b0 = 0 if v[k] >= 0.0 else 1  # as kernel.branch_offset
         b1 = 0 if v[k + 1] >= 0.0 else 1
         if b0 == b1:
             dx[k, 0] = x[k + 1] - x[k]

@@ -10,7 +10,7 @@ both branches share one set, as the classic model's):
 
 which is the exact derivative of the discrete map the plain kernel applies (its substep counts are
 integers, constant between the isolated parameter values where they change). z itself is computed by
-the very same floating-point operations as ``switched_kernel._hysteretic_into``, so it is
+the very same floating-point operations as ``kernel._hysteretic_into``, so it is
 bit-identical to the plain kernel's (and the lockstep kernel's). With p = |z|ⁿ and c = β + γ loading
 (sign(z·dx) > 0), β − γ unloading:
 
@@ -45,7 +45,7 @@ from bwbench.models.switched.kernel import (
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _rate_sens(z, p, log_z, direction, A, n, beta, gamma, S, s, col, out, o):
-    """g(z) (``switched_kernel._rate``, the same operations; p = |z|ⁿ and log_z = log|z| from
+    """g(z) (``kernel._rate``, the same operations; p = |z|ⁿ and log_z = log|z| from
     ``_pow_log``, unused at z = 0) and into
     row ``o`` of ``out`` its total derivative g_z·S + ∂g/∂H at S's row ``s``, the branch's (A, n, β, γ)
     at columns ``col``..``col + 3``. (Rows of 2-D arrays, not views: a view costs two atomic reference
@@ -97,7 +97,7 @@ def _slopes(z, direction, n, beta, gamma):
 
 @numba.njit(cache=True, error_model="numpy")
 def _advance_z_sens(z, S, slot, dx, A, n, beta, gamma, z_s, attractor_rate, col, K):
-    """``switched_kernel._advance_z`` (the same operations on z) with row ``slot`` of S = ∂z/∂H updated
+    """``kernel._advance_z`` (the same operations on z) with row ``slot`` of S = ∂z/∂H updated
     in place, the branch's (A, n, β, γ) at columns ``col``..``col + 3``; K (5, d): work space (the four
     stages' derivatives, a stage's S in row 4)."""
     if dx == 0.0 or not np.isfinite(z):
@@ -172,7 +172,7 @@ def _advance_z_sens(z, S, slot, dx, A, n, beta, gamma, z_s, attractor_rate, col,
 
 @numba.njit(cache=True, error_model="numpy")
 def _hysteretic_sens_into(H, cols, t, x, v, split, z, dZ):
-    """``switched_kernel._hysteretic_into`` with the sensitivities: z of the active branch into ``z``
+    """``kernel._hysteretic_into`` with the sensitivities: z of the active branch into ``z``
     (L,) and ∂z/∂H into ``dZ`` (L, d), branch b's (A, n, β, γ) at columns ``cols[b]``..``cols[b] + 3``
     (d = 8, cols (0, 4); or d = 4, cols (0, 0) for one set shared by both branches). False as soon as
     z is not finite (``hysteretic_sensitivity`` checks ∂z/∂θ)."""

@@ -20,7 +20,7 @@ z_s = (A/(β+γ))^(1/n) relaxes at rate n·A/z_s per mm, which for n < 1 reaches
 Table 5; past ``_RK4_MAX_SUBSTEPS`` substeps an L-stable backward-Euler step (scalar Newton,
 bracketed) takes over so such parameter sets cost bounded time and do not go unstable. It also takes
 a loading piece that starts settled on its attractor (within 1e-2·z_s, more than 8 substeps of work:
-``switched_kernel._implicit``), where z only relaxes onto z_s.
+``kernel.takes_implicit``), where z only relaxes onto z_s.
 """
 
 from __future__ import annotations
