@@ -10,9 +10,9 @@ from bwbench.analysis.mcmc import ESS_MIN, R_HAT_MAX
 from bwbench.problems.hysteresis.report.posterior_draws import axis, parameters
 from bwbench.problems.hysteresis.report.posterior_tables import (
     LEVEL,
-    summary_against_truth,
     convergence_table,
     model_name,
+    summary_against_truth,
     write_inference_data,
 )
 from bwbench.render.format import number

@@ -19,9 +19,9 @@ from bwbench.problems.hysteresis.report.nested_section import PRIOR_TEXT, nested
 from bwbench.problems.hysteresis.report.posterior_draws import cached, parameters
 from bwbench.problems.hysteresis.report.posterior_tables import (
     LEVEL,
-    summary_against_truth,
     convergence_table,
     modes_table,
+    summary_against_truth,
 )
 from bwbench.render.format import number
 
