@@ -26,7 +26,6 @@ from functools import cached_property
 from pathlib import Path
 
 from bwbench.errors import UserError
-from bwbench.render.matplotlib_state import untouched
 
 
 @dataclass(frozen=True)
@@ -242,7 +241,7 @@ def compare(
     A study that is already complete in ``db`` is read, not run again. Raises ``UserError`` with the
     command line's message for bad input; runs that failed are in ``runs`` (``finished`` False).
     """
-    with untouched():  # the study code imports the report's figure modules (Agg, a theme)
+    with untouched():  # the study's report figures set their theme
         return _compare(
             config,
             specimens=specimens,
@@ -363,3 +362,10 @@ def _names(value):
     if value is None or isinstance(value, str):
         return value
     return ",".join(str(v) for v in value)
+
+
+def untouched():
+    """matplotlib's rcParams as they were after the call: the report's figures set their theme."""
+    import matplotlib
+
+    return matplotlib.rc_context()

@@ -23,15 +23,15 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
+import numpy as np
+import pandas as pd
+from cycler import cycler  # matplotlib's own dependency
+from matplotlib import patheffects
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
-matplotlib.use("Agg")  # files only: no display on test machines and CI
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from matplotlib import patheffects  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-
-from bwbench.render.labels import split_label  # noqa: E402,F401  (re-exported: figures import it from here)
+from bwbench.render.labels import split_label
 
 DPI = 110
 MAX_WIDTH_IN = 11.0  # 1,210 px at DPI: a report's column, shown at 100 %
@@ -268,18 +268,21 @@ SIZES: dict[Any, Any] = {
 
 def theme() -> None:
     """Seaborn's white grid (``SEABORN_WHITEGRID_NOTEBOOK``) with bwbench's ``SIZES``."""
-    plt.rcParams.update(SEABORN_WHITEGRID_NOTEBOOK)
+    matplotlib.rcParams.update(SEABORN_WHITEGRID_NOTEBOOK)
     deep = [matplotlib.colors.to_rgb(c) for c in SEABORN_DEEP]  # RGB tuples, as seaborn sets them
-    plt.rcParams["axes.prop_cycle"] = plt.cycler(color=deep)
+    matplotlib.rcParams["axes.prop_cycle"] = cycler(color=deep)
     named = matplotlib.colors.get_named_colors_mapping()  # "k", "b", ...: its cache is cleared on update
     for code, colour in SEABORN_COLOR_CODES.items():
         named[code] = matplotlib.colors.to_rgb(colour)
-    plt.rcParams.update(SIZES)
+    matplotlib.rcParams.update(SIZES)
 
 
 def figure(width: float, height: float, **kw):
-    """A constrained-layout figure, at most ``MAX_WIDTH_IN`` wide (``plt.subplots`` arguments in ``kw``)."""
-    return plt.subplots(figsize=(min(width, MAX_WIDTH_IN), height), layout="constrained", **kw)
+    """(figure, axes): a constrained-layout figure, at most ``MAX_WIDTH_IN`` wide (``Figure.subplots``
+    arguments in ``kw``). A ``Figure`` on its own Agg canvas, made directly, not through pyplot: no
+    backend is chosen for the process and no global list of figures grows."""
+    fig = canvas(width, height)
+    return fig, fig.subplots(**kw)
 
 
 def title(fig, text: str, **kw) -> None:
@@ -291,7 +294,9 @@ def title(fig, text: str, **kw) -> None:
 
 def canvas(width: float, height: float):
     """An empty constrained-layout figure, at most ``MAX_WIDTH_IN`` wide (for hand-made grids)."""
-    return plt.figure(figsize=(min(width, MAX_WIDTH_IN), height), layout="constrained")
+    fig = Figure(figsize=(min(width, MAX_WIDTH_IN), height), layout="constrained")
+    FigureCanvasAgg(fig)  # files only: the canvas draws into memory, whatever backend a notebook has
+    return fig
 
 
 def legend(fig, handles, ncol: int | None = None, title: str | None = None, loc: str = "below"):
@@ -366,7 +371,6 @@ def write_png(fig, png, synthetic_data: bool | str, rect=(0, 0.03, 1, 0.97)) -> 
 
     with replaced_whole(png) as partial:  # Ctrl-C while saving leaves the old figure or none, not half
         fig.savefig(partial, dpi=DPI)
-    plt.close(fig)
 
 
 def _make_room_below(fig, engine, mark_in: float) -> None:

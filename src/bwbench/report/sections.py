@@ -13,7 +13,7 @@ from bwbench.render import ecdf_figures, waterfall
 from bwbench.render import run_figures as figures
 from bwbench.render.floors import noise_floors
 from bwbench.render.format import evals_text, number, p_text
-from bwbench.render.palette import split_label
+from bwbench.render.labels import split_label
 from bwbench.report.recommend import ALPHA, ratio_text, rule
 from bwbench.report.verdict import TARGET
 

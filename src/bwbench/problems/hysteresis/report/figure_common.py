@@ -9,7 +9,7 @@ from bwbench.data import manifest
 from bwbench.models.switched import identifiable as fm
 from bwbench.models.switched import parameters as switched_parameters
 from bwbench.models.switched.parameters import LABELS, UNITS
-from bwbench.render.palette import split_label
+from bwbench.render.labels import split_label
 
 EDGE = 0.06  # values beyond a parameter's Table 5 range are drawn this far beyond it (fraction of the range)
 

@@ -20,7 +20,7 @@ from bwbench.models.switched import identifiable as fm
 from bwbench.models.switched import parameters as switched_parameters
 from bwbench.models.switched.kernel import PARAM_NAMES
 from bwbench.models.switched.parameters import LABELS, LOWER, UPPER
-from bwbench.render.palette import split_label
+from bwbench.render.labels import split_label
 
 TOLERANCE = 0.10  # good fits: final MSE within 10 % of the best known for the specimen
 
