@@ -87,10 +87,13 @@ def generate(args) -> int:
     from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder, writing
     from bwbench.datasets import mr_dataset, synthetic
 
-    out = args.out or (mr_dataset.DATASET_DIR if args.mr_damper else synthetic.SPECIMEN_DIR)
+    out = args.out or default_generate_folder(args.mr_damper)
     refuse_inputs_in_folder("--out", out, [synthetic.PAPER_PARAMETERS], (".csv", ".json"))
     check_folder("--out", out)
-    if args.out and not args.force:  # the default folder is the dataset's own: regenerated in place
+    from bwbench.datasets import shipped
+
+    # the default folder of a checkout is the dataset's own: regenerated in place; any other is a user's
+    if (args.out or shipped.CHECKOUT is None) and not args.force:
         from pathlib import Path
 
         names = mr_dataset.file_names() if args.mr_damper else synthetic.file_names()
@@ -143,3 +146,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--out", help="output folder (default: the dataset's folder in the repository)")
     p.add_argument("--force", action="store_true", help="replace files of the same names in --out")
     p.set_defaults(func=generate)
+
+
+def default_generate_folder(mr_damper: bool):
+    """Where ``data generate`` writes without ``--out``: the shipped dataset's own folder in a source
+    checkout (regenerated in place), else ``specimens/`` or ``mr_damper/`` in the current folder (an
+    installed bwbench's data are not to be rewritten)."""
+    from pathlib import Path
+
+    from bwbench.datasets import mr_dataset, shipped, synthetic
+
+    if shipped.CHECKOUT is not None:
+        return mr_dataset.DATASET_DIR if mr_damper else synthetic.SPECIMEN_DIR
+    return Path("mr_damper" if mr_damper else "specimens")

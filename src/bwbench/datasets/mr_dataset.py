@@ -22,10 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from bwbench.data.manifest import MANIFEST
-from bwbench.datasets import mr_damper
+from bwbench.datasets import mr_damper, shipped
 
-REPO = Path(__file__).resolve().parents[3]
-DATASET_DIR = REPO / "data" / "mr_damper"
+DATASET_DIR = shipped.MR_DAMPER
 SOURCE = "Spencer et al. (1997)'s phenomenological MR-damper model"
 NOTE = f"synthetic data generated from {SOURCE} (not measured)"
 SEED = 1997

@@ -35,12 +35,12 @@ import numpy as np
 
 from bwbench.data import strict_json
 from bwbench.data.manifest import MANIFEST
+from bwbench.datasets import shipped
 from bwbench.models.switched import simulation as model
 from bwbench.models.switched.kernel import PARAM_NAMES
 
-REPO = Path(__file__).resolve().parents[3]
-PAPER_PARAMETERS = REPO / "data" / "paper" / "identified_parameters.csv"
-SPECIMEN_DIR = REPO / "data" / "specimens"
+PAPER_PARAMETERS = shipped.PAPER_TABLES / "identified_parameters.csv"
+SPECIMEN_DIR = shipped.SPECIMENS
 SYNTHETIC_NOTE = "synthetic data generated from the paper's Tables 6–8 (raw curves not public)"
 
 

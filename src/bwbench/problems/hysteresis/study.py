@@ -252,10 +252,10 @@ class HysteresisProblem(ProblemType):
             return Path(recorded)
         if study.paths:
             return Path(next(iter(study.paths.values()))).parent
-        from bwbench.datasets.synthetic import REPO
+        from bwbench.datasets.shipped import working_root
 
         data = Path(study.settings.get("data", "data/specimens"))
-        return data if data.is_absolute() else REPO / data
+        return data if data.is_absolute() else working_root() / data
 
     def is_synthetic(self, study) -> str:
         """ "SYNTHETIC DATA (generated from <source>)" when a manifest marks the study's specimens

@@ -24,10 +24,11 @@ _TIME_TOLERANCE_S = 2e-6
 
 
 def default_data_dir() -> Path:
-    """The ``shared/benchmarks/bouc-wen`` folder beside the repository's folder."""
-    from bwbench.datasets.synthetic import REPO
+    """The ``shared/benchmarks/bouc-wen`` folder beside the repository's folder (beside the current
+    folder for an installed bwbench)."""
+    from bwbench.datasets.shipped import working_root
 
-    return REPO.parent / "shared" / "benchmarks" / "bouc-wen"
+    return working_root().parent / "shared" / "benchmarks" / "bouc-wen"
 
 
 # ---------------------------------------------------------------------------------------------
