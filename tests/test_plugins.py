@@ -62,7 +62,8 @@ def test_a_broken_problem_plugin_breaks_only_itself(monkeypatch):
     with pytest.raises(plugins.PluginError) as named:
         problems.get("bad-problem")
     assert str(named.value) == expected("problem", "bad-problem", "bwbench.problems")
-    assert problems.get("switched-bouc-wen").name == "switched-bouc-wen"
+    assert problems.get("hysteresis").name == "hysteresis"
+    assert problems.get("switched-bouc-wen") is problems.get("hysteresis")  # its former name still reads
 
 
 def test_a_plugin_of_the_wrong_type_is_named():

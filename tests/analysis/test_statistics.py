@@ -165,8 +165,11 @@ def test_chains_round_trip_in_unit_coordinates(study):
     assert chain.samples.shape == (300, 30, 14)
     assert chain.log_prob.shape == (300, 30)
     assert np.all((chain.samples >= 0) & (chain.samples <= 1))
-    physical = chain.physical(100)
+    from bwbench.models.switched.parameters import LOWER, UPPER
+
+    physical = chain.physical(lambda u: LOWER + u * (UPPER - LOWER), 100)
     assert physical.shape == (200 * 30, 14)
+    assert np.all((physical >= LOWER) & (physical <= UPPER))
 
 
 def test_load_refuses_missing_and_foreign_files(tmp_path):

@@ -23,10 +23,9 @@ import pandas as pd
 import bwbench.problems as problems
 from bwbench.data.input_files import not_regular
 from bwbench.data.manifest import load_manifest
+from bwbench.database import legacy
 from bwbench.database.plan import planned_from_config
 from bwbench.errors import UserError
-from bwbench.models.switched.kernel import PARAM_NAMES
-from bwbench.models.switched.parameters import LOWER, UPPER
 
 REQUIRED_TABLES = ("study", "runs", "traces")
 # Faults of the environment, not of a run (``bwbench.study.failures``): a stored error of these types
@@ -62,18 +61,12 @@ class Chain:
     def walkers(self) -> int:
         return int(self.samples.shape[1])
 
-    def physical(self, burn: int = 0, walkers=None, from_unit=None) -> np.ndarray:
-        """Samples after ``burn`` steps, flattened to (n, d), in physical units; ``walkers``: an
-        optional boolean mask of the walkers to keep; ``from_unit``: the problem's mapping from
-        unit coordinates (default: the switched model's linear Table 5 box)."""
+    def physical(self, from_unit, burn: int = 0, walkers=None) -> np.ndarray:
+        """Samples after ``burn`` steps, flattened to (n, d), in physical units by ``from_unit`` (the
+        problem's mapping from unit coordinates); ``walkers``: an optional boolean mask of the walkers
+        to keep."""
         kept = self.samples[burn:] if walkers is None else self.samples[burn:, np.asarray(walkers, bool)]
-        flat = kept.reshape(-1, self.samples.shape[2])
-        if from_unit is None and flat.shape[1] != len(LOWER):
-            raise UserError(
-                f"this chain samples {flat.shape[1]} coordinates, not the paper's 14: read it in physical "
-                "units with bwbench.load_study(db).posterior(specimen), or pass from_unit="
-            )
-        return LOWER + flat * (UPPER - LOWER) if from_unit is None else from_unit(flat)
+        return from_unit(kept.reshape(-1, self.samples.shape[2]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,8 +103,9 @@ class Study:
 
     @property
     def problem(self) -> str:
-        """The problem type's name (``switched-bouc-wen`` also for databases older than the key)."""
-        return self.settings.get("problem", problems.DEFAULT)
+        """The problem type's name (the hysteresis problem also for databases older than the key; a former
+        name is read as the current one)."""
+        return problems.current_name(self.settings.get("problem", problems.DEFAULT))
 
     @property
     def problem_type(self):
@@ -244,13 +238,11 @@ def read_runs(conn) -> pd.DataFrame:
     else:
         query = "SELECT * FROM runs"
     runs = pd.read_sql(query + " ORDER BY kind, specimen, optimizer, replicate", conn)
-    # The switched model's 14 parameters were columns before parameters lived only in params_json.
-    legacy = [c for c in PARAM_NAMES if c in runs]
     _numeric_columns(
         runs,
         [
             c
-            for c in ("nfev", "mse", "f_err", "rmse_N", "budget", "underpressure_MPa", *legacy, "replicate")
+            for c in ("nfev", "mse", "f_err", "rmse_N", "budget", *legacy.numeric_columns(runs), "replicate")
             if c in runs
         ],
     )  # replicate last: it names the run
@@ -259,35 +251,35 @@ def read_runs(conn) -> pd.DataFrame:
             f"{_run_name(runs[runs['replicate'].isna()].iloc[0])}, column replicate: empty: edited by hand?"
         )
     runs["replicate"] = runs["replicate"].astype(int)
-    if "problem" not in runs:  # written before the generic columns: a switched-model study
-        runs["problem"] = problems.DEFAULT
-        runs["params_json"] = runs["metrics_json"] = None
-    runs["problem"] = runs["problem"].fillna(problems.DEFAULT)
-    for column in ("model", "formulation", "variant"):
-        if column not in runs:  # written before the model columns
-            runs[column] = None
-    return _expand_json(runs)
+    return _expand_json(legacy.upgrade(runs, problems.DEFAULT))
 
 
 def _expand_json(runs: pd.DataFrame) -> pd.DataFrame:
-    """Add the parameters (``params_json``) and metrics (``metrics_json``) that are not columns yet
-    as float columns (NaN where absent or null): e.g. ``m`` … ``nu`` and ``test_multisine_erms_m``."""
+    """Add the parameters (``params_json``), metrics (``metrics_json``) and specimen facts
+    (``meta_json``) that are not columns yet as columns (NaN where absent or null): e.g. ``m`` … ``nu``,
+    ``test_multisine_erms_m``, ``material``."""
     new = {}
-    for column in ("params_json", "metrics_json"):
-        parsed = [_json_cell(row, column) for _, row in runs.iterrows()]
+    for column in ("params_json", "metrics_json", "meta_json"):
+        parsed = [_json_cell(row, column, numbers=column != "meta_json") for _, row in runs.iterrows()]
         for name in dict.fromkeys(k for d in parsed for k in d):
-            values = np.array([np.nan if d.get(name) is None else d[name] for d in parsed], dtype=float)
-            if name in runs and column == "params_json" and name in PARAM_NAMES:
-                # a legacy column (the 14 of the paper): rows written since fill it from params_json
-                runs[name] = runs[name].where(runs[name].notna(), values)
-            elif name not in runs and name not in new:
+            raw = [d.get(name) for d in parsed]
+            if all(isinstance(v, int) for v in raw):  # a count (a repeat): kept an integer
+                values = np.array(raw, dtype=np.int64)
+            elif all(v is None or isinstance(v, (int, float)) for v in raw):
+                values = np.array([np.nan if v is None else v for v in raw], dtype=float)
+            else:
+                values = np.array([None if v is None else v for v in raw], dtype=object)
+            if legacy.fill_from_json(runs, name, values):
+                continue  # a column of an old layout: rows written since fill it from the JSON
+            if name not in runs and name not in new:
                 new[name] = values
     return pd.concat([runs, pd.DataFrame(new, index=runs.index)], axis=1) if new else runs
 
 
-def _json_cell(row, column) -> dict:
-    """The JSON object of a run's ``column`` ({} when empty) whose values are numbers or null;
-    ``ValueError`` naming the run and column otherwise (a database edited by hand)."""
+def _json_cell(row, column, numbers: bool = True) -> dict:
+    """The JSON object of a run's ``column`` ({} when empty) whose values are numbers or null (with
+    ``numbers``; else also text); ``ValueError`` naming the run and column otherwise (a database edited
+    by hand)."""
     text = row[column]
     if not isinstance(text, str) or not text:
         return {}
@@ -303,6 +295,8 @@ def _json_cell(row, column) -> dict:
             "name -> number: edited by hand?"
         )
     for name, number in value.items():
+        if not numbers and isinstance(number, str):
+            continue
         if number is not None and (isinstance(number, bool) or not isinstance(number, (int, float))):
             raise ValueError(f"{_run_name(row)}, column {column}: {name} is {number!r}, not a number: edited by hand?")
     return value

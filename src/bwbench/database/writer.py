@@ -17,11 +17,12 @@ Schema (the report reads it; names are a contract):
   ``model``, ``formulation`` and ``variant`` (the label's bracket, NULL when the study has one
   variant), ``params_json`` (every parameter by name: no model's names are columns) and
   ``metrics_json`` (the problem's own metrics of the best point, e.g. the benchmark's test e_RMS;
-  null where not finite; NULL for a run that raised). ``state``, ``excitation``, ``material``,
-  ``underpressure_MPa``, ``repeat``, ``rmse_N`` are filled by the problems that have such values
-  (``ProblemType.record_columns``) and NULL otherwise. Databases written before the generic columns
-  existed get them (NULL) when a study is resumed; those written with the switched model's 14
-  parameters as columns still read (``bwbench.database.reader``), and new rows leave them NULL.
+  null where not finite; NULL for a run that raised), ``meta_json`` (what the problem knows of the
+  specimen, e.g. the paper's material, underpressure and repeat from a manifest). ``state``,
+  ``excitation``, ``rmse_N`` are filled by the problems that have such values
+  (``ProblemType.record_columns``) and NULL otherwise. Older layouts (no generic columns; the switched
+  model's 14 parameters, or material, underpressure and repeat, as columns) still read: the reader
+  knows them in one place (``bwbench.database.legacy``); a resumed study gains the new columns.
 - ``timings``: wall time (s), worker (``host:pid``) and finish time (UTC) of each run.
 - ``traces``: the best-so-far improvements (evaluation count, loss) of each run.
 - ``chains``: MCMC chains (float64, unit coordinates, shape (steps, walkers, dim)) of the posterior
@@ -47,7 +48,9 @@ from bwbench.database.timing import machine_description
 from bwbench.errors import UserError
 from bwbench.version import __version__
 
-GENERIC_COLUMNS = ("problem", "params_json", "metrics_json", "model", "formulation", "variant")  # any problem
+# any problem's: a problem's own facts about a specimen (the paper's material, underpressure, repeat)
+# live in meta_json, not in columns of every study's schema
+GENERIC_COLUMNS = ("problem", "params_json", "metrics_json", "model", "formulation", "variant", "meta_json")
 RUN_COLUMNS = (
     "kind",
     "specimen",
@@ -65,9 +68,6 @@ RUN_COLUMNS = (
     "message",
     "state",
     "excitation",
-    "material",
-    "underpressure_MPa",
-    "repeat",
     "options_json",
     *GENERIC_COLUMNS,
 )
@@ -81,9 +81,8 @@ CREATE TABLE IF NOT EXISTS study (key TEXT PRIMARY KEY, value TEXT);
 CREATE TABLE IF NOT EXISTS runs (
     {_KEY_SQL}, seed_entropy TEXT, status TEXT, error TEXT, budget INTEGER, nfev INTEGER,
     mse REAL, f_err REAL, rmse_N REAL, success INTEGER, message TEXT, state TEXT, excitation TEXT,
-    material TEXT, underpressure_MPa REAL, repeat INTEGER, options_json TEXT,
-    problem TEXT, params_json TEXT, metrics_json TEXT, model TEXT, formulation TEXT, variant TEXT,
-    {_PK_SQL});
+    options_json TEXT, problem TEXT, params_json TEXT, metrics_json TEXT, model TEXT, formulation TEXT,
+    variant TEXT, meta_json TEXT, {_PK_SQL});
 CREATE TABLE IF NOT EXISTS timings ({_KEY_SQL}, wall_s REAL, worker TEXT, finished_utc TEXT, {_PK_SQL});
 CREATE TABLE IF NOT EXISTS traces ({_KEY_SQL}, nfev INTEGER, mse REAL);
 CREATE INDEX IF NOT EXISTS traces_key ON traces (kind, specimen, optimizer, replicate);

@@ -37,9 +37,9 @@ __all__ = [
 ]
 
 ENTRY_POINT_GROUP = "bwbench.problems"
-DEFAULT = "switched-bouc-wen"
+DEFAULT = "hysteresis"
 _BUILTIN = {
-    "switched-bouc-wen": "bwbench.problems.hysteresis.study",
+    "hysteresis": "bwbench.problems.hysteresis.study",
     "bouc-wen-benchmark": "bwbench.problems.noel_schoukens.study",
 }
 
@@ -86,8 +86,17 @@ def only_in_this_process(name: str) -> bool:
     return REGISTRY.only_in_this_process(name)
 
 
+# Names problem types had before: stored databases and TOML files that use them still read.
+FORMER_NAMES = {"switched-bouc-wen": "hysteresis"}
+
+
+def current_name(name: str) -> str:
+    """``name``, or the name a problem type has now when ``name`` is one it had before."""
+    return FORMER_NAMES.get(name, name)
+
+
 def get(name: str) -> ProblemType:
-    """The problem type registered as ``name``: a built-in one by importing its module, a plug-in by
-    loading the installed plug-ins. ``UserError`` naming the known ones if there is none, or naming the
-    plug-in if it fails to load."""
-    return REGISTRY.lookup(name, names)
+    """The problem type registered as ``name`` (or under a former name, ``FORMER_NAMES``): a built-in
+    one by importing its module, a plug-in by loading the installed plug-ins. ``UserError`` naming the
+    known ones if there is none, or naming the plug-in if it fails to load."""
+    return REGISTRY.lookup(current_name(name), names)

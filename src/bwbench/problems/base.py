@@ -131,9 +131,14 @@ class ProblemType:
         return {}
 
     def record_columns(self, settings: dict, entry: SpecimenEntry, result=None) -> dict:
-        """Values for the store's fixed ``runs`` columns that this problem fills (e.g. state,
-        material, and with a finished ``result`` its named parameters); the store ignores names it
+        """Values for the store's fixed ``runs`` columns that this problem fills (e.g. state, model, and
+        with a finished ``result`` its RMSE); the store ignores names it
         has no column for. Called with ``result=None`` for what is known before the run."""
+        return {}
+
+    def specimen_meta(self, entry: SpecimenEntry) -> dict:
+        """What this problem knows of a run's specimen beyond its data (e.g. a manifest's material),
+        stored with the run (``meta_json``) and read back as columns of the runs table."""
         return {}
 
     def summary_columns(self, runs) -> dict:

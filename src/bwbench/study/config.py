@@ -7,7 +7,7 @@ Generic format (``studies/quick.toml`` is a worked example)::
     seed = 20261121           # study seed (non-negative integer)
     budget = 4100             # evaluations, identical for every backend
     seeds = 5                 # replicates per (specimen, backend)
-    problem = "switched-bouc-wen"   # the default; see `bwbench.problems`
+    problem = "hysteresis"    # the default (any hysteresis model; formerly "switched-bouc-wen"); see `bwbench.problems`
     # ... the problem's own keys (e.g. state, excitation, data)
 
     [specimens]               # the problem's own table: which data sets
@@ -15,7 +15,7 @@ Generic format (``studies/quick.toml`` is a worked example)::
     random = {}
     pso = { n_particles = 40 }
 
-    [validation]              # optional (switched-bouc-wen problem): held-out tests, never fitted
+    [validation]              # optional (hysteresis problem): held-out tests, never fitted
     files = ["held_out/*.csv"]  # every ranking run's fit predicts them; the report ranks by that error too
 
     [posterior]               # optional: the posterior, kept out of the ranking
@@ -158,6 +158,8 @@ def load_study_config(path, data=None) -> StudyConfig:
         fail("missing table [study]")
     study = document["study"]
     problem_name = study.get("problem", problems.DEFAULT)
+    if isinstance(problem_name, str):
+        problem_name = problems.current_name(problem_name)
     if not isinstance(problem_name, str) or problem_name not in problems.names():
         fail(f"[study] problem must be one of {', '.join(repr(n) for n in problems.names())}, got {problem_name!r}")
     problem_type = problems.get(problem_name)

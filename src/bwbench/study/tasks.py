@@ -190,6 +190,7 @@ def run_task(task: Task, threads: int = 1) -> dict:
         }
     problem_type = problems.get(task.problem)
     _fill(row, problem_type.record_columns(task.settings, task.entry, None))
+    row["meta_json"] = canonical_json(problem_type.specimen_meta(task.entry))
     trace, chain, transient = [], None, False
     # One thread per worker by default, numba's and BLAS/OpenMP's alike: the workers already fill the
     # cores, a BLAS-heavy backend's result must not depend on the thread count, and the wall time

@@ -1,5 +1,5 @@
 """A hysteresis model fitted to force-displacement specimens, as a study problem
-(``problem = "switched-bouc-wen"``, the default: the name is the paper's model, but any model of
+(``problem = "hysteresis"``, the default, formerly called "switched-bouc-wen": any model of
 ``bwbench models`` can be fitted and several compared).
 
 Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` / ``[validation]`` tables::
@@ -69,7 +69,7 @@ def mass_setting(fail, label: str, value):
 
 
 class HysteresisProblem(ProblemType):
-    name = "switched-bouc-wen"
+    name = "hysteresis"
     description = (
         "a hysteresis model (default: the paper's switched Bouc-Wen) fitted to force-displacement "
         "specimens (loss: MSE in N²)"
@@ -237,11 +237,14 @@ class HysteresisProblem(ProblemType):
             "model": model_name,
             "formulation": settings.get("formulation", "paper"),
             "variant": settings.get("variant"),
-            **entry.meta,
         }
         if result is not None:
             columns.update(rmse_N=result.rmse_N, **result.params)
         return columns
+
+    def specimen_meta(self, entry) -> dict:
+        """A manifest's facts of the specimen (material, underpressure_MPa, repeat), its digest left out."""
+        return {k: v for k, v in entry.meta.items() if k != "sha256"}
 
     # ------------------------------------------------------------------------------- report
     def data_dir(self, study, override=None) -> Path:

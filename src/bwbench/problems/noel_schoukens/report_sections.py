@@ -310,7 +310,7 @@ def section_posterior(doc, study):
         d = mcmc.chain_diagnostics(chain.samples, chain.acceptance_fraction, chain.log_prob)
         burn = chain.steps // 2
         stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
-        samples = chain.physical(burn, ~stuck, from_unit=bm.from_unit)
+        samples = chain.physical(bm.from_unit, burn, ~stuck)
         pairs = strongest_pairs(posterior_correlation(samples, list(NAMES)), 4)
         doc.table(
             pd.DataFrame(

@@ -122,7 +122,7 @@ def posterior(
     else:
         names = list(PARAM_NAMES if names is None else names)
         stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
-    samples = chain.physical(burn, ~stuck, from_unit=from_unit)
+    samples = chain.physical(from_unit, burn, ~stuck)
     if diagnostics is None:
         diagnostics = mcmc.convergence(chain.samples[:, ~stuck], names, burn)
     diagnostics = None if diagnostics is False else pd.DataFrame(diagnostics)
