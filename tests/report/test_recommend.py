@@ -229,7 +229,7 @@ def test_a_backend_worse_than_random_search_on_its_own_model_is_avoided():
 def test_the_box_states_a_formulation_effect_with_its_size():
     # every backend ends 0.1 % lower in the identifiable formulation on every run: significant, and
     # practically nothing; the box must say both
-    from bwbench.report.recommend import box
+    from bwbench.report.recommend import glance_items
 
     labels = {
         "lsq-trf [paper]": (1e-4, always(1.001, 100)),
@@ -242,7 +242,7 @@ def test_the_box_states_a_formulation_effect_with_its_size():
     runs, traces = tables(labels, seeds=6)
     rec = decide(runs, traces, noun="formulation")
     table, _ = statistics.ranking_table(runs, traces)
-    items = box(rec["verdict"], table.set_index("optimizer"), BUDGET, "formulation")
+    items = glance_items(rec["verdict"], table.set_index("optimizer"), BUDGET, "formulation")
     effect = next(i for i in items if i.startswith("**Formulation**"))
     assert "3 of 3 backends end at lower final losses" in effect
     assert "a median 0.1% lower" in effect and "practically equal (within the rule's 10%)" in effect

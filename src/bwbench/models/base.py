@@ -162,6 +162,31 @@ class Model:
             mse = np.mean((F - np.asarray(f, dtype=float)) ** 2, axis=1)
         return np.where(np.isfinite(mse), mse, np.inf)
 
+    def force_sensitivities(self, P, signal, state=None):
+        """(force (L,) N, ∂force/∂P (L, d)) of one direct parameter vector P, integrated together, for
+        exact Jacobians in the direct formulation; None when the model has none (callers then take
+        differences)."""
+        return None
+
+    @property
+    def has_force_sensitivities(self) -> bool:
+        return type(self).force_sensitivities is not Model.force_sensitivities
+
+    # -- a cheaper simulation for a fit's exploring searches (optional) ------------------------
+    # What ``exploring`` changes, in words, for the fit's message ("" for a model without one).
+    exploration_note = ""
+
+    def exploring(self, every: int = 1) -> Model:
+        """A copy of this model that simulates more cheaply (a looser tolerance, a smaller step budget)
+        for the local searches that explore before a fit's polish on the model itself; ``every``: the
+        record is kept every ``every``-th sample (a per-interval budget scales with it). A model without
+        one does not override it (``has_exploring``)."""
+        raise NotImplementedError
+
+    @property
+    def has_exploring(self) -> bool:
+        return type(self).exploring is not Model.exploring
+
     # -- identifiable formulation (optional) --------------------------------------------------
     def hysteretic_parameters(self, state=None) -> tuple:
         raise NotImplementedError

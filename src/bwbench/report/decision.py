@@ -13,7 +13,7 @@ import pandas as pd
 from bwbench.analysis import comparisons, statistics
 from bwbench.render.labels import variant_noun
 from bwbench.report import time_noise
-from bwbench.report.recommend import box, one_line, recommend
+from bwbench.report.recommend import glance_items, one_line, recommend
 from bwbench.report.verdict import TARGET, Verdict
 
 
@@ -58,9 +58,9 @@ class StudyDecision:
         text = one_line(self.verdict, self.table.set_index("optimizer"), self.budget)
         return (f"{_capital(self.provisional)}: " if self.provisional else "") + text
 
-    def box(self) -> list[str]:
+    def glance_items(self) -> list[str]:
         """The report's box: what to use, how reliable and fast, what is tied, what to avoid."""
-        return box(self.verdict, self.table.set_index("optimizer"), self.budget, self.noun, self.facts)
+        return glance_items(self.verdict, self.table.set_index("optimizer"), self.budget, self.noun, self.facts)
 
     def ranking(self) -> pd.DataFrame:
         """The ranking table with each label's role in the verdict (``verdict`` column)."""

@@ -262,7 +262,7 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     return " ".join(t for t in out if t)
 
 
-def box(verdict: Verdict, table, budget, noun: str | None, what: dict | None = None) -> list[str]:
+def glance_items(verdict: Verdict, table, budget, noun: str | None, what: dict | None = None) -> list[str]:
     """The recommendation at a glance, as bullets: what to use (``what``: label -> {"model": …,
     "formulation": …} as the runs recorded them), how reliable and how fast, the tied alternatives,
     what to avoid, and the variants' effect in one sentence."""

@@ -100,7 +100,7 @@ def recommendation(report) -> None:
     provisional = report.study.provisional
     if provisional:
         doc.p(f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished; this may change.")
-    doc.box(decision.box())
+    doc.box(decision.glance_items())
     doc.h(2, "How the recommendation is decided")
     doc.p(
         "The rule below is fixed in the code (`bwbench.report.verdict`) and applied to every study the same "

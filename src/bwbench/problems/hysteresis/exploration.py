@@ -24,9 +24,9 @@ def exploration(problem, decimate: bool = True):
     """A copy of ``problem`` (one file or joint) whose model is ``problem.model.exploring(k)`` and, for one
     oversampled record (``decimate``), every ``decimation(problem)``-th sample only; None when the model
     has no cheaper simulation."""
-    exploring = getattr(problem.model, "exploring", None)
-    if not callable(exploring):
+    if not problem.model.has_exploring:
         return None
+    exploring = problem.model.exploring
     cheaper = copy.copy(problem)
     if hasattr(problem, "parts"):
         cheaper.model = exploring()
@@ -59,7 +59,7 @@ def _joint_exploration(problem, cheaper, decimate: bool):
 
 def exploration_note(problem) -> str:
     """What the exploring copy changes, in words ("" when there is none)."""
-    note = str(getattr(problem.model, "exploration_note", ""))
+    note = problem.model.exploration_note
     k = getattr(problem, "decimated", 1)
     ks = [getattr(part, "decimated", 1) for part in getattr(problem, "parts", ())]
     if any(k > 1 for k in ks):
@@ -80,7 +80,7 @@ def decimation(problem) -> int:
     """Keep every k-th sample in the exploring searches: k so that ``MIN_SAMPLES_PER_CYCLE`` remain; 1
     for a problem without a linear solve, or where the model would start the shorter record from
     another initial state (at rest or in motion: ``model.initial_state``)."""
-    if getattr(problem, "design", None) is None or not hasattr(problem.model, "initial_state"):
+    if getattr(problem, "design", None) is None:
         return 1
     k = int(samples_per_cycle(problem.signal.v) // MIN_SAMPLES_PER_CYCLE)
     start = problem.model.initial_state(problem.signal, problem.state).split(" ")[0]

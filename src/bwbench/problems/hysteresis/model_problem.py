@@ -106,7 +106,7 @@ class DirectProblem(ModelFit):
     @property
     def jacobian_cost(self) -> int:
         """Plain evaluations one ``residual_jacobian`` is charged (0: the model has no sensitivities)."""
-        return int(self.model.sensitivity_cost) if hasattr(self.model, "force_sensitivities") else 0
+        return int(self.model.sensitivity_cost) if self.model.has_force_sensitivities else 0
 
     def residual_jacobian(self, params):
         """(model − measured force (L,) N, its Jacobian (L, d) in physical units) of one direct vector,
@@ -251,7 +251,7 @@ def coefficient_bounds_of(model, layout, signal, f, given: dict | None = None) -
         f,
         coefficient_units(layout),
         viscous_sign=getattr(model, "viscous_sign_bound", True),
-        model_bounds=model.coefficient_limits() if hasattr(model, "coefficient_limits") else None,
+        model_bounds=model.coefficient_limits(),
     )
     for name, (lo, hi) in (given or {}).items():
         bounds[name] = (float(lo), float(hi))
