@@ -161,7 +161,7 @@ def test_stiff_rows_go_to_the_scalar_kernel(specimen, population, monkeypatch):
     calls = []
     scalar = lockstep.kernel.hysteretic_batch_scalar
     monkeypatch.setattr(
-        lockstep.kernel, "_hysteretic_batch_scalar", lambda rows, *args: calls.append(len(rows)) or scalar(rows, *args)
+        lockstep.kernel, "hysteretic_batch_scalar", lambda rows, *args: calls.append(len(rows)) or scalar(rows, *args)
     )
     monkeypatch.setattr(lockstep.numba, "get_num_threads", lambda: 1)  # the dispatch is on the one-thread path
     lockstep.run_hysteretic(np.ascontiguousarray(H), *(np.ascontiguousarray(a) for a in (ex.t, ex.x, ex.v)), False)
