@@ -122,8 +122,6 @@ def posterior(
     else:
         names = list(PARAM_NAMES if names is None else names)
         if from_unit is None:  # the paper's 14 in the Table 5 box
-            from bwbench.models.switched.parameters import LOWER, UPPER
-
             from_unit = lambda u: LOWER + u * (UPPER - LOWER)  # noqa: E731
         stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
     samples = chain.physical(from_unit, burn, ~stuck)
