@@ -43,7 +43,7 @@ from bwbench.engine.registry import register
     batched=False,
 )
 def minimize(objective, *, rng, maxiter=1000, no_local_search=False):
-    from scipy.optimize import dual_annealing  # here: scipy.optimize costs ~0.5 s to import
+    from scipy.optimize import dual_annealing  # here: scipy.optimize is slow to import
 
     d = objective.dim
     penalty = WorstFinitePenalty(before_any_finite=np.inf)

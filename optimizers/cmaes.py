@@ -48,7 +48,7 @@ from bwbench.engine.registry import register
     },
 )
 def minimize(objective, *, rng, sigma0=0.3, popsize=None):
-    import cma  # here, not at module level: it pulls in matplotlib and scipy.stats (~1 s per worker)
+    import cma  # here, not at module level: it pulls in matplotlib and scipy.stats (slow to import in every worker)
 
     d = objective.dim
 

@@ -80,7 +80,7 @@ def minimize(
     tol=0.01,
     init="latinhypercube",
 ):
-    from scipy.optimize import differential_evolution  # here: scipy.optimize costs ~0.5 s to import
+    from scipy.optimize import differential_evolution  # here: scipy.optimize is slow to import
 
     d = objective.dim
 

@@ -111,7 +111,7 @@ def minimize(
             f"emcee: option n_walkers must be at least 2·d = {2 * d} on this {d}-parameter "
             f"problem (emcee's stretch move), got {n_walkers}"
         )
-    import emcee  # here, not at module level: it pulls in scipy.stats (~0.7 s for every command)
+    import emcee  # here, not at module level: it pulls in scipy.stats (slow to import for every command)
 
     W, K = (2 * d + 2 if n_walkers is None else n_walkers), ensembles
     log_prob = _LogProb(objective, n_data)

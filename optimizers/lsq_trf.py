@@ -146,7 +146,7 @@ def minimize(
     explore=True,
     fused=True,
 ):
-    from scipy.optimize import least_squares  # here: scipy.optimize costs ~0.5 s to import
+    from scipy.optimize import least_squares  # here: scipy.optimize is slow to import
 
     search = dict(
         least_squares=least_squares,
@@ -162,9 +162,9 @@ def minimize(
     cheaper = (
         objective.exploration(max(POLISH_MIN, int(POLISH_SHARE * objective.budget))) if stop_agree and explore else None
     )
-    # One BLAS thread: trf takes an SVD of the (L + d) × d Jacobian every iteration, 5 ms on one
-    # core and 95 ms with OpenBLAS's 2 threads on a busy 2-core machine (L ≈ 2,000, d = 14); and
-    # the run then does not depend on the machine's thread count.
+    # One BLAS thread: trf takes an SVD of the (L + d) × d Jacobian every iteration, small enough that
+    # BLAS's threads cost more than they save (many times more on a busy machine); and the run then
+    # does not depend on the machine's thread count.
     with blas_limits(1, user_api="blas"):
         if cheaper is None:
             return _restarts(objective, rng, search, stop_agree, agree_rtol, stop_on_arrival, agree_same_fit)

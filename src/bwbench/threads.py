@@ -64,7 +64,7 @@ _CONTROLLER: list = []  # [threadpoolctl's ThreadpoolController, len(sys.modules
 def blas_limits(threads: int, user_api: str | None = None):
     """``threadpoolctl.threadpool_limits(limits=threads, user_api=user_api)`` (a context manager, or
     call ``restore_original_limits()``) from a controller kept between calls: each new one reads every
-    library the process has loaded, ~1 ms (3 per fit). It is made again once modules were imported since:
+    library the process has loaded (a fit asks three times). It is made again once modules were imported since:
     a new BLAS or OpenMP pool arrives with the extension module that loads it."""
     from threadpoolctl import ThreadpoolController
 

@@ -228,7 +228,7 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--each",
         action="store_true",
-        help="several specimens: fit each on its own, in this one process (the libraries' ~1.4 s of "
+        help="several specimens: fit each on its own, in this one process (the libraries' "
         "start-up paid once); --out (and --plot) then name folders, holding NAME.json (NAME.png) per file",
     )
     parser.add_argument(

@@ -181,7 +181,7 @@ def _parse_header(path: str, header: str) -> tuple[str, list, int]:
 def _fast_parse(body: bytes, sep: str, n_columns: int) -> np.ndarray | None:
     if sep == ";":
         body = body.replace(b",", b".")  # with ';' as separator a comma can only be a decimal mark
-    # numpy's C reader (not pandas: importing pandas alone costs ~0.5 s of every command); a quoted
+    # numpy's C reader (not pandas: importing it would slow every command, docs/speed.md); a quoted
     # number or a comment is refused by the slow pass too, so none is accepted here.
     try:
         values = np.loadtxt(io.BytesIO(body), delimiter=sep, dtype=np.float64, ndmin=2, comments=None, encoding="utf-8")

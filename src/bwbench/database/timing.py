@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-IDLE_GAP_S = 60.0  # longer than any pause between two runs of one session (worker start-up is ~2 s)
+IDLE_GAP_S = 60.0  # longer than any pause between two runs of one session (a worker's start-up included)
 
 
 @dataclass(frozen=True)

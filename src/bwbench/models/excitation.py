@@ -94,7 +94,7 @@ def measured(t, x, v=None, a=None) -> Excitation:
 
 def fit_sine(t, x) -> SineFit:
     """Least-squares sine through the displacement record, started from its FFT peak."""
-    from scipy.optimize import least_squares  # here: scipy.optimize costs ~0.5 s to import
+    from scipy.optimize import least_squares  # here: scipy.optimize is slow to import
 
     t = np.asarray(t, dtype=float)
     x = np.asarray(x, dtype=float)

@@ -182,7 +182,7 @@ def palette(study, order=None) -> dict:
 
 # seaborn's ``set_theme(style="whitegrid", context="notebook")`` written out: its rcParams, its "deep"
 # colour cycle, and the colour codes it maps (b g r m y c to "deep6", k to dark grey). Importing seaborn
-# costs ~0.75 s (it imports scipy.stats), more than a Spencer fit of a 5,000-sample test, and its theme
+# imports scipy.stats, which costs a command more than a fit of a rig test (docs/speed.md), and its theme
 # was all bwbench took from it. ``tests/report/test_figure_look.py`` checks this against seaborn's own.
 # (seaborn's default image colormap, "rocket", is left out: it is registered by importing seaborn, and no
 # figure draws an image without naming its colormap.)
@@ -381,8 +381,8 @@ def _make_room_below(fig, engine, mark_in: float) -> None:
     leg = getattr(fig, "_bwbench_legend_below", None)
     if leg is not None:
         # The legend is measured as it stands (matplotlib picks the figure's renderer, whatever the
-        # backend: a notebook's may be pdf), not after drawing the whole figure (a draw of a
-        # 12,000-sample fit figure took ~0.5 s, for the legend's size alone).
+        # backend: a notebook's may be pdf), not after drawing the whole figure (a draw of a long
+        # record's fit figure costs far more than the legend's size is worth).
         width = fig.get_size_inches()[0] * fig.dpi
         # 6 % to spare: text grows a little more than the figure at the saving DPI (hinting)
         while leg.get_window_extent().width > 0.94 * width and leg._ncols > 1:  # noqa: SLF001

@@ -110,7 +110,7 @@ def in_pool(tasks, workers: int, threads: int = 1, run=run_task):
     early (or an exception while it waits) kills the workers rather than waiting for the runs in flight.
     """
     # spawn, not fork: numba's OpenMP threading layer kills a child forked from a process that has
-    # already run parallel code (a test session, a notebook). It costs each worker ~2.5 s of imports.
+    # already run parallel code (a test session, a notebook). Each worker pays the imports again.
     context = multiprocessing.get_context("spawn")
     pending, deaths = deque(tasks), Counter[tuple]()
     pool: list[_Worker] = []

@@ -359,7 +359,7 @@ def _run(H, t, x, v, split, mode, Z, P, a, f_meas, out):
         # Rows stiff enough for the attractor's rate alone to ask for this many RK4 substeps on the
         # record's longest sample interval go to the scalar kernel (the same bits): there the lanes of a
         # group differ in substeps and backward-Euler iterations from piece to piece, each round waits for
-        # its slowest lane, and the lockstep took up to 3× the scalar kernel's time on such groups.
+        # its slowest lane, and the lockstep would take longer than the scalar kernel on such groups.
         work = key * (float(np.max(np.abs(np.diff(x)))) if x.shape[0] > 1 else 0.0)
         stiff = work[order] > SCALAR_WORK
         if stiff.any():

@@ -9,7 +9,7 @@ import numpy as np
 def w_solve(Z, good, col, QT, r0, nw, want_residual, residual, RG, Qty):
     """The per-trajectory part of the solve for each row of Z (m, L): ``_w_row`` on each row, on
     numba's threads when there are enough rows for each of them to be worth a thread's start (on a
-    busy machine a parallel loop waits for a thread that has no core: ~10–100 ms per call), else
+    busy machine a parallel loop waits for a thread that has no core), else
     in this thread. Same results either way (the rows are independent)."""
     m = Z.shape[0]
     q = QT.shape[0]

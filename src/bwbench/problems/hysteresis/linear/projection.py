@@ -9,10 +9,9 @@ free columns X_F (those not held on a bound), β̂ the solved coefficients and r
 
 (the sum over the free w-columns k; D runs over every w-column, held ones with their bound value).
 X_FᵀX_F = R_FᵀR_F with R_F the triangular factor of the solve's R restricted to the free columns
-(X = Q·R with orthonormal Q: X_F = Q·R[:, F], re-triangularised by a small Householder QR). Written in
-numpy, the Jacobian was 0.7–1.1 ms per call on a 1,501-sample MR-damper test (boolean masks, einsum,
-scipy's triangular solves on 3 × 6 matrices) and the full solve of one row another 0.16–0.5 ms: as
-much as the simulation with sensitivities they project.
+(X = Q·R with orthonormal Q: X_F = Q·R[:, F], re-triangularised by a small Householder QR). Compiled,
+because written in numpy (boolean masks, einsum, triangular solves on 3 × 6 matrices) the projection
+cost as much as the simulation with sensitivities it projects (docs/speed.md).
 """
 
 from __future__ import annotations
