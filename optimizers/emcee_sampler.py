@@ -116,8 +116,8 @@ def minimize(
     W, K = (2 * d + 2 if n_walkers is None else n_walkers), ensembles
     log_prob = _LogProb(objective, n_data)
     notes, fixed, start_lp = [], {}, [None] * K
-    # each ensemble's own stream first, as before ensembles existed: a ranking run (one ensemble, walkers
-    # uniform in the box) draws exactly what it drew then
+    # each ensemble's own stream first: a ranking run (one ensemble, walkers uniform in the box) then
+    # draws the same whatever else the sampler draws later
     streams = [int(rng.integers(2**63)) for _ in range(K)]
     if start == "optima":
         from bwbench.optimizers.sampling import start as mcmc_start

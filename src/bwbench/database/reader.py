@@ -34,7 +34,6 @@ TRANSIENT = (OSError, MemoryError, ImportError)
 TRANSIENT_NAMES = frozenset(
     name for name, value in vars(builtins).items() if isinstance(value, type) and issubclass(value, TRANSIENT)
 )
-KEY = ["kind", "specimen", "optimizer", "replicate"]
 
 
 @dataclass(frozen=True, eq=False)

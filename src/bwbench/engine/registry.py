@@ -199,7 +199,7 @@ def resolve_options(backend_name: str, given: dict | None = None, *, label: str 
         raise UserError(
             f"{label}: unknown option(s) {', '.join(map(str, unknown))}; it takes {', '.join(known) or 'none'}"
         )
-    if not backend.options:  # untyped (defaults=): names only, values unchecked, as before typed options
+    if not backend.options:  # untyped (defaults=): names only, values unchecked
         return {**backend.defaults, **given}
     # The default goes through validate too: a fresh copy, so a backend may modify what it gets.
     return {

@@ -56,7 +56,7 @@ TABLE5_PLUS = {
 }
 # As the switched model's identifiable box (bwbench.models.switched.identifiable), except η: an MR
 # damper's sharp reversals want η well below −1 (β < 0, unloading faster than loading: −11.5 on a
-# measured-like Spencer damper test, where the old floor −2 ended on its edge), so as Spencer's box.
+# measured-like Spencer damper test, beyond a floor of −2), so as Spencer's box.
 XY_RANGE = (1e-4, 1e2)
 N_RANGE = (0.2, 10.75)
 ETA_RANGE = (-50.0, 1.0)

@@ -43,7 +43,6 @@ MEASURED_LABEL = "MEASURED DATA (files not marked synthetic)"  # what a figure o
 OKABE_ITO = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9", "#F0E442")
 LIGHT = {"#F0E442"}  # drawn with a dark edge
 RANDOM_COLOUR = "#404040"  # the baseline: dark grey, so it reads as the reference
-MARKERS = ("o", "s", "^", "D", "v", "P", "<", ">", "p", "h", "*", "d")
 RANDOM_MARKER = "X"
 # Each built-in backend's colour and marker, by name: the same in every report.
 BACKEND_LOOK = {

@@ -80,10 +80,10 @@ GAUGE_A = 300.0  # the published fits' A (docs/design.md#models-as-plug-ins): th
 # x_y: an MR damper yields within ~1e-3·a (Spencer's damper: 0.021 mm at ±15 mm); 10·a means no
 # yield within the stroke (a viscoelastic element). n ≥ 1: below it ż is not Lipschitz at z = 0 (a
 # limit of the model); the literature's fits lie in 1–4, but a measured test may want a sharper yield
-# (n = 5 ended on the old top edge), hence 10. η ≤ 1 is γ ≥ 0 (beyond it the unloading branch runs
+# (a box topped at n = 5 held fits on its edge), hence 10. η ≤ 1 is γ ≥ 0 (beyond it the unloading branch runs
 # away from saturation: a limit of the model); below, η < −1 (β < 0) unloads faster than it loads,
-# which measured MR dampers' sharp reversals ask for: fits of measured tests ended on the old −2 edge
-# on 29 of 30 tests and widening to −20 lowered their error, so the box reaches −50. v_y: yield
+# which measured MR dampers' sharp reversals ask for: a floor of −2 held fits of measured tests on
+# its edge on 29 of 30 tests and widening to −20 lowered their error, so the box reaches −50. v_y: yield
 # velocity from 1e-3·v to 10·v. r₀: Spencer's damper has 0.07–0.10; 1e-3–1e3 spans a series dashpot
 # from dominating to vanishing. κ₀ = k₀/c₁ ≥ 0 (k₀ is a spring), searched in log from
 # ``KAPPA0_FLOOR``·ω — the relaxation time (1 + r₀)/κ₀ is then longer than 10⁵ cycles: no spring for

@@ -15,8 +15,7 @@ state (the 2×2 Jacobian of the rates, for each θ_j: W applied to (S_y, S_w)): 
 own Jacobian has the coupling ∂(∂f/∂u·S)/∂u below that block diagonal, which a W-method may leave out
 at no loss of order. So S is the sensitivity of the ODE integrated to third order on the plain
 simulation's steps (not the derivative of the discrete steps): it agrees with central differences of
-the plain kernel to the integration tolerance. ``STATUS_NO_SENSITIVITY`` is kept for callers (the
-explicit integrator it was for needed a fallback at stiff corners; this one does not).
+the plain kernel to the integration tolerance.
 """
 
 from __future__ import annotations
@@ -59,7 +58,6 @@ from bwbench.models.spencer.kernel import (
     with_reciprocals,
 )
 
-STATUS_NO_SENSITIVITY = 3
 _XY, _N, _ETA, _VY, _R0, _K0, _INV_S, _INV_XY = range(8)  # θ, then ``with_reciprocals``' two
 _D = 6
 

@@ -83,12 +83,6 @@ def pivoted_qr(cols):
     return Q[:, :rank], R[:rank, :rank], perm, rank, scale
 
 
-def sine_acceleration(t, x):
-    """−ω²·(x − x₀) of the sine fitted to x(t) (mm/s²) when x is a sine within ``SINE_TOLERANCE``, else None."""
-    found = sine_test(t, x)
-    return None if found is None else found[0]
-
-
 def sine_test(t, x):
     """(−ω²·(x − x₀) over the whole record in mm/s², the ``SteadyPart`` it was judged on) when x is a sine
     within ``SINE_TOLERANCE`` — the whole record, or else its steady part: a rig ramps a sine test in
@@ -122,15 +116,10 @@ def _fitted_sine(t, x):
     return sine if misfit <= SINE_TOLERANCE * amplitude else None
 
 
-def informative_acceleration(signal) -> tuple[np.ndarray, int]:
-    """(ã, number of sine tests): ẍ of each record of ``signal`` (one, or its ``segments`` when it
-    stacks several), with a sine test's ẍ replaced by −ω²·(x − x₀) (module docstring)."""
-    a, sines, _ = _informative(signal)
-    return a, sines
-
-
 def _informative(signal) -> tuple[np.ndarray, int, list]:
-    """``informative_acceleration`` and the ramps each sine test was judged without (descriptions)."""
+    """(ã, number of sine tests, the ramps each sine test was judged without): ẍ of each record of
+    ``signal`` (one, or its ``segments`` when it stacks several), with a sine test's ẍ replaced by
+    −ω²·(x − x₀) (module docstring)."""
     a = np.array(signal.a, dtype=float)
     sines, ramps = 0, []
     for part in getattr(signal, "segments", None) or (slice(0, len(a)),):

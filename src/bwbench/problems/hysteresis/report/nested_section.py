@@ -11,7 +11,6 @@ from bwbench.problems.hysteresis.report.posterior_draws import axis, parameters
 from bwbench.problems.hysteresis.report.posterior_tables import (
     LEVEL,
     convergence_table,
-    model_name,
     summary_against_truth,
     write_inference_data,
 )
@@ -133,30 +132,6 @@ def nested_modes_table(pc) -> pd.DataFrame:
             row[axis(pc.problem, n, table)] = f"{number(mid, 3)} [{number(lo, 3)}, {number(hi, 3)}]"
         rows.append(row)
     return pd.DataFrame(rows)
-
-
-def evidence_table(chains) -> pd.DataFrame:
-    """``| specimen | model | ln Z | ± | ln B |``: each nested posterior's pooled ln Z, and the Bayes factor
-    (log) against the best model of the same specimen."""
-    from bwbench.analysis import nested
-
-    rows = [
-        {
-            "specimen": pc.chain.specimen,
-            "model": model_name(pc),
-            "ln Z": pc.nested["evidence"]["log_z"],
-            "±": pc.nested["evidence"]["err"],
-        }
-        for pc in chains
-        if pc.nested is not None
-    ]
-    if not rows:
-        return pd.DataFrame()
-    frame = pd.DataFrame(rows)
-    for _, group in frame.groupby("specimen", sort=False):
-        factors = nested.bayes_factors(dict(zip(group.index, group["ln Z"])))
-        frame.loc[group.index, "ln B against the best"] = [factors[i] for i in group.index]
-    return frame
 
 
 def nested_subsection(report, pc, rng, order):
