@@ -19,15 +19,15 @@ def study(tmp_path_factory):
 
 
 def test_holm_on_a_known_example():
-    assert statistics.holm([0.01, 0.04, 0.03]) == pytest.approx([0.03, 0.06, 0.06])
+    assert comparisons.holm([0.01, 0.04, 0.03]) == pytest.approx([0.03, 0.06, 0.06])
 
 
 def test_holm_is_monotone_capped_and_keeps_nan():
     # sorted 0.001, 0.4, 0.5 times 3, 2, 1 = 0.003, 0.8, 0.5; running maximum -> 0.003, 0.8, 0.8
-    adjusted = statistics.holm([0.5, np.nan, 0.001, 0.4])
+    adjusted = comparisons.holm([0.5, np.nan, 0.001, 0.4])
     assert np.isnan(adjusted[1])
     assert adjusted[[0, 2, 3]] == pytest.approx([0.8, 0.003, 0.8])
-    assert statistics.holm([0.6, 0.7]) == pytest.approx([1.0, 1.0])
+    assert comparisons.holm([0.6, 0.7]) == pytest.approx([1.0, 1.0])
 
 
 def test_ert_on_a_hand_computed_example():
