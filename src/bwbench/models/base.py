@@ -34,7 +34,24 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Parameter:
-    """One model parameter: its key (JSON, CSV column, ``--bounds``), unit and a label for figures."""
+    """One model parameter: its key, unit and a label for figures.
+
+    Parameters
+    ----------
+    name : str
+        The key of the parameter in result JSON, CSV columns and ``--bounds``.
+    unit : str, default "-"
+        Its unit in the specimen files' units (mm, s, N), "-" when dimensionless.
+    label : str, default ""
+        The label for figures (default: ``name``).
+    description : str, default ""
+        What the parameter means, in words.
+
+    Examples
+    --------
+    >>> Parameter("x_y", "mm", "x_y").text
+    'x_y (mm)'
+    """
 
     name: str
     unit: str = "-"
@@ -43,13 +60,40 @@ class Parameter:
 
     @property
     def text(self) -> str:
-        """Label with its unit for an axis, e.g. "x_y (mm)"; dimensionless ones get "(–)"."""
+        """Label with its unit for an axis, e.g. "x_y (mm)"; dimensionless ones get "(–)".
+
+        Returns
+        -------
+        str
+            The label (or the name when there is no label) followed by the unit in parentheses.
+        """
         return f"{self.label or self.name} ({'–' if self.unit in ('-', '') else self.unit})"
 
 
 @dataclass(frozen=True, eq=False)  # eq=False: comparing ndarray fields would raise
 class Box:
-    """A search box in physical units; ``log`` flags the coordinates searched uniformly in log."""
+    """A search box in physical units.
+
+    Parameters
+    ----------
+    names : tuple of str
+        The searched parameters, in order.
+    lower, upper : array_like of float
+        The box's bounds per name, in the parameters' physical units.
+    log : array_like of bool
+        Flags the coordinates searched uniformly in log (they need a positive lower bound).
+
+    Raises
+    ------
+    ValueError
+        When the four do not have one entry per name, or a log coordinate has a lower bound ≤ 0.
+
+    Examples
+    --------
+    >>> box = Box(("k", "c"), [1.0, 0.0], [100.0, 5.0], [True, False])
+    >>> box.from_unit([0.5, 0.5])
+    array([10. ,  2.5])
+    """
 
     names: tuple
     lower: np.ndarray
@@ -66,13 +110,35 @@ class Box:
             raise ValueError("a log-scaled coordinate needs a positive lower bound")
 
     def from_unit(self, U) -> np.ndarray:
-        """Unit coordinates (..., d) → physical units."""
+        """Map unit coordinates to physical units.
+
+        Parameters
+        ----------
+        U : array_like, shape (..., d)
+            Points in the unit box [0, 1]^d.
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., d)
+            The same points in physical units (log coordinates mapped in log10).
+        """
         lo, hi = self._ends()
         q = lo + np.asarray(U, dtype=float) * (hi - lo)
         return np.where(self.log, 10.0 ** np.where(self.log, q, 0.0), q)
 
     def to_unit(self, P) -> np.ndarray:
-        """Physical units (..., d) → unit coordinates; NaN for P ≤ 0 on a log coordinate."""
+        """Map physical units to unit coordinates; the inverse of ``from_unit``.
+
+        Parameters
+        ----------
+        P : array_like, shape (..., d)
+            Points in physical units.
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., d)
+            The same points in unit coordinates; NaN for P ≤ 0 on a log coordinate.
+        """
         lo, hi = self._ends()
         P = np.asarray(P, dtype=float)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -91,13 +157,30 @@ class Box:
 class LinearLayout:
     """The coefficients an identifiable formulation solves by least squares, F = Σ β_j·g_j.
 
-    ``names``/``units``: every coefficient, in the order results report them. ``fixed``: (name,
-    signal) for the columns that do not depend on θ, the signal one of "x" (mm), "v" (mm/s), "a"
-    (mm/s²), "1"; ``varying``: the name of the coefficient of the θ-dependent column. ``branched``:
-    the model switches its coefficients with the sign of ẋ, so each fixed column and the varying
-    one are split into a '+' (ẋ ≥ 0) and a '−' part, named with the suffix. ``mass``: the name of
-    an inertia coefficient m of ẍ (the inertia rule of ``linear_solve`` decides whether the data
-    can fit it), or None when the model has no inertia term.
+    Parameters
+    ----------
+    names : tuple of str
+        Every coefficient, in the order results report them.
+    units : dict
+        {coefficient: unit} of every coefficient.
+    fixed : tuple of (str, str)
+        (name, signal) for the columns that do not depend on θ, the signal one of "x" (mm), "v"
+        (mm/s), "a" (mm/s²), "1".
+    varying : str
+        The name of the coefficient of the θ-dependent column.
+    branched : bool, default False
+        The model switches its coefficients with the sign of ẋ, so each fixed column and the varying
+        one are split into a '+' (ẋ ≥ 0) and a '−' part, named with the suffix.
+    mass : str or None, default None
+        The name of an inertia coefficient m of ẍ (the inertia rule of ``linear_solve`` decides
+        whether the data can fit it), or None when the model has no inertia term.
+    labels : dict, default {}
+        {coefficient: label for figures}.
+
+    Examples
+    --------
+    >>> LinearLayout(("k", "c", "alpha"), {"k": "N/mm", "c": "N·s/mm", "alpha": "N"},
+    ...              fixed=(("k", "x"), ("c", "v")), varying="alpha")
     """
 
     names: tuple
@@ -110,7 +193,28 @@ class LinearLayout:
 
 
 class Model:
-    """Base class of a model plug-in; subclass it and fill in the methods your model has."""
+    """Base class of a model plug-in; subclass it and fill in the methods your model has.
+
+    The class attributes describe the model: ``name`` (registry key, ``--model NAME``), ``title``,
+    ``reference`` (where the equations come from), ``states`` (its state conventions, () when it has
+    none), ``direct_name`` ("direct", or "paper" for the switched model), ``default_formulation``,
+    ``viscous_sign_bound``, ``step_budget_stops`` and ``sensitivity_cost`` (see their comments).
+    Every method takes ``state``, the state convention (None: the model's first, see
+    ``check_state``). Signals are objects with attributes ``t, x, v, a`` (s, mm, mm/s, mm/s²),
+    forces are in N. The methods of the direct formulation are required; those of the identifiable
+    formulation and the checks of a fit are optional, with the defaults documented on each.
+
+    Examples
+    --------
+    >>> class Dashpot(Model):
+    ...     name = "dashpot"
+    ...     def direct_parameters(self, state=None):
+    ...         return (Parameter("c", "N·s/mm", "c"),)
+    ...     def direct_box(self, signal, f, state=None):
+    ...         return Box(("c",), [1e-3], [1e3], [True])
+    ...     def force_batch(self, P, signal, state=None):
+    ...         return np.asarray(P)[:, :1] * signal.v
+    """
 
     name = "model"
     title = ""
@@ -128,15 +232,43 @@ class Model:
 
     @property
     def formulations(self) -> tuple:
-        """The formulations this model can be fitted in: its direct one, and "identifiable" if it has one."""
+        """The formulations this model can be fitted in: its direct one, and "identifiable" if it has one.
+
+        Returns
+        -------
+        tuple of str
+            ``(direct_name,)`` or ``(direct_name, "identifiable")``.
+        """
         return (self.direct_name, "identifiable") if self.has_linear_part else (self.direct_name,)
 
     @property
     def has_linear_part(self) -> bool:
+        """Whether the model has the identifiable formulation (it overrides ``trajectories``).
+
+        Returns
+        -------
+        bool
+        """
         return type(self).trajectories is not Model.trajectories
 
     def check_state(self, state):
-        """The state convention to use: ``state`` if the model has it, else None (models without any)."""
+        """The state convention to use.
+
+        Parameters
+        ----------
+        state : str or None
+            The convention asked for; None for the model's first.
+
+        Returns
+        -------
+        str or None
+            ``state`` (or the model's first) if the model has it, else None (models without any).
+
+        Raises
+        ------
+        ValueError
+            When ``state`` is not one of ``states``.
+        """
         if not self.states:
             return None
         if state is None:
@@ -147,16 +279,76 @@ class Model:
 
     # -- direct formulation -------------------------------------------------------------------
     def direct_parameters(self, state=None) -> tuple:
+        """The published parameters of the direct formulation (required).
+
+        Parameters
+        ----------
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        tuple of Parameter
+            Names, units and labels, in the order of the rows of ``P``.
+        """
         raise NotImplementedError
 
     def direct_box(self, signal, f, state=None) -> Box:
+        """The search box of the direct formulation, scaled from the data (required).
+
+        Parameters
+        ----------
+        signal : object
+            The excitation: attributes ``t, x, v, a`` (s, mm, mm/s, mm/s²).
+        f : array_like
+            The measured force (N).
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        Box
+        """
         raise NotImplementedError
 
     def force_batch(self, P, signal, state=None) -> np.ndarray:
+        """Simulate the force of m parameter sets (required).
+
+        Parameters
+        ----------
+        P : numpy.ndarray, shape (m, d)
+            Direct parameters, one set per row, in physical units.
+        signal : object
+            The excitation: attributes ``t, x, v, a`` (s, mm, mm/s, mm/s²), L samples.
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        numpy.ndarray, shape (m, L)
+            The forces (N); rows of +inf where the model blows up, never NaN, never an exception.
+        """
         raise NotImplementedError
 
     def mse_batch(self, P, signal, f, state=None) -> np.ndarray:
-        """MSE (N²) of each row of P against the measured force f; +inf where the model blows up."""
+        """MSE of each row of P against the measured force.
+
+        Parameters
+        ----------
+        P : numpy.ndarray, shape (m, d)
+            Direct parameters, one set per row.
+        signal : object
+            The excitation (attributes ``t, x, v, a``).
+        f : array_like, shape (L,)
+            The measured force (N).
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        numpy.ndarray, shape (m,)
+            The MSE (N²) per row; +inf where the model blows up.
+        """
         F = self.force_batch(P, signal, state)
         with np.errstate(invalid="ignore", over="ignore"):
             mse = np.mean((F - np.asarray(f, dtype=float)) ** 2, axis=1)
@@ -189,15 +381,68 @@ class Model:
 
     # -- identifiable formulation (optional) --------------------------------------------------
     def hysteretic_parameters(self, state=None) -> tuple:
+        """The nonlinear parameters θ searched in the identifiable formulation (optional).
+
+        Parameters
+        ----------
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        tuple of Parameter
+        """
         raise NotImplementedError
 
     def hysteretic_box(self, signal, f, state=None) -> Box:
+        """The search box of θ, scaled from the data (optional, with ``hysteretic_parameters``).
+
+        Parameters
+        ----------
+        signal : object
+            The excitation (attributes ``t, x, v, a``).
+        f : array_like
+            The measured force (N).
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        Box
+        """
         raise NotImplementedError
 
     def linear_layout(self, state=None) -> LinearLayout:
+        """Which coefficients β the identifiable formulation solves, and their columns (optional).
+
+        Parameters
+        ----------
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        LinearLayout
+        """
         raise NotImplementedError
 
     def trajectories(self, theta, signal, state=None) -> np.ndarray:
+        """The θ-dependent column of m θ rows (optional: a model that has it has the identifiable formulation).
+
+        Parameters
+        ----------
+        theta : numpy.ndarray, shape (m, d)
+            Hysteretic parameters, one set per row.
+        signal : object
+            The excitation (attributes ``t, x, v, a``), L samples.
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        numpy.ndarray, shape (m, L)
+            The column per row; rows of +inf on blow-up.
+        """
         raise NotImplementedError
 
     # What one simulation with its sensitivities (``trajectory_sensitivities``) costs, in plain
@@ -206,87 +451,282 @@ class Model:
     sensitivity_cost = 0
 
     def trajectory_sensitivities(self, theta, signal, state=None):
-        """(the θ-dependent column z (L,), ∂z/∂θ (L, d)) of one θ row (d,), integrated together; None
-        when the model has no sensitivities, or where they could not be had (then callers take
-        differences); (z all +inf, None) where the simulation itself did not finish (blow-up, step
-        budget), so the plain one would not either: callers need not run it."""
+        """The θ-dependent column and its sensitivities of one θ row, integrated together (optional).
+
+        Parameters
+        ----------
+        theta : numpy.ndarray, shape (d,)
+            One set of hysteretic parameters.
+        signal : object
+            The excitation (attributes ``t, x, v, a``), L samples.
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        tuple of (numpy.ndarray, numpy.ndarray) or None
+            (z of shape (L,), ∂z/∂θ of shape (L, d)); None when the model has no sensitivities, or
+            where they could not be had (then callers take differences); (z all +inf, None) where the
+            simulation itself did not finish (blow-up, step budget), so the plain one would not
+            either: callers need not run it. Default: None.
+        """
         return None
 
     def to_direct(self, theta, coef: dict, state=None):
-        """The direct parameters (a vector) of the same loops as (θ, coefficients by name), or None when
-        there are none. Coefficients the direct parameters cannot hold (an inertia other than the
-        model's, a constant force offset) are left out: results report them beside."""
+        """The direct parameters of the same loops as an identifiable (θ, coefficients) (optional).
+
+        Coefficients the direct parameters cannot hold (an inertia other than the model's, a constant
+        force offset) are left out: results report them beside.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray, shape (d,)
+            The hysteretic parameters.
+        coef : dict
+            The solved coefficients by name.
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        numpy.ndarray or None
+            The direct parameter vector, or None when there is none (the default).
+        """
         return None
 
     def from_direct(self, P, state=None):
-        """(θ, coefficients by name) of one direct parameter vector P; the inverse of ``to_direct``."""
+        """The identifiable form of one direct parameter vector; the inverse of ``to_direct``.
+
+        Parameters
+        ----------
+        P : numpy.ndarray, shape (d,)
+            The direct parameters.
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        tuple of (numpy.ndarray, dict)
+            (θ, coefficients by name).
+        """
         raise NotImplementedError
 
     # -- physical limits (optional) -------------------------------------------------------------
     def coefficient_limits(self, state=None) -> dict:
-        """{solved coefficient: (lower, upper, why)}: the physical limits of the coefficients the
-        identifiable formulation solves, applied (``linear_bounds.physical_bounds``) when the measured
-        loops dissipate energy; ``why`` says what the limit means. {} when the model has none."""
+        """The physical limits of the coefficients the identifiable formulation solves (optional).
+
+        They are applied (``linear_bounds.physical_bounds``) when the measured loops dissipate energy.
+
+        Parameters
+        ----------
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        dict
+            {solved coefficient: (lower, upper, why)}, ``why`` saying what the limit means; {} when
+            the model has none (the default).
+        """
         return {}
 
     def parameter_limits(self, state=None) -> dict:
-        """{searched parameter: {"lower" | "upper": why}}: the search-box edges that are physical limits
-        (a spring that cannot be negative), not search limits: a fit on one is a finding about the model
-        or the data, not a box to widen. {} when the model has none."""
+        """The search-box edges that are physical limits, not search limits (optional).
+
+        A spring that cannot be negative, say: a fit on one is a finding about the model or the data,
+        not a box to widen.
+
+        Parameters
+        ----------
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        dict
+            {searched parameter: {"lower" | "upper": why}}; {} when the model has none (the default).
+        """
         return {}
 
     def plausibility(self, values: dict, signal, state=None) -> list:
-        """[(parameter, value, unit, meaning, verdict or "")] for a fit's ``values`` (every reported
-        parameter by name) on the excitation ``signal``: what each fitted parameter means physically and,
-        where it is implausible, why (verdict). [] when the model has no such table."""
+        """What each fitted parameter means physically and, where it is implausible, why (optional).
+
+        Parameters
+        ----------
+        values : dict
+            Every reported parameter of a fit, by name.
+        signal : object
+            The excitation (attributes ``t, x, v, a``).
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        list of tuple
+            [(parameter, value, unit, meaning, verdict or "")]; [] when the model has no such table
+            (the default).
+        """
         return []
 
     # -- checks of a fit (optional) -----------------------------------------------------------
     def viscous_coefficients(self, values: dict, state=None) -> dict | None:
-        """∂F/∂ẋ (N·s/mm) of a fit whose parameters are ``values`` (by name, any formulation), per
-        branch ({"+": .., "-": ..} for a model that switches with the sign of ẋ, else {"": ..}); None
-        when the model cannot say. Used to turn a velocity error into a force error."""
+        """∂F/∂ẋ of a fit, per branch: used to turn a velocity error into a force error (optional).
+
+        Parameters
+        ----------
+        values : dict
+            The fit's parameters by name, any formulation.
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        dict or None
+            ∂F/∂ẋ (N·s/mm) per branch ({"+": .., "-": ..} for a model that switches with the sign of
+            ẋ, else {"": ..}); None when the model cannot say (the default).
+        """
         return None
 
     def initial_state(self, signal, state=None) -> str:
-        """Which state the model starts the record ``signal`` from, in words ("" when the model does not
-        say): the fit's result records it."""
+        """Which state the model starts the record from, in words: the fit's result records it (optional).
+
+        Parameters
+        ----------
+        signal : object
+            The excitation (attributes ``t, x, v, a``).
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        str
+            The description; "" when the model does not say (the default).
+        """
         return ""
 
     def linear_branches(self, theta, trajectory, signal, state=None) -> dict:
-        """{branch: True when the fitted branch is linear in x (no yield within the stroke)} for the
-        identifiable θ and its trajectory; {} when the model has no such notion."""
+        """Which fitted branches are linear in x, no yield within the stroke (optional).
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            The identifiable θ.
+        trajectory : numpy.ndarray
+            Its θ-dependent column.
+        signal : object
+            The excitation (attributes ``t, x, v, a``).
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        dict
+            {branch: True when the branch is linear}; {} when the model has no such notion (the default).
+        """
         return {}
 
     def linear_limits(self, state=None) -> dict:
-        """{branch: {identifiable parameter name: value}}: for each branch (the keys of
-        ``linear_branches``), the values of its shape parameters that make it linear until it yields,
-        whatever its other parameters — what a posterior holds fixed when the data cannot tell the
-        branch's shape from that (a reduced model, ``bwbench.optimizers.sampling.reduce``); {} when the
-        model has no such notion."""
+        """The shape parameters that make each branch linear until it yields (optional).
+
+        For each branch (the keys of ``linear_branches``), the values of its shape parameters that
+        make it linear until it yields, whatever its other parameters — what a posterior holds fixed
+        when the data cannot tell the branch's shape from that (a reduced model,
+        ``bwbench.optimizers.sampling.reduce``).
+
+        Parameters
+        ----------
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        dict
+            {branch: {identifiable parameter name: value}}; {} when the model has no such notion (the
+            default).
+        """
         return {}
 
     def yield_parameters(self, state=None) -> dict:
-        """{branch: identifiable parameter name} of the parameter that sets where a branch of
-        ``linear_limits`` yields: a posterior holds it at the top of its box (the branch never yields
-        within the stroke) when the data cannot tell that apart either; {} when the model has none."""
+        """The parameter that sets where each branch of ``linear_limits`` yields (optional).
+
+        A posterior holds it at the top of its box (the branch never yields within the stroke) when
+        the data cannot tell that apart either.
+
+        Parameters
+        ----------
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        dict
+            {branch: identifiable parameter name}; {} when the model has none (the default).
+        """
         return {}
 
     def reduced_gauge(self, held, state=None) -> set:
-        """Names of the identifiable parameters (sampled or solved) whose values a reduced model with
-        ``held`` (names) held fixed puts in its own gauge: they trade with a held one along a direction
-        the data do not see, so they cannot be compared with a truth or with fits of the full model."""
+        """The identifiable parameters a reduced model puts in its own gauge (optional).
+
+        They trade with a held one along a direction the data do not see, so they cannot be compared
+        with a truth or with fits of the full model.
+
+        Parameters
+        ----------
+        held : iterable of str
+            The names held fixed by the reduced model.
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        set of str
+            Names of identifiable parameters (sampled or solved); empty by default.
+        """
         return set()
 
     def symmetries(self, params, state=None) -> list:
-        """The exact symmetries of the direct formulation at ``params``: a list of (name, orbit), orbit(s)
-        giving the direct parameters moved by the scale s > 0 (s = 1: ``params``) with the force
-        unchanged; [] when the model has none (or none is known)."""
+        """The exact symmetries of the direct formulation at ``params`` (optional).
+
+        Parameters
+        ----------
+        params : numpy.ndarray
+            Direct parameters.
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        list of (str, callable)
+            (name, orbit), ``orbit(s)`` giving the direct parameters moved by the scale s > 0 (s = 1:
+            ``params``) with the force unchanged; [] when the model has none or none is known (the
+            default).
+        """
         return []
 
 
 def amplitude(x) -> float:
-    """Half the displacement range (mm): the scale of every displacement-like bound."""
+    """Half the displacement range: the scale of every displacement-like bound.
+
+    Parameters
+    ----------
+    x : array_like
+        The displacement (mm).
+
+    Returns
+    -------
+    float
+        Half its range (mm).
+
+    Raises
+    ------
+    ValueError
+        When the displacement does not move.
+
+    Examples
+    --------
+    >>> amplitude([-2.0, 0.0, 3.0])
+    2.5
+    """
     a = 0.5 * float(np.ptp(np.asarray(x, dtype=float)))
     if not a > 0:
         raise ValueError("the displacement does not move: no scale for the search box")
@@ -294,7 +734,23 @@ def amplitude(x) -> float:
 
 
 def velocity_scale(signal) -> float:
-    """The largest |ẋ| of the excitation (mm/s): the scale of every velocity-like bound."""
+    """The largest |ẋ| of the excitation: the scale of every velocity-like bound.
+
+    Parameters
+    ----------
+    signal : object
+        The excitation, with its velocity ``v`` (mm/s).
+
+    Returns
+    -------
+    float
+        max |ẋ| (mm/s).
+
+    Raises
+    ------
+    ValueError
+        When the velocity is zero everywhere.
+    """
     v = float(np.max(np.abs(np.asarray(signal.v, dtype=float))))
     if not v > 0:
         raise ValueError("the velocity is zero everywhere: no scale for the search box")
