@@ -48,11 +48,34 @@ _INVALID = object()
 
 
 class OptionError(UserError, ValueError):
-    """A backend option with a value it cannot take: one line naming backend, option, value, range."""
+    """A backend option with a value it cannot take: one line naming backend, option, value, range.
+
+    A ``UserError`` (the command line prints it as one line, exit status 2) and a ``ValueError``.
+
+    Examples
+    --------
+    >>> raise OptionError("paper-ga: option population must be an integer in [2, 100000], got 'abc'")
+    """
 
 
 def show(value) -> str:
-    """A value as the user wrote it: strings quoted, the rest as JSON (true, null, [0.5, 1])."""
+    """A value as the user wrote it: strings quoted, the rest as JSON.
+
+    Parameters
+    ----------
+    value : object
+        Any option value.
+
+    Returns
+    -------
+    str
+        ``repr`` of a string, else the JSON text (true, null, [0.5, 1]), else ``repr``.
+
+    Examples
+    --------
+    >>> show(True), show(None), show("best"), show([0.5, 1])
+    ('true', 'null', "'best'", '[0.5, 1]')
+    """
     if isinstance(value, str):
         return repr(value)
     try:
@@ -92,7 +115,18 @@ def _interval(minimum, maximum, exclusive_minimum=False, exclusive_maximum=False
 
 
 class Option:
-    """Base of the declarations: subclasses define ``_normalise``, ``_expected``, ``_summary``, ``_edges``."""
+    """Base of the option declarations.
+
+    Subclasses define ``_normalise``, ``_expected``, ``_summary`` and ``_edges``.
+
+    Parameters
+    ----------
+    default : object
+        The value when the option is not given; checked when declared (a wrong default raises
+        ``OptionError`` at import, not in a user's run).
+    none : str or None, default None
+        What None means, when None is accepted (JSON ``null``); None: None is refused.
+    """
 
     def __init__(self, default, *, none: str | None = None):
         self.none = none  # what None means, when None is accepted
@@ -100,6 +134,30 @@ class Option:
         self.default = self.validate(default, "the declared default")
 
     def validate(self, value, label: str):
+        """Check a value against the declaration and normalise it.
+
+        Parameters
+        ----------
+        value : object
+            The value given (from JSON or TOML).
+        label : str
+            What names the option in the message, e.g. ``paper-ga: option population``.
+
+        Returns
+        -------
+        object
+            The value normalised (an int stays an int where a float is expected; a pair becomes a list).
+
+        Raises
+        ------
+        OptionError
+            ``<label> must be <what it takes>, got <value>``.
+
+        Examples
+        --------
+        >>> Int(40, minimum=2).validate(100, "paper-ga: option population")
+        100
+        """
         if value is None and self.none is not None:
             return None
         normalised = self._normalise(value)
@@ -108,16 +166,36 @@ class Option:
         return normalised
 
     def expected(self) -> str:
-        """What the option takes, as the end of "must be ...": e.g. ``an integer ≥ 2``."""
+        """What the option takes, as the end of "must be ...".
+
+        Returns
+        -------
+        str
+            E.g. ``an integer ≥ 2``, with what None means where it is accepted.
+        """
         return self._expected() + (f" (or null: {self.none})" if self.none is not None else "")
 
     def describe(self) -> str:
-        """Type, range and default, e.g. ``int in [2, 1000] or null (cma's default), default null``."""
+        """Type, range and default, as ``bwbench optimizers`` shows them.
+
+        Returns
+        -------
+        str
+            E.g. ``int in [2, 1000] or null (cma's default), default null``.
+        """
         text = self._summary() + (f" or null ({self.none})" if self.none is not None else "")
         default = self.default if isinstance(self.default, str) else show(self.default)  # as choices are listed
         return f"{text}, default {default}"
 
     def edges(self) -> list:
+        """Valid values at the edges of the range, which ``bwbench.testing.check_options_end`` runs.
+
+        Returns
+        -------
+        list
+            Each bound, a value just inside it, a large value when there is no maximum, every choice,
+            the default, None where allowed; no repeats.
+        """
         values = [*self._edges(), self.default] + ([None] if self.none is not None else [])
         unique: list = []
         for v in values:  # keep order, drop repeats
@@ -139,7 +217,22 @@ class Option:
 
 
 class Int(Option):
-    """An integer in [minimum, maximum] (either bound may be None: unbounded)."""
+    """An integer option in [minimum, maximum].
+
+    Parameters
+    ----------
+    default : int or None
+        The value when the option is not given.
+    minimum, maximum : int or None, default None
+        The inclusive bounds; None: unbounded on that side.
+    none : str or None, default None
+        What None means, when None is accepted.
+
+    Examples
+    --------
+    >>> Int(40, minimum=2, maximum=10_000).describe()
+    'int in [2, 10000], default 40'
+    """
 
     def __init__(self, default, minimum: int | None = None, maximum: int | None = None, *, none=None):
         self.minimum, self.maximum = minimum, maximum
@@ -169,7 +262,24 @@ class Int(Option):
 
 
 class Float(Option):
-    """A finite number in the interval the bounds give (each inclusive unless ``exclusive_...``)."""
+    """A finite number option in the interval the bounds give.
+
+    Parameters
+    ----------
+    default : float or None
+        The value when the option is not given.
+    minimum, maximum : float or None, default None
+        The bounds; None: unbounded on that side.
+    exclusive_minimum, exclusive_maximum : bool, default False
+        Exclude that bound (each is inclusive otherwise).
+    none : str or None, default None
+        What None means, when None is accepted.
+
+    Examples
+    --------
+    >>> Float(0.25, minimum=0.0, maximum=1.0, exclusive_minimum=True).expected()
+    'a number in (0, 1]'
+    """
 
     def __init__(
         self,
@@ -219,7 +329,22 @@ class Float(Option):
 
 
 class Choice(Option):
-    """One of a fixed set of values (strings, usually)."""
+    """An option that is one of a fixed set of values (strings, usually).
+
+    Parameters
+    ----------
+    default : object
+        The value when the option is not given.
+    choices : iterable
+        The values accepted (compared by type and value: True is not 1).
+    none : str or None, default None
+        What None means, when None is accepted.
+
+    Examples
+    --------
+    >>> Choice("best", ("best", "random")).describe()
+    'one of best, random, default best'
+    """
 
     def __init__(self, default, choices, *, none=None):
         self.choices = tuple(choices)
@@ -240,7 +365,20 @@ class Choice(Option):
 
 
 class Bool(Option):
-    """true or false (not 0 or 1: a switch written as a number is more likely a mistake)."""
+    """A switch: true or false (not 0 or 1: a switch written as a number is more likely a mistake).
+
+    Parameters
+    ----------
+    default : bool or None
+        The value when the option is not given.
+    none : str or None, default None
+        What None means, when None is accepted.
+
+    Examples
+    --------
+    >>> Bool(True).validate(False, "my-search: option restart")
+    False
+    """
 
     def _normalise(self, value):
         return bool(value) if isinstance(value, (bool, np.bool_)) else _INVALID
@@ -256,8 +394,27 @@ class Bool(Option):
 
 
 class FloatOrPair(Option):
-    """A number, or a pair [lo, hi] with lo ≤ hi, each in the interval (e.g. scipy DE's ``mutation``:
-    a constant, or a range to dither in). A pair is normalised to a list, as JSON and TOML give it."""
+    """A number, or a pair [lo, hi] with lo ≤ hi, each in the interval.
+
+    E.g. scipy DE's ``mutation``: a constant, or a range to dither in. A pair is normalised to a list,
+    as JSON and TOML give it.
+
+    Parameters
+    ----------
+    default : float, list or None
+        The value when the option is not given.
+    minimum, maximum : float or None, default None
+        The bounds of each number; None: unbounded on that side.
+    exclusive_minimum, exclusive_maximum : bool, default False
+        Exclude that bound (each is inclusive otherwise).
+    none : str or None, default None
+        What None means, when None is accepted.
+
+    Examples
+    --------
+    >>> FloatOrPair([0.5, 1.0], minimum=0.0, maximum=2.0).validate((0.5, 1), "de: option mutation")
+    [0.5, 1]
+    """
 
     def __init__(
         self, default, minimum=None, maximum=None, exclusive_minimum=False, exclusive_maximum=False, *, none=None
