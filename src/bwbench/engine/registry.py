@@ -82,6 +82,27 @@ ENTRY_POINT_GROUP = "bwbench.optimizers"
 
 @dataclass(frozen=True)
 class Backend:
+    """A registered optimiser backend: what ``register`` records and ``get`` returns.
+
+    Parameters
+    ----------
+    name : str
+        The registry key (``--optimizer NAME``).
+    family : str
+        Its family, e.g. "local", "global", "sampler".
+    description : str
+        What it does, in one line.
+    minimize : callable
+        ``minimize(objective, *, rng, **options)``: the search (see the module docstring).
+    defaults : dict, default {}
+        {option: default}; derived from ``options`` when typed.
+    batched : bool, default True
+        Asks for whole populations per ``objective.batch`` call (True) or one point per call (False).
+    options : dict, default {}
+        {option: declaration} (``bwbench.engine.options``); empty for a backend registered with
+        ``defaults=`` only.
+    """
+
     name: str
     family: str
     description: str
@@ -128,10 +149,47 @@ def register(
     defaults: dict | None = None,
     batched: bool = True,
 ):
-    """Decorator: register ``minimize`` under ``name``; a second backend of the same name is refused.
+    """Register a backend's ``minimize`` under ``name`` (a decorator).
 
-    ``options``: {name: declaration} (typed, checked before every run); ``defaults``: {name: value}
-    (the untyped contract, names checked only). Give one or neither.
+    A second backend of the same name is refused.
+
+    Parameters
+    ----------
+    name : str
+        The backend's name (``--optimizer NAME``).
+    family : str
+        Its family, e.g. "local", "global", "sampler".
+    description : str
+        What it does, in one line.
+    options : dict or None, default None
+        {name: declaration} (``bwbench.engine.options``: typed, checked before every run).
+    defaults : dict or None, default None
+        {name: value}: the untyped contract, names checked only. Give one of ``options`` and
+        ``defaults``, or neither.
+    batched : bool, default True
+        Whether ``minimize`` asks for whole populations per ``objective.batch`` call (True) or one
+        point per call (False).
+
+    Returns
+    -------
+    callable
+        The decorator; it returns ``minimize`` unchanged.
+
+    Raises
+    ------
+    ValueError
+        When both ``options`` and ``defaults`` are given.
+    TypeError
+        When an option is not declared with ``bwbench.engine.options``.
+
+    Examples
+    --------
+    >>> from bwbench.engine.options import Float
+    >>> @register("my-search", family="local", description="what it does, in one line",
+    ...           options={"step": Float(0.25, minimum=0.0, maximum=1.0, exclusive_minimum=True)},
+    ...           batched=False)
+    ... def minimize(objective, *, rng, step=0.25):
+    ...     return {"message": "why it stopped"}
     """
     if options and defaults:
         raise ValueError(f"{name}: give options= (typed) or defaults= (untyped), not both")
@@ -162,30 +220,91 @@ def _load() -> None:
 
 
 def broken() -> dict[str, str]:
-    """The installed optimiser plug-ins that failed to load: entry point name -> the line naming it."""
+    """The installed optimiser plug-ins that failed to load.
+
+    Returns
+    -------
+    dict of str to str
+        Entry point name -> the line naming it and its error.
+    """
     _load()
     return dict(REGISTRY.broken)
 
 
 def available() -> dict[str, Backend]:
-    """Every registered backend, built-in and plugged in, by name (sorted)."""
+    """Every registered backend, built-in and plugged in.
+
+    Returns
+    -------
+    dict of str to Backend
+        The backends by name, sorted.
+
+    Examples
+    --------
+    >>> sorted(available())[:3]
+    ['anneal', 'cmaes', 'de']
+    """
     _load()
     with REGISTRY.lock:
         return dict(sorted(REGISTRY.items.items()))
 
 
 def get(name: str) -> Backend:
-    """The backend ``name``: a built-in one by importing its module only, else after loading them all."""
+    """The backend ``name``: a built-in one by importing its module only, else after loading them all.
+
+    Parameters
+    ----------
+    name : str
+        The backend's name.
+
+    Returns
+    -------
+    Backend
+
+    Raises
+    ------
+    bwbench.errors.UserError
+        One line when there is no such backend (or its plug-in failed to load), naming what there is.
+
+    Examples
+    --------
+    >>> get("cmaes").family
+    'evolution-strategy'
+    """
     return REGISTRY.lookup(name, lambda: list(available()))
 
 
 def resolve_options(backend_name: str, given: dict | None = None, *, label: str | None = None) -> dict:
-    """The options a run of ``backend_name`` gets: its defaults updated with ``given``, every value
-    checked against its declaration and normalised.
+    """The options a run of ``backend_name`` gets, checked.
 
-    Raises ``UserError`` (``OptionError`` for a bad value) with one line starting with ``label``
-    (default: the backend's name), e.g. ``paper-ga: option population must be an integer in
-    [2, 100000], got 'abc'`` or ``random: unknown option(s) colour; it takes batch_size``.
+    Its defaults updated with ``given``, every value checked against its declaration and normalised
+    (an untyped backend's values are passed unchecked).
+
+    Parameters
+    ----------
+    backend_name : str
+        The backend's name.
+    given : dict or None, default None
+        {option: value} as the user gave them.
+    label : str or None, default None
+        What starts the error message; default: the backend's name.
+
+    Returns
+    -------
+    dict
+        {option: value} for every option of the backend.
+
+    Raises
+    ------
+    bwbench.errors.UserError
+        ``OptionError`` for a bad value, with one line starting with ``label``, e.g. ``paper-ga:
+        option population must be an integer in [2, 100000], got 'abc'`` or ``random: unknown
+        option(s) colour; it takes batch_size``.
+
+    Examples
+    --------
+    >>> resolve_options("paper-ga", {"population": 60})["population"]
+    60
     """
     backend = get(backend_name)
     label = backend_name if label is None else label
