@@ -89,7 +89,7 @@ class Backend:
     name : str
         The registry key (``--optimizer NAME``).
     family : str
-        Its family, e.g. "local", "global", "sampler".
+        Its family, e.g. "local", "swarm", "mcmc".
     description : str
         What it does, in one line.
     minimize : callable
@@ -158,7 +158,7 @@ def register(
     name : str
         The backend's name (``--optimizer NAME``).
     family : str
-        Its family, e.g. "local", "global", "sampler".
+        Its family, e.g. "local", "swarm", "mcmc".
     description : str
         What it does, in one line.
     options : dict or None, default None
