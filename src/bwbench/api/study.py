@@ -1,5 +1,7 @@
-"""A study from Python: ``bwbench.compare(...)`` runs one (as ``bwbench compare`` does) and
-``bwbench.load_study(db)`` reads one; both give a ``Study``:
+"""A study from Python: run one, or read one.
+
+``bwbench.compare(...)`` runs one (as ``bwbench compare`` does) and ``bwbench.load_study(db)`` reads
+one; both give a ``Study``:
 
 - ``runs``: one row per run with typed columns: ``backend``, ``formulation``, ``model`` and the
   ``optimizer`` label ("cmaes [identifiable]"), ``nfev`` and ``budget`` integers, ``finished`` (the
@@ -30,11 +32,32 @@ from bwbench.errors import UserError
 
 @dataclass(frozen=True)
 class Recommendation:
-    """The report's recommendation: the run ``label`` to use ("cmaes [identifiable]"), its ``backend``,
-    ``formulation`` and ``model``, the ``budget`` (evaluations) it was judged at, ``sentence`` (the
-    "Use ..." sentence, plain text), ``text`` (the whole paragraph, markdown) and ``line`` (the
-    recommendation in one line, as ``bwbench compare`` prints it). ``label`` is None
-    when nothing can be recommended (only the baseline ran)."""
+    """The report's recommendation, as ``Study.recommendation`` gives it.
+
+    ``str()`` of it is ``sentence``.
+
+    Parameters
+    ----------
+    label : str or None
+        The run label to use ("cmaes [identifiable]"); None when nothing can be recommended (only the
+        baseline ran).
+    backend, formulation, model : str or None
+        The label's backend, formulation and model.
+    budget : int or None
+        The budget (evaluations) it was judged at.
+    sentence : str
+        The "Use ..." sentence, plain text.
+    text : str
+        The whole paragraph, markdown.
+    line : str, default ""
+        The recommendation in one line, as ``bwbench compare`` prints it.
+
+    Examples
+    --------
+    >>> rec = bwbench.load_study("study.sqlite").recommendation
+    >>> rec.backend, rec.formulation
+    ('lsq-trf', 'identifiable')
+    """
 
     label: str | None
     backend: str | None
@@ -50,7 +73,23 @@ class Recommendation:
 
 
 class Study:
-    """A study database read for Python (see the module docstring)."""
+    """A study database read for Python (see the module docstring).
+
+    Made by ``bwbench.load_study`` and ``bwbench.compare``; anything else of the stored study
+    (``settings``, ``chains``, ``specimen_path``, ...) is read through.
+
+    Parameters
+    ----------
+    stored : bwbench.database.reader.Study
+        The study as the database reader gives it.
+
+    Examples
+    --------
+    >>> study = bwbench.load_study("study.sqlite")
+    >>> study.runs[["optimizer", "rmse_N"]].head()
+    >>> study.ranking()
+    >>> print(study.recommendation.line)
+    """
 
     def __init__(self, stored):
         self._stored = stored  # bwbench.database.reader.Study
@@ -63,7 +102,16 @@ class Study:
     # -- tables -------------------------------------------------------------------------------------
     @cached_property
     def runs(self):
-        """One row per run, typed (see the module docstring)."""
+        """One row per run, typed.
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``backend``, ``formulation``, ``model`` and the ``optimizer`` label ("cmaes
+            [identifiable]"), ``nfev`` and ``budget`` integers, ``finished`` (the run ended with a
+            finite loss; an error or a model that blew up everywhere is not), ``mse`` (N²),
+            ``rmse_N`` (N), every parameter by name.
+        """
         from bwbench.render.labels import split_label
 
         runs = self._stored.runs.copy()
@@ -77,12 +125,28 @@ class Study:
 
     @property
     def traces(self):
+        """The best-so-far curves of the runs.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Best-so-far MSE (N²) against evaluations, per run.
+        """
         return self._stored.traces
 
     @cached_property
     def decision(self):
-        """The study's answer (``bwbench.report.decision.StudyDecision``): the one the report and
-        ``bwbench compare`` give, measured times included."""
+        """The study's answer: the one the report and ``bwbench compare`` give, measured times included.
+
+        Returns
+        -------
+        bwbench.report.decision.StudyDecision
+
+        Raises
+        ------
+        bwbench.errors.UserError
+            When the study has no ranking runs yet.
+        """
         from bwbench.report.decision import decide_study
 
         s = self._stored
@@ -91,9 +155,24 @@ class Study:
         return decide_study(s)
 
     def ranking(self):
-        """The report's ranking table in the decision rule's order: one row per run label (``optimizer``),
-        with ``backend``, ``variant`` and ``verdict`` columns (recommended, tied on time, as good, less
-        reliable, behind, avoid, baseline) and the statistics (median/best RMSE, success rates, ERT, times)."""
+        """The report's ranking table in the decision rule's order.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per run label (``optimizer``), with ``backend``, ``variant`` and ``verdict``
+            columns (recommended, tied on time, as good, less reliable, behind, avoid, baseline) and
+            the statistics (median/best RMSE in N, success rates, ERT, times).
+
+        Raises
+        ------
+        bwbench.errors.UserError
+            When the study has no ranking runs yet.
+
+        Examples
+        --------
+        >>> bwbench.load_study("study.sqlite").ranking()[["optimizer", "verdict"]]
+        """
         from bwbench.render.labels import split_label
 
         out = self.decision.ranking()
@@ -105,7 +184,18 @@ class Study:
 
     @cached_property
     def recommendation(self) -> Recommendation:
-        """The report's recommendation (``Recommendation``); ``line`` is what ``bwbench compare`` prints."""
+        """The report's recommendation.
+
+        Returns
+        -------
+        Recommendation
+            Its ``line`` is what ``bwbench compare`` prints.
+
+        Raises
+        ------
+        bwbench.errors.UserError
+            When the study has no ranking runs yet.
+        """
         from bwbench.render.labels import split_label
 
         decision = self.decision
@@ -130,9 +220,34 @@ class Study:
 
     # -- outputs ----------------------------------------------------------------------------------
     def report(self, out_dir, *, data_dir=None, profiles: int = 2, log=None) -> Path:
-        """Write the report of ``bwbench report`` into ``out_dir`` (report.html, report.md, figures and
-        CSVs; ``profiles``: profile likelihoods on the first specimen, 0 = none); returns report.html's
-        path. ``log``: where progress goes (default: nowhere)."""
+        """Write the report of ``bwbench report`` into ``out_dir``.
+
+        Parameters
+        ----------
+        out_dir : str or pathlib.Path
+            The folder of report.html, report.md, figures and CSVs.
+        data_dir : str or pathlib.Path or None, default None
+            Where the study's files are now, if they moved.
+        profiles : int, default 2
+            Profile likelihoods on the first specimen; 0 = none.
+        log : file-like or None, default None
+            Where progress goes (default: nowhere).
+
+        Returns
+        -------
+        pathlib.Path
+            report.html's path.
+
+        Raises
+        ------
+        bwbench.errors.UserError
+            For a bad ``profiles``, or a study the report cannot read.
+
+        Examples
+        --------
+        >>> bwbench.load_study("study.sqlite").report("out", profiles=0)
+        PosixPath('out/report.html')
+        """
         from bwbench.api.arguments import count as check_count
 
         check_count("profiles", profiles, "0 or more", minimum=0)
@@ -148,16 +263,62 @@ class Study:
             )
 
     def posterior(self, specimen: str, thin: int | None = None):
-        """The posterior draws of ``specimen`` as a DataFrame in physical units (``walker``, ``step``, one
-        column per parameter; units in ``.attrs["units"]``); ``thin``: keep every thin-th step (default:
-        about 4,000 draws)."""
+        """The posterior draws of ``specimen`` as a DataFrame in physical units.
+
+        Parameters
+        ----------
+        specimen : str
+            The specimen whose posterior run to read.
+        thin : int or None, default None
+            Keep every thin-th step (default: about 4,000 draws).
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``walker``, ``step`` (after burn-in), one column per parameter; units in
+            ``.attrs["units"]``.
+
+        Raises
+        ------
+        bwbench.errors.UserError
+            When the study has no posterior run of ``specimen``, or ``thin`` is not a positive integer.
+
+        Examples
+        --------
+        >>> draws = bwbench.load_study("study.sqlite").posterior("mytest")
+        >>> draws.attrs["units"]
+        """
         from bwbench.api import posterior as posterior_api
 
         with untouched():
             return posterior_api.frame(self._stored, specimen, thin)
 
     def to_inference_data(self, specimen: str, thin: int | None = None):
-        """The same draws as ArviZ ``InferenceData`` (chains = walkers), for ``arviz.summary``, plots, R-hat."""
+        """The same draws as ArviZ ``InferenceData``, for ``arviz.summary``, plots, R-hat.
+
+        Parameters
+        ----------
+        specimen : str
+            The specimen whose posterior run to read.
+        thin : int or None, default None
+            Keep every thin-th step (default: about 4,000 draws).
+
+        Returns
+        -------
+        arviz.InferenceData
+            Chains = walkers, draws = kept steps; the log-posterior under ``sample_stats.lp`` when
+            stored; units in the posterior group's attrs.
+
+        Raises
+        ------
+        bwbench.errors.UserError
+            As ``posterior``.
+
+        Examples
+        --------
+        >>> import arviz as az
+        >>> az.summary(bwbench.load_study("study.sqlite").to_inference_data("mytest"))
+        """
         from bwbench.api import posterior as posterior_api
 
         with untouched():
@@ -200,6 +361,19 @@ def _plain(markdown: str) -> str:
 
 
 def load(db, data_dir=None) -> Study:
+    """Read a study database (what ``bwbench.load_study`` does after checking its arguments).
+
+    Parameters
+    ----------
+    db : str or pathlib.Path
+        The study's SQLite database.
+    data_dir : str or pathlib.Path or None, default None
+        Where the study's files are now, if they moved.
+
+    Returns
+    -------
+    Study
+    """
     from bwbench.database.reader import load_study
 
     return Study(load_study(db, data_dir))
@@ -230,16 +404,63 @@ def compare(
 ) -> Study:
     """Run (or resume) a study as ``bwbench compare`` does and return its ``Study``.
 
-    Either ``config``: a study TOML, or ``specimens``: specimen CSV paths (or globs) with
-    ``optimizers`` (a list of backend names, or one comma-separated string), ``seeds`` replicates,
-    ``budget`` evaluations per run, ``seed`` (the study's), ``model`` and ``formulation`` (a name or a
-    list of names compared side by side), ``state``, ``excitation``, ``bounds`` (a JSON file),
-    ``fix_mass``, ``offsets``, ``validate`` (held-out files every fit predicts), ``name``. ``db``: the
-    database (default: ``<name>.sqlite`` next to the TOML or in the current folder); ``workers``:
-    local processes (default 1: in this process); ``threads``: numba/BLAS threads per worker;
-    ``data``: the TOML's data folder replaced; ``log``: where progress goes (default: nowhere).
-    A study that is already complete in ``db`` is read, not run again. Raises ``UserError`` with the
-    command line's message for bad input; runs that failed are in ``runs`` (``finished`` False).
+    Give either ``config`` or ``specimens`` with ``optimizers``. A study that is already complete in
+    ``db`` is read, not run again; runs that failed are in ``runs`` (``finished`` False).
+
+    Parameters
+    ----------
+    config : str or pathlib.Path or None, default None
+        A study TOML.
+    specimens : list of str or None, default None
+        Specimen CSV paths (or globs).
+    optimizers : list of str or str or None, default None
+        Backend names, as a list or one comma-separated string.
+    seeds : int, default 5
+        Replicates per backend and specimen.
+    budget : int, default 4100
+        Evaluations per run (one evaluation = one simulation of every file).
+    seed : int, default 0
+        The study's seed.
+    model, formulation : str or list of str or None, default None
+        A name, or a list of names compared side by side.
+    state : str or None, default None
+        The state convention ("shared"/"split", switched model).
+    excitation : str, default "measured"
+        "measured" or "sine".
+    bounds : str or pathlib.Path or None, default None
+        A JSON file of {name: [lower, upper]}.
+    fix_mass : str, float or None, default "auto"
+        As in ``bwbench.fit``.
+    offsets : str, default "branch"
+        "branch" or "continuous" (identifiable, switched model).
+    validate : list of str or None, default None
+        Held-out files every fit predicts.
+    name : str, default "study"
+        The study's name.
+    db : str or pathlib.Path or None, default None
+        The database (default: ``<name>.sqlite`` next to the TOML or in the current folder).
+    workers : int or None, default 1
+        Local processes (1: in this process).
+    threads : int, default 1
+        numba/BLAS threads per worker.
+    data : str or pathlib.Path or None, default None
+        Replaces the TOML's data folder.
+    log : file-like or None, default None
+        Where progress goes (default: nowhere).
+
+    Returns
+    -------
+    Study
+
+    Raises
+    ------
+    bwbench.errors.UserError
+        With the command line's message for bad input.
+
+    Examples
+    --------
+    >>> study = bwbench.compare(specimens=["a.csv", "b.csv"], optimizers=["cmaes", "random"], seeds=3, budget=500)
+    >>> study.recommendation.sentence
     """
     with untouched():  # the study's report figures set their theme
         return _compare(
@@ -365,7 +586,18 @@ def _names(value):
 
 
 def untouched():
-    """matplotlib's rcParams as they were after the call: the report's figures set their theme."""
+    """A context in which matplotlib's rcParams are restored on exit: the report's figures set their theme.
+
+    Returns
+    -------
+    contextlib.AbstractContextManager
+        ``matplotlib.rc_context()``.
+
+    Examples
+    --------
+    >>> with untouched():
+    ...     study.report("out")
+    """
     import matplotlib
 
     return matplotlib.rc_context()
