@@ -1,5 +1,7 @@
 """The Python API, for notebooks: the calls the command line is built on.
 
+::
+
     import bwbench
 
     fit = bwbench.fit("a.csv", "b.csv", model="spencer", optimizer="lsq-trf", budget=4100, seed=1)
@@ -67,32 +69,77 @@ def fit(
 ) -> FitResult:
     """Fit one test, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
-    ``data``: one or more tests, each a specimen CSV's path, a ``Specimen`` or a pandas DataFrame with
-    the file's columns (``time_s``, ``displacement_mm``, ``force_N``, optionally ``velocity_mm_s``,
-    ``acceleration_mm_s2``); a list of them counts as several (``name``: a DataFrame's name, default
-    its ``attrs["name"]`` or "data"). ``optimizer``: a backend name (``bwbench optimizers``), run on
-    exactly ``budget`` evaluations (one evaluation = one simulation of every file) from ``seed``.
-    ``model``: a registered model (default: the switched Bouc-Wen); ``formulation``: "paper"/"direct"
-    or "identifiable" (default: chosen from the data — the switched model's paper formulation for the
-    paper's synthetic specimens, identifiable for any other data; the first finding says which and
-    why); ``state``: "shared"/"split" (switched model); ``excitation``: "measured" or "sine".
-    ``fix_mass`` (identifiable): "auto" (the inertia rule), None or "fit" (always fitted) or a mass in
-    N·s²/mm; ``offsets`` (identifiable, switched model): "branch" or "continuous". ``weighting``:
-    "equal" (each file's MSE counts the same) or "samples". ``bounds``: {name: (lower, upper)} or a
-    JSON file of them; searched names set the search box, solved coefficients bound the linear solve.
-    ``options``: the backend's options. ``threads``: numba/BLAS threads. ``stop``: "agreed" (a
-    backend that restarts local searches, lsq-trf, may stop before the budget once its searches
-    agree on the optimum; ``nfev`` and the result's message say so) or "budget" (spend it all, as a
-    study does). ``workers``: threads for the files of a joint fit, else for the points of a batch;
-    the result is the same as with one.
+    Parameters
+    ----------
+    *data : str, pathlib.Path, Specimen or pandas.DataFrame
+        One or more tests, each a specimen CSV's path, a ``Specimen`` or a pandas DataFrame with the
+        file's columns (``time_s``, ``displacement_mm``, ``force_N``, optionally ``velocity_mm_s``,
+        ``acceleration_mm_s2``); a list of them counts as several.
+    optimizer : str, default "lsq-trf"
+        A backend name (``bwbench optimizers``).
+    budget : int, default 4100
+        Exactly this many evaluations (one evaluation = one simulation of every file).
+    seed : int, default 0
+        The run's seed.
+    model : str or None, default None
+        A registered model (default: the switched Bouc-Wen).
+    formulation : str or None, default None
+        "paper"/"direct" or "identifiable" (default: chosen from the data — the switched model's
+        paper formulation for the paper's synthetic specimens, identifiable for any other data; the
+        first finding says which and why).
+    state : str or None, default None
+        "shared"/"split" (switched model).
+    excitation : str, default "measured"
+        "measured" or "sine".
+    fix_mass : str, float or None, default "auto"
+        Identifiable formulation: "auto" (the inertia rule), None or "fit" (always fitted) or a mass
+        in N·s²/mm.
+    offsets : str or None, default None
+        Identifiable formulation, switched model: "branch" or "continuous".
+    weighting : str, default "equal"
+        "equal" (each file's MSE counts the same) or "samples".
+    bounds : dict, str, pathlib.Path or None, default None
+        {name: (lower, upper)} or a JSON file of them; searched names set the search box, solved
+        coefficients bound the linear solve.
+    options : dict or None, default None
+        The backend's options.
+    threads : int, default 1
+        numba/BLAS threads.
+    name : str or None, default None
+        A DataFrame's name (default: its ``attrs["name"]`` or "data").
+    stop : str, default "agreed"
+        "agreed" (a backend that restarts local searches, lsq-trf, may stop before the budget once
+        its searches agree on the optimum; ``nfev`` and the result's message say so) or "budget"
+        (spend it all, as a study does).
+    workers : int, default 1
+        Threads for the files of a joint fit, else for the points of a batch; the result is the same
+        as with one.
 
-    Returns a ``FitResult``: ``.ok`` (False for a failed fit, ``.failure`` says why: no finite loss,
-    or further from the data than the best constant force), ``.findings`` (everything ``bwbench
-    fit`` prints beside the loss, each with its severity), ``.summary()``, ``.report()``,
-    ``.correlation()``, ``.plot()``, ``.params``, ``.rmse_N``, ``.table()``, ``.model``,
-    ``.predict(data)``, ``.save(path)``. Every finding but the facts ("info") is also issued as a
-    warning of a ``bwbench.FitWarning`` subclass (``FitNote``, ``FitFinding``, ``FitBoxWarning``,
-    ``FitFailure``). Raises ``bwbench.UserError`` with the command line's message for bad input.
+    Returns
+    -------
+    FitResult
+        ``.ok`` (False for a failed fit, ``.failure`` says why: no finite loss, or further from the
+        data than the best constant force), ``.findings`` (everything ``bwbench fit`` prints beside
+        the loss, each with its severity), ``.summary()``, ``.report()``, ``.correlation()``,
+        ``.plot()``, ``.params``, ``.rmse_N``, ``.table()``, ``.model``, ``.predict(data)``,
+        ``.save(path)``.
+
+    Raises
+    ------
+    bwbench.UserError
+        With the command line's message for bad input, before any file is read.
+
+    Warns
+    -----
+    bwbench.FitWarning
+        Every finding but the facts ("info"), as a subclass: ``FitNote``, ``FitFinding``,
+        ``FitBoxWarning``, ``FitFailure``.
+
+    Examples
+    --------
+    >>> fit = bwbench.fit("mytest.csv", model="spencer", optimizer="lsq-trf", budget=4100, seed=1)
+    >>> fit.summary()
+    >>> fit.rmse_N
     """
     import bwbench.limits as limits
     import bwbench.threads as threads_mod
@@ -139,20 +186,61 @@ def fit(
 
 
 def load_fit(path) -> FittedModel:
-    """The ``FittedModel`` of a result JSON (``bwbench fit --out``, ``FitResult.save``): ``.predict(file)``
-    gives a ``Prediction`` (RMSE in N, NRMSE, the forces), ``.simulate(file)`` a DataFrame."""
+    """Read the ``FittedModel`` of a result JSON (``bwbench fit --out``, ``FitResult.save``).
 
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The result JSON.
+
+    Returns
+    -------
+    FittedModel
+        ``.predict(file)`` gives a ``Prediction`` (RMSE in N, NRMSE, the forces), ``.simulate(file)``
+        a DataFrame.
+
+    Raises
+    ------
+    bwbench.UserError
+        When ``path`` is not a path, or the file is not a readable fit result.
+
+    Examples
+    --------
+    >>> model = bwbench.load_fit("fit.json")
+    >>> model.predict("othertest.csv").rmse_N
+    """
     if not isinstance(path, (str, Path)):
         raise UserError(f"load_fit needs the path of a fit result JSON, got {path!r}")
     return FittedModel.read(path)
 
 
 def load_study(db, data_dir=None):
-    """A study database (``bwbench compare``, ``bwbench.compare``) as a ``Study``: ``.runs`` (one row per
-    run, typed: backend, formulation, model, nfev, finished, mse N², rmse_N N, every parameter by
-    name), ``.traces`` (best-so-far MSE, N², against evaluations), ``.ranking()``,
-    ``.recommendation``, ``.report(out_dir)``, ``.posterior(specimen)``. ``data_dir``: where the
-    study's files are now, if they moved."""
+    """Read a study database (``bwbench compare``, ``bwbench.compare``) as a ``Study``.
+
+    Parameters
+    ----------
+    db : str or pathlib.Path
+        The study's SQLite database.
+    data_dir : str or pathlib.Path or None, default None
+        Where the study's files are now, if they moved.
+
+    Returns
+    -------
+    Study
+        ``.runs`` (one row per run, typed: backend, formulation, model, nfev, finished, mse N², rmse_N
+        N, every parameter by name), ``.traces`` (best-so-far MSE, N², against evaluations),
+        ``.ranking()``, ``.recommendation``, ``.report(out_dir)``, ``.posterior(specimen)``.
+
+    Raises
+    ------
+    bwbench.UserError
+        When an argument is not a path, or the database cannot be read as a study.
+
+    Examples
+    --------
+    >>> study = bwbench.load_study("study.sqlite")
+    >>> study.ranking()
+    """
     from bwbench.api.study import load
 
     for name, value in (("db", db), ("data_dir", data_dir)):
@@ -162,9 +250,30 @@ def load_study(db, data_dir=None):
 
 
 def compare(config=None, **settings):
-    """Run (or resume) a study as ``bwbench compare`` does; returns its ``Study``. See
-    ``bwbench.api.study.compare`` for the keywords (specimens=, optimizers=, seeds=, budget=, model=,
-    formulation=, db=, workers=, ...)."""
+    """Run (or resume) a study as ``bwbench compare`` does.
+
+    Parameters
+    ----------
+    config : str or pathlib.Path or None, default None
+        A study TOML; or give ``specimens`` and ``optimizers`` instead.
+    **settings
+        The keywords of ``bwbench.api.study.compare`` (specimens=, optimizers=, seeds=, budget=,
+        model=, formulation=, db=, workers=, ...).
+
+    Returns
+    -------
+    Study
+
+    Raises
+    ------
+    bwbench.UserError
+        With the command line's message for bad input.
+
+    Examples
+    --------
+    >>> study = bwbench.compare(specimens=["a.csv", "b.csv"], optimizers=["cmaes", "random"], seeds=3, budget=500)
+    >>> study.ranking(), study.recommendation
+    """
     from bwbench.api.study import compare as run
 
     return run(config, **settings)

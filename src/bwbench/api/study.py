@@ -245,8 +245,7 @@ class Study:
 
         Examples
         --------
-        >>> bwbench.load_study("study.sqlite").report("out", profiles=0)
-        PosixPath('out/report.html')
+        >>> html = bwbench.load_study("study.sqlite").report("out", profiles=0)
         """
         from bwbench.api.arguments import count as check_count
 
