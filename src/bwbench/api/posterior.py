@@ -1,5 +1,7 @@
-"""A study's posterior from Python: ``Study.posterior(specimen)`` (a DataFrame of draws in physical
-units) and ``Study.to_inference_data(specimen)`` (ArviZ ``InferenceData``).
+"""A study's posterior from Python, in physical units.
+
+``Study.posterior(specimen)`` gives a DataFrame of draws in physical units and
+``Study.to_inference_data(specimen)`` an ArviZ ``InferenceData``.
 
 Read from the stored chains as the report reads them (``posterior_draws``): the sampled coordinates
 mapped out of the unit box into physical units with the problem the chain sampled (in the
@@ -20,7 +22,25 @@ DRAWS = 4000  # by default every chain is thinned to about this many draws in al
 
 
 def chain_of(study, specimen: str):
-    """The ``posterior_draws.PosteriorChain`` of ``specimen`` in ``study`` (a stored ``Study``)."""
+    """The posterior chain of a specimen in a stored study.
+
+    Parameters
+    ----------
+    study : bwbench.database.reader.Study
+        The stored study.
+    specimen : str
+        The specimen's name.
+
+    Returns
+    -------
+    bwbench.problems.hysteresis.report.posterior_draws.PosteriorChain
+
+    Raises
+    ------
+    bwbench.errors.UserError
+        When the study has no posterior run, none of ``specimen``, or its chain is not in the
+        coordinates of its problem.
+    """
     from bwbench.problems.hysteresis.report.posterior_draws import posterior_chains
 
     stored = [c for c in study.chains if c.kind == "posterior"]
@@ -36,8 +56,10 @@ def chain_of(study, specimen: str):
 
 
 def _draws(posterior, thin: int) -> dict:
-    """{name: (walkers, kept steps) array in physical units}: every sampled and solved parameter after
-    burn-in, every ``thin``-th step."""
+    """{name: (walkers, kept steps) array in physical units}.
+
+    Every sampled and solved parameter after burn-in, every ``thin``-th step.
+    """
     chain, problem = posterior.chain, posterior.problem
     kept = chain.samples[posterior.burn :: thin]  # (steps, walkers, d), unit coordinates
     steps, walkers, d = kept.shape
@@ -52,8 +74,32 @@ def _draws(posterior, thin: int) -> dict:
 
 
 def frame(study, specimen: str, thin: int | None = None):
-    """A DataFrame of posterior draws of ``specimen``: ``walker``, ``step`` (after burn-in) and one column
-    per parameter in physical units (``Study.units`` of the problem)."""
+    """A DataFrame of posterior draws of ``specimen`` (``Study.posterior``).
+
+    Parameters
+    ----------
+    study : bwbench.database.reader.Study
+        The stored study.
+    specimen : str
+        The specimen's name.
+    thin : int or None, default None
+        Keep every thin-th step (default: about ``DRAWS`` = 4,000 draws in all).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``walker``, ``step`` (after burn-in) and one column per parameter in physical units; the units
+        in ``.attrs["units"]``.
+
+    Raises
+    ------
+    bwbench.errors.UserError
+        As ``chain_of``, or when ``thin`` is not a positive integer.
+
+    Examples
+    --------
+    >>> frame(stored, "mytest", thin=10).head()
+    """
     import pandas as pd
 
     posterior = chain_of(study, specimen)
@@ -70,8 +116,32 @@ def frame(study, specimen: str, thin: int | None = None):
 
 
 def inference_data(study, specimen: str, thin: int | None = None):
-    """ArviZ ``InferenceData`` of the same draws: chains = walkers, draws = kept steps; the log-posterior
-    under ``sample_stats.lp`` when stored; units in the posterior group's attrs."""
+    """ArviZ ``InferenceData`` of the same draws as ``frame`` (``Study.to_inference_data``).
+
+    Parameters
+    ----------
+    study : bwbench.database.reader.Study
+        The stored study.
+    specimen : str
+        The specimen's name.
+    thin : int or None, default None
+        Keep every thin-th step (default: about ``DRAWS`` = 4,000 draws in all).
+
+    Returns
+    -------
+    arviz.InferenceData
+        Chains = walkers, draws = kept steps; the log-posterior under ``sample_stats.lp`` when stored;
+        units in the posterior group's attrs.
+
+    Raises
+    ------
+    bwbench.errors.UserError
+        As ``frame``.
+
+    Examples
+    --------
+    >>> inference_data(stored, "mytest").posterior.attrs["units"]
+    """
     import arviz as az
 
     posterior = chain_of(study, specimen)
@@ -94,6 +164,20 @@ def inference_data(study, specimen: str, thin: int | None = None):
 
 
 def units(problem, names) -> dict:
+    """The unit of each named parameter of a problem.
+
+    Parameters
+    ----------
+    problem : object
+        The problem the chain sampled.
+    names : iterable of str
+        Parameter names.
+
+    Returns
+    -------
+    dict of str to str
+        {name: unit}; "" for a name the problem does not know.
+    """
     from bwbench.problems.hysteresis.report.posterior_draws import parameters
 
     table = parameters(problem)
