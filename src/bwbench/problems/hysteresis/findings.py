@@ -1,7 +1,8 @@
-"""Everything a fit says beside its numbers, as one list (``fit_findings``): ``bwbench fit`` prints
-it, ``bwbench.fit`` issues each item as a ``FitWarning`` of its severity's class and keeps the list
-on the result (``FitResult.findings``), ``FitResult.report()`` lists it. Nothing is said in one
-place and not in the others.
+"""Everything a fit says beside its numbers, as one list (``fit_findings``).
+
+``bwbench fit`` prints it, ``bwbench.fit`` issues each item as a ``FitWarning`` of its severity's
+class and keeps the list on the result (``FitResult.findings``), ``FitResult.report()`` lists it.
+Nothing is said in one place and not in the others.
 
 Severities, mildest first:
 
@@ -31,8 +32,16 @@ SEVERITIES = ("info", "note", "finding", "warning", "failure")
 
 
 class FitWarning(UserWarning):
-    """Something a fit says about itself or its data (``FitResult.findings``); the base class of one
-    class per severity."""
+    """Something a fit says about itself or its data (``FitResult.findings``).
+
+    The base class of one class per severity: ``FitNote``, ``FitFinding``, ``FitBoxWarning``,
+    ``FitFailure`` (the "info" facts are not issued).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> warnings.simplefilter("ignore", bwbench.FitWarning)   # all of them
+    """
 
 
 class FitNote(FitWarning):
@@ -48,7 +57,13 @@ class FitBoxWarning(FitWarning):
 
 
 class FitFailure(FitWarning):
-    """The fit failed: no finite loss, or further from the data than the best constant force."""
+    """The fit failed: no finite loss, or further from the data than the best constant force.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> warnings.simplefilter("error", bwbench.FitFailure)   # stop at a failed fit
+    """
 
 
 CATEGORIES = {"note": FitNote, "finding": FitFinding, "warning": FitBoxWarning, "failure": FitFailure}
@@ -56,7 +71,20 @@ CATEGORIES = {"note": FitNote, "finding": FitFinding, "warning": FitBoxWarning, 
 
 @dataclass(frozen=True)
 class Finding:
-    """One thing a fit says: ``severity`` (one of ``SEVERITIES``) and ``text`` (one line)."""
+    """One thing a fit says; ``str()`` of it is its text.
+
+    Parameters
+    ----------
+    severity : str
+        One of ``SEVERITIES``: "info", "note", "finding", "warning", "failure" (mildest first).
+    text : str
+        What it says, in one line.
+
+    Examples
+    --------
+    >>> Finding("warning", "k on its box's upper edge").line
+    "warning: k on its box's upper edge"
+    """
 
     severity: str
     text: str
@@ -66,7 +94,13 @@ class Finding:
 
     @property
     def line(self) -> str:
-        """How ``bwbench fit`` prints it (without the file name a warning or failure is given)."""
+        """How ``bwbench fit`` prints it (without the file name a warning or failure is given).
+
+        Returns
+        -------
+        str
+            The text, prefixed "finding: ", "warning: " or "error: " by severity.
+        """
         prefix = {"finding": "finding: ", "warning": "warning: ", "failure": "error: "}.get(self.severity, "")
         return prefix + self.text
 
@@ -76,7 +110,17 @@ _FACTS = ("energy dissipated per cycle", "initial state:", "energy check passed"
 
 
 def fit_findings(fit) -> list[Finding]:
-    """Every finding of ``fit`` (a ``FitResult``), in the order ``bwbench fit`` prints them."""
+    """Every finding of a fit, in the order ``bwbench fit`` prints them.
+
+    Parameters
+    ----------
+    fit : FitResult
+        The fit.
+
+    Returns
+    -------
+    list of Finding
+    """
     out: list[Finding] = []
     reason = fit.extra.get("formulation_reason")
     if reason:
@@ -113,9 +157,22 @@ def fit_findings(fit) -> list[Finding]:
 
 
 def failure_reasons(fit) -> list[str]:
-    """Why ``fit`` failed, one sentence per reason ([] for a fit that did not): no evaluation gave a
-    finite force, or a file whose fitted force is further from the measured one than the best constant
-    force is (RMSE above the force's standard deviation), with the likely cause."""
+    """Why a fit failed, one sentence per reason.
+
+    No evaluation gave a finite force, or a file whose fitted force is further from the measured one
+    than the best constant force is (RMSE above the force's standard deviation, N), with the likely
+    cause.
+
+    Parameters
+    ----------
+    fit : FitResult
+        The fit.
+
+    Returns
+    -------
+    list of str
+        The reasons; [] for a fit that did not fail.
+    """
     if not fit.success:
         return [
             f"none of the {fit.nfev} evaluations gave a finite force: the model blows up everywhere in the "
@@ -143,8 +200,18 @@ def failure_reasons(fit) -> list[str]:
 
 
 def data_warnings(fit) -> list[str]:
-    """``data check``'s warnings about the fitted files (a flipped or mis-scaled signal, a time column
-    in ms), each naming its file."""
+    """``data check``'s warnings about the fitted files.
+
+    Parameters
+    ----------
+    fit : FitResult
+        The fit.
+
+    Returns
+    -------
+    list of str
+        A flipped or mis-scaled signal, a time column in ms, ..., each naming its file.
+    """
     from bwbench.data import plausibility
 
     synthetic = fit.synthetic
@@ -157,8 +224,20 @@ def data_warnings(fit) -> list[str]:
 
 
 def issue(findings, stacklevel: int = 3) -> None:
-    """Each finding but the ``info`` ones as a warning of its severity's class (``stacklevel``: the
-    caller's caller, the user's line)."""
+    """Issue each finding but the ``info`` ones as a warning of its severity's class.
+
+    Parameters
+    ----------
+    findings : iterable of Finding
+        The findings.
+    stacklevel : int, default 3
+        Passed to ``warnings.warn``: the caller's caller, the user's line.
+
+    Warns
+    -----
+    FitWarning
+        ``FitNote``, ``FitFinding``, ``FitBoxWarning`` or ``FitFailure`` by severity.
+    """
     for finding in findings:
         category = CATEGORIES.get(finding.severity)
         if category is not None:
