@@ -55,9 +55,36 @@ METRIC_UNITS = {
 
 @dataclass(frozen=True, eq=False)
 class FitResult:
-    """One fit: ``result`` (the backend's ``Result``: params by name in physical units, mse in N²,
-    nfev, trace, ...), ``files`` (per file: specimen, n, weight, mse N², rmse_N N, nrmse –),
-    ``checks`` (``fit_checks.FitChecks`` or None), ``problem`` (what was fitted)."""
+    """One fit of one or several specimens: what ``bwbench.fit`` returns.
+
+    Made by ``run_fit``. Its first numbers (``params``, ``mse``, ``rmse_N``, ``nfev``, ``units``) are
+    the backend's result's; ``findings`` is everything it says beside them.
+
+    Parameters
+    ----------
+    result : bwbench.engine.result.Result
+        The backend's result: params by name in physical units, mse in N², nfev, trace, ...
+    problem : object
+        What was fitted (a model problem or a joint problem of several files).
+    files : tuple of dict, default ()
+        Per file: specimen, n, weight, mse (N²), rmse_N (N), nrmse (–), nrmse_max_F (–).
+    checks : bwbench.problems.hysteresis.fit_checks.FitChecks or None, default None
+        The checks of the fit.
+    extra : dict, default {}
+        More entries for the result JSON (the search box, its file).
+    budget : int or None, default None
+        The evaluations asked for (``nfev`` may be fewer: an early stop).
+    synthetic : bool, default False
+        The files are a manifest's synthetic specimens (the wording of a check).
+
+    Examples
+    --------
+    >>> fit = bwbench.fit("mytest.csv", model="spencer")
+    >>> fit.ok, fit.rmse_N
+    >>> fit.summary()
+    >>> print(fit.report())
+    >>> fit.save("fit.json")
+    """
 
     result: Result
     problem: Any  # the fitted problem (a model_problem or joint_problem object)
@@ -70,52 +97,112 @@ class FitResult:
     # -- the numbers a notebook asks for first --------------------------------------------------
     @property
     def params(self) -> dict:
+        """The best parameters by name, in physical units (``units``).
+
+        Returns
+        -------
+        dict of str to float
+        """
         return self.result.params
 
     @property
     def mse(self) -> float:
+        """The best loss: the mean squared force error (N²), weighted over the files.
+
+        Returns
+        -------
+        float
+            +inf when no evaluation gave a finite loss.
+        """
         return self.result.mse
 
     @property
     def rmse_N(self) -> float:
+        """The root of the best loss (N).
+
+        Returns
+        -------
+        float
+        """
         return self.result.rmse_N
 
     @property
     def nfev(self) -> int:
+        """The evaluations spent (one evaluation = one simulation of every file).
+
+        Returns
+        -------
+        int
+        """
         return self.result.nfev
 
     @property
     def units(self) -> dict:
+        """The unit of every parameter, by name.
+
+        Returns
+        -------
+        dict of str to str
+        """
         return self.result.units
 
     @property
     def success(self) -> bool:
-        """Some evaluation gave a finite loss (see ``ok`` for whether the fit is any good)."""
+        """Whether some evaluation gave a finite loss (see ``ok`` for whether the fit is any good).
+
+        Returns
+        -------
+        bool
+        """
         return math.isfinite(self.result.mse)
 
     @property
     def ok(self) -> bool:
-        """The fit did not fail: a finite loss, and on every file closer to the data than the best
-        constant force. ``failure`` says why when it is False."""
+        """Whether the fit did not fail.
+
+        Returns
+        -------
+        bool
+            True for a finite loss and, on every file, a fit closer to the data than the best constant
+            force; ``failure`` says why when it is False.
+        """
         return not any(f.severity == "failure" for f in self.findings)
 
     @property
     def failure(self) -> str | None:
-        """Why the fit failed (its ``failure`` findings, joined), or None."""
+        """Why the fit failed.
+
+        Returns
+        -------
+        str or None
+            Its ``failure`` findings, joined by "; "; None when it did not fail.
+        """
         reasons = [f.text for f in self.findings if f.severity == "failure"]
         return "; ".join(reasons) if reasons else None
 
     @cached_property
     def findings(self) -> list:
-        """Everything the fit says beside its numbers, each a ``findings.Finding`` (severity, text):
-        what ``bwbench fit`` prints and ``bwbench.fit`` issues as ``FitWarning`` subclasses."""
+        """Everything the fit says beside its numbers.
+
+        Returns
+        -------
+        list of bwbench.problems.hysteresis.findings.Finding
+            (severity, text): what ``bwbench fit`` prints and ``bwbench.fit`` issues as
+            ``FitWarning`` subclasses.
+        """
         from bwbench.problems.hysteresis.findings import fit_findings
 
         return fit_findings(self)
 
     @property
     def model(self):
-        """The ``FittedModel`` of this fit: ``.predict(file)``, ``.simulate(file)``, ``.force(signal)``."""
+        """The fitted model of this fit, every coefficient as stored.
+
+        Returns
+        -------
+        FittedModel
+            ``.predict(file)``, ``.simulate(file)``, ``.force(signal)``.
+        """
         from bwbench.problems.hysteresis.fitted_model import FittedModel
 
         p = self.problem
@@ -124,11 +211,32 @@ class FitResult:
         )
 
     def predict(self, specimen):
-        """``model.predict(specimen)``: the force on another test, nothing refitted (a ``Prediction``)."""
+        """The force on another test, nothing refitted: ``model.predict(specimen)``.
+
+        Parameters
+        ----------
+        specimen : str, pathlib.Path, Specimen or pandas.DataFrame
+            A specimen CSV's path, a ``Specimen`` or a DataFrame with the file's columns.
+
+        Returns
+        -------
+        Prediction
+            RMSE (N), NRMSE, the measured and predicted forces.
+
+        Examples
+        --------
+        >>> fit.predict("othertest.csv").rmse_N
+        """
         return self.model.predict(specimen)
 
     def table(self):
-        """The per-file errors as a pandas DataFrame (specimen, n, weight, mse, rmse_N, nrmse)."""
+        """The per-file errors.
+
+        Returns
+        -------
+        pandas.DataFrame
+            specimen, n, weight, mse (N²), rmse_N (N), nrmse (–), nrmse_max_F (–).
+        """
         import pandas as pd
 
         return pd.DataFrame(list(self.files))
@@ -136,48 +244,110 @@ class FitResult:
     # -- what a notebook reads next: uncertainty, notes, the figure (bwbench.problems.hysteresis.fit_summary, fit_plots) --
     @property
     def specimens(self) -> list:
-        """The fitted ``Specimen`` objects (one, or a joint fit's several)."""
+        """The fitted specimens.
+
+        Returns
+        -------
+        list of Specimen
+            One, or a joint fit's several.
+        """
         p = self.problem
         return list(p.specimens) if hasattr(p, "specimens") else [p.specimen]
 
     @property
     def notes(self) -> list[str]:
-        """The text of every finding (``findings``), one line each."""
+        """The text of every finding (``findings``).
+
+        Returns
+        -------
+        list of str
+            One line each.
+        """
         return [f.text for f in self.findings]
 
     @cached_property
     def uncertainty(self):
-        """The linearised covariance of the free parameters (``bwbench.problems.hysteresis.fit_summary.Uncertainty``)."""
+        """The linearised covariance of the free parameters.
+
+        Returns
+        -------
+        bwbench.problems.hysteresis.fit_summary.Uncertainty
+        """
         from bwbench.problems.hysteresis import fit_summary
 
         return fit_summary.uncertainty(self)
 
     def summary(self):
-        """A DataFrame indexed by parameter: value, stderr (standard error, the same unit), unit, role
-        (searched / solved / held / derived), at_edge (on an edge of its box or bound), lower, upper.
+        """Every parameter with its standard error, unit, role and box.
+
         Standard errors from the Jacobian at the optimum, the solved linear coefficients included
-        through the variable-projection covariance; inf where the data do not determine a parameter."""
+        through the variable-projection covariance; inf where the data do not determine a parameter.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Indexed by parameter: value, stderr (standard error, the same unit), unit, role (searched /
+            solved / held / derived), at_edge (on an edge of its box or bound), lower, upper.
+
+        Examples
+        --------
+        >>> bwbench.fit("mytest.csv").summary()
+        """
         from bwbench.problems.hysteresis import fit_summary
 
         return fit_summary.summary(self, self.uncertainty)
 
     def correlation(self):
-        """The correlation matrix of the free (searched and solved) parameters, a DataFrame."""
+        """The correlation matrix of the free (searched and solved) parameters.
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
         from bwbench.problems.hysteresis import fit_summary
 
         return fit_summary.correlation(self.uncertainty)
 
     def report(self, min_correlation: float = 0.1) -> str:
-        """A text report like lmfit's ``fit_report``: data points, variables, χ², RMSE, NRMSE, AIC/BIC,
-        every parameter with its standard error, the correlations above ``min_correlation``, the notes."""
+        """A text report like lmfit's ``fit_report``.
+
+        Parameters
+        ----------
+        min_correlation : float, default 0.1
+            The correlations listed are those above this.
+
+        Returns
+        -------
+        str
+            Data points, variables, χ², RMSE (N), NRMSE, AIC/BIC, every parameter with its standard
+            error, the correlations above ``min_correlation``, the notes.
+
+        Examples
+        --------
+        >>> print(bwbench.fit("mytest.csv").report())
+        """
         from bwbench.problems.hysteresis import fit_summary
 
         return fit_summary.report(self, self.uncertainty, self.findings, min_correlation)
 
     def plot(self, ax=None):
-        """A matplotlib ``Figure``: per file the loops F–x and F–v, force and residual against time,
-        measured and fitted. ``ax``: draw into it instead (one Axes: the F–x loops; four: every panel).
-        The global backend and rcParams are left as they were."""
+        """Plot the fit: per file the loops F–x and F–v, force and residual against time, measured and fitted.
+
+        The global backend and rcParams are left as they were.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes or sequence of Axes or None, default None
+            Draw into it instead (one Axes: the F–x loops; four: every panel).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+
+        Examples
+        --------
+        >>> bwbench.fit("mytest.csv").plot().savefig("fit.png")
+        """
         from bwbench.render import fit_plots
 
         model = self.model
@@ -198,7 +368,13 @@ class FitResult:
 
     # -- the result JSON ------------------------------------------------------------------------
     def to_json_dict(self) -> dict:
-        """The result JSON (strict: a value that is not finite is null)."""
+        """The result JSON as a dict.
+
+        Returns
+        -------
+        dict
+            Strict: a value that is not finite is null (None).
+        """
         return finite_or_null(self._json_values())
 
     def _json_values(self) -> dict:
@@ -222,9 +398,23 @@ class FitResult:
         return out
 
     def save(self, path) -> None:
-        """The result JSON at ``path`` (``write_json``); ``bwbench.load_fit(path)`` reads its model back.
-        ``UserError`` (as ``bwbench fit --out``) when ``path`` is one of the fit's inputs by any spelling,
-        or cannot be written."""
+        """Write the result JSON at ``path`` (``write_json``); ``bwbench.load_fit(path)`` reads its model back.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The JSON file to write.
+
+        Raises
+        ------
+        bwbench.UserError
+            As ``bwbench fit --out``: when ``path`` is one of the fit's inputs by any spelling, or
+            cannot be written.
+
+        Examples
+        --------
+        >>> bwbench.fit("mytest.csv").save("fit.json")
+        """
         from bwbench.data.output_paths import check_outputs, writing
         from bwbench.errors import UserError
 
@@ -235,21 +425,47 @@ class FitResult:
             self.write_json(path)
 
     def inputs(self) -> list:
-        """The files this fit read: each specimen's path and the bounds file, if any."""
+        """The files this fit read.
+
+        Returns
+        -------
+        list
+            Each specimen's path, then the bounds file (None when there is none).
+        """
         parts = getattr(self.problem, "parts", None) or [self.problem]
         return [*(p.specimen.path for p in parts), self.extra.get("bounds_file")]
 
     def write_json(self, path) -> None:
-        """``to_json_dict`` written to ``path`` as strict JSON: null, never NaN or Infinity, and
-        ``"not_finite"`` saying why (a fit that never found a finite loss)."""
+        """Write ``to_json_dict`` to ``path`` as strict JSON.
+
+        Null, never NaN or Infinity, and ``"not_finite"`` saying why (a fit that never found a finite
+        loss).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The JSON file to write.
+        """
         from bwbench.data import strict_json
 
         strict_json.write(path, self._json_values(), why=self.result.not_finite_reasons())
 
 
 def per_file(problem, result: Result) -> tuple:
-    """Each file's errors at the best parameters of ``result`` (see ``FitResult.files``), with both
-    NRMSEs (``NRMSE_DEFINITIONS``)."""
+    """Each file's errors at the best parameters of ``result``.
+
+    Parameters
+    ----------
+    problem : object
+        The fitted problem (one specimen, or a joint problem of several).
+    result : bwbench.engine.result.Result
+        The backend's result.
+
+    Returns
+    -------
+    tuple of dict
+        Per file (see ``FitResult.files``), with both NRMSEs (``NRMSE_DEFINITIONS``).
+    """
     if hasattr(problem, "per_file"):
         params = np.array([result.params.get(n, np.nan) for n in problem.param_names])
         specimens = [p.specimen for p in problem.parts]
@@ -290,9 +506,23 @@ def _over_max_force(rmse: float, f) -> float:
 
 
 def provenance(specimens, bounds=None, argv=None) -> dict:
-    """What the result JSON records of its inputs: each file's role ("specimen" or "bounds"), path
-    (absolute), size (bytes) and SHA-256 (of its bytes: ``sha256sum`` gives the same), and the command
-    line that made it (``argv``, default ``sys.argv``)."""
+    """What the result JSON records of its inputs.
+
+    Parameters
+    ----------
+    specimens : iterable of str or pathlib.Path
+        The specimen files.
+    bounds : str or pathlib.Path or None, default None
+        The bounds file, if any.
+    argv : list of str or None, default None
+        The command line that made it (default ``sys.argv``).
+
+    Returns
+    -------
+    dict
+        ``inputs``: each file's role ("specimen" or "bounds"), path (absolute), size (bytes) and
+        SHA-256 (of its bytes: ``sha256sum`` gives the same); ``command_line``.
+    """
     import hashlib
     import shlex
     import sys
@@ -328,12 +558,40 @@ def run_fit(
     extra: dict | None = None,
     stop: str = "budget",
 ) -> FitResult:
-    """Fit ``problem`` with backend ``optimizer`` on at most ``budget`` evaluations (``fitting.run``),
-    then its per-file errors and checks. ``stop``: "budget" spends the whole budget (a study's
-    rule); "agreed" lets a backend with a ``stop_agree`` option (lsq-trf) stop once
-    ``AGREEING_SEARCHES`` of its independent local searches ended at the same optimum, unless
-    ``options`` set it. ``synthetic``: the data are the manifest's synthetic specimens (changes the
-    wording of a check). Raises ``UserError`` for a bad option or seed."""
+    """Fit a problem with a backend (``fitting.run``), then its per-file errors and checks.
+
+    Parameters
+    ----------
+    problem : object
+        The problem (one specimen, or a ``JointProblem`` of several).
+    optimizer : str
+        The backend's name.
+    budget : int
+        At most this many evaluations.
+    seed : int
+        The run's seed.
+    options : dict or None, default None
+        The backend's options.
+    synthetic : bool, default False
+        The data are the manifest's synthetic specimens (changes the wording of a check).
+    extra : dict or None, default None
+        More entries for the result JSON.
+    stop : str, default "budget"
+        "budget" spends the whole budget (a study's rule); "agreed" lets a backend with a
+        ``stop_agree`` option (lsq-trf) stop once ``AGREEING_SEARCHES`` of its independent local
+        searches ended at the same optimum, unless ``options`` set it.
+
+    Returns
+    -------
+    FitResult
+
+    Raises
+    ------
+    bwbench.UserError
+        For a bad option or seed.
+    ValueError
+        For a ``stop`` other than "budget" or "agreed".
+    """
     from bwbench.engine import fitting, registry
 
     if stop not in ("budget", "agreed"):
