@@ -32,9 +32,30 @@ EXCITATIONS = ("measured", "sine")
 class Prediction:
     """The force a fitted model predicts on one record, against the measured one.
 
-    ``force_N`` and ``measured_N`` (L,) in N, ``time_s`` (L,), ``displacement_mm`` (L,) the
-    displacement that drove the model; ``rmse_N`` (N), ``nrmse`` = RMSE/max|measured| (–),
-    ``mse`` (N²); +inf when the model blows up on this record."""
+    Made by ``FittedModel.predict``. Its errors ``rmse_N`` (N), ``nrmse`` = RMSE/max|measured| (–)
+    and ``mse`` (N²) are +inf when the model blows up on this record.
+
+    Parameters
+    ----------
+    specimen : str
+        The record's name.
+    time_s : numpy.ndarray, shape (L,)
+        Time (s).
+    displacement_mm : numpy.ndarray, shape (L,)
+        The displacement that drove the model (mm).
+    force_N : numpy.ndarray, shape (L,)
+        The predicted force (N).
+    measured_N : numpy.ndarray, shape (L,)
+        The measured force (N).
+    velocity_mm_s : numpy.ndarray or None, default None
+        The velocity that drove the model (mm/s), for the F–v loop.
+
+    Examples
+    --------
+    >>> p = bwbench.load_fit("fit.json").predict("othertest.csv")
+    >>> p.rmse_N, p.nrmse
+    >>> p.frame().head()
+    """
 
     specimen: str
     time_s: np.ndarray
@@ -45,25 +66,59 @@ class Prediction:
 
     @property
     def n(self) -> int:
+        """The number of samples L.
+
+        Returns
+        -------
+        int
+        """
         return len(self.measured_N)
 
     @property
     def mse(self) -> float:
+        """The mean squared error of the predicted force.
+
+        Returns
+        -------
+        float
+            MSE (N²); +inf when the model blows up on this record.
+        """
         with np.errstate(over="ignore", invalid="ignore"):
             value = float(np.mean((self.force_N - self.measured_N) ** 2))
         return value if math.isfinite(value) else math.inf
 
     @property
     def rmse_N(self) -> float:
+        """The root mean squared error of the predicted force.
+
+        Returns
+        -------
+        float
+            RMSE (N); +inf when the model blows up on this record.
+        """
         return math.sqrt(self.mse)
 
     @property
     def nrmse(self) -> float:
+        """The RMSE over the largest measured force magnitude, the MR-damper literature's measure.
+
+        Returns
+        -------
+        float
+            RMSE / max|F measured| (–); +inf when the model blows up or the force is zero.
+        """
         peak = float(np.max(np.abs(self.measured_N)))
         return self.rmse_N / peak if peak > 0 else math.inf
 
     def metrics(self) -> dict:
-        """The numbers of this prediction by name, and their units under ``units``."""
+        """The numbers of this prediction by name, and their units.
+
+        Returns
+        -------
+        dict
+            specimen, n, mse (N²), rmse_N (N), nrmse (–), max_abs_force_N (N), and ``units``:
+            {name: unit}.
+        """
         return {
             "specimen": self.specimen,
             "n": self.n,
@@ -81,7 +136,13 @@ class Prediction:
         }
 
     def frame(self):
-        """A pandas DataFrame: time_s, displacement_mm, force_measured_N, force_model_N, residual_N."""
+        """The prediction as a table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            time_s, displacement_mm, force_measured_N, force_model_N, residual_N.
+        """
         import pandas as pd
 
         return pd.DataFrame(
@@ -95,8 +156,19 @@ class Prediction:
         )
 
     def plot(self, ax=None):
-        """A matplotlib ``Figure``: loops F–x and F–v, force and residual against time, measured and
-        predicted (``ax``: draw into it instead). The global backend and rcParams are left as they were."""
+        """Plot the prediction: loops F–x and F–v, force and residual against time, measured and predicted.
+
+        The global backend and rcParams are left as they were.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes or sequence of Axes or None, default None
+            Draw into it instead.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
         from bwbench.render import fit_plots
 
         return fit_plots.figure([self], f"prediction of {self.specimen}", ax)
@@ -116,10 +188,34 @@ class Prediction:
 class FittedModel:
     """One model with every coefficient fixed (physical units, by name; see the module docstring).
 
-    ``model``: a registered model name (``bwbench models``); ``formulation``: its direct one or
-    "identifiable"; ``state``: the state convention (None for a model without one); ``excitation``:
-    "measured" or "sine"; ``params``: every parameter the formulation needs, by name; ``units``:
-    their units (for the record)."""
+    Parameters
+    ----------
+    model : str
+        A registered model name (``bwbench models``).
+    formulation : str
+        Its direct one or "identifiable".
+    params : dict
+        Every parameter the formulation needs, by name, in physical units.
+    state : str or None, default None
+        The state convention (None for a model without one).
+    excitation : str, default "measured"
+        "measured" or "sine".
+    units : dict, default {}
+        Their units (for the record).
+
+    Raises
+    ------
+    bwbench.UserError
+        Naming the key, for a field of the wrong type, an unknown model, formulation, state or
+        excitation, a missing parameter, or one outside its model's domain (not finite, an exponent
+        n ≤ 0).
+
+    Examples
+    --------
+    >>> model = bwbench.load_fit("fit.json")
+    >>> model.predict("othertest.csv").rmse_N
+    >>> model.simulate("othertest.csv").to_csv("simulated.csv", index=False)
+    """
 
     model: str
     formulation: str
@@ -159,8 +255,11 @@ class FittedModel:
         self._check_domain()
 
     def _check_domain(self) -> None:
-        """``UserError`` naming the key for a parameter outside its model's domain: not finite (only a
-        solved coefficient of a branch the fit's data never had may be null), or an exponent n ≤ 0."""
+        """``UserError`` naming the key for a parameter outside its model's domain.
+
+        Not finite (only a solved coefficient of a branch the fit's data never had may be null), or an
+        exponent n ≤ 0.
+        """
         coefficients = set()
         if self.formulation == IDENTIFIABLE:
             from bwbench.problems.hysteresis.linear.columns import coefficient_names
@@ -182,7 +281,12 @@ class FittedModel:
         return registry.get(self.model)
 
     def needed(self) -> tuple:
-        """The parameter names the force needs in this formulation."""
+        """The parameter names the force needs in this formulation.
+
+        Returns
+        -------
+        tuple of str
+        """
         model = self._model
         if self.formulation != IDENTIFIABLE:
             return tuple(p.name for p in model.direct_parameters(self.state))
@@ -194,8 +298,25 @@ class FittedModel:
 
     @classmethod
     def from_result(cls, data: dict, source: str = "the fit result") -> "FittedModel":
-        """The fitted model of a result dict (``bwbench fit``'s JSON): its model (default: the switched
-        model, for results written before the key), formulation, state, excitation and params."""
+        """The fitted model of a result dict (``bwbench fit``'s JSON).
+
+        Parameters
+        ----------
+        data : dict
+            The result: its model (default: the switched model, for results written before the key),
+            formulation, state, excitation and params (null for a coefficient the fit could not have).
+        source : str, default "the fit result"
+            What names the result in an error message.
+
+        Returns
+        -------
+        FittedModel
+
+        Raises
+        ------
+        bwbench.UserError
+            Starting with ``source``, when ``data`` is not a fit result or cannot make a model.
+        """
         from bwbench.models import registry
 
         if not isinstance(data, dict) or not isinstance(data.get("params"), dict):
@@ -226,9 +347,30 @@ class FittedModel:
 
     @classmethod
     def from_run(cls, run) -> "FittedModel":
-        """The fitted model of a study's run (a row of ``Study.runs``: model, formulation, state,
-        excitation, params_json). A column the database left empty (NaN, None, "") takes its default:
-        a model without states stores none. ``UserError`` when the run's parameters cannot make a model."""
+        """The fitted model of a study's run.
+
+        A column the database left empty (NaN, None, "") takes its default: a model without states
+        stores none.
+
+        Parameters
+        ----------
+        run : mapping
+            A row of ``Study.runs``: model, formulation, state, excitation, params_json.
+
+        Returns
+        -------
+        FittedModel
+
+        Raises
+        ------
+        bwbench.UserError
+            When the run's parameters cannot make a model.
+
+        Examples
+        --------
+        >>> runs = bwbench.load_study("study.sqlite").runs
+        >>> FittedModel.from_run(runs.iloc[0]).predict("othertest.csv")
+        """
         import json
 
         def text(key, default):
@@ -250,24 +392,76 @@ class FittedModel:
 
     @classmethod
     def read(cls, path) -> "FittedModel":
-        """The fitted model of a result JSON file; ``UserError`` naming the file for anything wrong."""
+        """The fitted model of a result JSON file (``bwbench.load_fit``).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The result JSON.
+
+        Returns
+        -------
+        FittedModel
+
+        Raises
+        ------
+        bwbench.UserError
+            Naming the file, for anything wrong.
+
+        Examples
+        --------
+        >>> FittedModel.read("fit.json")
+        """
         from bwbench.data.json_input import read_json_file
 
         return cls.from_result(read_json_file(Path(path)), str(path))
 
     def describe(self) -> str:
+        """The model in words.
+
+        Returns
+        -------
+        str
+            E.g. "spencer (direct formulation, measured excitation)".
+        """
         state = f", {self.state} state" if self.state else ""
         return f"{self.model} ({self.formulation} formulation{state}, {self.excitation} excitation)"
 
     def signal(self, specimen):
-        """The excitation this model is driven by on ``specimen`` (a ``Specimen``)."""
+        """The excitation this model is driven by on a specimen.
+
+        Parameters
+        ----------
+        specimen : Specimen
+            The record.
+
+        Returns
+        -------
+        object
+            The signal, with attributes ``t, x, v, a`` (s, mm, mm/s, mm/s²).
+        """
         from bwbench.models import excitation
 
         return excitation.of_specimen(self.excitation, specimen)
 
     def force(self, signal) -> np.ndarray:
-        """Model force (N) on an excitation (t, x, v, a); +inf everywhere where the model blows up.
-        ``UserError`` when the record moves in a direction whose coefficients the fit never saw."""
+        """The model force on an excitation.
+
+        Parameters
+        ----------
+        signal : object
+            The excitation: attributes ``t, x, v, a`` (s, mm, mm/s, mm/s²).
+
+        Returns
+        -------
+        numpy.ndarray, shape (L,)
+            The force (N); +inf everywhere where the model blows up.
+
+        Raises
+        ------
+        bwbench.UserError
+            When the record moves in a direction whose coefficients the fit never saw.
+        """
         model = self._model
         if self.formulation != IDENTIFIABLE:
             P = np.array([self.params[n] for n in self.needed()], dtype=float)
@@ -298,8 +492,30 @@ class FittedModel:
         return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
 
     def predict(self, specimen) -> Prediction:
-        """The force on ``specimen`` (a specimen CSV's path, a ``Specimen`` or a DataFrame with the file's
-        columns) against its measured one."""
+        """The force on a specimen against its measured one, nothing refitted.
+
+        The file is read and checked as every command does: a dead channel refused, the rest of data
+        check's warnings printed.
+
+        Parameters
+        ----------
+        specimen : str, pathlib.Path, Specimen or pandas.DataFrame
+            A specimen CSV's path, a ``Specimen`` or a DataFrame with the file's columns (``time_s``,
+            ``displacement_mm``, ``force_N``, optionally ``velocity_mm_s``, ``acceleration_mm_s2``).
+
+        Returns
+        -------
+        Prediction
+
+        Raises
+        ------
+        bwbench.UserError
+            For a file that cannot be read, or a record the fitted coefficients cannot drive.
+
+        Examples
+        --------
+        >>> bwbench.load_fit("fit.json").predict("othertest.csv").nrmse
+        """
         spec = _specimen(specimen)
         signal = self.signal(spec)
         return Prediction(
@@ -312,9 +528,29 @@ class FittedModel:
         )
 
     def simulate(self, specimen):
-        """``predict(specimen).frame()`` with the velocity and acceleration that drove the model: a
-        pandas DataFrame with time_s, displacement_mm, velocity_mm_s, acceleration_mm_s2,
-        force_model_N, force_measured_N."""
+        """``predict(specimen).frame()`` with the velocity and acceleration that drove the model.
+
+        Parameters
+        ----------
+        specimen : str, pathlib.Path, Specimen or pandas.DataFrame
+            A specimen CSV's path, a ``Specimen`` or a DataFrame with the file's columns (``time_s``,
+            ``displacement_mm``, ``force_N``, optionally ``velocity_mm_s``, ``acceleration_mm_s2``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            time_s, displacement_mm, velocity_mm_s, acceleration_mm_s2, force_model_N,
+            force_measured_N.
+
+        Raises
+        ------
+        bwbench.UserError
+            As ``predict``.
+
+        Examples
+        --------
+        >>> bwbench.load_fit("fit.json").simulate("othertest.csv").head()
+        """
         import pandas as pd
 
         spec = _specimen(specimen)
@@ -341,7 +577,13 @@ class FittedModel:
         return reprs.model_html(self)
 
     def to_dict(self) -> dict:
-        """What a result JSON holds of this model: model, formulation, state, excitation, params, units."""
+        """What a result JSON holds of this model.
+
+        Returns
+        -------
+        dict
+            model, formulation, state, excitation, params, units.
+        """
         return {
             "model": self.model,
             "formulation": self.formulation,
@@ -353,9 +595,11 @@ class FittedModel:
 
 
 def _specimen(specimen):
-    """A ``Specimen`` from a path or a DataFrame with the file's columns (read and checked as every
-    command does: a dead channel refused, the rest of data check's warnings printed) or as given;
-    ``UserError`` for anything else."""
+    """A ``Specimen`` from a path or a DataFrame with the file's columns, or as given.
+
+    Read and checked as every command does: a dead channel refused, the rest of data check's
+    warnings printed; ``UserError`` for anything else.
+    """
     from bwbench.data import plausibility
     from bwbench.data.specimen import Specimen
     from bwbench.data.specimen_input import as_specimen
