@@ -178,6 +178,12 @@ def counting_problem() -> SphereProblem:
     Returns
     -------
     SphereProblem
+
+    Examples
+    --------
+    >>> problem = counting_problem()
+    >>> problem.loss_batch(np.full((1, 14), 0.95))
+    array([inf])
     """
     return SphereProblem(blow_up=lambda P: P[:, 0] > 0.9)
 

@@ -40,6 +40,10 @@ def chain_of(study, specimen: str):
     bwbench.errors.UserError
         When the study has no posterior run, none of ``specimen``, or its chain is not in the
         coordinates of its problem.
+
+    Examples
+    --------
+    >>> chain_of(stored, "mytest").burn
     """
     from bwbench.problems.hysteresis.report.posterior_draws import posterior_chains
 

@@ -111,6 +111,11 @@ class Study:
             [identifiable]"), ``nfev`` and ``budget`` integers, ``finished`` (the run ended with a
             finite loss; an error or a model that blew up everywhere is not), ``mse`` (N²),
             ``rmse_N`` (N), every parameter by name.
+
+        Examples
+        --------
+        >>> runs = bwbench.load_study("study.sqlite").runs
+        >>> runs[runs["finished"]].groupby("optimizer")["rmse_N"].median()
         """
         from bwbench.render.labels import split_label
 
@@ -131,6 +136,10 @@ class Study:
         -------
         pandas.DataFrame
             Best-so-far MSE (N²) against evaluations, per run.
+
+        Examples
+        --------
+        >>> bwbench.load_study("study.sqlite").traces.head()
         """
         return self._stored.traces
 
@@ -372,6 +381,10 @@ def load(db, data_dir=None) -> Study:
     Returns
     -------
     Study
+
+    Examples
+    --------
+    >>> load("study.sqlite", data_dir="moved/data").ranking()
     """
     from bwbench.database.reader import load_study
 

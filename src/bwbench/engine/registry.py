@@ -101,6 +101,11 @@ class Backend:
     options : dict, default {}
         {option: declaration} (``bwbench.engine.options``); empty for a backend registered with
         ``defaults=`` only.
+
+    Examples
+    --------
+    >>> backend = get("lsq-trf")
+    >>> backend.family, backend.batched, sorted(backend.options)[:2]
     """
 
     name: str
@@ -226,6 +231,11 @@ def broken() -> dict[str, str]:
     -------
     dict of str to str
         Entry point name -> the line naming it and its error.
+
+    Examples
+    --------
+    >>> for name, line in broken().items():
+    ...     print(line)
     """
     _load()
     return dict(REGISTRY.broken)

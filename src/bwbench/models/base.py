@@ -138,6 +138,12 @@ class Box:
         -------
         numpy.ndarray, shape (..., d)
             The same points in unit coordinates; NaN for P ≤ 0 on a log coordinate.
+
+        Examples
+        --------
+        >>> box = Box(("k", "c"), [1.0, 0.0], [100.0, 5.0], [True, False])
+        >>> box.to_unit([10.0, 2.5])
+        array([0.5, 0.5])
         """
         lo, hi = self._ends()
         P = np.asarray(P, dtype=float)
@@ -268,6 +274,12 @@ class Model:
         ------
         ValueError
             When ``state`` is not one of ``states``.
+
+        Examples
+        --------
+        >>> from bwbench.models import registry
+        >>> registry.get("spencer").check_state(None) is None
+        True
         """
         if not self.states:
             return None
@@ -327,6 +339,11 @@ class Model:
         -------
         numpy.ndarray, shape (m, L)
             The forces (N); rows of +inf where the model blows up, never NaN, never an exception.
+
+        Examples
+        --------
+        >>> model = registry.get("spencer")
+        >>> F = model.force_batch(P, signal)   # P: (m, d), F: (m, len(signal.x)) in N
         """
         raise NotImplementedError
 
@@ -348,6 +365,10 @@ class Model:
         -------
         numpy.ndarray, shape (m,)
             The MSE (N²) per row; +inf where the model blows up.
+
+        Examples
+        --------
+        >>> model.mse_batch(P, signal, specimen.f)   # (m,) in N²
         """
         F = self.force_batch(P, signal, state)
         with np.errstate(invalid="ignore", over="ignore"):
@@ -750,6 +771,12 @@ def velocity_scale(signal) -> float:
     ------
     ValueError
         When the velocity is zero everywhere.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> velocity_scale(SimpleNamespace(v=[-40.0, 25.0]))
+    40.0
     """
     v = float(np.max(np.abs(np.asarray(signal.v, dtype=float))))
     if not v > 0:

@@ -45,15 +45,35 @@ class FitWarning(UserWarning):
 
 
 class FitNote(FitWarning):
-    """What the fit did, or what the data do not determine."""
+    """What the fit did, or what the data do not determine.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> warnings.simplefilter("ignore", bwbench.FitNote)
+    """
 
 
 class FitFinding(FitWarning):
-    """What the fit says about the model or the data: a failed check, a physical limit."""
+    """What the fit says about the model or the data: a failed check, a physical limit.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     fit = bwbench.fit("mytest.csv")
+    >>> [w.message for w in caught if issubclass(w.category, bwbench.FitFinding)]
+    """
 
 
 class FitBoxWarning(FitWarning):
-    """Something to act on: a parameter on its box's edge, a file that looks mis-scaled."""
+    """Something to act on: a parameter on its box's edge, a file that looks mis-scaled.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> warnings.simplefilter("error", bwbench.FitBoxWarning)   # stop at a parameter on its box's edge
+    """
 
 
 class FitFailure(FitWarning):
@@ -120,6 +140,11 @@ def fit_findings(fit) -> list[Finding]:
     Returns
     -------
     list of Finding
+
+    Examples
+    --------
+    >>> for finding in fit_findings(bwbench.fit("mytest.csv")):
+    ...     print(finding.severity, finding.text)
     """
     out: list[Finding] = []
     reason = fit.extra.get("formulation_reason")
@@ -172,6 +197,11 @@ def failure_reasons(fit) -> list[str]:
     -------
     list of str
         The reasons; [] for a fit that did not fail.
+
+    Examples
+    --------
+    >>> failure_reasons(bwbench.fit("mytest.csv"))
+    []
     """
     if not fit.success:
         return [
@@ -211,6 +241,10 @@ def data_warnings(fit) -> list[str]:
     -------
     list of str
         A flipped or mis-scaled signal, a time column in ms, ..., each naming its file.
+
+    Examples
+    --------
+    >>> data_warnings(bwbench.fit("mytest.csv"))
     """
     from bwbench.data import plausibility
 
@@ -237,6 +271,10 @@ def issue(findings, stacklevel: int = 3) -> None:
     -----
     FitWarning
         ``FitNote``, ``FitFinding``, ``FitBoxWarning`` or ``FitFailure`` by severity.
+
+    Examples
+    --------
+    >>> issue([Finding("note", "linear solve: mass fitted")])
     """
     for finding in findings:
         category = CATEGORIES.get(finding.severity)

@@ -189,6 +189,10 @@ class FitResult:
         list of bwbench.problems.hysteresis.findings.Finding
             (severity, text): what ``bwbench fit`` prints and ``bwbench.fit`` issues as
             ``FitWarning`` subclasses.
+
+        Examples
+        --------
+        >>> [f.line for f in bwbench.fit("mytest.csv").findings]
         """
         from bwbench.problems.hysteresis.findings import fit_findings
 
@@ -236,6 +240,10 @@ class FitResult:
         -------
         pandas.DataFrame
             specimen, n, weight, mse (N²), rmse_N (N), nrmse (–), nrmse_max_F (–).
+
+        Examples
+        --------
+        >>> bwbench.fit("a.csv", "b.csv").table()[["specimen", "rmse_N", "nrmse"]]
         """
         import pandas as pd
 
@@ -303,6 +311,10 @@ class FitResult:
         Returns
         -------
         pandas.DataFrame
+
+        Examples
+        --------
+        >>> bwbench.fit("mytest.csv").correlation().round(2)
         """
         from bwbench.problems.hysteresis import fit_summary
 
@@ -374,6 +386,11 @@ class FitResult:
         -------
         dict
             Strict: a value that is not finite is null (None).
+
+        Examples
+        --------
+        >>> bwbench.fit("mytest.csv").to_json_dict()["units"]["rmse_N"]
+        'N'
         """
         return finite_or_null(self._json_values())
 
@@ -522,6 +539,11 @@ def provenance(specimens, bounds=None, argv=None) -> dict:
     dict
         ``inputs``: each file's role ("specimen" or "bounds"), path (absolute), size (bytes) and
         SHA-256 (of its bytes: ``sha256sum`` gives the same); ``command_line``.
+
+    Examples
+    --------
+    >>> provenance(["mytest.csv"], argv=["bwbench", "fit", "mytest.csv"])["command_line"]
+    'bwbench fit mytest.csv'
     """
     import hashlib
     import shlex
@@ -591,6 +613,12 @@ def run_fit(
         For a bad option or seed.
     ValueError
         For a ``stop`` other than "budget" or "agreed".
+
+    Examples
+    --------
+    >>> from bwbench.problems.hysteresis.setup import setup_fit
+    >>> setup = setup_fit(["mytest.csv"], model="spencer")
+    >>> run_fit(setup.problem, "lsq-trf", 4100, seed=0, stop="agreed").rmse_N
     """
     from bwbench.engine import fitting, registry
 

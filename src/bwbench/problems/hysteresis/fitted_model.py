@@ -118,6 +118,10 @@ class Prediction:
         dict
             specimen, n, mse (N²), rmse_N (N), nrmse (–), max_abs_force_N (N), and ``units``:
             {name: unit}.
+
+        Examples
+        --------
+        >>> bwbench.load_fit("fit.json").predict("othertest.csv").metrics()["rmse_N"]
         """
         return {
             "specimen": self.specimen,
@@ -142,6 +146,11 @@ class Prediction:
         -------
         pandas.DataFrame
             time_s, displacement_mm, force_measured_N, force_model_N, residual_N.
+
+        Examples
+        --------
+        >>> p = bwbench.load_fit("fit.json").predict("othertest.csv")
+        >>> p.frame().to_csv("prediction.csv", index=False)
         """
         import pandas as pd
 
@@ -168,6 +177,10 @@ class Prediction:
         Returns
         -------
         matplotlib.figure.Figure
+
+        Examples
+        --------
+        >>> bwbench.load_fit("fit.json").predict("othertest.csv").plot().savefig("prediction.png")
         """
         from bwbench.render import fit_plots
 
@@ -316,6 +329,11 @@ class FittedModel:
         ------
         bwbench.UserError
             Starting with ``source``, when ``data`` is not a fit result or cannot make a model.
+
+        Examples
+        --------
+        >>> import json
+        >>> FittedModel.from_result(json.load(open("fit.json")), "fit.json")
         """
         from bwbench.models import registry
 
@@ -461,6 +479,12 @@ class FittedModel:
         ------
         bwbench.UserError
             When the record moves in a direction whose coefficients the fit never saw.
+
+        Examples
+        --------
+        >>> from bwbench.data.specimen import read_specimen
+        >>> model = bwbench.load_fit("fit.json")
+        >>> model.force(model.signal(read_specimen("othertest.csv")))   # (L,) in N
         """
         model = self._model
         if self.formulation != IDENTIFIABLE:
@@ -583,6 +607,11 @@ class FittedModel:
         -------
         dict
             model, formulation, state, excitation, params, units.
+
+        Examples
+        --------
+        >>> bwbench.load_fit("fit.json").to_dict()["formulation"]
+        'identifiable'
         """
         return {
             "model": self.model,
