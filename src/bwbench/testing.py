@@ -163,6 +163,11 @@ class SphereProblem:
 class LossOnlySphereProblem(SphereProblem):
     """``SphereProblem`` without residuals: what a problem that only has a loss looks like.
 
+    Parameters
+    ----------
+    dim, centre, blow_up, n_data
+        As ``SphereProblem``.
+
     Examples
     --------
     >>> LossOnlySphereProblem().residual_batch is None
