@@ -86,6 +86,7 @@ class SphereProblem:
         Parameters
         ----------
         U : array_like, shape (..., d)
+            Points in the unit box.
 
         Returns
         -------
@@ -99,6 +100,7 @@ class SphereProblem:
         Parameters
         ----------
         P : array_like, shape (..., d)
+            Points in the problem's coordinates.
 
         Returns
         -------
@@ -112,6 +114,7 @@ class SphereProblem:
         Parameters
         ----------
         P : array_like, shape (m, d)
+            Points, one per row.
 
         Returns
         -------
@@ -134,6 +137,7 @@ class SphereProblem:
         Parameters
         ----------
         P : array_like, shape (m, d)
+            Points, one per row.
 
         Returns
         -------
