@@ -89,11 +89,13 @@ def test_no_import_cycle_inside_bwbench():
 
 # A smoke alarm, not a rule: modules are split by idea, never by size (docs/contributing.md).
 LONGEST = 800
+# One idea that is long: the model protocol, every member documented with numpydoc sections.
+LONGER = {"bwbench.models.base": 900}
 
 
 @pytest.mark.parametrize("name, path", sorted(_modules().items()))
 def test_no_module_is_so_long_that_it_is_surely_two_ideas(name, path):
-    assert len(path.read_text(encoding="utf-8").splitlines()) <= LONGEST, name
+    assert len(path.read_text(encoding="utf-8").splitlines()) <= LONGER.get(name, LONGEST), name
 
 
 def private_imports(modules: dict) -> list[str]:

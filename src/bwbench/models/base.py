@@ -204,7 +204,8 @@ class Model:
     The class attributes describe the model: ``name`` (registry key, ``--model NAME``), ``title``,
     ``reference`` (where the equations come from), ``states`` (its state conventions, () when it has
     none), ``direct_name`` ("direct", or "paper" for the switched model), ``default_formulation``,
-    ``viscous_sign_bound``, ``step_budget_stops`` and ``sensitivity_cost`` (see their comments).
+    ``viscous_sign_bound``, ``step_budget_stops``, ``sensitivity_cost`` and ``exploration_note``
+    (see their comments).
     Every method takes ``state``, the state convention (None: the model's first, see
     ``check_state``). Signals are objects with attributes ``t, x, v, a`` (s, mm, mm/s, mm/s²),
     forces are in N. The methods of the direct formulation are required; those of the identifiable
@@ -376,13 +377,35 @@ class Model:
         return np.where(np.isfinite(mse), mse, np.inf)
 
     def force_sensitivities(self, P, signal, state=None):
-        """(force (L,) N, ∂force/∂P (L, d)) of one direct parameter vector P, integrated together, for
-        exact Jacobians in the direct formulation; None when the model has none (callers then take
-        differences)."""
+        """The force and its sensitivities of one direct parameter vector, integrated together (optional).
+
+        For exact Jacobians in the direct formulation.
+
+        Parameters
+        ----------
+        P : numpy.ndarray, shape (d,)
+            One set of direct parameters.
+        signal : object
+            The excitation (attributes ``t, x, v, a``), L samples.
+        state : str or None
+            The state convention.
+
+        Returns
+        -------
+        tuple of (numpy.ndarray, numpy.ndarray) or None
+            (force of shape (L,) in N, ∂force/∂P of shape (L, d)); None when the model has none
+            (callers then take differences; the default).
+        """
         return None
 
     @property
     def has_force_sensitivities(self) -> bool:
+        """Whether the model overrides ``force_sensitivities``.
+
+        Returns
+        -------
+        bool
+        """
         return type(self).force_sensitivities is not Model.force_sensitivities
 
     # -- a cheaper simulation for a fit's exploring searches (optional) ------------------------
@@ -390,14 +413,41 @@ class Model:
     exploration_note = ""
 
     def exploring(self, every: int = 1) -> Model:
-        """A copy of this model that simulates more cheaply (a looser tolerance, a smaller step budget)
-        for the local searches that explore before a fit's polish on the model itself; ``every``: the
-        record is kept every ``every``-th sample (a per-interval budget scales with it). A model without
-        one does not override it (``has_exploring``)."""
+        """A copy of this model that simulates more cheaply, for a fit's exploring searches (optional).
+
+        A looser tolerance, a smaller step budget: for the local searches that explore before a fit's
+        polish on the model itself. A model without one does not override it (``has_exploring``);
+        ``exploration_note`` says what it changes, in words, for the fit's message.
+
+        Parameters
+        ----------
+        every : int, default 1
+            The record is kept every ``every``-th sample (a per-interval budget scales with it).
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        NotImplementedError
+            For a model without one (the default).
+
+        Examples
+        --------
+        >>> model = registry.get("spencer")
+        >>> cheap = model.exploring(every=2) if model.has_exploring else model
+        """
         raise NotImplementedError
 
     @property
     def has_exploring(self) -> bool:
+        """Whether the model overrides ``exploring``.
+
+        Returns
+        -------
+        bool
+        """
         return type(self).exploring is not Model.exploring
 
     # -- identifiable formulation (optional) --------------------------------------------------
