@@ -152,6 +152,7 @@ def test_a_layer_does_not_import_the_layers_above_it(layer):
 # The order of the sub-packages, top layer first, written once: a module may import its own
 # sub-package and those of the layers below it, never one above it or beside it (docs/contributing.md).
 LAYERS = (
+    ("bwbench.__main__",),
     ("bwbench", "bwbench.cli"),
     ("bwbench.commands",),
     ("bwbench.api", "bwbench.testing"),

@@ -49,7 +49,7 @@ A backend is one function registered by name, with its options declared::
   the start of ``minimize``, raising ``bwbench.engine.options.OptionError`` (one line:
   ``name: option X must be ..., got V``). A study stores the options with every run, so they must
   be plain JSON values.
-- **Untyped options** (the contract before typed options): ``defaults={"step": 0.25}`` instead of
+- **Untyped options**: ``defaults={"step": 0.25}`` instead of
   ``options=`` still works; only unknown names are refused, values reach ``minimize`` unchecked,
   and ``bwbench optimizers`` shows them as untyped. Give one of ``options=`` and ``defaults=``.
 
