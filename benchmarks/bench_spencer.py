@@ -18,7 +18,7 @@ from scipy.interpolate import CubicHermiteSpline
 
 from bwbench.models.spencer.model import MODEL
 
-# Spencer et al. (1997)'s damper at 1 V, mm units (see tests/models/test_spencer.py).
+# Spencer et al. (1997)'s damper at 1 V, mm units (see tests/models/spencer/test_spencer.py).
 P = {
     "c0": 2.45,
     "c1": 28.595,

@@ -2,7 +2,7 @@
 
 Slow (11 backends x 5 seeds of 4,100 evaluations, ~100 s on 2 cores): run with
 `.venv/bin/python -m pytest -m slow`. The default run covers the same behaviour on a cheap
-problem (tests/test_library_backends.py, test_paper_ga.py, test_firefly.py) and the quick study
+problem (tests/optimizers/test_library_backends.py, test_paper_ga.py, test_firefly.py) and the quick study
 shows it on 3 specimens (reports/quick/report.html).
 """
 

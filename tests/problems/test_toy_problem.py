@@ -1,7 +1,7 @@
 """A third problem is one module: the toy ``ProblemType`` of the example plug-in package
 (examples/problem_plugin), registered from this test, runs through ``bwbench compare`` and
 ``bwbench report`` with nothing else changed. Installed as a package it also runs in spawned workers
-and on Dask (tests/study/test_plugin_packages.py); registered in this process only, a study with more
+and on Dask (tests/system/test_plugin_packages.py); registered in this process only, a study with more
 workers is refused before anything runs."""
 
 from __future__ import annotations

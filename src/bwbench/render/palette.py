@@ -182,7 +182,7 @@ def palette(study, order=None) -> dict:
 # seaborn's ``set_theme(style="whitegrid", context="notebook")`` written out: its rcParams, its "deep"
 # colour cycle, and the colour codes it maps (b g r m y c to "deep6", k to dark grey). Importing seaborn
 # imports scipy.stats, which costs a command more than a fit of a rig test (docs/speed.md), and its theme
-# was all bwbench took from it. ``tests/report/test_figure_look.py`` checks this against seaborn's own.
+# was all bwbench took from it. ``tests/render/test_figure_look.py`` checks this against seaborn's own.
 # (seaborn's default image colormap, "rocket", is left out: it is registered by importing seaborn, and no
 # figure draws an image without naming its colormap.)
 SEABORN_WHITEGRID_NOTEBOOK: dict[Any, Any] = {  # Any: matplotlib types rcParams keys as literals

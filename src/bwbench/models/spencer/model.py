@@ -111,7 +111,7 @@ EXPLORATION_TOLERANCE = 1e-4
 # 1.4–2.4 (500 Hz–1 kHz). Why 10 and not fewer: at 10× the tolerance the step control takes about
 # 10^(1/5) = 1.6× fewer steps, so 10 here is the model's own 16, and the searches see the points the
 # model's own simulation accepts. 8 refused more of them: on a 500 Hz test in the direct formulation
-# (tests/problems/test_prediction.py) the fit ended in a stiff corner (docs/speed.md has the numbers).
+# (tests/commands/test_prediction.py) the fit ended in a stiff corner (docs/speed.md has the numbers).
 EXPLORATION_PACE = 10
 KAPPA0_FLOOR = 1e-6
 # Physical limits of the solved coefficients (when the loops dissipate: ``linear_bounds``).

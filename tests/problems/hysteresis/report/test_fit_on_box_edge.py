@@ -11,7 +11,7 @@ from bwbench.engine.box import box_from_unit
 from bwbench.problems.hysteresis.formulations import make_problem
 from bwbench.problems.hysteresis.report.nested_section import _on_box_edge
 
-SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
+SPECIMEN = Path(__file__).resolve().parents[4] / "data" / "specimens" / "pom-mt24u01_0.05MPa_r1.csv"
 
 
 @pytest.fixture(scope="module")

@@ -102,7 +102,7 @@ def test_exact_symmetries_of_the_paper_formulation_are_not_determined():
     path = "data/specimens/pom-mt24u01_0.01MPa_r1.csv"
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[2] / path
+    path = Path(__file__).resolve().parents[3] / path
     paper = quiet_fit(path, model=None, fix_mass="auto", optimizer="cmaes", budget=150)
     s = paper.summary()
     assert s.loc["A+", "stderr"] == math.inf and s.loc["alpha-", "stderr"] == math.inf

@@ -5,7 +5,7 @@ blow up everywhere, a full disk, edited data, files a glob would misread.
 Each case must end with the exit status it states (2 where it refuses), one line ``error: ...`` on a
 refusal, no traceback anywhere, and every input file byte-identical afterwards. The timeout turns a
 hang into a failure; it is generous and no speed requirement. The output-onto-input cases of every
-output flag are ``tests/test_outputs_never_inputs.py``.
+output flag are ``tests/system/test_outputs_never_inputs.py``.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import pytest
 
 from bwbench import cli
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 NAME = "pom-mt24u01_0.01MPa_r1.csv"
 HANG = 300  # s: a hang detector only
 RUNAWAY = {

@@ -14,7 +14,7 @@ import pytest
 import bwbench
 from bwbench import cli
 
-SPECIMEN = Path(__file__).resolve().parents[1] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
+SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 HEAVY = ("numpy", "scipy", "pandas", "numba", "matplotlib")
 
 

@@ -22,7 +22,7 @@ from bwbench.problems.noel_schoukens.problem import (
     to_unit,
 )
 
-DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "benchmarks" / "bouc-wen"
+DATA_DIR = Path(__file__).resolve().parents[3].parent / "shared" / "benchmarks" / "bouc-wen"
 needs_data = pytest.mark.skipif(
     not (DATA_DIR / "train_multisine.csv").is_file(), reason=f"benchmark data not found at {DATA_DIR}"
 )

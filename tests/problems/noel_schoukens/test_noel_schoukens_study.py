@@ -21,7 +21,7 @@ from bwbench.problems.noel_schoukens.problem import PARAM_NAMES
 from bwbench.report import build as report
 from bwbench.study.config import load_study_config
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 RUN_COMPARE = REPO / "studies" / "run_compare.py"
 DATA_DIR = default_data_dir()
 needs_data = pytest.mark.skipif(

@@ -11,7 +11,7 @@ import bwbench
 from bwbench.data.specimen import read_specimen
 from bwbench.problems.hysteresis.formulations import make_problem
 
-SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "mr_damper" / "mr_10mm_5Hz_0V.csv"
+SPECIMEN = Path(__file__).resolve().parents[3] / "data" / "mr_damper" / "mr_10mm_5Hz_0V.csv"
 
 
 @pytest.fixture

@@ -15,7 +15,7 @@ from bwbench.models.spencer.model import MODEL
 from bwbench.models.spencer.sensitivity import ydot_sensitivity_batch
 from bwbench.problems.hysteresis.formulations import make_problem
 
-DATA = Path(__file__).resolve().parents[2] / "data" / "mr_damper"
+DATA = Path(__file__).resolve().parents[3] / "data" / "mr_damper"
 # A fit's optimum on mr_25mm_1Hz_0V (x_y mm, n, η, v_y mm/s, r₀, κ₀ 1/s) and a point of the box far from it.
 OPTIMUM = np.array([0.02435, 1.5079, 0.0527, 2.2478, 0.05188, 0.2055])
 ELSEWHERE = np.array([0.3, 2.5, -0.8, 40.0, 0.5, 3.0])

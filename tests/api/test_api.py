@@ -11,7 +11,7 @@ import pytest
 
 import bwbench
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def readme_example() -> str:

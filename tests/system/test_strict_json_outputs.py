@@ -23,7 +23,7 @@ import pytest
 
 from bwbench.data import strict_json
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 NAME = "pom-mt24u01_0.01MPa_r1.csv"
 HANG = 600  # s: a hang detector only
 # Within Table 5 except γ± < 0 and n± near their tops: the model's z runs away on this specimen.

@@ -9,7 +9,7 @@ from contextlib import closing
 import numpy as np
 import pytest
 
-from report import test_nested_posterior_report as nested_fixture
+from problems.hysteresis.report import test_nested_posterior_report as nested_fixture
 from study_fixture import make_study_db
 
 TABLES = ("runs", "timings", "chains")

@@ -13,7 +13,7 @@ from bwbench.models.switched import simulation as model
 from bwbench.models.switched.kernel import HYSTERETIC_INDEX, STATES, symmetric_params
 from bwbench.models.switched.parameters import LOWER, UPPER
 
-SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
+SPECIMEN = Path(__file__).resolve().parents[3] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 TABLE6 = [0.005, 5.019, 1.009, 1.171, 3.600, 261.893, 3.589, 0.341, 2.825, 0.068, 0.014, 2.814, -151.740, 17.333]
 
 # Outside or at the edge of Table 5, to provoke every path: n down to 0.2 with large A (stiff:

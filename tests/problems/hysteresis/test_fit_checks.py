@@ -13,7 +13,7 @@ from bwbench.models.switched.parameters import UNITS
 from bwbench.problems.hysteresis import fit_checks
 from paper_problems import IdentifiableProblem
 
-DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
+DATA = Path(__file__).resolve().parents[3] / "data" / "specimens"
 SPECIMEN = DATA / "pom-mt24u01_0.01MPa_r1.csv"
 
 

@@ -12,7 +12,7 @@ from bwbench.errors import UserError
 from bwbench.models.switched import parameters as switched_parameters
 from bwbench.problems.hysteresis import identifiability
 
-SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
+SPECIMEN = Path(__file__).resolve().parents[3] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 
 
 def test_analyse_bouc_wen_at_the_truth_is_json_ready():

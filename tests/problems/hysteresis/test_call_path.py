@@ -11,7 +11,7 @@ from bwbench.data.specimen import read_specimen
 from bwbench.engine.objective import Objective
 from bwbench.problems.hysteresis.formulations import make_problem
 
-DATA = Path(__file__).resolve().parents[2] / "data"
+DATA = Path(__file__).resolve().parents[3] / "data"
 CASES = [
     ("switched-bouc-wen", DATA / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
     ("spencer", DATA / "mr_damper" / "mr_10mm_2Hz_1V.csv"),

@@ -10,7 +10,7 @@ import pytest
 from bwbench.cli import main
 from bwbench.data import manifest
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "specimens"
+DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
 SPECIMEN = DATA / "pom-mt24u01_0.01MPa_r1.csv"
 
 

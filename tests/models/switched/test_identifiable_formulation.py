@@ -18,7 +18,7 @@ from bwbench.problems.hysteresis import marginal as mg
 from bwbench.problems.hysteresis.linear import solve as ls
 from paper_problems import IdentifiableModel
 
-DATA = Path(__file__).resolve().parents[2] / "data" / "specimens"
+DATA = Path(__file__).resolve().parents[3] / "data" / "specimens"
 SPECIMENS = ["pom-mt24u01_0.01MPa_r1", "pom-c9021_0.03MPa_r2", "pc-abs-c12hf_0.07MPa_r3"]
 
 

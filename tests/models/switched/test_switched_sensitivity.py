@@ -15,7 +15,7 @@ from bwbench.models.switched.identifiable import kernel_hysteretic
 from bwbench.models.switched.sensitivity import hysteretic_sensitivity, identifiable_jacobian
 from bwbench.problems.hysteresis.formulations import make_problem
 
-SPECIMENS = Path(__file__).resolve().parents[2] / "data" / "specimens"
+SPECIMENS = Path(__file__).resolve().parents[3] / "data" / "specimens"
 SPECIMEN = SPECIMENS / "pom-mt24u01_0.01MPa_r1.csv"
 # An lsq-trf optimum of the switched model, identifiable, shared state, on SPECIMEN (x_y₊ mm, n₊, η₊,
 # x_y₋ mm, n₋, η₋, ρ): MSE 1.01 N².

@@ -3,7 +3,7 @@ input of that command by every spelling (the same name, ``./``, ``../``, absolut
 symlink), is one line ``error: ...``, exit status 2, before any work, every file byte-identical.
 
 Run in-process: each case is refused before any fit runs (a hang here would be a bug of its own; the
-subprocess sweep with its hang guard is ``tests/test_hostile_sweep.py``).
+subprocess sweep with its hang guard is ``tests/system/test_hostile_sweep.py``).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import pytest
 from bwbench import cli
 from bwbench.datasets.synthetic import PAPER_PARAMETERS
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 NAME = "pom-mt24u01_0.01MPa_r1.csv"
 SPECIMENS = REPO / "data" / "specimens"
 OUTPUT_DESTS = {"out", "plot", "db", "csv"}  # the argparse destinations of every output flag ...

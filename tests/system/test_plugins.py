@@ -1,6 +1,6 @@
 """One failure policy for the three plug-in registries (optimisers, problems, models): an installed
 plug-in that fails to load breaks only itself, and asking for it is one line naming its entry point
-and its error. (Installed packages end to end: tests/study/test_plugin_packages.py.)"""
+and its error. (Installed packages end to end: tests/system/test_plugin_packages.py.)"""
 
 from importlib.metadata import EntryPoint
 

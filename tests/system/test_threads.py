@@ -16,7 +16,7 @@ from bwbench import threads
 from bwbench.cli import main
 from bwbench.engine import fitting
 
-SPECIMEN = Path(__file__).resolve().parents[1] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
+SPECIMEN = Path(__file__).resolve().parents[2] / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"
 
 
 @pytest.fixture
