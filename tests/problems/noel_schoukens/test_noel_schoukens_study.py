@@ -221,7 +221,7 @@ def test_unknown_problem_is_refused(tmp_path):
     path.write_text(
         '[study]\nname = "x"\nseed = 1\nbudget = 5\nseeds = 1\nproblem = "duffing"\n[optimizers]\nrandom = {}\n'
     )
-    with pytest.raises(UserError, match=r"\[study\] problem must be one of 'switched-bouc-wen', 'bouc-wen-benchmark'"):
+    with pytest.raises(UserError, match=r"\[study\] problem must be one of 'hysteresis', 'bouc-wen-benchmark'"):
         load_study_config(path)
 
 
@@ -247,7 +247,7 @@ def test_a_database_of_the_old_format_still_resumes_the_same_study(tmp_path):
     assert "seeds = 5" in text and "formulation" not in text.split("[optimizers]")[0].split("[study]")[1]
     (tmp_path / "quick.toml").write_text(text, encoding="utf-8")
     config = load_study_config(tmp_path / "quick.toml")
-    assert config.problem == "switched-bouc-wen" and "problem" not in config.to_json_dict()["study"]
+    assert config.problem == "hysteresis" and "problem" not in config.to_json_dict()["study"]
     new = config.to_json_dict()
     legacy = {
         **QUICK_LEGACY,

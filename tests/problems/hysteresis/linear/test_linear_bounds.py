@@ -69,7 +69,9 @@ def test_bounded_coefficients_stay_inside_their_bounds_and_are_the_bounded_least
 
 def test_physical_bounds_follow_the_sign_convention():
     e, f = damper_test(25.0, 1.0)
-    units = ls.coefficient_units(LAYOUT)
+    from bwbench.problems.hysteresis.linear.columns import coefficient_units
+
+    units = coefficient_units(LAYOUT)
     bounds, notes = physical_bounds(LAYOUT, e, f, units)
     assert bounds == {"m": (0.0, M_MAX), "c+": (0.0, np.inf), "c-": (0.0, np.inf)}
     flipped, notes = physical_bounds(LAYOUT, e, -f, units)  # a loop that runs clockwise: no sign imposed
