@@ -97,4 +97,5 @@ def test_fit_without_optimizer_runs_lsq_trf(tmp_path):
     )
     assert done.returncode == 0, done.stderr
     result = json.loads((tmp_path / "r.json").read_text())
-    assert result["optimizer"] == "lsq-trf" and result["nfev"] == 40 and result["formulation"] == "paper"
+    # s.csv has no manifest beside it: not the paper's specimen, so the identifiable formulation
+    assert result["optimizer"] == "lsq-trf" and result["nfev"] == 40 and result["formulation"] == "identifiable"

@@ -64,7 +64,23 @@ def lab(tmp_path_factory):
             )
             == 0
         )
-        assert cli.main(["fit", NAME, "--optimizer", "random", "--budget", "20", "--out", "fit.json"]) == 0
+        assert (
+            cli.main(
+                [
+                    "fit",
+                    NAME,
+                    "--optimizer",
+                    "random",
+                    "--budget",
+                    "20",
+                    "--formulation",
+                    "identifiable",
+                    "--out",
+                    "fit.json",
+                ]
+            )
+            == 0
+        )
     finally:
         os.chdir(cwd)
     return lab
