@@ -1,0 +1,149 @@
+"""A model fitted across the control range, as it predicts: every coefficient stored, the laws with them.
+
+``ControlledModel`` holds the plain model's description (model, formulation, state, excitation), the
+fitted values by name (the laws' coefficients among them) and the result's ``control`` block (the
+control's name, the laws and their nodes). At one control level it is the plain model with the laws
+evaluated there (``at``); on a record whose control varies it integrates with per-sample parameters
+(Spencer's model), through the fitted first-order lag when there is one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from bwbench.errors import UserError
+from bwbench.problems.hysteresis.control import laws as laws_mod
+from bwbench.problems.hysteresis.control.problem import FILTER, filtered
+
+
+def _law(entry):
+    return laws_mod.law_of(entry["law"])
+
+
+def value_at(control: dict, params: dict, name: str, u) -> np.ndarray:
+    """The parameter ``name`` at controls u (L,): its law's value, or its stored constant."""
+    u = np.atleast_1d(np.asarray(u, dtype=float))
+    entry = control.get("laws", {}).get(name)
+    if entry is None or not isinstance(entry, dict):
+        return np.full(len(u), float(params[name]))
+    law = _law(entry)
+    c = np.array([params[k] for k in entry["coefficients"]], dtype=float)
+    return law.value(c, u, np.asarray(entry["nodes"], dtype=float))
+
+
+def parameters_at(control: dict, params: dict, level: float) -> dict:
+    """The plain model's parameters by name at one control level."""
+    owned = {k for entry in control.get("laws", {}).values() for k in entry.get("coefficients", ())}
+    out = {k: v for k, v in params.items() if k not in owned and k != FILTER}
+    for name in control.get("laws", {}):
+        out[name] = float(value_at(control, params, name, [level])[0])
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class ControlledModel:
+    """See the module docstring."""
+
+    model: str
+    formulation: str
+    params: dict
+    control: dict
+    state: str | None = None
+    excitation: str = "measured"
+    units: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_result(cls, data: dict, source: str = "the fit result") -> "ControlledModel":
+        control = data.get("control")
+        if not isinstance(control, dict) or not isinstance(control.get("laws"), dict):
+            raise UserError(f'{source}: not a fit across a control (no "control" block)')
+        params = {k: (math.nan if v is None else v) for k, v in data["params"].items()}
+        return cls(
+            data.get("model") or "switched-bouc-wen",
+            data["formulation"],
+            params,
+            control,
+            data.get("state"),
+            data.get("excitation", "measured"),
+            dict(data.get("units") or {}),
+        )
+
+    @property
+    def control_name(self) -> str:
+        return self.control["name"]
+
+    def at(self, level: float):
+        """The plain ``FittedModel`` at one control level."""
+        from bwbench.problems.hysteresis.fitted_model import FittedModel
+
+        return FittedModel(
+            self.model,
+            self.formulation,
+            parameters_at(self.control, self.params, float(level)),
+            self.state,
+            self.excitation,
+        )
+
+    def predict(self, specimen):
+        """The force on ``specimen`` (a ``Specimen`` with its control) against its measured one."""
+        from bwbench.problems.hysteresis.fitted_model import Prediction
+
+        if specimen.control is None:
+            raise UserError(
+                f"{specimen.path}: no {self.control_name} for this file: the model's parameters depend on it"
+            )
+        u = np.asarray(specimen.control, dtype=float)
+        plain = self.at(float(u[0]))
+        signal = plain.signal(specimen)
+        if np.ptp(u) == 0 and FILTER not in self.params:
+            force = plain.force(signal)
+        else:
+            force = self.force_varying(signal, u, np.diff(np.asarray(specimen.t, dtype=float)))
+        return Prediction(
+            specimen.name,
+            np.asarray(specimen.t, dtype=float),
+            np.asarray(signal.x, dtype=float),
+            force,
+            np.asarray(specimen.f, dtype=float),
+            np.asarray(signal.v, dtype=float),
+        )
+
+    def force_varying(self, signal, command, dt) -> np.ndarray:
+        """The force (N) on a record whose control changes (per-sample parameters; Spencer's model)."""
+        from bwbench.models import registry
+
+        model: Any = registry.get(self.model)
+        if not hasattr(model, "trajectories_varying"):
+            raise UserError(
+                f"the control varies within the record: model {self.model!r} takes no per-sample parameters"
+            )
+        eta = self.params.get(FILTER)
+        u_smp, u_int = filtered(command, dt, float(eta)) if eta is not None else (command, command[:-1])
+        if self.formulation != "identifiable":
+            names = [p.name for p in model.direct_parameters(self.state)]
+            P_int = np.column_stack([value_at(self.control, self.params, n, u_int) for n in names])
+            P_smp = np.column_stack([value_at(self.control, self.params, n, u_smp) for n in names])
+            return model.force_varying(P_int, P_smp, signal, self.state)
+        from bwbench.problems.hysteresis.linear.columns import branch_masks, signal_column
+
+        names = [p.name for p in model.hysteretic_parameters(self.state)]
+        T_int = np.column_stack([value_at(self.control, self.params, n, u_int) for n in names])
+        T_smp = np.column_stack([value_at(self.control, self.params, n, u_smp) for n in names])
+        w = model.trajectories_varying(T_int, T_smp, signal, self.state)
+        layout = model.linear_layout(self.state)
+        F = np.zeros(len(signal.x))
+        if layout.mass:
+            F += value_at(self.control, self.params, layout.mass, u_smp) * np.asarray(signal.a, dtype=float)
+        for b, mask in branch_masks(layout, signal.v).items():
+            if not mask.any():
+                continue
+            for name, source in layout.fixed:
+                if f"{name}{b}" in self.params or f"{name}{b}" in self.control.get("laws", {}):
+                    F += value_at(self.control, self.params, f"{name}{b}", u_smp) * signal_column(signal, source, mask)
+            with np.errstate(invalid="ignore", over="ignore"):
+                F += value_at(self.control, self.params, f"{layout.varying}{b}", u_smp) * np.where(mask, w, 0.0)
+        return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
