@@ -1,0 +1,127 @@
+"""Parameters as laws of the control (``bwbench.problems.hysteresis.control``): the laws, the exact
+Jacobian through them, and a damper simulated with known laws giving them back."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from bwbench.datasets import controlled
+from bwbench.errors import UserError
+from bwbench.models.spencer import MODEL
+from bwbench.problems.hysteresis.control import laws
+from bwbench.problems.hysteresis.control.problem import build, filtered
+
+TESTS = [
+    controlled.Test("a0", 20, 1.0, 0.0),
+    controlled.Test("a1", 20, 1.0, 1.0),
+    controlled.Test("a2", 10, 2.0, 2.25),
+    controlled.Test("b1", 15, 1.5, 0.5),
+]
+TRUTH = controlled.SPENCER_LAWS.params
+
+
+@pytest.fixture(scope="module")
+def specimens():
+    return controlled.simulate(controlled.SPENCER_LAWS, TESTS, noise_N=2.0, seed=1)
+
+
+def test_the_laws_are_their_values_at_the_nodes():
+    u = np.array([0.0, 0.5, 1.0, 2.0])
+    lin = laws.law_of("linear")
+    np.testing.assert_allclose(lin.value(np.array([1.0, 3.0]), u, lin.nodes(0, 2)), [1, 1.5, 2, 3])
+    quad = laws.law_of("quadratic")
+    np.testing.assert_allclose(quad.value(np.array([0.0, 1.0, 4.0]), u, quad.nodes(0, 2)), u**2)
+    assert quad.monomials([0.0, 1.0, 4.0], quad.nodes(0, 2)) == {
+        "formula": "θ(u) = a0 + a1·u + a2·u²",
+        "a0": 0.0,
+        "a1": 0.0,
+        "a2": 1.0,
+    }
+    exp = laws.law_of("exponential")
+    np.testing.assert_allclose(exp.value(np.array([1.0, np.e**2]), u, exp.nodes(0, 2)), np.exp(u))
+    assert exp.monomials([1.0, np.e**2], exp.nodes(0, 2))["b"] == pytest.approx(1.0)
+    mine = laws.CallableLaw(lambda u, a, b: a / (1 + b * u), {"a": (1, 10), "b": (0, 5)})
+    np.testing.assert_allclose(mine.jacobian(np.array([2.0, 1.0]), u, None)[:, 1], -2 * u / (1 + u) ** 2, rtol=1e-6)
+
+
+def test_the_law_flag_is_parsed_and_bad_laws_refused(specimens):
+    assert laws.parse("vy=linear, c1=quadratic") == {"vy": "linear", "c1": "quadratic"}
+    with pytest.raises(UserError, match="unknown law 'cubic' for vy"):
+        laws.parse("vy=cubic")
+    with pytest.raises(UserError, match="has no parameter 'alpha'; its parameters are xy, n, eta, vy, r0, kappa0, c1"):
+        build(specimens, {"model": "spencer"}, {"alpha": "linear"})
+    with pytest.raises(UserError, match="c1 is solved by least squares, so its law must be linear"):
+        build(specimens, {"model": "spencer"}, {"c1": "exponential"})
+    with pytest.raises(UserError, match="an exponential law keeps its parameter positive, and eta's box reaches -50"):
+        build(specimens, {"model": "spencer"}, {"eta": "exponential"})
+    with pytest.raises(UserError, match=r"a quadratic law needs 3 control levels, the files have 2 \(0, 1 V\)"):
+        build(specimens[:2], {"model": "spencer"}, {"vy": "quadratic"})
+
+
+def test_the_exact_jacobian_through_the_laws_matches_differences(specimens):
+    problem = build(specimens, {"model": "spencer"}, {"vy": "linear", "c1": "linear", "r0": "quadratic"})
+    tight = copy.copy(MODEL)  # a tight integration: differences of an adaptive step's force are smooth enough
+    tight.tolerance, tight.pace = 1e-9, 2000
+    problem.model = tight
+    assert problem.param_names == ("xy", "n", "eta", "vy@0V", "vy@2.25V", "r0@0V", "r0@1.125V", "r0@2.25V", "kappa0")
+    # the sensitivities are those of the model's equations on its own steps: within 1e-3–1e-2 of the force's derivative (η: 1 %)
+    c = np.array([0.05, 2.0, 0.3, 20.0, 40.0, 0.1, 0.12, 0.14, 0.2])
+    r, J = problem.residual_jacobian(c)
+    np.testing.assert_allclose(r, problem.residual_batch(c[None, :])[0], atol=1e-9)
+    for j in range(len(c)):
+        h = 1e-5 * abs(c[j])
+        up, down = c.copy(), c.copy()
+        up[j] += h
+        down[j] -= h
+        diff = (problem.residual_batch(up[None, :])[0] - problem.residual_batch(down[None, :])[0]) / (2 * h)
+        assert np.linalg.norm(J[:, j] - diff) <= 1e-2 * np.linalg.norm(diff), problem.param_names[j]
+
+
+def _within(problem, params, sigmas=3.5):
+    off = {}
+    for row in problem.law_table(params):
+        if row["name"] in TRUTH:
+            off[row["name"]] = (row["value"] - TRUTH[row["name"]]) / row["stderr"]
+    assert all(abs(v) <= sigmas for v in off.values()), off
+    return off
+
+
+def test_constant_levels_give_the_laws_back_within_their_intervals(specimens):
+    from bwbench.problems.hysteresis.fit_result import run_fit
+
+    problem = build(specimens, {"model": "spencer"}, {"vy": "linear", "c1": "linear"})
+    fit = run_fit(problem, "lsq-trf", 1500, 0, stop="agreed")
+    assert fit.result.mse == pytest.approx(4.0, rel=0.15)  # the 2 N noise
+    off = _within(problem, fit.result.params)
+    assert set(off) == set(TRUTH)
+
+
+def test_a_switching_control_gives_the_laws_back(specimens):
+    """One record under a command switching 0/2.25 V six times a second, with one at 1 V: the kernel
+    sees per-interval parameters; the least squares from the truth's neighbourhood stays at it."""
+    from scipy.optimize import least_squares
+
+    switching = controlled.simulate(
+        controlled.SPENCER_LAWS, [controlled.Test("s", 20, 1.0, 2.25, switch_hz=3.0)], noise_N=2.0, seed=2
+    )
+    problem = build([switching[0], specimens[1]], {"model": "spencer"}, {"vy": "linear", "c1": "linear"})
+    assert problem.varying and problem.jacobian_cost == 0
+    c0 = np.array([TRUTH[n] for n in problem.param_names]) * 1.1
+    c0[problem.param_names.index("eta")] = 0.05
+    found = least_squares(
+        lambda u: problem.residual_batch(problem.from_unit(u)[None, :])[0], problem.to_unit(c0), x_scale="jac"
+    )
+    params = problem.parameters(problem.from_unit(found.x))
+    _within(problem, params)
+
+
+def test_the_filter_is_the_exact_lag_of_a_held_command():
+    t = np.arange(0, 0.1, 0.001)
+    v = np.where(t >= 0.02, 2.0, 0.0)
+    u, mean = filtered(v, np.diff(t), 100.0)
+    after = t >= 0.02
+    np.testing.assert_allclose(u[after], 2.0 * (1 - np.exp(-100.0 * (t[after] - 0.02))), atol=1e-12)
+    assert np.all((mean >= np.minimum(u[:-1], u[1:]) - 1e-12) & (mean <= np.maximum(u[:-1], u[1:]) + 1e-12))
