@@ -82,24 +82,10 @@ def simulate(truth: ControlledModel, tests, noise_N: float = 2.0, seed: int = 0)
     out = []
     for test in tests:
         t, x, v, u = motion(test)
-        arrays = [np.round(a, 6) for a in (t, x, v, u)]
-        blank = Specimen(
-            f"{test.name}.csv", test.name, *arrays[:2], np.zeros(len(t)), arrays[2], None, arrays[3], truth.control_name
-        )
-        force = truth.predict(blank).force_N
-        out.append(
-            Specimen(
-                f"{test.name}.csv",
-                test.name,
-                arrays[0],
-                arrays[1],
-                np.round(force + noise_N * rng.standard_normal(len(t)), 4),
-                arrays[2],
-                None,
-                arrays[3],
-                truth.control_name,
-            )
-        )
+        t, x, v, u = (np.round(a, 6) for a in (t, x, v, u))
+        record = dict(path=f"{test.name}.csv", name=test.name, t=t, x=x, v=v, control=u, control_name=truth.control_name)
+        force = truth.predict(Specimen(f=np.zeros(len(t)), **record)).force_N
+        out.append(Specimen(f=np.round(force + noise_N * rng.standard_normal(len(t)), 4), **record))
     return out
 
 
