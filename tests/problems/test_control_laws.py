@@ -125,3 +125,17 @@ def test_the_filter_is_the_exact_lag_of_a_held_command():
     after = t >= 0.02
     np.testing.assert_allclose(u[after], 2.0 * (1 - np.exp(-100.0 * (t[after] - 0.02))), atol=1e-12)
     assert np.all((mean >= np.minimum(u[:-1], u[1:]) - 1e-12) & (mean <= np.maximum(u[:-1], u[1:]) + 1e-12))
+
+
+def test_auto_takes_the_smallest_law_the_points_need_beyond_their_errors():
+    from bwbench.problems.hysteresis.control.auto import choose
+
+    u = [0.0, 0.25, 0.5, 0.75, 1.0]
+    flat = choose("k1", u, [0.50, 0.52, 0.49, 0.51, 0.50], [0.02] * 5)
+    assert flat.law == "constant" and "constant χ² 1.3 on 4 dof" in flat.reason
+    line = choose("c1", u, [30.0, 52.6, 75.1, 97.4, 120.2], [0.3] * 5, "N·s/mm", "current_A")
+    assert line.law == "linear" and line.chi2["constant"][0] > 1e4
+    assert choose("alpha", u, [10, 30, 60, 100, 150], [0.5] * 5).law == "quadratic"
+    grows = 3.63 * np.exp(0.8 * np.array(u))
+    assert choose("gamma", u, grows, 0.003 * grows).law == "exponential"
+    assert choose("n", u, [2.0, 1.9, np.nan, 2.1, 2.0], [0.1] * 5).law == "constant"
