@@ -20,8 +20,8 @@ def law_curve(problem, values: dict, names, cov, parameter: str, u) -> tuple[np.
     if law is None:
         value = float(values[parameter])
         i = index.get(parameter)
-        se = math.sqrt(abs(cov[i, i])) if i is not None else math.nan
-        return np.full(len(u), value), np.full(len(u), se)
+        sd = math.sqrt(abs(cov[i, i])) if i is not None else math.nan
+        return np.full(len(u), value), np.full(len(u), sd)
     nodes = law.nodes(*problem.law_nodes)
     coefs = law.coefficient_names(parameter, nodes, problem.control_unit)
     c = np.array([values[n] for n in coefs], dtype=float)
