@@ -147,3 +147,17 @@ class ControlledModel:
             with np.errstate(invalid="ignore", over="ignore"):
                 F += value_at(self.control, self.params, f"{layout.varying}{b}", u_smp) * np.where(mask, w, 0.0)
         return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
+
+
+def of_problem(problem, params) -> ControlledModel:
+    """The ``ControlledModel`` of a ``ControlledProblem`` at ``params`` (by name, or the searched vector)."""
+    values = params if isinstance(params, dict) else problem.parameters(params)
+    return ControlledModel(
+        problem.model.name,
+        problem.formulation,
+        dict(values),
+        problem.laws_json(values),
+        problem.state,
+        problem.excitation,
+        problem.units(list(values)),
+    )

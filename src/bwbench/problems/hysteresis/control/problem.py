@@ -97,7 +97,7 @@ class ControlledProblem:
         self.design = None
         if self.formulation == "identifiable":
             self.design = self._design(None)
-            self.linear_names = tuple(self.design.free_names) + tuple(self.design.held)
+            self.linear_names = self._all_coefficients()
             units = dict(first.linear_units)
             self.linear_units = {n: units.get(self._owner(n), "") for n in self.linear_names}
         if bounds:
@@ -448,12 +448,30 @@ class ControlledProblem:
         return (z - self.f) * sw, dZ * sw[:, None]
 
     # -- one parameter vector -------------------------------------------------------------------------------
+    def _all_coefficients(self) -> tuple:
+        """Every coefficient of the layout, a law's in its coefficients: solved, held, tied or dropped."""
+        from bwbench.problems.hysteresis.linear.columns import coefficient_names
+
+        out = []
+        for name in coefficient_names(self.model.linear_layout(self.state)):
+            law = self.laws.get(name)
+            out += [name] if law is None else law.coefficient_names(name, law.nodes(*self.law_nodes), self.control_unit)
+        return tuple(out)
+
     def linear(self, params) -> np.ndarray:
-        """The solved coefficients (``linear_names``) of one searched vector."""
+        """The coefficients (``linear_names``) of one searched vector: solved, held (a mass the data do not
+        excite), tied (a continuous offset), NaN for a branch without samples, 0 where dropped."""
         c = np.asarray(params, dtype=float)
         design = self._design(self._eta(c))
         coef, _ = design.solve(self._stacked(c[None, :]))
-        return np.concatenate([coef[0], list(design.held.values())])
+        values = dict(zip(design.free_names, map(float, coef[0])))
+        values.update(design.held)
+        for tied, source in design.tied.items():
+            values[tied] = values.get(source, 0.0)
+        absent = {
+            f"{n}{b}" for b, mask in design.plain.masks.items() if not mask.any() for n in design.plain.layout.names
+        }
+        return np.array([values.get(n, np.nan if self._owner(n) in absent else 0.0) for n in self.linear_names])
 
     def parameters(self, params) -> dict:
         """The searched coefficients, and in the identifiable formulation the solved ones, by name."""
