@@ -452,7 +452,7 @@ class ControlledProblem:
         """Every coefficient of the layout, a law's in its coefficients: solved, held, tied or dropped."""
         from bwbench.problems.hysteresis.linear.columns import coefficient_names
 
-        out = []
+        out: list[str] = []
         for name in coefficient_names(self.model.linear_layout(self.state)):
             law = self.laws.get(name)
             out += [name] if law is None else law.coefficient_names(name, law.nodes(*self.law_nodes), self.control_unit)
