@@ -80,3 +80,21 @@ def test_bad_control_input_is_one_line_and_exit_2(tmp_path, capsys, content, fla
     assert main(["data", "check", path, *flags]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("error: ") and message in err, err
+
+
+@pytest.mark.parametrize(
+    "flags, message",
+    [
+        (["--control", "current_A=0.5", "--law", "alpha=linear"], "spencer (identifiable) has no parameter 'alpha'"),
+        (["--law", "vy=linear"], "--law and --control-filter need the control: --control COLUMN"),
+        (["--control", "current_A=0.5", "--law", "vy=cubic"], "unknown law 'cubic' for vy"),
+        (["--control", "current_A=0.5", "--law", "vy=linear"], "a linear law needs 2 control levels, the files have 1"),
+        (["--control", "current_A=0.5", "--law", "vy=linear", "--each"], "--each fits each file alone"),
+    ],
+)
+def test_bad_laws_are_one_line_and_exit_2(tmp_path, capsys, flags, message):
+    paths = [_write(tmp_path / f"{k}.csv") for k in "ab"]
+    status = main(["fit", *paths, "--model", "spencer", "--out", str(tmp_path / "fit.json"), *flags])
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1 and message in err, err
+    assert not (tmp_path / "fit.json").exists()

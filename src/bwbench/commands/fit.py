@@ -68,6 +68,10 @@ def fit(args) -> int:
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     workers = threads.check(args.workers, "--workers")
     threads.check(args.threads)
+    from bwbench.commands import control_fit
+
+    if control_fit.wants_control(args):  # one model across a control range (--control, --law)
+        return control_fit.fit_controlled(args, options, workers)
     if args.each:
         return _fit_each(args, options, workers)
     check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
@@ -343,4 +347,7 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
         "else the points of a batch (a Jacobian by differences); the result is the same "
         "as with 1 (default 1: on a busy machine more are slower)",
     )
+    from bwbench.commands import control_fit
+
+    control_fit.add_arguments(parser)
     parser.set_defaults(func=fit)

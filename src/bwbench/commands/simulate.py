@@ -64,12 +64,11 @@ def add_fit_options(p) -> None:
     )
 
 
-def problem_from_args(args):
-    """The problem of ``args.specimen`` (one file, or a list: a joint fit) with the command's model,
-    formulation, state, excitation, ``--bounds``, ``--fix-mass`` and ``--weighting`` where it has them."""
+def settings_from_args(args) -> dict:
+    """The problem settings of the command's model, formulation, state, excitation, ``--bounds``,
+    ``--fix-mass``, ``--offsets`` and ``--weighting`` where it has them, each checked."""
     from bwbench.data import bounds as bounds_mod
-    from bwbench.data.specimen import read_specimen
-    from bwbench.problems.hysteresis.formulations import bound_names, make_problem
+    from bwbench.problems.hysteresis.formulations import bound_names
 
     settings = model_settings(args)
     if getattr(args, "bounds", None):
@@ -83,6 +82,17 @@ def problem_from_args(args):
         settings["offsets"] = args.offsets
     if getattr(args, "weighting", None):
         settings["weighting"] = args.weighting
+    return settings
+
+
+def problem_from_args(args):
+    """The problem of ``args.specimen`` (one file, or a list: a joint fit) with the command's model,
+    formulation, state, excitation, ``--bounds``, ``--fix-mass`` and ``--weighting`` where it has them."""
+    from bwbench.data import bounds as bounds_mod
+    from bwbench.data.specimen import read_specimen
+    from bwbench.problems.hysteresis.formulations import make_problem
+
+    settings = settings_from_args(args)
     paths = args.specimen if isinstance(args.specimen, list) else [args.specimen]
     refuse_same_file(paths)
     specimens = [read_specimen(p) for p in paths]

@@ -95,6 +95,10 @@ class FitResult:
         from bwbench.problems.hysteresis.fitted_model import FittedModel
 
         p = self.problem
+        if hasattr(p, "laws_json"):  # one model across the control range: its laws with it
+            from bwbench.problems.hysteresis.control.fitted import of_problem
+
+            return of_problem(p, dict(self.result.params))
         return FittedModel(
             p.model.name, p.formulation, dict(self.result.params), p.state, p.excitation, dict(self.result.units)
         )
@@ -186,6 +190,8 @@ class FitResult:
         if self.problem.state is None:
             out["state"] = None  # say it: this model has no state convention
         out.update(self.extra)
+        if hasattr(self.problem, "laws_json") and self.success:
+            out["control"] = self.problem.laws_json(self.result.params)
         checks = dict(self.checks.json) if self.checks is not None else {}
         by_file = checks.pop("files", {})  # a joint fit's checks, per file
         out.update(checks)

@@ -76,6 +76,22 @@ class ControlledModel:
     def control_name(self) -> str:
         return self.control["name"]
 
+    def describe(self) -> str:
+        state = f", {self.state} state" if self.state else ""
+        laws = ", ".join(f"{n} {e['law']}" for n, e in self.control.get("laws", {}).items()) or "no law"
+        return f"{self.model} ({self.formulation} formulation{state}) across {self.control_name}: {laws}"
+
+    def to_dict(self) -> dict:
+        return {
+            "model": self.model,
+            "formulation": self.formulation,
+            "state": self.state,
+            "excitation": self.excitation,
+            "params": dict(self.params),
+            "units": dict(self.units),
+            "control": dict(self.control),
+        }
+
     def at(self, level: float):
         """The plain ``FittedModel`` at one control level."""
         from bwbench.problems.hysteresis.fitted_model import FittedModel
@@ -161,3 +177,13 @@ def of_problem(problem, params) -> ControlledModel:
         problem.excitation,
         problem.units(list(values)),
     )
+
+
+def model_of_result(data: dict, source: str = "the fit result"):
+    """The model a fit result JSON holds: a ``ControlledModel`` when it has laws of a control, else the
+    plain ``FittedModel``."""
+    from bwbench.problems.hysteresis.fitted_model import FittedModel
+
+    if isinstance(data, dict) and isinstance(data.get("control"), dict):
+        return ControlledModel.from_result(data, source)
+    return FittedModel.from_result(data, source)
