@@ -1,7 +1,7 @@
 """What laws of the control cost: a fit with laws against one without, on the same data, in the same run.
 
 Run by hand (never by CI): `.venv/bin/python benchmarks/bench_laws.py`. The data: a damper of
-``bwbench.datasets.controlled`` (Spencer's model, v_y and c₁ linear in the voltage) at four voltages, two
+``bwbench.problems.hysteresis.control.generator`` (Spencer's model, v_y and c₁ linear in the voltage) at four voltages, two
 sine tests each (2 N force noise). The same 8 files are fitted three ways with lsq-trf, seed 0, the same
 budget, CPU time measured in this process:
 
@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from bwbench.datasets import controlled
+from bwbench.problems.hysteresis.control import generator as controlled
 from bwbench.problems.hysteresis.control.problem import build
 from bwbench.problems.hysteresis.fit_result import run_fit
 from bwbench.problems.hysteresis.formulations import make_problem

@@ -8,11 +8,12 @@ import copy
 import numpy as np
 import pytest
 
-from bwbench.datasets import controlled
 from bwbench.errors import UserError
 from bwbench.models.spencer import MODEL
+from bwbench.problems.hysteresis.control import generator as controlled
 from bwbench.problems.hysteresis.control import laws
-from bwbench.problems.hysteresis.control.problem import build, filtered
+from bwbench.problems.hysteresis.control.lag import filtered
+from bwbench.problems.hysteresis.control.problem import build
 
 TESTS = [
     controlled.Test("a0", 20, 1.0, 0.0),

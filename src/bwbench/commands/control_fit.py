@@ -48,13 +48,13 @@ def read(args):
     return specimens, laws, settings
 
 
-def fit_controlled(args, options, workers: int) -> int:
-    """The fit of ``bwbench fit`` with ``--control``/``--law``: exit statuses as ``fit``'s."""
+def fit_controlled(args, options, workers: int, fit_problem) -> int:
+    """The fit of ``bwbench fit`` with ``--control``/``--law``: exit statuses as ``fit``'s. ``fit_problem``:
+    ``fit``'s own fit, JSON and printing of a problem (``commands.fit._fit_problem``)."""
     import math
     import sys
 
     from bwbench import threads
-    from bwbench.commands.fit import _fit_problem
     from bwbench.data import manifest
     from bwbench.data.output_paths import check_outputs, writing
     from bwbench.problems.hysteresis.control import auto
@@ -83,7 +83,7 @@ def fit_controlled(args, options, workers: int) -> int:
                 n: [(lv, v[n][0], v[n][1]) for lv, (_, _, v) in fits.items() if n in v] for n in fits[levels[0]][2]
             }
         problem = build(specimens, settings, laws, control_filter=args.control_filter)
-    status = _fit_problem(args, problem, options, workers, synthetic, args.out, args.plot)
+    status = fit_problem(args, problem, options, workers, synthetic, args.out, args.plot)
     if status:
         return status
     from pathlib import Path

@@ -71,7 +71,7 @@ def fit(args) -> int:
     from bwbench.commands import control_fit
 
     if control_fit.wants_control(args):  # one model across a control range (--control, --law)
-        return control_fit.fit_controlled(args, options, workers)
+        return control_fit.fit_controlled(args, options, workers, _fit_problem)
     if args.each:
         return _fit_each(args, options, workers)
     check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])

@@ -17,7 +17,7 @@ import numpy as np
 
 from bwbench.errors import UserError
 from bwbench.problems.hysteresis.control import laws as laws_mod
-from bwbench.problems.hysteresis.control.problem import FILTER, filtered
+from bwbench.problems.hysteresis.control.lag import FILTER, filtered
 
 
 def _law(entry):

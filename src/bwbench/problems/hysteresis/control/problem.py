@@ -22,14 +22,12 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from bwbench.errors import UserError
 from bwbench.problems.hysteresis.control import laws as laws_mod
+from bwbench.problems.hysteresis.control.lag import FILTER, filtered
 from bwbench.problems.hysteresis.joint_problem import file_weights, stack_signals
-
-FILTER = "eta_u"  # the name of the filter's rate, 1/s
 
 
 class ControlledProblem:
@@ -509,12 +507,6 @@ class ControlledProblem:
             out.append(row)
         return out
 
-    def at_level(self, params, level: float) -> dict:
-        """The plain model's parameters (searched, and solved where there are) at one control level."""
-        from bwbench.problems.hysteresis.control.fitted import parameters_at
-
-        return parameters_at(self.laws_json(self.parameters(params)), self.parameters(params), level)
-
     def laws_json(self, values: dict) -> dict:
         """What a result records to simulate the model at any control level: the control, and for each
         parameter with a law its law, nodes and coefficient names (values in ``params``)."""
@@ -531,109 +523,23 @@ class ControlledProblem:
             laws[name] = entry
         return {**self.control_info(), "laws": laws}
 
-    # -- uncertainty ------------------------------------------------------------------------------------------
+    # -- uncertainty (``uncertainty``) ----------------------------------------------------------------------
     def covariance(self, params) -> tuple[tuple, np.ndarray, float]:
-        """(names, covariance (physical units), s² in N²) of the searched and solved coefficients at
-        ``params`` (a dict by name or the searched vector): cov = s²·(JᵀJ)⁻¹ with J the Jacobian of the
-        weighted residual over both at once (the solved ones' columns are the design's: the variable-
-        projection covariance), s² = Σr²/(N − p). A solved coefficient held on a bound is a constant
-        (NaN row); a direction the data do not determine gives inf."""
-        values = params if isinstance(params, dict) else self.parameters(params)
-        c = np.array([values[n] for n in self.param_names], dtype=float)
-        if self.design is not None:
-            design = self._design(self._eta(c))
-            beta = np.array([values[n] for n in design.free_names], dtype=float)
-            z = self._stacked(c[None, :])[0]
-            r = design.residual(z, beta)
-            dZ = self._trajectory_derivatives(c)
-            X = np.column_stack([design.G, design.S * z[:, None]])
-            if dZ is not None:
-                Jc = (design.S @ beta[len(design.g_names) :])[:, None] * dZ
-            else:
-                Jc = self._differences(c, lambda cc: design.residual(self._stacked(cc[None, :])[0], beta))
-            held = (beta <= design.lower) | (beta >= design.upper) if design.bounded else np.zeros(len(beta), bool)
-            J = np.column_stack([Jc, X[:, ~held]])
-            names = self.param_names + tuple(n for n, h in zip(design.free_names, held) if not h)
-        else:
-            found = self.residual_jacobian(c)
-            if found is None or found[1] is None:
-                r = self.residual_batch(c[None, :])[0]
-                J = self._differences(c, lambda cc: self.residual_batch(cc[None, :])[0])
-            else:
-                r, J = found
-            names = self.param_names
-        dof = max(len(r) - J.shape[1], 1)
-        s2 = float(r @ r) / dof
-        scale = np.linalg.norm(J, axis=0)
-        scale[scale == 0] = 1.0
-        A = (J / scale).T @ (J / scale)
-        cov = s2 * np.linalg.pinv(A, rcond=1e-12) / np.outer(scale, scale)
-        cov[:, np.linalg.norm(J, axis=0) == 0] = np.inf
-        return names, cov, s2
+        """``uncertainty.covariance`` of this problem."""
+        from bwbench.problems.hysteresis.control.uncertainty import covariance
 
-    def _trajectory_derivatives(self, c):
-        """∂(stacked trajectories)/∂c (N, D), exact at constant levels, else None."""
-        if self.jacobian_cost == 0:
-            return None
-        blocks = []
-        for i, part in enumerate(self.parts):
-            level = float(self.commands[i][0])
-            found = self.model.trajectory_sensitivities(self._theta(c, np.array([level]))[0], part.signal, self.state)
-            if found is None or found[1] is None:
-                return None
-            blocks.append(found[1] @ self._theta_jacobian(c, level))
-        return np.concatenate(blocks, axis=0)
-
-    def _differences(self, c, residual, step: float = 1e-5) -> np.ndarray:
-        """Central differences of ``residual`` in the box's unit coordinates, carried to physical units."""
-        from bwbench.optimize.box import box_derivative
-
-        u0 = self.to_unit(c)
-        cols = []
-        for j in range(len(c)):
-            up, down = u0.copy(), u0.copy()
-            up[j] += step
-            down[j] -= step
-            cols.append((residual(self.from_unit(up)) - residual(self.from_unit(down))) / (2 * step))
-        J = np.column_stack(cols)
-        return J / box_derivative(c, self.lower, self.upper, self.log_scaled)[None, :]
+        return covariance(self, params)
 
     def law_table(self, params) -> list[dict]:
-        """Each coefficient (searched and solved) with its value, standard error and unit."""
-        values = params if isinstance(params, dict) else self.parameters(params)
-        names, cov, _ = self.covariance(values)
-        se = dict(zip(names, np.sqrt(np.abs(np.diag(cov)))))
-        units = self.units(list(values))
-        return [
-            {"name": n, "value": float(v), "stderr": float(se.get(n, np.nan)), "unit": units.get(n, "")}
-            for n, v in values.items()
-        ]
+        """``uncertainty.law_table`` of this problem."""
+        from bwbench.problems.hysteresis.control.uncertainty import law_table
+
+        return law_table(self, params)
 
     def fit_checks(self, result, synthetic: bool = False):
         from bwbench.problems.hysteresis import fit_checks
 
         return fit_checks.FitChecks()
-
-
-def filtered(v, dt, eta: float):
-    """(u at the samples, u averaged over each interval) of u̇ = −η·(u − v) for a command v held over each
-    interval, u = v at the first sample (exact for the held command)."""
-    v = np.asarray(v, dtype=float)
-    decay = np.exp(-eta * np.asarray(dt, dtype=float))
-    u = _lag(v, decay)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.where(eta * dt > 1e-12, (1.0 - decay) / (eta * dt), 1.0)
-    mean = v[:-1] + (u[:-1] - v[:-1]) * share
-    return u, mean
-
-
-@numba.njit(cache=True)
-def _lag(v, decay):
-    u = np.empty_like(v)
-    u[0] = v[0]
-    for k in range(len(decay)):
-        u[k + 1] = v[k] + (u[k] - v[k]) * decay[k]
-    return u
 
 
 def build(specimens, settings: dict, laws: dict, control_filter: bool = False) -> ControlledProblem:

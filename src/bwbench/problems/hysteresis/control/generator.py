@@ -83,7 +83,9 @@ def simulate(truth: ControlledModel, tests, noise_N: float = 2.0, seed: int = 0)
     for test in tests:
         t, x, v, u = motion(test)
         t, x, v, u = (np.round(a, 6) for a in (t, x, v, u))
-        record = dict(path=f"{test.name}.csv", name=test.name, t=t, x=x, v=v, control=u, control_name=truth.control_name)
+        record = dict(
+            path=f"{test.name}.csv", name=test.name, t=t, x=x, v=v, control=u, control_name=truth.control_name
+        )
         force = truth.predict(Specimen(f=np.zeros(len(t)), **record)).force_N
         out.append(Specimen(f=np.round(force + noise_N * rng.standard_normal(len(t)), 4), **record))
     return out
