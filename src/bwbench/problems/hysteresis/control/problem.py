@@ -97,7 +97,7 @@ class ControlledProblem:
             self.design = self._design(None)
             self.linear_names = self._all_coefficients()
             units = dict(first.linear_units)
-            self.linear_units = {n: units.get(self._owner(n), "") for n in self.linear_names}
+            self.linear_units = {**units, **{n: units.get(self._owner(n), "") for n in self.linear_names}}
         if bounds:
             from bwbench.data import bounds as bounds_mod
 
