@@ -140,3 +140,22 @@ def test_auto_takes_the_smallest_law_the_points_need_beyond_their_errors():
     grows = 3.63 * np.exp(0.8 * np.array(u))
     assert choose("gamma", u, grows, 0.003 * grows).law == "exponential"
     assert choose("n", u, [2.0, 1.9, np.nan, 2.1, 2.0], [0.1] * 5).law == "constant"
+
+
+def test_the_result_json_predicts_the_fitted_files_and_a_level_no_file_had(specimens, tmp_path):
+    import json
+
+    from bwbench.problems.hysteresis.control.fitted import model_of_result
+    from bwbench.problems.hysteresis.fit_result import run_fit
+
+    problem = build(specimens, {"model": "spencer"}, {"vy": "linear", "c1": "linear"})
+    fit = run_fit(problem, "lsq-trf", 600, 0, stop="agreed")
+    fit.write_json(tmp_path / "fit.json")
+    data = json.loads((tmp_path / "fit.json").read_text())
+    assert data["control"]["laws"]["c1"]["coefficients"] == ["c1@0V", "c1@2.25V"]
+    model = model_of_result(data)
+    for row, spec in zip(fit.files, specimens):
+        assert model.predict(spec).nrmse == pytest.approx(row["nrmse"], rel=1e-9)
+    unseen = controlled.simulate(controlled.SPENCER_LAWS, [controlled.Test("u", 15, 1.5, 1.75)], 2.0, seed=9)[0]
+    assert model.predict(unseen).rmse_N < 2.5  # the 2 N noise: the laws carry the fit to 1.75 V
+    assert model.at(1.75).params["vy"] == pytest.approx(3.2 + (38.0 - 3.2) * 1.75 / 2.25, rel=0.01)
