@@ -8,7 +8,7 @@ The Python API (``bwbench.api``; imported on first use, so ``import bwbench`` st
 - ``FitResult.model`` / ``bwbench.load_fit(path)`` → ``FittedModel``: ``.predict(file)`` (a
   ``Prediction``: RMSE in N, NRMSE, forces) and ``.simulate(file)``, every coefficient as stored;
 - ``FitResult.summary()`` / ``.report()`` / ``.correlation()`` / ``.plot()``: standard errors, a text
-  report like lmfit's, correlations, a matplotlib Figure; the fit's notes as ``FitWarning`` warnings;
+  report like lmfit's, correlations, a matplotlib Figure; the fit's findings as ``FitWarning`` warnings;
 - ``bwbench.compare(config=... | specimens=[...], optimizers=[...], ...)`` / ``bwbench.load_study(db)``
   → ``Study``: ``.runs``, ``.traces``, ``.ranking()``, ``.recommendation``, ``.report(out_dir)``,
   ``.posterior(specimen)``, ``.to_inference_data(specimen)``;
@@ -28,6 +28,10 @@ __all__ = [
     "Study",
     "UserError",
     "FitWarning",
+    "FitNote",
+    "FitFinding",
+    "FitBoxWarning",
+    "FitFailure",
     "__version__",
 ]
 _API = {
@@ -41,6 +45,10 @@ _API = {
     "Study",
     "UserError",
     "FitWarning",
+    "FitNote",
+    "FitFinding",
+    "FitBoxWarning",
+    "FitFailure",
 }
 
 

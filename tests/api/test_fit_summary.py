@@ -93,7 +93,7 @@ def test_report_reads_like_lmfit_fit_report(toy_fit):
     se = toy_fit.summary().loc["xy", "stderr"]
     assert "xy:" in text and f"+/- {se:.6g} mm" in text
     assert "m:     0 N·s²/mm (1 N·s²/mm = 1 t = 1000 kg) (held)" in text
-    assert "[[Notes]]" in text and "m fixed at 0 by the caller" in text
+    assert "[[Findings]]" in text and "m fixed at 0 by the caller" in text
 
 
 def test_exact_symmetries_of_the_paper_formulation_are_not_determined():

@@ -52,7 +52,7 @@ def test_notebook_runs_top_to_bottom(notebook, tmp_path):
         assert any("<b>FitResult</b>" in o["data"]["text/html"] for o in html)
         assert (tmp_path / "fit.json").is_file()
     if notebook.stem == "02_your_own_data":
-        warned = [o for o in outputs(book, "stream") if o.get("name") == "stderr" and "FitWarning" in o["text"]]
+        warned = [o for o in outputs(book, "stream") if o.get("name") == "stderr" and "FitNote" in o["text"]]
         assert warned and "UserError: DataFrame 'data', row 10: force_N is nan" in "".join(
             o.get("text", "") for o in outputs(book, "stream")
         )

@@ -57,7 +57,12 @@ def test_bad_outputs_are_refused_before_the_fit(folder, capsys, args, message):
 def test_a_box_that_blows_up_at_every_probed_corner_is_refused_before_the_fit(folder, capsys):
     (folder / "box.json").write_text(json.dumps(RUNAWAY))
     assert (
-        main(["fit", "s.csv", "--optimizer", "random", "--budget", "30", "--bounds", "box.json", "--out", "r.json"])
+        main(
+            [
+                *("fit", "s.csv", "--formulation", "paper", "--optimizer", "random", "--budget", "30"),
+                *("--bounds", "box.json", "--out", "r.json"),
+            ]
+        )
         == 2
     )
     assert "blows up (force not finite) at every one of 32 corners" in one_error_line(capsys)
@@ -73,6 +78,8 @@ def test_a_fit_that_finds_nothing_finite_exits_1_with_strict_json(folder, capsys
             [
                 "fit",
                 "s.csv",
+                "--formulation",
+                "paper",
                 "--optimizer",
                 "random",
                 "--budget",
@@ -87,10 +94,19 @@ def test_a_fit_that_finds_nothing_finite_exits_1_with_strict_json(folder, capsys
         )
         == 1
     )
-    assert "none of the 30 evaluations gave a finite force" in one_error_line(capsys)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("error: s.csv: none of the 30 evaluations gave a finite force"), err
     result = json.loads((folder / "r.json").read_text(), parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
     assert result["mse"] is None and result["rmse_N"] is None and result["params"]["A+"] is None
     assert result["nfev"] == 30 and not (folder / "r.png").exists()
+
+
+def test_bounds_of_the_paper_formulation_on_other_data_say_which_formulation_to_ask_for(folder, capsys):
+    # s.csv has no manifest beside it: not the paper's specimen, so the default is identifiable
+    (folder / "box.json").write_text(json.dumps({"gamma+": [1.0, 2.0]}))
+    assert main(["fit", "s.csv", "--bounds", "box.json", "--out", "r.json"]) == 2
+    line = one_error_line(capsys)
+    assert "unknown parameter 'gamma+'" in line and "add --formulation paper" in line
 
 
 def test_evaluate_of_a_blowing_up_set_prints_null_and_exits_1(folder, capsys):

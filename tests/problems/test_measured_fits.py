@@ -194,7 +194,10 @@ def test_the_fit_json_records_its_inputs_nrmse_both_ways_and_the_command(tmp_pat
     assert result["nrmse"] == pytest.approx(result["rmse_N"] / np.max(np.abs(f)))
     assert result["nrmse_max_F"] == pytest.approx(result["rmse_N"] / np.max(f))
     assert "literature" in result["nrmse_definitions"]["nrmse_max_F"]
-    assert f"NRMSE {result['nrmse_max_F']:.4g} (RMSE/max F, the literature's" in out.splitlines()[0]
+    lines = out.splitlines()
+    assert lines[0] == "fitting s.csv: spencer in the identifiable formulation (the model's default)"
+    assert f"NRMSE {result['nrmse_max_F']:.4g} (RMSE/max F, the literature's" in lines[1]
+    assert result["formulation_reason"] == "spencer in the identifiable formulation (the model's default)"
     assert result["initial_state"].startswith("from rest")
     assert set(result["plausibility"]) >= {"xy", "n", "eta", "vy", "r0", "kappa0", "c1", "k1"}
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from bwbench.report import time_noise
-from bwbench.report.build import study_recommendation
+from bwbench.report.decision import decide_study
 from bwbench.store import reader
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -42,9 +42,9 @@ def scaled(db, folder, factors: dict) -> Path:
 
 
 def test_wall_times_scaled_within_15_percent_leave_the_recommendation_unchanged(study_db, tmp_path):
-    table, _, rec = study_recommendation(reader.load_study(study_db))
-    verdict = rec["verdict"]
-    assert verdict.peers == ["cmaes", "de", "pso"] and rec["choice"] == "cmaes"  # the key: equal ERT, then name
+    decision = decide_study(reader.load_study(study_db))
+    verdict = decision.verdict
+    assert verdict.peers == ["cmaes", "de", "pso"] and decision.choice == "cmaes"  # the key: equal ERT, then name
     assert verdict.tied == ["de", "pso"]
     rng = np.random.default_rng(24)
     labels = list(PEERS)
@@ -53,9 +53,9 @@ def test_wall_times_scaled_within_15_percent_leave_the_recommendation_unchanged(
     trials += [{n: (0.85 if n == fast else 1.15) for n in labels} for fast in ("de", "pso")]
     naive = set()
     for factors in trials:
-        t, _, again = study_recommendation(reader.load_study(scaled(study_db, tmp_path, factors)))
-        assert again["choice"] == "cmaes" and again["verdict"].tied == ["de", "pso"], factors
-        peers = t.set_index("optimizer").loc[["cmaes", "de", "pso"], "time_1%"]
+        again = decide_study(reader.load_study(scaled(study_db, tmp_path, factors)))
+        assert again.choice == "cmaes" and again.verdict.tied == ["de", "pso"], factors
+        peers = again.table.set_index("optimizer").loc[["cmaes", "de", "pso"], "time_1%"]
         naive.add(peers.idxmin())
     # the test has teeth: the lowest measured time alone (the old tie-break) flips between these runs
     assert len(naive) > 1

@@ -178,7 +178,10 @@ def test_a_study_is_extended_and_edited_data_are_refused(lab, tmp_path):
 def test_bad_specimen_lists_and_bounds_are_one_line(tmp_path, body, message):
     shutil.copy(SYNTHETIC / "pom-mt24u01_0.01MPa_r1.csv", tmp_path / "a.csv")
     toml = tmp_path / "bad.toml"
-    toml.write_text(f'[study]\nname = "x"\nseed = 1\nbudget = 10\nseeds = 1\n[optimizers]\nrandom = {{}}\n{body}\n')
+    toml.write_text(
+        f'[study]\nname = "x"\nseed = 1\nbudget = 10\nseeds = 1\nformulation = "paper"\n[optimizers]\nrandom = {{}}\n'
+        f"{body}\n"
+    )
     with pytest.raises(
         UserError,
         match=r"bad\.toml: .*"
@@ -214,6 +217,8 @@ def test_bounds_file_sets_the_box_of_a_study(tmp_path):
         "50",
         "--bounds",
         "box.json",
+        "--formulation",
+        "paper",
         "--workers",
         "1",
         cwd=tmp_path,
@@ -224,7 +229,18 @@ def test_bounds_file_sets_the_box_of_a_study(tmp_path):
     xi, a = params["xi-"], params["A+"]
     assert -30.0 <= xi <= -25.0 and 0.02 <= a <= 0.021
     (tmp_path / "bad.json").write_text('{"xi-": [-30.0]}', encoding="utf-8")
-    bad = bwbench("compare", "--specimens", "a.csv", "--optimizers", "random", "--bounds", "bad.json", cwd=tmp_path)
+    bad = bwbench(
+        "compare",
+        "--specimens",
+        "a.csv",
+        "--optimizers",
+        "random",
+        "--bounds",
+        "bad.json",
+        "--formulation",
+        "paper",
+        cwd=tmp_path,
+    )
     assert bad.returncode == 2 and "bad.json: bounds of xi- must be [lower, upper]" in bad.stderr
 
 

@@ -132,3 +132,58 @@ def test_a_toml_holds_its_held_out_files_and_refuses_a_training_one(damper, tmp_
         "mass term: no variant of this study \\(spencer\\) has one",
     ):
         load_study_config(toml)
+
+
+def _friction_damper(path, amplitude_mm, frequency_hz, seed, cycles=3, rate_hz=200.0):
+    """A banded friction damper (Dahl friction + spring + dashpot), simulated here by explicit Euler on
+    a fine grid, not by any bwbench generator; sampled at ``rate_hz`` with 5 N noise."""
+    import numpy as np
+
+    fine = 20
+    dt = 1.0 / (rate_hz * fine)
+    t = np.arange(0.0, cycles / frequency_hz, dt)
+    x = amplitude_mm * np.sin(2 * np.pi * frequency_hz * t)
+    v = np.gradient(x, dt)
+    f_c, sigma, z = 400.0, 300.0, 0.0  # Coulomb force N, stiffness of the bristles N/mm
+    zs = np.empty_like(t)
+    for k in range(len(t)):
+        zs[k] = z
+        z += dt * sigma * v[k] * (1 - np.sign(v[k]) * z / f_c)
+    force = zs + 20.0 * x + 2.0 * v
+    rng = np.random.default_rng(seed)
+    keep = slice(None, None, fine)
+    pd.DataFrame(
+        {
+            "time_s": t[keep],
+            "displacement_mm": x[keep],
+            "velocity_mm_s": v[keep],
+            "force_N": force[keep] + rng.normal(0, 5.0, len(t[keep])),
+        }
+    ).to_csv(path, index=False)
+
+
+def test_the_held_out_table_has_a_number_for_every_model_and_its_conclusion_follows_it(tmp_path):
+    for name, amplitude, frequency, seed in (("s1", 10.0, 1.0, 1), ("s2", 6.0, 2.0, 2), ("h", 8.0, 1.5, 3)):
+        _friction_damper(tmp_path / f"{name}.csv", amplitude, frequency, seed)
+    study = bwbench.compare(
+        specimens=[tmp_path / "s1.csv", tmp_path / "s2.csv"],
+        optimizers=["lsq-trf", "random"],
+        seeds=1,
+        budget=60,
+        model=["switched-bouc-wen", "bouc-wen"],
+        formulation="identifiable",
+        validate=[tmp_path / "h.csv"],
+        db=tmp_path / "f.sqlite",
+    )
+    study.report(tmp_path / "rep", profiles=0)
+    held = pd.read_csv(tmp_path / "rep" / "held_out.csv", keep_default_na=False)
+    classic = held[held["label"].str.contains("bouc-wen") & ~held["label"].str.contains("switched")]
+    assert len(classic) == 4 and (classic["failure"] == "").all()  # the model without states predicts
+    assert pd.to_numeric(classic["nrmse"]).lt(1).all()
+    text = (tmp_path / "rep" / "report.md").read_text(encoding="utf-8")
+    section = text[text.index("## Held-out tests") :]
+    for label in held["label"].unique():
+        assert f"| {label} |" in section
+    per_label = held.assign(nrmse=pd.to_numeric(held["nrmse"])).groupby(["label", "specimen"])["nrmse"].mean()
+    best = per_label.groupby(level="label").median().idxmin()
+    assert f"**{best}**" in section.split("\n\n")[3] or f"best is **{best}**" in section

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from bwbench.api.study import Study
 from bwbench.errors import UserError
-from bwbench.problems.hysteresis.fit_notes import FitWarning
+from bwbench.problems.hysteresis.findings import FitBoxWarning, FitFailure, FitFinding, FitNote, FitWarning
 from bwbench.problems.hysteresis.fit_result import FitResult
 from bwbench.problems.hysteresis.fitted_model import FittedModel, Prediction
 
@@ -39,6 +39,10 @@ __all__ = [
     "Study",
     "UserError",
     "FitWarning",
+    "FitNote",
+    "FitFinding",
+    "FitBoxWarning",
+    "FitFailure",
 ]
 
 
@@ -60,6 +64,10 @@ def fit(
     name: str | None = None,
     stop: str = "agreed",
     workers: int = 1,
+    control: str | None = None,
+    control_levels: dict | None = None,
+    laws: dict | str | None = None,
+    control_filter: bool = False,
 ) -> FitResult:
     """Fit one test, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
@@ -69,41 +77,43 @@ def fit(
     its ``attrs["name"]`` or "data"). ``optimizer``: a backend name (``bwbench optimizers``), run on
     exactly ``budget`` evaluations (one evaluation = one simulation of every file) from ``seed``.
     ``model``: a registered model (default: the switched Bouc-Wen); ``formulation``: "paper"/"direct"
-    or "identifiable" (default: the model's own); ``state``: "shared"/"split" (switched model);
-    ``excitation``: "measured" or "sine". ``fix_mass`` (identifiable): "auto" (the inertia rule),
-    None or "fit" (always fitted) or a mass in N·s²/mm; ``offsets`` (identifiable, switched model):
-    "branch" or "continuous". ``weighting``: "equal" (each file's MSE counts the same) or "samples".
-    ``bounds``: {name: (lower, upper)} or a JSON file of them; searched names set the search box,
-    solved coefficients bound the linear solve. ``options``: the backend's options. ``threads``:
-    numba/BLAS threads. ``stop``: "agreed" (a backend that restarts local searches, lsq-trf, may stop
-    before the budget once its searches agree on the optimum; ``nfev`` and the result's message say
-    so) or "budget" (spend it all, as a study does). ``workers``: threads for the files of a joint
-    fit, else for the points of a batch; the result is the same as with one.
+    or "identifiable" (default: chosen from the data — the switched model's paper formulation for the
+    paper's synthetic specimens, identifiable for any other data; the first finding says which and
+    why); ``state``: "shared"/"split" (switched model); ``excitation``: "measured" or "sine".
+    ``fix_mass`` (identifiable): "auto" (the inertia rule), None or "fit" (always fitted) or a mass in
+    N·s²/mm; ``offsets`` (identifiable, switched model): "branch" or "continuous". ``weighting``:
+    "equal" (each file's MSE counts the same) or "samples". ``bounds``: {name: (lower, upper)} or a
+    JSON file of them; searched names set the search box, solved coefficients bound the linear solve.
+    ``options``: the backend's options. ``threads``: numba/BLAS threads. ``stop``: "agreed" (a
+    backend that restarts local searches, lsq-trf, may stop before the budget once its searches
+    agree on the optimum; ``nfev`` and the result's message say so) or "budget" (spend it all, as a
+    study does). ``workers``: threads for the files of a joint fit, else for the points of a batch;
+    the result is the same as with one.
 
-    Returns a ``FitResult``: ``.summary()`` (every parameter with its standard error), ``.report()``,
+    One model across a control range (docs/control.md): ``control`` names the control column
+    (``"current_A"``) or gives a level for files without it (``"current_A=0.5"``); ``control_levels``
+    gives files their levels ({path, file name or DataFrame name: level}); ``laws`` {parameter: law}
+    (``"linear"``, ``"quadratic"``, ``"exponential"``, ``"constant"`` or a ``CallableLaw``), or
+    ``"auto"``; ``control_filter``: Spencer's first-order lag between command and control, its rate fitted.
+    ``.model`` is then a ``ControlledModel`` (``.at(level)``, ``.predict(data)`` at any level).
+
+    Returns a ``FitResult``: ``.ok`` (False for a failed fit, ``.failure`` says why: no finite loss,
+    or further from the data than the best constant force), ``.findings`` (everything ``bwbench
+    fit`` prints beside the loss, each with its severity), ``.summary()``, ``.report()``,
     ``.correlation()``, ``.plot()``, ``.params``, ``.rmse_N``, ``.table()``, ``.model``,
-    ``.predict(data)``, ``.save(path)``. The notes ``bwbench fit`` prints (what the data do not
-    determine, a parameter on its box's edge) are issued as ``bwbench.FitWarning`` warnings and kept
-    in ``.notes``. Raises ``bwbench.UserError`` with the command line's message for bad input.
+    ``.predict(data)``, ``.save(path)``. Every finding but the facts ("info") is also issued as a
+    warning of a ``bwbench.FitWarning`` subclass (``FitNote``, ``FitFinding``, ``FitBoxWarning``,
+    ``FitFailure``). Raises ``bwbench.UserError`` with the command line's message for bad input.
     """
     import bwbench.limits as limits
     import bwbench.threads as threads_mod
     from bwbench.api.arguments import count
-    from bwbench.data import manifest, plausibility
-    from bwbench.data.specimen import Specimen
-    from bwbench.data.specimen_input import as_specimen
     from bwbench.optimize import registry as backends
-    from bwbench.problems.hysteresis import fit_notes
+    from bwbench.problems.hysteresis import findings
     from bwbench.problems.hysteresis.fit_result import run_fit
-    from bwbench.problems.hysteresis.formulations import make_problem
-    from bwbench.problems.hysteresis.settings import refuse_same_file
+    from bwbench.problems.hysteresis.setup import setup_fit
 
     # Every argument checked as the command line checks it, with its words, before any file is read.
-    items = [d for item in data for d in (item if isinstance(item, (list, tuple)) else [item])]
-    if not items:
-        raise UserError("bwbench.fit needs at least one test (a specimen CSV's path, a Specimen or a DataFrame)")
-    if any(isinstance(d, (str, Path)) and not str(d).strip() for d in items):
-        raise UserError("a specimen must be a path to a specimen CSV, a Specimen or a DataFrame, got ''")
     count("--budget", budget, "a positive number of evaluations")
     limits.check("--budget", budget, "BWBENCH_MAX_BUDGET")
     count("--seed", seed, "a non-negative integer", minimum=0)
@@ -117,88 +127,31 @@ def fit(
     if stop not in ("agreed", "budget"):
         raise UserError(f"--stop must be 'agreed' or 'budget', got {stop!r}")
     options = backends.resolve_options(optimizer, dict(options or {}))
-    settings = settings_of(
-        model=model,
-        formulation=formulation,
-        state=state,
-        excitation=excitation,
-        fix_mass=fix_mass,
-        offsets=offsets,
-        weighting=weighting,
-        bounds=bounds,
-    )
-    refuse_same_file([d.path if isinstance(d, Specimen) else d for d in items])
-    loaded = [as_specimen(d, name) for d in items]
-    plausibility.screen(loaded)  # data check's checks: a dead channel or no force refused, the rest warned
-    synthetic = all(isinstance(d, (str, Path)) and manifest.is_synthetic(d) for d in items)
     with threads_mod.limited(threads_mod.check(threads)):
-        problem = make_problem(loaded if len(loaded) > 1 else loaded[0], settings)
-        if "bounds" in settings:
-            from bwbench.data import bounds as bounds_mod
-
-            bounds_mod.refuse_if_blows_up(problem, "bounds")
-    with threads_mod.for_workers(problem, max(workers, threads)):
-        result = run_fit(problem, optimizer, budget, seed, options, synthetic, stop=stop)
-    if not result.success:
-        import warnings
-
-        warnings.warn(
-            f"none of the {result.nfev} evaluations gave a finite force: the model blows up everywhere "
-            "in the search box on these data (check the units: mm, N, s; and the bounds)",
-            fit_notes.FitWarning,
-            stacklevel=2,
+        setup = setup_fit(
+            list(data),
+            model=model,
+            formulation=formulation,
+            state=state,
+            excitation=excitation,
+            fix_mass=fix_mass,
+            offsets=offsets,
+            weighting=weighting,
+            bounds=bounds,
+            name=name,
+            control=control,
+            control_levels=control_levels,
+            laws=laws,
+            control_filter=control_filter,
+            law_search=(optimizer, budget, seed),
         )
-    fit_notes.issue(result)
+    extra: dict = {"formulation_reason": setup.formulation_reason, "bounds_file": setup.bounds_file}
+    if setup.box_probe_s is not None:
+        extra["box_probe_s"] = setup.box_probe_s
+    with threads_mod.for_workers(setup.problem, max(workers, threads)):
+        result = run_fit(setup.problem, optimizer, budget, seed, options, setup.synthetic, extra=extra, stop=stop)
+    findings.issue(result.findings)
     return result
-
-
-def settings_of(
-    *,
-    model=None,
-    formulation=None,
-    state=None,
-    excitation="measured",
-    fix_mass="auto",
-    offsets=None,
-    weighting="equal",
-    bounds=None,
-) -> dict:
-    """The problem settings of a fit's keywords, each checked (``UserError`` with the CLI's wording)."""
-    from bwbench.data import bounds as bounds_mod
-    from bwbench.problems.hysteresis.formulations import bound_names
-    from bwbench.problems.hysteresis.joint_problem import WEIGHTINGS
-    from bwbench.problems.hysteresis.settings import check_fit_flags, checked_settings
-
-    settings: dict = checked_settings(model, formulation, state, excitation)
-    if weighting not in WEIGHTINGS:
-        raise UserError(f"--weighting must be one of {', '.join(map(repr, WEIGHTINGS))}, got {weighting!r}")
-    settings["weighting"] = weighting
-    mass = _fix_mass(fix_mass)
-    check_fit_flags(settings, mass, offsets, weighting)
-    if mass != "auto":
-        settings["fix_mass"] = mass
-    if offsets is not None:
-        settings["offsets"] = offsets
-    if bounds is not None:
-        names = bound_names([settings["formulation"]], settings["state"], [settings["model"]])
-        if isinstance(bounds, (str, Path)):
-            settings["bounds"] = bounds_mod.read_json(bounds, names)
-        elif isinstance(bounds, dict):
-            settings["bounds"] = bounds_mod.validate(dict(bounds), names, "bounds")
-        else:
-            raise UserError(f"bounds must be a dict of name -> (lower, upper) or a JSON file, got {bounds!r}")
-    return settings
-
-
-def _fix_mass(value):
-    """The API's fix_mass ("auto", None or a mass ≥ 0) checked with the words of ``--fix-mass``."""
-    from bwbench.problems.hysteresis.settings import fix_mass_value
-
-    if value == "auto" or value is None:
-        return value
-    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        return fix_mass_value(repr(value))  # refused, naming what was given
-    return fix_mass_value(str(value))
 
 
 def load_fit(path) -> FittedModel:

@@ -33,7 +33,8 @@ from bwbench.render.matplotlib_state import untouched
 class Recommendation:
     """The report's recommendation: the run ``label`` to use ("cmaes [identifiable]"), its ``backend``,
     ``formulation`` and ``model``, the ``budget`` (evaluations) it was judged at, ``sentence`` (the
-    "Use ..." sentence, plain text) and ``text`` (the whole paragraph, markdown). ``label`` is None
+    "Use ..." sentence, plain text), ``text`` (the whole paragraph, markdown) and ``line`` (the
+    recommendation in one line, as ``bwbench compare`` prints it). ``label`` is None
     when nothing can be recommended (only the baseline ran)."""
 
     label: str | None
@@ -43,6 +44,7 @@ class Recommendation:
     budget: int | None
     sentence: str
     text: str
+    line: str = ""
 
     def __str__(self) -> str:
         return self.sentence
@@ -79,72 +81,52 @@ class Study:
         return self._stored.traces
 
     @cached_property
-    def _decision(self) -> tuple:
-        """(ranking table in the rule's order, recommend() dict, provisional note), as the report makes them."""
-        from bwbench.analysis import comparisons, statistics
-        from bwbench.render.labels import variant_noun
-        from bwbench.report.recommend import recommend
-        from bwbench.report.verdict import TARGET
+    def decision(self):
+        """The study's answer (``bwbench.report.decision.StudyDecision``): the one the report and
+        ``bwbench compare`` give, measured times included."""
+        from bwbench.report.decision import decide_study
 
         s = self._stored
         if s.ranking.empty:
             raise UserError(f"{s.path}: the study has no ranking runs yet: nothing to rank")
-        table, _ = statistics.ranking_table(s.runs, s.traces, s.optimizers)
-        tests = statistics.compare_backends(s.runs)
-        success = statistics.success_by_specimen(s.runs, s.traces, TARGET)
-        rec = recommend(
-            table,
-            success,
-            comparisons.log_losses(s.ranking),
-            tests,
-            s.settings.get("budget", "?"),
-            s.problem_type.residual_unit,
-            variant_noun(s.settings),
-        )
-        table = table.set_index("optimizer").loc[rec["order"]].reset_index()
-        return table, rec
+        return decide_study(s)
 
     def ranking(self):
         """The report's ranking table in the decision rule's order: one row per run label (``optimizer``),
-        with ``backend``, ``variant`` and ``verdict`` columns (recommended, as good, less reliable,
-        behind, avoid, baseline) and the statistics (median/best RMSE, success rates, ERT, times)."""
+        with ``backend``, ``variant`` and ``verdict`` columns (recommended, tied on time, as good, less
+        reliable, behind, avoid, baseline) and the statistics (median/best RMSE, success rates, ERT, times)."""
         from bwbench.render.labels import split_label
 
-        table, rec = self._decision
-        verdict = rec["verdict"]
-        out = table.copy()
+        out = self.decision.ranking()
+        verdict = out.pop("verdict")
         out.insert(1, "backend", [split_label(label)[0] for label in out["optimizer"]])
         out.insert(2, "variant", [split_label(label)[1] for label in out["optimizer"]])
-        out.insert(3, "verdict", [verdict.role(label) for label in out["optimizer"]])
+        out.insert(3, "verdict", verdict)
         return out
 
     @cached_property
     def recommendation(self) -> Recommendation:
-        """The report's recommendation (``Recommendation``)."""
+        """The report's recommendation (``Recommendation``); ``line`` is what ``bwbench compare`` prints."""
         from bwbench.render.labels import split_label
 
-        _, rec = self._decision
-        label = rec["choice"]
-        text = rec["text"]
-        provisional = self._stored.provisional
-        if provisional:
-            text = f"{provisional[0].upper()}{provisional[1:]}: the study is unfinished; " + text
+        decision = self.decision
+        label, text = decision.choice, decision.text
         budget = self._stored.settings.get("budget")
+        budget = int(budget) if isinstance(budget, (int, float)) else None
         if label is None:
-            return Recommendation(None, None, None, None, budget, _plain(text), text)
-        runs = self.runs[(self.runs["kind"] == "ranking") & (self.runs["optimizer"] == label)]
-        formulation = _one(runs, "formulation")
-        model = _one(runs, "model")
+            return Recommendation(None, None, None, None, budget, _plain(text), text, decision.line())
+        facts = decision.facts.get(label, {})
         found = re.search(r"\*\*Use.*?\.(?=\s+[A-Z*]|\s*$)", text, re.S)
         use = found.group(0) if found else text
         return Recommendation(
             label,
             split_label(label)[0],
-            formulation,
-            model,
-            int(budget) if isinstance(budget, (int, float)) else None,
+            facts.get("formulation"),
+            facts.get("model"),
+            budget,
             _plain(use),
             text,
+            decision.line(),
         )
 
     # -- outputs ----------------------------------------------------------------------------------
@@ -212,11 +194,6 @@ class Study:
             + table_html(rows, ["label", "runs", "finished", "median RMSE (N)"])
             + "<small>.ranking() and .recommendation apply the report's rule</small></div>"
         )
-
-
-def _one(runs, column):
-    values = [v for v in runs[column].dropna().unique()] if column in runs else []
-    return str(values[0]) if len(values) == 1 else None
 
 
 def _plain(markdown: str) -> str:

@@ -133,9 +133,8 @@ def summary_table(db, problem_type=None) -> str:
 
 
 def recommendation_line(db) -> str:
-    """The report's recommendation in one line (the same rule, the same words), or why there is none."""
-    from bwbench.report.build import study_recommendation
-    from bwbench.report.recommend import one_line
+    """The report's recommendation in one line (``StudyDecision.line``), or why there is none."""
+    from bwbench.report.decision import decide_study
     from bwbench.store.reader import load_study
 
     try:
@@ -143,12 +142,9 @@ def recommendation_line(db) -> str:
         finished = study.ranking[(study.ranking["status"] == "ok") & study.ranking["mse"].map(float).lt(math.inf)]
         if finished.empty:
             return "Recommendation: none (no ranking run finished)."
-        table, _, rec = study_recommendation(study)
+        return decide_study(study).line()
     except UserError as err:
         return f"Recommendation: see the report ({err})."
-    line = one_line(rec["verdict"], table.set_index("optimizer"), study.settings.get("budget", "?"))
-    provisional = study.provisional
-    return (f"{provisional[0].upper()}{provisional[1:]}: " if provisional else "") + line
 
 
 # ------------------------------------------------------------------------------------ entry point

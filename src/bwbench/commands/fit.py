@@ -49,11 +49,11 @@ def parse_option(text: str):
 
 
 def fit(args) -> int:
-    """Exit 0 with the result JSON (and plot); 1 when no evaluation gave a finite loss (the JSON is
-    still written, with null for what is not finite); 2 for a mistake in the input. Several
-    specimens: one joint fit (``bwbench.problems.hysteresis.joint_problem``), or with ``--each`` one fit
-    of each in this one process (``_fit_each``)."""
-    from bwbench.data import manifest
+    """Exit 0 with the result JSON (and plot); 1 when the fit failed (no evaluation gave a finite loss,
+    or the fit is further from the data than the best constant force: the JSON is still written,
+    ``findings.failure_reasons``); 2 for a mistake in the input. Several specimens: one joint fit
+    (``bwbench.problems.hysteresis.joint_problem``), or with ``--each`` one fit of each in this one
+    process (``_fit_each``)."""
     from bwbench.optimize import registry
 
     if args.budget < 1:
@@ -61,45 +61,45 @@ def fit(args) -> int:
     limits.check("--budget", args.budget, "BWBENCH_MAX_BUDGET")
     if args.seed < 0:
         raise UserError(f"--seed must be a non-negative integer, got {args.seed}")
-    from bwbench.problems.hysteresis.settings import refuse_same_file
-
-    refuse_same_file(args.specimen)  # by identity: ./a.csv, a symlink or a hard link of a.csv is a.csv
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     workers = threads.check(args.workers, "--workers")
     threads.check(args.threads)
     from bwbench.commands import control_fit
 
-    if control_fit.wants_control(args):  # one model across a control range (--control, --law)
-        return control_fit.fit_controlled(args, options, workers, _fit_problem)
+    controlled = control_fit.wants_control(args)  # one model across a control range (--control, --law)
+    if controlled:
+        control_fit.check_flags(args)
     if args.each:
         return _fit_each(args, options, workers)
-    check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
-    synthetic = all(manifest.is_synthetic(p) for p in args.specimen)
-    problem = _read_problem(args)
-    return _fit_problem(args, problem, options, workers, synthetic, args.out, args.plot)
+    outputs = {"--out": args.out, "--plot": args.plot, **control_fit.outputs(args)}
+    check_outputs(outputs, [*args.specimen, getattr(args, "bounds", None)])
+    setup = _read_setup(args)
+    status = _fit_setup(args, setup, options, workers, args.out, args.plot)
+    return control_fit.after(args, setup, status) if controlled else status
 
 
-def _read_problem(args):
-    """The fit's problem from the command line (reads and checks the specimens)."""
-    from bwbench.commands.simulate import problem_from_args
+def _read_setup(args):
+    """The fit's setup from the command line (reads and checks the specimens and settings)."""
+    from bwbench.commands.simulate import setup_from_args
 
     with threads.limited(args.threads):  # 1 by default: see bwbench.threads
-        return problem_from_args(args)
+        return setup_from_args(args, formulation_from_data=True)
 
 
 def _fit_each(args, options, workers: int) -> int:
     """``--each``: one fit of each specimen, with the same options, in this one process (a process pays
-    ~1.4 s of start-up for its libraries before it reads a file: numba's first call and scipy's imports;
-    a lab's dozens of tests pay it once). ``--out`` and ``--plot`` name folders: each file's result is
-    ``<stem>.json`` (and ``<stem>.png``) there. Every file is read and checked, and every output checked,
-    before the first fit. Exit 1 when a fit found nothing finite (the others are still made)."""
+    for its libraries' start-up before it reads a file; a lab's dozens of tests pay it once). ``--out``
+    and ``--plot`` name folders: each file's result is ``<stem>.json`` (and ``<stem>.png``) there. Every
+    file is read and checked, and every output checked, before the first fit. Exit 1 when a fit
+    failed (the others are still made)."""
     import time
     from pathlib import Path
 
-    from bwbench.data import manifest
     from bwbench.data.output_paths import FIGURE_FORMATS, check_folder
+    from bwbench.problems.hysteresis.setup import refuse_same_file
 
+    refuse_same_file(args.specimen)
     stems: dict[str, str] = {}
     for path in args.specimen:
         stem = Path(path).stem
@@ -122,7 +122,7 @@ def _fit_each(args, options, workers: int) -> int:
     runs = []
     for path in args.specimen:  # every file read (and refused, naming it) before any fit
         one = argparse.Namespace(**{**vars(args), "specimen": [path]})
-        runs.append((one, _read_problem(one)))
+        runs.append((one, _read_setup(one)))
     for folder in {f for f in folders.values() if f is not None}:
         folder.mkdir(parents=True, exist_ok=True)
     outputs: list[tuple[str, str | None]] = []
@@ -133,112 +133,68 @@ def _fit_each(args, options, workers: int) -> int:
         check_outputs({"--out": out, "--plot": plot}, [*args.specimen, getattr(args, "bounds", None)])
         outputs.append((out, plot))
     started, statuses = time.perf_counter(), []
-    for k, ((one, problem), (out, plot)) in enumerate(zip(runs, outputs), start=1):
+    for k, ((one, setup), (out, plot)) in enumerate(zip(runs, outputs), start=1):
         print(f"[{k}/{len(runs)}] {one.specimen[0]}")
-        synthetic = manifest.is_synthetic(one.specimen[0])
-        statuses.append(_fit_problem(one, problem, options, workers, synthetic, out, plot))
+        statuses.append(_fit_setup(one, setup, options, workers, out, plot))
     failed = sum(1 for status in statuses if status)
     print(
         f"{len(runs)} fit{'s' if len(runs) > 1 else ''} in {time.perf_counter() - started:.1f} s -> {out_dir}"
-        + (f" ({failed} found nothing finite)" if failed else "")
+        + (f" ({failed} failed)" if failed else "")
     )
     return 1 if failed else 0
 
 
-def _fit_problem(args, problem, options, workers: int, synthetic: bool, out: str, plot: str | None) -> int:
-    """Fit ``problem``, write ``out`` (and ``plot``), print what the fit found; the exit status."""
-    import math
+def _fit_setup(args, setup, options, workers: int, out: str, plot: str | None) -> int:
+    """Fit the problem of ``setup``, write ``out`` (and ``plot``), print what the fit found (its
+    ``findings``); the exit status: 1 when the fit failed."""
     import sys
 
-    from bwbench.optimize import fitting
     from bwbench.problems.hysteresis.fit_result import provenance, run_fit
 
-    extra = {"bounds_file": args.bounds, **provenance(args.specimen, args.bounds)}
-    if hasattr(problem, "box_probe_s"):
-        extra["box_probe_s"] = problem.box_probe_s  # not in wall_s, the backend's own time
+    problem = setup.problem
+    extra = {"bounds_file": setup.bounds_file, **provenance(args.specimen, setup.bounds_file)}
+    extra["formulation_reason"] = setup.formulation_reason
+    if setup.box_probe_s is not None:
+        extra["box_probe_s"] = setup.box_probe_s  # not in wall_s, the backend's own time
+    where = " + ".join(args.specimen)
+    print(f"fitting {where}: {setup.formulation_reason}")
     with threads.for_workers(problem, max(workers, args.threads)):
         fitted = run_fit(
-            problem, args.optimizer, args.budget, args.seed, options, synthetic, extra=extra, stop=args.stop
+            problem, args.optimizer, args.budget, args.seed, options, setup.synthetic, extra=extra, stop=args.stop
         )
-    result, checks = fitted.result, fitted.checks
+    result = fitted.result
     with writing(out):
         fitted.write_json(out)
-    where = " + ".join(args.specimen)
-    if not math.isfinite(result.mse):
-        print(
-            f"error: {where}: none of the {result.nfev} evaluations gave a finite force: the model blows "
-            "up everywhere in the search box on these data (check the units: mm, N, s; and the bounds); "
-            f"{out} written with null values",
-            file=sys.stderr,
-        )
-        return 1
-    if plot:
+    if plot and fitted.success:
         with writing(plot):
-            _plot(problem, fitted, plot, synthetic)
+            _plot(problem, fitted, plot, setup.synthetic)
     joint = len(fitted.files) > 1
-    probe = f" (+ {problem.box_probe_s:.1f} s probing the --bounds box)" if hasattr(problem, "box_probe_s") else ""
+    probe = f" (+ {setup.box_probe_s:.1f} s probing the --bounds box)" if setup.box_probe_s is not None else ""
     accuracy = "" if joint else f", {_nrmse_text(fitted.files[0])}"
     print(
         f"{args.optimizer}: {'loss' if joint else 'MSE'} {result.mse:.4g} N² (F_err {result.f_err:.4g}, RMSE "
         f"{result.rmse_N:.3g} N{accuracy}) in {result.nfev} evaluations{' of every file' if joint else ''}, "
         f"{result.wall_s:.2f} s{probe} -> {out}"
     )
-    if result.nfev < args.budget:
-        print(f"  {result.message} ({result.nfev} of {args.budget} evaluations)")
-    if result.extras.get("step_budget_stops"):
-        print(
-            f"  {result.extras['step_budget_stops']} evaluations stopped at the simulation's step budget (stiff "
-            "corners of the search box): loss +inf"
-        )
     for row in fitted.files if joint else ():
         print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, {_nrmse_text(row)} (weight {row['weight']:.3g})")
-    for note in getattr(problem, "notes", []):
-        print(f"  linear solve: {note}")
-    for line in checks.notes if checks else []:
-        print(f"  {line}")
-    for line in checks.findings if checks else []:
-        print(f"  finding: {line}")
-    for text in fitting.edge_warnings(problem, result, checks.explained if checks else ()) + (
-        checks.warnings if checks else []
-    ):
-        print(f"warning: {where}: {text}", file=sys.stderr)
-    for text in worse_than_zero(problem, fitted.files):
-        print(f"warning: {text}", file=sys.stderr)
-    from bwbench.data import plausibility
-
-    # data check's words about the files (a flipped or mis-scaled signal, a time column in ms), once the
-    # result is written: a refusal before the fit stays one line
-    plausibility.print_warnings([part.specimen for part in getattr(problem, "parts", None) or [problem]], synthetic)
+    names = [str(p) for p in args.specimen] + [spec.name for spec in setup.specimens]
+    for finding in fitted.findings:
+        if finding.severity in ("warning", "failure"):
+            prefix = "error" if finding.severity == "failure" else "warning"
+            named = any(finding.text.startswith(f"{n}: ") for n in names)  # a joint fit's file names itself
+            print(f"{prefix}: {finding.text}" if named else f"{prefix}: {where}: {finding.text}", file=sys.stderr)
+        elif finding.text != setup.formulation_reason:  # said first, above
+            print(f"  {finding.line}")
+    if not fitted.ok:
+        print(f"  the fit failed: {out} written{' with null values' if not fitted.success else ''}, exit status 1")
+        return 1
     return 0
 
 
 def _nrmse_text(row: dict) -> str:
     """Both NRMSEs of a file's row, the literature's named (``fit_result.NRMSE_DEFINITIONS``)."""
     return f"NRMSE {row['nrmse_max_F']:.4g} (RMSE/max F, the literature's; {row['nrmse']:.4g} RMSE/max|F|)"
-
-
-def worse_than_zero(problem, files) -> list[str]:
-    """A sentence per file whose fitted force is further from the measured one than a force of 0 is
-    (RMSE above the force's own RMS), with the likely cause: a model or formulation that does not suit
-    the data (the paper's switched model in its paper box on an MR-damper test ends at NRMSE ≈ 49)."""
-    import numpy as np
-
-    out = []
-    for part, row in zip(getattr(problem, "parts", None) or [problem], files):
-        rms = float(np.sqrt(np.mean(np.square(part.specimen.f))))
-        if row["rmse_N"] > rms:
-            hint = (
-                "try --formulation identifiable (its box is scaled from the data), or another --model "
-                "(`bwbench models`)"
-                if part.formulation != "identifiable"
-                else "try another --model (`bwbench models`), or check the units and sign of the force"
-            )
-            out.append(
-                f"{part.specimen.path}: the fit is worse than a force of zero (RMSE {row['rmse_N']:.4g} N, "
-                f"the measured force's own RMS {rms:.4g} N): {part.model.name} in the {part.formulation} "
-                f"formulation probably does not suit these data; {hint}"
-            )
-    return out
 
 
 def _plot(problem, fitted, path, synthetic: bool) -> None:

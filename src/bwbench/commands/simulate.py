@@ -9,12 +9,6 @@ import math
 import numpy as np
 
 from bwbench.data import strict_json
-from bwbench.problems.hysteresis.settings import (  # noqa: F401  (fit and compare import them from here)
-    check_fit_flags,
-    checked_settings,
-    fix_mass_value,
-    refuse_same_file,
-)
 
 MAX_GRID = 1000  # profile points per parameter: each is a local fit of ~15 iterations
 BLOWS_UP = "the model blows up with these parameters on this specimen (force not finite)"
@@ -43,8 +37,17 @@ def add_model_options(p, formulation_advice: str = "") -> None:
 
 
 def model_settings(args) -> dict:
-    """Model, formulation, state and excitation of a command's arguments, checked (``UserError``)."""
-    return checked_settings(args.model, args.formulation, args.state, args.excitation)
+    """Model, formulation (the model's own when none is given: a parameter file is read in it), state
+    and excitation of a command's arguments, checked (``UserError``)."""
+    from bwbench.models import registry
+    from bwbench.problems.hysteresis.setup import checked_settings
+
+    settings = checked_settings(
+        model=args.model, formulation=args.formulation, state=args.state, excitation=args.excitation
+    )
+    if settings["formulation"] is None:
+        settings["formulation"] = registry.get(settings["model"]).default_formulation
+    return settings
 
 
 def add_fit_options(p) -> None:
@@ -64,57 +67,37 @@ def add_fit_options(p) -> None:
     )
 
 
-def settings_from_args(args) -> dict:
-    """The problem settings of the command's model, formulation, state, excitation, ``--bounds``,
-    ``--fix-mass``, ``--offsets`` and ``--weighting`` where it has them, each checked."""
-    from bwbench.data import bounds as bounds_mod
-    from bwbench.problems.hysteresis.formulations import bound_names
+def setup_from_args(args, formulation_from_data: bool = False):
+    """The ``FitSetup`` (``problems.hysteresis.setup``) of ``args.specimen`` (one file, or a list: a
+    joint fit) with the command's model, formulation, state, excitation, ``--bounds``, ``--fix-mass``,
+    ``--offsets`` and ``--weighting`` where it has them. ``formulation_from_data``: with no
+    ``--formulation``, choose it from the data (``fit``); otherwise the model's own (a parameter file
+    is read in it)."""
+    import sys
 
-    settings = model_settings(args)
-    if getattr(args, "bounds", None):
-        names = bound_names([settings["formulation"]], settings["state"], [settings["model"]])
-        settings["bounds"] = bounds_mod.read_json(args.bounds, names)
-    mass = fix_mass_value(getattr(args, "fix_mass", None))
-    check_fit_flags(settings, mass, getattr(args, "offsets", None), getattr(args, "weighting", None))
-    if mass != "auto":
-        settings["fix_mass"] = mass
-    if getattr(args, "offsets", None):
-        settings["offsets"] = args.offsets
-    if getattr(args, "weighting", None):
-        settings["weighting"] = args.weighting
-    return settings
+    from bwbench.problems.hysteresis.setup import setup_fit
 
-
-def problem_from_args(args):
-    """The problem of ``args.specimen`` (one file, or a list: a joint fit) with the command's model,
-    formulation, state, excitation, ``--bounds``, ``--fix-mass`` and ``--weighting`` where it has them."""
-    from bwbench.data import bounds as bounds_mod
-    from bwbench.data.specimen import read_specimen
-    from bwbench.problems.hysteresis.formulations import make_problem
-
-    settings = settings_from_args(args)
+    formulation = args.formulation
+    if formulation is None and not formulation_from_data:
+        formulation = model_settings(args)["formulation"]
     paths = args.specimen if isinstance(args.specimen, list) else [args.specimen]
-    refuse_same_file(paths)
-    specimens = [read_specimen(p) for p in paths]
-    # data check's plausibility checks, before any work: a dead channel (or, for a fit or an analysis of
-    # the force, no force) refused with the file named, the rest warned about
-    from bwbench.data import plausibility
-
-    plausibility.screen(specimens, force_needed=getattr(args, "func", None) not in (simulate, evaluate), warn=False)
-    problem = make_problem(specimens if len(specimens) > 1 else specimens[0], settings)
-    if "bounds" in settings:
-        import time
-
-        start = time.perf_counter()
-        print(
-            f"probing the search box of --bounds {args.bounds} ({bounds_mod.PROBE_CORNERS} corners, one "
-            f"evaluation each) …",
-            flush=True,
-        )
-        bounds_mod.refuse_if_blows_up(problem, f"--bounds {args.bounds}")
-        problem.box_probe_s = time.perf_counter() - start
-        print(f"probing the search box: done in {problem.box_probe_s:.1f} s", flush=True)
-    return problem
+    return setup_fit(
+        paths,
+        model=args.model,
+        formulation=formulation,
+        state=args.state,
+        excitation=args.excitation,
+        fix_mass=getattr(args, "fix_mass", None) or "auto",
+        offsets=getattr(args, "offsets", None),
+        weighting=getattr(args, "weighting", None),
+        bounds=getattr(args, "bounds", None) or None,
+        force_needed=getattr(args, "func", None) not in (simulate, evaluate),
+        log=sys.stdout,
+        control=getattr(args, "control", None),
+        laws=getattr(args, "law", None),
+        control_filter=getattr(args, "control_filter", False),
+        law_search=(args.optimizer, args.budget, args.seed) if hasattr(args, "optimizer") else None,
+    )
 
 
 def read_for(path, problem):
@@ -178,7 +161,7 @@ def simulate(args) -> int:
     if fitted is not None:
         return simulate_stored(args, fitted)
     check_outputs({"--out": args.out}, [args.specimen, args.params])
-    problem = problem_from_args(args)
+    problem = setup_from_args(args).problem
     params = read_for(args.params, problem)
     force = problem.simulate(params)
     s = problem.signal
@@ -206,7 +189,7 @@ def evaluate(args) -> int:
     fitted = _stored(args)
     if fitted is not None:
         return evaluate_stored(args, fitted)
-    problem = problem_from_args(args)
+    problem = setup_from_args(args).problem
     params = read_for(args.params, problem)
     mse = float(problem.loss_batch(params[None, :])[0])
     extra = {"linear_coefficients": SOLVED} if problem.formulation == "identifiable" else {}
@@ -302,7 +285,7 @@ def identifiability(args) -> int:
     if not 2 <= args.grid <= MAX_GRID:
         raise UserError(f"--grid must be 2 to {MAX_GRID} points (each is a local fit), got {args.grid}")
     _settings_from_fit(args)
-    problem = problem_from_args(args)  # refuses a force of 0: every sensitivity would be 0, only NaN to report
+    problem = setup_from_args(args).problem  # refuses a force of 0: every sensitivity would be 0, only NaN to report
     params = read_for(args.params, problem)
     box = bounds_mod.read_json(args.bounds, problem.param_names) if args.bounds else None
     settings = model_settings(args)

@@ -14,14 +14,12 @@ import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bwbench.analysis import comparisons, statistics
+from bwbench.analysis import statistics
 from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder
 from bwbench.errors import UserError
 from bwbench.render.document import Document
-from bwbench.render.labels import variant_noun
-from bwbench.report import sections, time_noise
-from bwbench.report.recommend import one_line, recommend
-from bwbench.report.verdict import TARGET
+from bwbench.report import sections
+from bwbench.report.decision import StudyDecision, decide_study
 from bwbench.store import reader as results_db
 
 # What the report writes into its folder: a data file of one of these kinds there could be overwritten.
@@ -36,9 +34,7 @@ class Report:
     doc: Document
     out: Path
     log: typing.TextIO
-    table: object  # statistics.ranking_table, in the decision rule's order
-    tests: statistics.Comparison
-    recommendation: dict  # recommend.recommend: verdict, best, choice, order, text
+    decision: StudyDecision  # the study's answer (``decide_study``), the one the API and the terminal give
     featured: list  # specimens shown in per-specimen figures: posterior ones first
     options: dict = field(default_factory=dict)  # e.g. profile_params, profile_grid
 
@@ -47,23 +43,36 @@ class Report:
         return self.study.problem_type
 
     @property
+    def table(self):
+        """The ranking table in the decision rule's order."""
+        return self.decision.table
+
+    @property
+    def tests(self) -> statistics.Comparison:
+        return self.decision.tests
+
+    @property
+    def recommendation(self) -> dict:
+        """verdict, best, choice, order, text (``StudyDecision.as_dict``)."""
+        return self.decision.as_dict
+
+    @property
     def omnibus(self):
         return self.tests.omnibus
 
     @property
     def verdict(self):
-        return self.recommendation["verdict"]
+        return self.decision.verdict
 
     @property
     def best_backend(self) -> str:
         """The recommended label (the reference when the rule recommends nothing)."""
-        return self.recommendation["choice"] or self.recommendation["best"]
+        return self.decision.best
 
     @property
     def noun(self) -> str | None:
         """What the study's variants are ("formulation", …), None when it compares none."""
-        by_variant = self.verdict.by_variant
-        return variant_noun(self.study.settings) if by_variant is not None and len(by_variant) else None
+        return self.decision.noun
 
     def progress(self, what: str) -> None:
         print(f"{what} ...", file=self.log, flush=True)
@@ -151,21 +160,14 @@ def build_report(
     out.mkdir(parents=True, exist_ok=True)
     problem_type = study.problem_type
     print("ranking: statistics and the recommendation ...", file=log, flush=True)
-    table, tests, rec = study_recommendation(study)
+    decision = decide_study(study)
     provisional = study.provisional  # "provisional: 16 of 36 runs" for an unfinished study
-    if provisional:
-        rec["text"] = (
-            f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished (still running, "
-            "or stopped part-way), so this recommendation may change when it completes. " + rec["text"]
-        )
     report = Report(
         study,
         Document(out),
         out,
         log,
-        table,
-        tests,
-        rec,
+        decision,
         featured_specimens(study, identifiability_specimens),
         {"profile_params": profile_params, "profile_grid": profile_grid},
     )
@@ -185,7 +187,7 @@ def build_report(
     sections.setup(report)
     problem_type.report_intro(report)
     sections.ranking(report)
-    table.assign(verdict=[report.verdict.role(n) for n in table["optimizer"]]).to_csv(out / "ranking.csv", index=False)
+    decision.ranking().to_csv(out / "ranking.csv", index=False)
     sections.comparisons_frame(report).to_csv(out / "comparisons.csv", index=False)
     report.progress("figures: convergence, runtime distributions, waterfall")
     sections.run_figures(report)
@@ -196,29 +198,8 @@ def build_report(
     html_path = out / "report.html"
     html_path.write_text(doc.html(f"bwbench report: {title}"), encoding="utf-8")
     if announce is not None:
-        line = one_line(report.verdict, table.set_index("optimizer"), study.settings.get("budget", "?"))
-        print((f"{provisional[0].upper()}{provisional[1:]}: " if provisional else "") + line, file=announce)
+        print(decision.line(), file=announce)
     return html_path
-
-
-def study_recommendation(study):
-    """(ranking table in the rule's order, ``statistics.Comparison``, ``recommend.recommend``'s dict)
-    of a loaded study: what the report and ``bwbench compare`` both say."""
-    table, _ = statistics.ranking_table(study.runs, study.traces, study.optimizers)
-    tests = statistics.compare_backends(study.runs)
-    success = statistics.success_by_specimen(study.runs, study.traces, TARGET)
-    rec = recommend(
-        table,
-        success,
-        comparisons.log_losses(study.ranking),
-        tests,
-        study.settings.get("budget", "?"),
-        study.problem_type.residual_unit,
-        variant_noun(study.settings),
-        times=time_noise.intervals(study.runs, study.traces),
-    )
-    table = table.set_index("optimizer").loc[rec["order"]].reset_index()  # the rule's order, everywhere
-    return table, tests, rec
 
 
 def refuse_changed_data(study) -> None:

@@ -71,7 +71,8 @@ def rule(test_name: str, noun: str | None = None) -> list[str]:
         f"one label's times by ±{time_noise.LOAD:.0%} against another's) still below the other's lower end. The "
         "labels left are *tied on time*; of these the one with the fewest evaluations to the target (ERT) is "
         "recommended, then the order above. The same seeds give the same answer on any machine at any load.",
-        f"**Avoid**: final losses significantly (Holm) and more than {PRACTICAL:.0%} worse than the best baseline's.",
+        f"**Avoid**: final losses significantly (Holm) and more than {PRACTICAL:.0%} worse than random search's on "
+        "the same model and formulation (never against random search on another model).",
         f"**Statistics.** Each comparison: {test_name} on log10 final losses (a failed run counts one decade "
         f"worse than the worst finished run on its specimen); effect size = Hodges–Lehmann ratio of final losses "
         f"with a {comparisons.LEVEL:.0%} bootstrap interval ({comparisons.BOOTSTRAP:,} resamples of the seeds within "
@@ -195,9 +196,10 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     )
     out.append(per_variant_text(verdict, table, noun))
     if choice in verdict.avoid:
+        base = verdict.vs_baseline.set_index("a").loc[choice, "b"]
         out.append(
-            f"Even so, its final losses are significantly worse than random search's ({verdict.baselines[0]}): "
-            "no backend in this study beats the baseline."
+            f"Even so, its final losses are significantly worse than random search's on the same variant "
+            f"({base}): no backend in this study beats the baseline."
         )
     peers = [n for n in verdict.peers if n not in verdict.avoid]
     ref_rows = verdict.vs_reference.set_index("a") if verdict.vs_reference is not None else pd.DataFrame()
@@ -239,11 +241,11 @@ def paragraph(verdict: Verdict, table, tests, budget, noun) -> str:
     if avoid:
         base = verdict.vs_baseline.set_index("a")
         items = [
-            f"**{n}** ({ratio_number(base.loc[n, 'ratio'])}× {verdict.baselines[0]}'s final losses, Holm p = "
+            f"**{n}** ({ratio_number(base.loc[n, 'ratio'])}× {base.loc[n, 'b']}'s final losses, Holm p = "
             f"{p_text(base.loc[n, 'p_holm'])})"
             for n in avoid
         ]
-        out.append(f"Avoid {join(items)}: significantly worse than random search.")
+        out.append(f"Avoid {join(items)}: significantly worse than random search on the same variant.")
     if verdict.baselines:
         out.append(
             "Random search is the baseline, never a candidate: "
@@ -301,7 +303,7 @@ def box(verdict: Verdict, table, budget, noun: str | None, what: dict | None = N
         )
     avoid = [n for n in verdict.avoid if n != choice]
     parts = [
-        f"**Avoid** {join(avoid)} (worse than random search)."
+        f"**Avoid** {join(avoid)} (worse than random search on its own variant)."
         if avoid
         else "**Avoid**: no label is worse than random search."
     ]

@@ -11,7 +11,7 @@ from bwbench.analysis import comparisons
 from bwbench.render.format import evals_text, join, number, p_text, seconds_text
 from bwbench.render.labels import split_label
 from bwbench.report import time_noise
-from bwbench.report.verdict import ALPHA, TARGET, Verdict
+from bwbench.report.verdict import ALPHA, PRACTICAL, TARGET, Verdict
 
 
 def ratio_number(x) -> str:
@@ -103,7 +103,7 @@ def power_text(verdict: Verdict, tests) -> str:
     no other candidate, against the baseline)."""
     families = [
         (verdict.vs_reference, "the reference"),
-        (verdict.vs_baseline, verdict.baselines[0] if verdict.baselines else "the baseline"),
+        (verdict.vs_baseline, "random search of the same variant"),
     ]
     frame, against = next(((f, name) for f, name in families if f is not None and len(f)), (None, ""))
     if frame is None:
@@ -128,7 +128,9 @@ def power_text(verdict: Verdict, tests) -> str:
 
 def effect_sentence(verdict: Verdict, noun: str | None) -> str:
     """The effect of the variants in one sentence: for each other variant, the side where most
-    backends end at lower final losses, how many do and how many significantly ('' without variants)."""
+    backends end at lower final losses, how many do and how many significantly, and by how much (the
+    median over backends of the Hodges–Lehmann ratio, said as "practically equal" within
+    ``PRACTICAL``: a significant 0.1 % is no reason to change formulation) ('' without variants)."""
     frame = verdict.by_variant
     if not noun or frame is None or not len(frame):
         return ""
@@ -141,7 +143,23 @@ def effect_sentence(verdict: Verdict, noun: str | None) -> str:
         significant = int((g["significant"] & ((g["ratio"] < 1) if winner == variant else (g["ratio"] > 1))).sum())
         parts.append(
             f"in the {winner} {noun} {count} of {len(g)} backends end at lower final losses than in the "
-            f"{loser} {noun} ({significant} significantly, Holm)"
+            f"{loser} {noun} ({significant} significantly, Holm), {_effect_size(g['ratio'], winner == variant)}"
         )
     text = "; ".join(parts)
     return text[0].upper() + text[1:] + "."
+
+
+def _effect_size(ratios, other_lower: bool) -> str:
+    """How much lower the winning variant's final losses are: the median over backends of
+    1 − ratio (or of 1 − 1/ratio), with "practically equal" below ``PRACTICAL``."""
+    r = np.asarray(ratios, dtype=float)
+    r = r[np.isfinite(r) & (r > 0)]
+    if not len(r):
+        return "by an unknown amount"
+    lower = 1.0 - (r if other_lower else 1.0 / r)  # the winner's final loss below the loser's, per backend
+    median = float(np.median(lower))
+    size = f"{median:.1%}" if abs(median) >= 0.0005 else "less than 0.05%"
+    span = f" ({float(lower.min()):.1%} to {float(lower.max()):.1%})" if len(lower) > 1 else ""
+    if median < PRACTICAL:
+        return f"a median {size} lower{span}: practically equal (within the rule's {PRACTICAL:.0%})"
+    return f"a median {size} lower{span}"

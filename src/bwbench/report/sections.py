@@ -12,7 +12,7 @@ from bwbench.render import ecdf_figures, figures, waterfall
 from bwbench.render.floors import noise_floors
 from bwbench.render.format import evals_text, number, p_text
 from bwbench.render.palette import split_label
-from bwbench.report.recommend import ALPHA, box, ratio_text, rule
+from bwbench.report.recommend import ALPHA, ratio_text, rule
 from bwbench.report.verdict import TARGET
 from bwbench.store.timing import compute_time
 
@@ -94,19 +94,12 @@ def _compute_time_text(study) -> str:
 def recommendation(report) -> None:
     """The answer first, in a box a reader takes in at a glance; then the rule, then the paragraph
     that applies it with its statistics."""
-    doc, rec = report.doc, report.recommendation
+    doc, decision = report.doc, report.decision
     doc.h(2, "Recommendation")
     provisional = report.study.provisional
-    items = box(
-        report.verdict,
-        report.table.set_index("optimizer"),
-        report.study.settings.get("budget", "?"),
-        report.noun,
-        label_facts(report.study),
-    )
     if provisional:
         doc.p(f"**{provisional[0].upper()}{provisional[1:]}**: the study is unfinished; this may change.")
-    doc.box(items)
+    doc.box(decision.box())
     doc.h(2, "How the recommendation is decided")
     doc.p(
         "The rule below is fixed in the code (`bwbench.report.verdict`) and applied to every study the same "
@@ -114,20 +107,7 @@ def recommendation(report) -> None:
     )
     doc.bullets(rule(report.tests.test_name, report.noun))
     doc.h(2, "The rule applied to this study")
-    doc.p(rec["text"])
-
-
-def label_facts(study) -> dict:
-    """Label -> {"model": …, "formulation": …} as its ranking runs recorded them (one value each)."""
-    ranking = study.ranking
-    facts: dict = {}
-    for label, g in ranking.groupby("optimizer", sort=False):
-        facts[label] = {
-            key: str(g[key].dropna().iloc[0])
-            for key in ("model", "formulation")
-            if key in g and g[key].dropna().nunique() == 1
-        }
-    return facts
+    doc.p(decision.text)
 
 
 def ranking_frame(report) -> pd.DataFrame:
@@ -184,6 +164,12 @@ def verdict_frame(report) -> pd.DataFrame:
     verdict = report.verdict
     ref = verdict.vs_reference.set_index("a") if verdict.vs_reference is not None else pd.DataFrame()
     base = verdict.vs_baseline.set_index("a") if verdict.vs_baseline is not None else pd.DataFrame()
+    # each candidate is compared with random search on its own variant
+    base_column = (
+        f"final loss / {verdict.baselines[0]}'s [95 % CI]"
+        if len(verdict.baselines) == 1
+        else "final loss / random search's on its variant [95 % CI]"
+    )
     rows = []
     for label in verdict.candidates:
         row = {"label": label, "verdict": verdict.role(label)}
@@ -204,7 +190,7 @@ def verdict_frame(report) -> pd.DataFrame:
             b = base.loc[label]
             row.update(
                 {
-                    f"final loss / {verdict.baselines[0]}'s [95 % CI]": ratio_text(b),
+                    base_column: ratio_text(b) if len(verdict.baselines) == 1 else f"{ratio_text(b)} ({b['b']})",
                     "Holm p (baseline)": p_text(b["p_holm"]),
                 }
             )
@@ -218,7 +204,7 @@ def verdict_frame(report) -> pd.DataFrame:
         "largest success deficit",
     ]
     if len(base):
-        columns += [f"final loss / {verdict.baselines[0]}'s [95 % CI]", "Holm p (baseline)"]
+        columns += [base_column, "Holm p (baseline)"]
     return pd.DataFrame(rows, columns=columns).astype(object).fillna("–")
 
 

@@ -27,7 +27,9 @@ Steps (each threshold a constant here, each stated in the report before the verd
    are *tied on time*; the recommended one is the first by ERT in evaluations (fewest), then the
    order of step 2 (``tie_key``). The same seeds give the same recommendation at any load.
 5. *Avoid*: a candidate whose final losses are significantly (Holm) and practically (> ``PRACTICAL``)
-   worse than the best baseline's.
+   worse than the baseline's of its own variant (random search on the same model and formulation:
+   a backend is never called worse than random search on another model). A candidate whose variant
+   has no baseline run is not judged against one.
 6. Variants (formulations; models alike): the effect of the variant on each backend's final loss
    against the recommended label's variant, before the recommendation.
 
@@ -103,6 +105,13 @@ class Verdict:
         return "baseline" if label in self.baselines else ""
 
 
+def own_baseline(label: str, baselines) -> str | None:
+    """The baseline label of ``label``'s own variant (model and formulation), or None when that
+    variant ran no baseline."""
+    variant = split_label(label)[1]
+    return next((b for b in baselines if split_label(b)[1] == variant), None)
+
+
 def sort_key(table: pd.DataFrame):
     """The order of step 2 as a key over the ranking table's rows (by label)."""
     rows = table.set_index("optimizer")
@@ -150,8 +159,8 @@ def decide(
     )
     verdict.vs_baseline = comparisons.family(
         values,
-        [(c, baselines[0]) for c in candidates] if baselines else [],
-        f"against {baselines[0]}" if baselines else "against the baseline",
+        [(c, base) for c in candidates if (base := own_baseline(c, baselines)) is not None],
+        f"against {baselines[0]}" if len(baselines) == 1 else "against random search of the same variant",
         ALPHA,
     )
     against_ref = verdict.vs_reference.set_index("a")

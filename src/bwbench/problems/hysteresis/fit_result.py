@@ -63,6 +63,8 @@ class FitResult:
     files: tuple = ()
     checks: Any = None  # bwbench.problems.hysteresis.fit_checks.FitChecks
     extra: dict = field(default_factory=dict)  # more entries for the JSON (the search box, its file)
+    budget: int | None = None  # the evaluations asked for (``nfev`` may be fewer: an early stop)
+    synthetic: bool = False  # the files are a manifest's synthetic specimens (the wording of a check)
 
     # -- the numbers a notebook asks for first --------------------------------------------------
     @property
@@ -87,7 +89,28 @@ class FitResult:
 
     @property
     def success(self) -> bool:
+        """Some evaluation gave a finite loss (see ``ok`` for whether the fit is any good)."""
         return math.isfinite(self.result.mse)
+
+    @property
+    def ok(self) -> bool:
+        """The fit did not fail: a finite loss, and on every file closer to the data than the best
+        constant force. ``failure`` says why when it is False."""
+        return not any(f.severity == "failure" for f in self.findings)
+
+    @property
+    def failure(self) -> str | None:
+        """Why the fit failed (its ``failure`` findings, joined), or None."""
+        reasons = [f.text for f in self.findings if f.severity == "failure"]
+        return "; ".join(reasons) if reasons else None
+
+    @cached_property
+    def findings(self) -> list:
+        """Everything the fit says beside its numbers, each a ``findings.Finding`` (severity, text):
+        what ``bwbench fit`` prints and ``bwbench.fit`` issues as ``FitWarning`` subclasses."""
+        from bwbench.problems.hysteresis.findings import fit_findings
+
+        return fit_findings(self)
 
     @property
     def model(self):
@@ -121,12 +144,9 @@ class FitResult:
         return list(p.specimens) if hasattr(p, "specimens") else [p.specimen]
 
     @property
-    def notes(self) -> list:
-        """What ``bwbench fit`` prints beside the loss: the linear solve's and the checks' notes, and the
-        warnings (a parameter on its box's edge, ...); ``bwbench.fit`` issues them as ``FitWarning``."""
-        from bwbench.problems.hysteresis import fit_notes
-
-        return fit_notes.notes(self)
+    def notes(self) -> list[str]:
+        """The text of every finding (``findings``), one line each."""
+        return [f.text for f in self.findings]
 
     @cached_property
     def uncertainty(self):
@@ -155,7 +175,7 @@ class FitResult:
         every parameter with its standard error, the correlations above ``min_correlation``, the notes."""
         from bwbench.problems.hysteresis import fit_summary
 
-        return fit_summary.report(self, self.uncertainty, self.notes, min_correlation)
+        return fit_summary.report(self, self.uncertainty, self.findings, min_correlation)
 
     def plot(self, ax=None):
         """A matplotlib ``Figure``: per file the loops F–x and F–v, force and residual against time,
@@ -190,8 +210,8 @@ class FitResult:
         if self.problem.state is None:
             out["state"] = None  # say it: this model has no state convention
         out.update(self.extra)
-        if hasattr(self.problem, "laws_json") and self.success:
-            out["control"] = self.problem.laws_json(self.result.params)
+        if hasattr(self.problem, "result_json") and self.success:  # one model across a control range
+            out.update(self.problem.result_json(self.result.params))
         checks = dict(self.checks.json) if self.checks is not None else {}
         by_file = checks.pop("files", {})  # a joint fit's checks, per file
         out.update(checks)
@@ -329,4 +349,6 @@ def run_fit(
     result = fitting.run(problem, optimizer, budget, seed, options)
     checks = problem.fit_checks(result, synthetic) if hasattr(problem, "fit_checks") else None
     box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}
-    return FitResult(result, problem, per_file(problem, result), checks, {**(extra or {}), "bounds": box})
+    return FitResult(
+        result, problem, per_file(problem, result), checks, {**(extra or {}), "bounds": box}, budget, synthetic
+    )

@@ -280,8 +280,9 @@ def _number(x: float) -> str:
     return f"{x:.6g}" if math.isfinite(x) else ("not determined" if x == math.inf else "–")
 
 
-def report(fit, unc: Uncertainty, notes, min_correlation: float = 0.1) -> str:
-    """The text of ``FitResult.report()``, laid out like lmfit's ``fit_report``."""
+def report(fit, unc: Uncertainty, findings, min_correlation: float = 0.1) -> str:
+    """The text of ``FitResult.report()``, laid out like lmfit's ``fit_report``; ``findings``: the fit's
+    (``FitResult.findings``), listed last with their severity."""
     p, r = fit.problem, fit.result
     frame = summary(fit, unc)
     free = frame[frame["role"].isin(["searched", "solved"])]
@@ -293,6 +294,7 @@ def report(fit, unc: Uncertainty, notes, min_correlation: float = 0.1) -> str:
         f"    model              = {p.model.name} ({p.formulation} formulation{state}, {p.excitation} excitation)",
         f"    data               = {files}",
         f"    optimizer          = {r.optimizer}, seed {r.seed}, {r.nfev} of {r.budget} evaluations",
+        f"    status             = {'ok' if fit.ok else 'FAILED: ' + str(fit.failure)}",
         "[[Fit Statistics]]",
         f"    # data points      = {unc.n}",
         f"    # variables        = {len(free)} ({int((free['role'] == 'searched').sum())} searched, "
@@ -329,7 +331,7 @@ def report(fit, unc: Uncertainty, notes, min_correlation: float = 0.1) -> str:
         lines.append(f"[[Correlations]] (unreported correlations are < {min_correlation:.3f})")
         for _, a, b, c in sorted(pairs, reverse=True):
             lines.append(f"    C({a}, {b}){' ' * max(0, 2 * width - len(a) - len(b) - 4)} = {c:+.4f}")
-    notes = list(notes)
+    notes = [finding.line for finding in findings]
     undetermined = unc.undetermined
     if undetermined:
         text = (
@@ -342,6 +344,6 @@ def report(fit, unc: Uncertainty, notes, min_correlation: float = 0.1) -> str:
             )
         notes.append(text)
     if notes:
-        lines.append("[[Notes]]")
+        lines.append("[[Findings]]")
         lines += [f"    {n}" for n in notes]
     return "\n".join(lines)

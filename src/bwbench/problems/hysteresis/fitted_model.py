@@ -225,6 +225,30 @@ class FittedModel:
             raise UserError(f"{source}: {err}") from None
 
     @classmethod
+    def from_run(cls, run) -> "FittedModel":
+        """The fitted model of a study's run (a row of ``Study.runs``: model, formulation, state,
+        excitation, params_json). A column the database left empty (NaN, None, "") takes its default:
+        a model without states stores none. ``UserError`` when the run's parameters cannot make a model."""
+        import json
+
+        def text(key, default):
+            value = run.get(key)
+            return value if isinstance(value, str) and value else default
+
+        raw = run.get("params_json")
+        params = json.loads(raw) if isinstance(raw, str) else {}
+        params = {k: math.nan if v is None else v for k, v in params.items()}
+        from bwbench.models import registry
+
+        return cls(
+            text("model", registry.DEFAULT),
+            text("formulation", "paper"),
+            params,
+            text("state", None),
+            text("excitation", "measured"),
+        )
+
+    @classmethod
     def read(cls, path) -> "FittedModel":
         """The fitted model of a result JSON file; ``UserError`` naming the file for anything wrong."""
         from bwbench.data.json_input import read_json_file

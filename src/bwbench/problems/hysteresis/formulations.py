@@ -33,14 +33,44 @@ def resolve_formulation(model, formulation: str | None) -> str:
     return formulation
 
 
-def variants(models, formulations=None) -> list[tuple[str, str, str]]:
+def data_formulation(model, paths) -> tuple[str, str]:
+    """(formulation, why in one sentence) of ``model`` when none is asked: the switched model's paper
+    formulation only for the paper's own synthetic specimens (its Table 5 box was identified on them),
+    the identifiable formulation for every other file (its box is scaled from the data), and a
+    model's only or default formulation otherwise."""
+    from pathlib import Path
+
+    from bwbench.data import manifest
+
+    name = model.name
+    if "identifiable" not in model.formulations:
+        return model.default_formulation, f"{name} in its {model.default_formulation} formulation (its only one)"
+    if model.default_formulation == "identifiable":
+        return "identifiable", f"{name} in the identifiable formulation (the model's default)"
+    if paths and all(isinstance(p, (str, Path)) and manifest.is_paper_data(p) for p in paths):
+        return (
+            model.default_formulation,
+            f"{name} in the {model.default_formulation} formulation: the default for the paper's synthetic "
+            "specimens (its Table 5 box was identified on them)",
+        )
+    return (
+        "identifiable",
+        f"{name} in the identifiable formulation: the default for data that are not the paper's synthetic "
+        "specimens (its box is scaled from the data; --formulation paper for the paper's box)",
+    )
+
+
+def variants(models, formulations=None, paths=None) -> list[tuple[str, str, str]]:
     """(label, model, formulation) of every variant: each model in each formulation (None: each
-    model's default one). The label names what differs: the formulation when one model is compared
-    in several, the model when several are fitted in one formulation each, else both."""
+    model's formulation for the data at ``paths``, ``data_formulation``; without paths its default
+    one). The label names what differs: the formulation when one model is compared in several, the
+    model when several are fitted in one formulation each, else both."""
     pairs = []
     for name in models:
         model = registry.get(name)
         for formulation in formulations or (None,):
+            if formulation is None and paths is not None:
+                formulation = data_formulation(model, paths)[0]
             pair = (name, resolve_formulation(model, formulation))
             if pair not in pairs:
                 pairs.append(pair)
@@ -118,14 +148,14 @@ def _joint_problem(specimens, settings: dict):
     return problem
 
 
-def bound_names(formulations, state, models=(registry.DEFAULT,)) -> tuple:
-    """The parameter names a bounds file may set for these models and formulations (None: defaults):
-    the searched parameters (the search box) and, in the identifiable formulation, the solved
-    coefficients (bounds of the linear solve)."""
+def bound_names(formulations, state, models=(registry.DEFAULT,), paths=None) -> tuple:
+    """The parameter names a bounds file may set for these models and formulations (None: those of
+    the data at ``paths``, ``variants``): the searched parameters (the search box) and, in the
+    identifiable formulation, the solved coefficients (bounds of the linear solve)."""
     from bwbench.problems.hysteresis.linear.columns import coefficient_names
 
     names = []
-    for _, name, formulation in variants(models, formulations):
+    for _, name, formulation in variants(models, formulations, paths):
         model = registry.get(name)
         own_state = state if model.states else None
         if formulation == "identifiable":

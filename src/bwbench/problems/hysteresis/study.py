@@ -46,7 +46,7 @@ from bwbench.models import registry as model_registry
 from bwbench.models.excitation import EXCITATIONS
 from bwbench.models.switched_bouc_wen import STATES
 from bwbench.problems.base import ProblemSetup, ProblemType, SpecimenEntry, choice
-from bwbench.problems.hysteresis.formulations import bound_names, check_pairs, make_problem, parse_models
+from bwbench.problems.hysteresis.formulations import bound_names, check_pairs, parse_models
 from bwbench.problems.hysteresis.formulations import parse as _formulations
 from bwbench.problems.hysteresis.specimen_selection import FILTER_KEYS, from_manifest, specimens_from_files
 
@@ -90,7 +90,6 @@ class HysteresisProblem(ProblemType):
         check_pairs(fail, model_names, formulations)
         fix_mass = mass_setting(fail, "[study] fix_mass", study.get("fix_mass", "auto"))
         offsets = choice(fail, "[study] offsets", study.get("offsets", "branch"), OFFSETS)
-        _refuse_unused(fail, "[study] ", model_names, formulations, fix_mass, offsets)
         table = document.get("specimens", {})
         if not isinstance(table, dict):
             fail("[specimens] must be a table: files = [...] or manifest filters")
@@ -103,13 +102,16 @@ class HysteresisProblem(ProblemType):
             available = {e.name: e for e in entries}
         else:
             entries, available = from_manifest(fail, study, table, base_dir, data_override)
+        paths = [e.path for e in entries]
+        _refuse_unused(fail, "[study] ", model_names, formulations, fix_mass, offsets, paths)
         bounds = {}
         if "bounds" in document:
             from bwbench.data.bounds import validate
             from bwbench.errors import InputFileError
 
+            names = bound_names(formulations, state, model_names, paths)
             try:
-                bounds = validate(document["bounds"], bound_names(formulations, state, model_names), "[bounds]")
+                bounds = validate(document["bounds"], names, "[bounds]")
             except InputFileError as err:
                 fail(err.problem if err.problem.startswith("[") else f"[bounds] {err.problem}")
         return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass, model_names, offsets)
@@ -146,16 +148,18 @@ class HysteresisProblem(ProblemType):
         check_pairs(fail, model_names, formulations)
         fix_mass = mass_setting(fail, "--fix-mass", fix_mass)
         offsets = choice(fail, "--offsets", offsets, OFFSETS)
-        _refuse_unused(fail, "--", model_names, formulations, fix_mass, offsets)
+        entries = specimens_from_files(fail, files, base_dir, "--specimens")
+        paths = [e.path for e in entries]
+        _refuse_unused(fail, "--", model_names, formulations, fix_mass, offsets, paths)
         bounds = None
         if bounds_file is not None:
             from bwbench.data import bounds as bounds_mod
 
-            bounds = bounds_mod.read_json(bounds_file, bound_names(formulations, state, model_names))
+            bounds = bounds_mod.read_json(bounds_file, bound_names(formulations, state, model_names, paths))
         return self.setup(
             state,
             excitation,
-            specimens_from_files(fail, files, base_dir, "--specimens"),
+            entries,
             bounds=bounds,
             formulations=formulations,
             fix_mass=fix_mass,
@@ -182,7 +186,7 @@ class HysteresisProblem(ProblemType):
         bounds = {k: list(v) for k, v in (bounds or {}).items()}
         settings = {"state": state, "excitation": excitation, **({"bounds": bounds} if bounds else {})}
         identity = dict(settings)
-        pairs = variant_list(models, formulations)
+        pairs = variant_list(models, formulations, [e.path for e in entries])
         if list(models) != [model_registry.DEFAULT]:  # absent for the paper's model: stored studies stay the same
             identity["model"] = models[0] if len(models) == 1 else list(models)
         resolved = list(dict.fromkeys(f for _, _, f in pairs))
@@ -204,9 +208,26 @@ class HysteresisProblem(ProblemType):
         )
 
     def make_problem(self, settings, entry):
-        from bwbench.data.specimen import read_specimen
+        """The problem of one run: ``setup.setup_fit``, the path every fit takes, with the run's
+        variant (a fixed mass or continuous offsets only where the variant can use them)."""
+        from bwbench.problems.hysteresis.setup import setup_fit
 
-        return make_problem(read_specimen(entry.path), settings)
+        model = model_registry.get(settings.get("model", model_registry.DEFAULT))
+        formulation = settings.get("formulation") or model.direct_name
+        state = settings.get("state") if model.states else None
+        layout = model.linear_layout(state) if formulation == "identifiable" and model.has_linear_part else None
+        names = bound_names([formulation], state or "shared", [model.name])
+        bounds = {k: v for k, v in (settings.get("bounds") or {}).items() if k in names}  # this variant's
+        return setup_fit(
+            entry.path,
+            model=model.name,
+            formulation=formulation,
+            state=state,
+            excitation=settings.get("excitation"),
+            fix_mass=settings.get("fix_mass", "auto") if layout is not None and layout.mass else "auto",
+            offsets=settings.get("offsets") if layout is not None and layout.branched else None,
+            bounds=bounds or None,
+        ).problem
 
     def record_columns(self, settings, entry, result=None) -> dict:
         model_name = settings.get("model", model_registry.DEFAULT)
@@ -284,13 +305,13 @@ class HysteresisProblem(ProblemType):
         return sections.limits(report)
 
 
-def _refuse_unused(fail, prefix: str, models, formulations, fix_mass, offsets) -> None:
+def _refuse_unused(fail, prefix: str, models, formulations, fix_mass, offsets, paths) -> None:
     """``fail`` when a fixed mass or continuous offsets are asked for but no variant of the study can use
     them (as ``bwbench fit`` refuses them): no identifiable formulation with a mass term, or with branches."""
     from bwbench.problems.hysteresis.formulations import variants as variant_list
 
     layouts = []
-    for _, name, formulation in variant_list(models, formulations):
+    for _, name, formulation in variant_list(models, formulations, paths):
         model = model_registry.get(name)
         if formulation == "identifiable" and model.has_linear_part:
             layouts.append(model.linear_layout(model.states[0] if model.states else None))

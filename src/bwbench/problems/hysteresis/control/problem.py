@@ -37,6 +37,9 @@ class ControlledProblem:
 
     lower: np.ndarray
     upper: np.ndarray
+    settings: dict = {}  # the problem settings it was built with (``build``)
+    law_choices: tuple = ()  # ``--law auto``'s choices (``control.setup``)
+    law_points: dict = {}  # the per-level values behind them, for the figure
 
     def __init__(
         self,
@@ -536,6 +539,15 @@ class ControlledProblem:
 
         return law_table(self, params)
 
+    def result_json(self, values: dict) -> dict:
+        """What a fit's result JSON adds: ``control`` (``laws_json``), ``coefficients`` (each with its
+        standard error and unit) and, after ``--law auto``, ``law_choices`` (each parameter's law and why)."""
+        out = {"control": self.laws_json(values), "coefficients": self.law_table(values)}
+        choices = getattr(self, "law_choices", ())
+        if choices:
+            out["law_choices"] = {c.parameter: {"law": c.law, "why": c.reason} for c in choices}
+        return out
+
     def fit_checks(self, result, synthetic: bool = False):
         from bwbench.problems.hysteresis import fit_checks
 
@@ -552,7 +564,7 @@ def build(specimens, settings: dict, laws: dict, control_filter: bool = False) -
     parts = [make_problem(s, one) for s in specimens]
     model, state = parts[0].model, parts[0].state
     bounds = dict(settings.get("bounds", {}))
-    return ControlledProblem(
+    problem = ControlledProblem(
         parts,
         laws,
         weighting=settings.get("weighting", "equal"),
@@ -562,3 +574,5 @@ def build(specimens, settings: dict, laws: dict, control_filter: bool = False) -
         control_filter=control_filter,
         bounds=bounds,
     )
+    problem.settings = dict(settings)  # what the problem was built with: a refit (leave one level out) takes them
+    return problem

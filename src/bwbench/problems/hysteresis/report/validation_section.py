@@ -9,7 +9,6 @@ specimen and seed), as the training ranking takes medians.
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -27,26 +26,25 @@ def held_out_names(study) -> list[str]:
 
 def predictions_table(study) -> pd.DataFrame:
     """One row per (ranking run, held-out file): label, specimen (training), replicate, held_out, rmse_N,
-    nrmse; NaN where the run found nothing finite, inf where its model blows up on the file."""
+    nrmse and ``failure``: "" for a prediction, else why there is none (the run found nothing finite,
+    its parameters make no model, the model blows up on the file: then rmse_N is inf)."""
     from bwbench.data.specimen import read_specimen
     from bwbench.problems.hysteresis.fitted_model import FittedModel
 
-    runs = study.ranking[study.ranking["status"] == "ok"]
+    runs = study.ranking
     held = {name: read_specimen(study.specimen_path(name)) for name in held_out_names(study)}
     signals, rows = {}, []
     for _, run in runs.iterrows():
-        params = json.loads(run["params_json"]) if isinstance(run.get("params_json"), str) else {}
-        params = {k: math.nan if v is None else v for k, v in params.items()}
-        try:
-            fitted = FittedModel(
-                run["model"] or "switched-bouc-wen",
-                run["formulation"] or "paper",
-                params,
-                run.get("state") or None,
-                run.get("excitation") or "measured",
-            )
-        except UserError:
-            fitted = None
+        fitted, failure = None, ""
+        if run["status"] != "ok":
+            failure = "the run failed (an error)"
+        elif not math.isfinite(float(run["mse"])):
+            failure = "the fit found nothing finite"
+        else:
+            try:
+                fitted = FittedModel.from_run(run)
+            except UserError as err:
+                failure = f"its parameters make no model: {err}"
         for name, spec in held.items():
             row = {
                 "label": run["optimizer"],
@@ -55,43 +53,96 @@ def predictions_table(study) -> pd.DataFrame:
                 "held_out": name,
                 "rmse_N": math.nan,
                 "nrmse": math.nan,
+                "failure": failure,
             }
-            if fitted is not None and math.isfinite(float(run["mse"])):
+            if fitted is not None:
                 key = (name, fitted.excitation)
                 if key not in signals:
                     signals[key] = fitted.signal(spec)
                 try:
                     force = fitted.force(signals[key])
-                except UserError:  # a branch the fit never saw
+                except UserError as err:  # a branch the fit never saw
                     force = np.full(spec.n_samples, np.inf)
+                    row["failure"] = str(err)
                 with np.errstate(over="ignore", invalid="ignore"):
                     rmse = float(np.sqrt(np.mean((force - spec.f) ** 2)))
-                rmse = rmse if math.isfinite(rmse) else math.inf
+                if not math.isfinite(rmse):
+                    rmse = math.inf
+                    row["failure"] = row["failure"] or "the model blows up on this test"
                 row.update(rmse_N=rmse, nrmse=rmse / float(np.max(np.abs(spec.f))))
             rows.append(row)
     return pd.DataFrame(rows)
 
 
 def ranking(report, table: pd.DataFrame) -> pd.DataFrame:
-    """Per label: training median RMSE (N), held-out median NRMSE and RMSE, both ranks."""
+    """Per label of the study's ranking (every one, none dropped): training median RMSE (N), held-out
+    median NRMSE and RMSE over the runs that predicted, both ranks, and ``failed``: how many runs gave
+    no prediction and why (the first reason)."""
     per_run = table.groupby(["label", "specimen", "replicate"], sort=False).agg(
-        nrmse=("nrmse", "mean"), rmse_N=("rmse_N", "mean")
+        nrmse=("nrmse", "mean"), rmse_N=("rmse_N", "mean"), failure=("failure", "first")
     )
-    held = per_run.groupby(level="label").agg(nrmse=("nrmse", "median"), rmse=("rmse_N", "median"))
     ranking_runs = report.study.ranking[report.study.ranking["status"] == "ok"]
     train = ranking_runs.groupby("optimizer")["mse"].median().map(lambda m: math.sqrt(float(m)))
-    labels = [o for o in report.table["optimizer"] if o in held.index]
-    out = pd.DataFrame(
-        {
-            "label": labels,
-            "train": [train.get(o, math.nan) for o in labels],
-            "held_nrmse": [held.loc[o, "nrmse"] for o in labels],
-            "held_rmse": [held.loc[o, "rmse"] for o in labels],
-        }
-    )
+    rows = []
+    for label in report.table["optimizer"]:
+        mine = per_run.loc[label] if label in per_run.index.get_level_values("label") else per_run.iloc[:0]
+        failed = mine[mine["failure"] != ""]
+        predicted = mine[mine["failure"] == ""]
+        rows.append(
+            {
+                "label": label,
+                "train": train.get(label, math.nan),
+                "held_nrmse": float(predicted["nrmse"].median()) if len(predicted) else math.nan,
+                "held_rmse": float(predicted["rmse_N"].median()) if len(predicted) else math.nan,
+                "runs": len(mine),
+                "failed": len(failed),
+                "why": str(failed["failure"].iloc[0]) if len(failed) else "",
+            }
+        )
+    out = pd.DataFrame(rows)
     out["rank_train"] = out["train"].rank(method="min", na_option="bottom").astype(int)
     out["rank_held"] = out["held_nrmse"].rank(method="min", na_option="bottom").astype(int)
-    return out.sort_values(["rank_held", "rank_train"]).reset_index(drop=True)
+    return out.sort_values(["rank_held", "rank_train"], kind="stable").reset_index(drop=True)
+
+
+# Held-out errors within this share of the best are one prediction, not a ranking: the box decides.
+HELD_OUT_TIE = 0.01
+
+
+def conclusion(ranked: pd.DataFrame, choice: str | None) -> str:
+    """The held-out verdict in words, read against the recommendation's ``choice``: the best by held-out
+    error (with those within ``HELD_OUT_TIE`` of it), whether it agrees with the box, and, where it does
+    not, in one sentence why the two answers differ."""
+    ok = ranked[np.isfinite(ranked["held_nrmse"].astype(float))]
+    if not len(ok):
+        return "No run predicted the held-out tests: every fit failed on them (see the table for why)."
+    best = ok.iloc[0]
+    level = float(best["held_nrmse"])
+    tied = list(ok.loc[ok["held_nrmse"] <= level * (1 + HELD_OUT_TIE), "label"])
+    text = f"By held-out error the best is **{best['label']}** (median NRMSE {number(level, 3)})"
+    if len(tied) > 1:
+        text = (
+            f"By held-out error {', '.join(f'**{n}**' for n in tied)} predict alike (median NRMSE within "
+            f"{HELD_OUT_TIE:.0%} of {number(level, 3)})"
+        )
+    if choice is None:
+        return text + "."
+    if choice in tied:
+        return text + f": this agrees with the recommendation ({choice})."
+    mine = ranked.set_index("label").loc[choice] if choice in set(ranked["label"]) else None
+    if mine is None or not np.isfinite(float(mine["held_nrmse"])):
+        return (
+            text + f"; the recommended {choice} gave no held-out prediction"
+            f"{' (' + mine['why'] + ')' if mine is not None and mine['why'] else ''}: the recommendation is about "
+            "reaching the best training loss, this table about predicting tests no fit saw."
+        )
+    factor = float(mine["held_nrmse"]) / level
+    return (
+        text + f"; the recommended {choice} predicts them at {number(float(mine['held_nrmse']), 3)} "
+        f"({number(factor, 3)}× the best): the recommendation ranks by how reliably and fast a backend reaches "
+        f"the best training loss, this table by how well the fits predict tests no fit saw — where prediction "
+        f"is the aim, prefer {best['label']}."
+    )
 
 
 def section(report) -> None:
@@ -129,22 +180,20 @@ def section(report) -> None:
             "rank by training loss": ranked["rank_train"],
         }
     )
+    if ranked["failed"].any():  # a failure is shown as one, with its reason, never as a bare "–"
+        shown["runs without a prediction"] = [
+            f"{f} of {n}: {why}" if f else "none" for f, n, why in zip(ranked["failed"], ranked["runs"], ranked["why"])
+        ]
     doc.table(
         shown,
         "Ranked by held-out prediction error (NRMSE = RMSE / max|F|), with the training ranking beside; "
         "every run is in held_out.csv",
     )
-    best, by_train = ranked.iloc[0], ranked.sort_values("rank_train").iloc[0]
-    same = best["label"] == by_train["label"]
-    doc.p(
-        f"By held-out error the best is **{best['label']}** (median NRMSE {number(best['held_nrmse'], 3)})"
-        + (
-            ", which is also the best by training loss."
-            if same
-            else f"; by training loss it would be **{by_train['label']}** (median held-out NRMSE "
-            f"{number(by_train['held_nrmse'], 3)}): choose by the error on tests the fit did not see."
-        )
-    )
+    doc.p(conclusion(ranked, report.decision.choice))
+    predicted = ranked[np.isfinite(ranked["held_nrmse"].astype(float))]
+    if not len(predicted):
+        return
+    best = predicted.iloc[0]
     png = _figure(report, table, best["label"], names)
     doc.figure(
         png,
@@ -161,18 +210,12 @@ def _figure(report, table, label, names):
     from bwbench.render.palette import save, slug
 
     study = report.study
-    mine = table[table["label"] == label].groupby(["specimen", "replicate"], sort=False)["nrmse"].mean()
+    mine = table[(table["label"] == label) & (table["failure"] == "")]
+    mine = mine.groupby(["specimen", "replicate"], sort=False)["nrmse"].mean()
     specimen, replicate = mine.idxmin()
     runs = study.ranking
     run = runs[(runs["optimizer"] == label) & (runs["specimen"] == specimen) & (runs["replicate"] == replicate)].iloc[0]
-    params = {k: math.nan if v is None else v for k, v in json.loads(run["params_json"]).items()}
-    fitted = FittedModel(
-        run["model"] or "switched-bouc-wen",
-        run["formulation"] or "paper",
-        params,
-        run.get("state") or None,
-        run.get("excitation") or "measured",
-    )
+    fitted = FittedModel.from_run(run)
     predictions = [fitted.predict(read_specimen(study.specimen_path(n))) for n in names[:FIGURE_TESTS]]
     fig = draw_predictions(predictions, f"{label}, fitted to {specimen} (seed {replicate}): held-out tests predicted")
     frame = pd.concat([p.frame().assign(held_out=p.specimen) for p in predictions], ignore_index=True)
