@@ -153,6 +153,10 @@ class FitResult:
         """The linearised covariance of the free parameters (``bwbench.problems.hysteresis.fit_summary.Uncertainty``)."""
         from bwbench.problems.hysteresis import fit_summary
 
+        if hasattr(self.problem, "covariance"):  # one model across a control range: its laws' coefficients
+            from bwbench.problems.hysteresis.control.uncertainty import uncertainty
+
+            return uncertainty(self.problem, self.result.params)
         return fit_summary.uncertainty(self)
 
     def summary(self):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -108,6 +109,15 @@ class ControlledModel:
         """The force on ``specimen`` (a ``Specimen`` with its control) against its measured one."""
         from bwbench.problems.hysteresis.fitted_model import Prediction
 
+        if not hasattr(specimen, "control"):  # a path or a DataFrame: read with this model's control
+            from bwbench.data import control as control_mod
+            from bwbench.data.specimen_input import as_specimen
+
+            spec = control_mod.ControlSpec(self.control_name)
+            if isinstance(specimen, (str, Path)):
+                specimen = control_mod.read(specimen, spec)
+            else:
+                specimen = control_mod.attach(as_specimen(specimen), spec)
         if specimen.control is None:
             raise UserError(
                 f"{specimen.path}: no {self.control_name} for this file: the model's parameters depend on it"

@@ -88,3 +88,23 @@ def law_table(problem, params) -> list[dict]:
         {"name": n, "value": float(v), "stderr": float(se.get(n, np.nan)), "unit": units.get(n, "")}
         for n, v in values.items()
     ]
+
+
+def uncertainty(problem, params):
+    """``fit_summary.Uncertainty`` of a fit across the control range (``FitResult.summary()``, ``.report()``)."""
+    import math
+
+    from bwbench.problems.hysteresis.fit_summary import Uncertainty
+
+    values = dict(params)
+    names, cov, s2 = covariance(problem, values)
+    sd = np.sqrt(np.abs(np.diag(cov)))
+    stderr = {n: float(v) if math.isfinite(v) else math.inf for n, v in zip(names, sd)}
+    searched = set(problem.param_names)
+    roles = {n: ("searched" if n in searched else "solved") for n in names}
+    for n in values:
+        if n not in roles:
+            roles[n] = "held"
+            stderr[n] = math.nan
+    chi2 = s2 * max(problem.n_data - len(names), 1)
+    return Uncertainty(tuple(names), cov, stderr, roles, s2, problem.n_data, chi2)
