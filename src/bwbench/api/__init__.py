@@ -156,10 +156,17 @@ def fit(
 
 def load_fit(path) -> FittedModel:
     """The ``FittedModel`` of a result JSON (``bwbench fit --out``, ``FitResult.save``): ``.predict(file)``
-    gives a ``Prediction`` (RMSE in N, NRMSE, the forces), ``.simulate(file)`` a DataFrame."""
+    gives a ``Prediction`` (RMSE in N, NRMSE, the forces), ``.simulate(file)`` a DataFrame. A fit across a
+    control (``laws=``) gives a ``ControlledModel``: ``.predict(file)`` at the file's level, ``.at(level)``."""
 
     if not isinstance(path, (str, Path)):
         raise UserError(f"load_fit needs the path of a fit result JSON, got {path!r}")
+    from bwbench.data.json_input import read_json_file
+    from bwbench.problems.hysteresis.control.fitted import model_of_result
+
+    data = read_json_file(Path(path))
+    if isinstance(data, dict) and isinstance(data.get("control"), dict):
+        return model_of_result(data, str(path))
     return FittedModel.read(path)
 
 
