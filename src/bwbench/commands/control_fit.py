@@ -20,7 +20,7 @@ def wants_control(args) -> bool:
 
 def check_flags(args) -> None:
     """The control flags that cannot go with the others, refused before any file is read."""
-    if args.each:
+    if args.each and (args.law or args.control_filter):
         raise UserError("--each fits each file alone, with its own constants: drop --law (and --control-filter) for it")
 
 

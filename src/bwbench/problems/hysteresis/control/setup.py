@@ -26,11 +26,7 @@ def read_controlled(items, name, control, control_levels, laws, control_filter):
         raise UserError(
             "--law and --control-filter need the control: --control COLUMN (e.g. current_A) or COLUMN=VALUE"
         )
-    parsed = laws_mod.parse(laws) if laws else {}
-    if not parsed and not control_filter:
-        raise UserError(
-            f"--control {spec.name} without --law: give the laws of the parameters (--law NAME=LAW,... or auto)"
-        )
+    parsed = laws_mod.parse(laws) if laws else {}  # none: constants, each file's level recorded
     if parsed == "auto" and control_filter:
         raise UserError(
             "--law auto fits each control level alone: it needs files of constant control, not --control-filter"
