@@ -25,23 +25,28 @@ def _law(entry):
     return laws_mod.law_of(entry["law"])
 
 
-def value_at(control: dict, params: dict, name: str, u) -> np.ndarray:
-    """The parameter ``name`` at controls u (L,): its law's value, or its stored constant."""
+def value_at(control: dict, params: dict, name: str, u, objects: dict | None = None) -> np.ndarray:
+    """The parameter ``name`` at controls u (L,): its law's value, or its stored constant. ``objects``:
+    the fit's own ``Law`` objects by parameter (a user's ``CallableLaw`` is not in the JSON)."""
     u = np.atleast_1d(np.asarray(u, dtype=float))
     entry = control.get("laws", {}).get(name)
     if entry is None or not isinstance(entry, dict):
         return np.full(len(u), float(params[name]))
-    law = _law(entry)
+    law = (objects or {}).get(name)
+    if law is None:
+        if entry["law"] not in laws_mod.BUILT_IN:
+            raise UserError(f"{name} follows a user's law ({entry['law']}): predict with the fit's own model in Python")
+        law = _law(entry)
     c = np.array([params[k] for k in entry["coefficients"]], dtype=float)
-    return law.value(c, u, np.asarray(entry["nodes"], dtype=float))
+    return law.value(c, u, np.asarray(entry.get("nodes", control.get("law_nodes")), dtype=float))
 
 
-def parameters_at(control: dict, params: dict, level: float) -> dict:
+def parameters_at(control: dict, params: dict, level: float, objects: dict | None = None) -> dict:
     """The plain model's parameters by name at one control level."""
     owned = {k for entry in control.get("laws", {}).values() for k in entry.get("coefficients", ())}
     out = {k: v for k, v in params.items() if k not in owned and k != FILTER}
     for name in control.get("laws", {}):
-        out[name] = float(value_at(control, params, name, [level])[0])
+        out[name] = float(value_at(control, params, name, [level], objects)[0])
     return out
 
 
@@ -56,6 +61,7 @@ class ControlledModel:
     state: str | None = None
     excitation: str = "measured"
     units: dict = field(default_factory=dict)
+    objects: dict = field(default_factory=dict, repr=False)  # the fit's Law objects (a CallableLaw)
 
     @classmethod
     def from_result(cls, data: dict, source: str = "the fit result") -> "ControlledModel":
@@ -100,7 +106,7 @@ class ControlledModel:
         return FittedModel(
             self.model,
             self.formulation,
-            parameters_at(self.control, self.params, float(level)),
+            parameters_at(self.control, self.params, float(level), self.objects),
             self.state,
             self.excitation,
         )
@@ -151,27 +157,33 @@ class ControlledModel:
         u_smp, u_int = filtered(command, dt, float(eta)) if eta is not None else (command, command[:-1])
         if self.formulation != "identifiable":
             names = [p.name for p in model.direct_parameters(self.state)]
-            P_int = np.column_stack([value_at(self.control, self.params, n, u_int) for n in names])
-            P_smp = np.column_stack([value_at(self.control, self.params, n, u_smp) for n in names])
+            P_int = np.column_stack([value_at(self.control, self.params, n, u_int, self.objects) for n in names])
+            P_smp = np.column_stack([value_at(self.control, self.params, n, u_smp, self.objects) for n in names])
             return model.force_varying(P_int, P_smp, signal, self.state)
         from bwbench.problems.hysteresis.linear.columns import branch_masks, signal_column
 
         names = [p.name for p in model.hysteretic_parameters(self.state)]
-        T_int = np.column_stack([value_at(self.control, self.params, n, u_int) for n in names])
-        T_smp = np.column_stack([value_at(self.control, self.params, n, u_smp) for n in names])
+        T_int = np.column_stack([value_at(self.control, self.params, n, u_int, self.objects) for n in names])
+        T_smp = np.column_stack([value_at(self.control, self.params, n, u_smp, self.objects) for n in names])
         w = model.trajectories_varying(T_int, T_smp, signal, self.state)
         layout = model.linear_layout(self.state)
         F = np.zeros(len(signal.x))
         if layout.mass:
-            F += value_at(self.control, self.params, layout.mass, u_smp) * np.asarray(signal.a, dtype=float)
+            F += value_at(self.control, self.params, layout.mass, u_smp, self.objects) * np.asarray(
+                signal.a, dtype=float
+            )
         for b, mask in branch_masks(layout, signal.v).items():
             if not mask.any():
                 continue
             for name, source in layout.fixed:
                 if f"{name}{b}" in self.params or f"{name}{b}" in self.control.get("laws", {}):
-                    F += value_at(self.control, self.params, f"{name}{b}", u_smp) * signal_column(signal, source, mask)
+                    F += value_at(self.control, self.params, f"{name}{b}", u_smp, self.objects) * signal_column(
+                        signal, source, mask
+                    )
             with np.errstate(invalid="ignore", over="ignore"):
-                F += value_at(self.control, self.params, f"{layout.varying}{b}", u_smp) * np.where(mask, w, 0.0)
+                F += value_at(self.control, self.params, f"{layout.varying}{b}", u_smp, self.objects) * np.where(
+                    mask, w, 0.0
+                )
         return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
 
 
@@ -186,6 +198,7 @@ def of_problem(problem, params) -> ControlledModel:
         problem.state,
         problem.excitation,
         problem.units(list(values)),
+        dict(problem.laws),
     )
 
 
