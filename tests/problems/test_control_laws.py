@@ -159,3 +159,17 @@ def test_the_result_json_predicts_the_fitted_files_and_a_level_no_file_had(speci
     unseen = controlled.simulate(controlled.SPENCER_LAWS, [controlled.Test("u", 15, 1.5, 1.75)], 2.0, seed=9)[0]
     assert model.predict(unseen).rmse_N < 2.5  # the 2 N noise: the laws carry the fit to 1.75 V
     assert model.at(1.75).params["vy"] == pytest.approx(3.2 + (38.0 - 3.2) * 1.75 / 2.25, rel=0.01)
+
+
+def test_leave_one_level_out_predicts_a_held_out_level_better_than_the_nearest_constants(specimens):
+    from bwbench.problems.hysteresis.control.levels import compare_levels
+
+    comparison = compare_levels(
+        specimens, {"model": "spencer"}, {"vy": "linear", "c1": "linear"}, budget=600, left_out=[1.0]
+    )
+    rows = {r["level"]: r for r in comparison.rows}
+    assert set(rows) == {0.0, 0.5, 1.0, 2.25} and rows[0.0]["left_out"] is None
+    held = rows[1.0]
+    assert held["left_out"] < 0.1 * held["nearest"]  # the laws carry v_y and c1 to 1 V; 0.5 V's constants do not
+    assert held["left_out"] < 1.1 * held["laws"]
+    assert "| a1 | 1 |" in comparison.table() and "the laws better on 1 of 1 files" in comparison.summary()
