@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 Z95 = 1.959964
+SUFFIX = {"": "", "+": "₊", "-": "₋"}
 
 
 def law_curve(problem, values: dict, names, cov, parameter: str, u) -> tuple[np.ndarray, np.ndarray]:
@@ -51,7 +52,10 @@ def draw(problem, values: dict, points: dict, path=None, parameters=None, title:
     if problem.design is not None:
         layout = problem.model.linear_layout(problem.state)
         labels.update(
-            {n: layout.labels.get(n.rstrip("+-"), n) + n[len(n.rstrip("+-")) :] for n in problem.solved_names}
+            {
+                n: layout.labels.get(n.rstrip("+-"), n.rstrip("+-")) + SUFFIX[n[len(n.rstrip("+-")) :]]
+                for n in problem.solved_names
+            }
         )
     span = problem.u_hi - problem.u_lo
     u = np.linspace(problem.u_lo - 0.1 * span, problem.u_hi + 0.1 * span, 200)
@@ -77,6 +81,7 @@ def draw(problem, values: dict, points: dict, path=None, parameters=None, title:
                 ax.errorbar(
                     pu, pv, yerr=err, fmt="o", ms=3.5, color="0.2", capsize=2, lw=0.8, label="each file alone (95 %)"
                 )
+            _limits(ax, theta, [p[1] for p in pts])
             unit = units.get(name, "")
             unit = "–" if unit in ("", "-") else unit
             ax.set_ylabel(f"{labels.get(name, name)} ({unit})")
@@ -92,3 +97,15 @@ def draw(problem, values: dict, points: dict, path=None, parameters=None, title:
         if path is not None:
             fig.savefig(path, dpi=110)
     return fig
+
+
+def _limits(ax, curve, values) -> None:
+    """The y-range of the law and the points (10 % margin): an interval or band of a parameter the data do
+    not determine (± 10⁶) would otherwise flatten everything else; it runs off the panel instead."""
+    shown = np.concatenate([np.asarray(curve, dtype=float), np.asarray(values, dtype=float)])
+    shown = shown[np.isfinite(shown)]
+    if not shown.size:
+        return
+    low, high = float(shown.min()), float(shown.max())
+    pad = 0.1 * (high - low) if high > low else 0.1 * max(abs(high), 1e-12)
+    ax.set_ylim(low - pad, high + pad)
