@@ -81,6 +81,34 @@ def test_the_exact_jacobian_through_the_laws_matches_differences(specimens):
         assert np.linalg.norm(J[:, j] - diff) <= 1e-2 * np.linalg.norm(diff), problem.param_names[j]
 
 
+def test_the_exact_jacobian_under_a_switching_filtered_control_matches_differences():
+    """Per-interval sensitivities to the law coefficients (``spencer_varying``), the filter's rate by a difference."""
+    records = [
+        controlled.Test("s", 20, 1.0, 2.25, switch_hz=3.0, cycles=1.0),
+        controlled.Test("a1", 20, 1.0, 1.0, cycles=1.0),
+    ]
+    problem = build(
+        controlled.simulate(controlled.SPENCER_LAWS, records, 2.0, seed=2),
+        {"model": "spencer"},
+        {"vy": "linear", "c1": "linear"},
+        control_filter=True,
+    )
+    tight = copy.copy(MODEL)
+    tight.tolerance, tight.pace = 1e-9, 2000
+    problem.model = tight
+    assert problem.param_names[-1] == "eta_u" and problem.jacobian_cost == 2 * 3 + 1
+    c = np.array([0.05, 2.0, 0.3, 20.0, 40.0, 0.1, 0.2, 80.0])
+    r, J = problem.residual_jacobian(c)
+    np.testing.assert_allclose(r, problem.residual_batch(c[None, :])[0], atol=1e-9)
+    for j in range(len(c)):
+        h = 1e-5 * abs(c[j])
+        up, down = c.copy(), c.copy()
+        up[j] += h
+        down[j] -= h
+        diff = (problem.residual_batch(up[None, :])[0] - problem.residual_batch(down[None, :])[0]) / (2 * h)
+        assert np.linalg.norm(J[:, j] - diff) <= 2e-2 * np.linalg.norm(diff), problem.param_names[j]
+
+
 def _within(problem, params, sigmas=3.5):
     off = {}
     for row in problem.law_table(params):
@@ -109,7 +137,7 @@ def test_a_switching_control_gives_the_laws_back(specimens):
         controlled.SPENCER_LAWS, [controlled.Test("s", 20, 1.0, 2.25, switch_hz=3.0)], noise_N=2.0, seed=2
     )
     problem = build([switching[0], specimens[1]], {"model": "spencer"}, {"vy": "linear", "c1": "linear"})
-    assert problem.varying and problem.jacobian_cost == 0
+    assert problem.varying and problem.jacobian_cost == 2 * (1 + 2)  # the state's sensitivities and two blocks
     c0 = np.array([TRUTH[n] for n in problem.param_names]) * 1.1
     c0[problem.param_names.index("eta")] = 0.05
     found = least_squares(

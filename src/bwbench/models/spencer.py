@@ -311,6 +311,17 @@ class Spencer(Model):
         MODEL.step_budget_stops += int(status == STATUS_STEP_BUDGET)
         return out
 
+    def trajectory_sensitivities_varying(self, theta_int, theta_smp, B_int, B_smp, signal, state=None):
+        """(ẏ (L,), ∂ẏ/∂c (L, D)) for θ per interval and per sample and ∂θ/∂c there (``B_int`` (L − 1, 6, D),
+        ``B_smp`` (L, 6, D)): the coefficients c of laws of a varying control (``spencer_varying``); (ẏ +inf,
+        None) where the simulation did not finish."""
+        from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET
+        from bwbench.models.spencer_varying import ydot_sensitivity_varying
+
+        out, S, status = ydot_sensitivity_varying(theta_int, theta_smp, B_int, B_smp, signal, **self._integration())
+        MODEL.step_budget_stops += int(status == STATUS_STEP_BUDGET)
+        return (out, S) if status == 0 else (out, None)
+
     def force_varying(self, P_int, P_smp, signal, state=None) -> np.ndarray:
         """The force (N, (L,)) of direct parameters per sample interval (L − 1, 10) and per sample (L, 10)."""
         theta_int, _ = theta_from_direct(P_int)

@@ -267,6 +267,28 @@ class ControlledProblem:
             T[j, s] = 1.0 if law is None else law.jacobian(c[s], np.array([level]), law.nodes(*nodes))[0]
         return T
 
+    def _theta_jacobian_rows(self, c, u) -> np.ndarray:
+        """∂θ/∂c (L, d, D) at controls u (L,); the filter's column 0 (taken by a difference)."""
+        T = np.zeros((len(u), len(self.base_names), len(self.param_names)))
+        nodes = self.law_nodes
+        for j, name in enumerate(self.base_names):
+            s = self._slices[j]
+            law = self.laws.get(name)
+            T[:, j, s] = 1.0 if law is None else law.jacobian(c[s], u, law.nodes(*nodes))
+        return T
+
+    def _varying_sensitivities(self, c, i):
+        """(trajectory (L,), ∂trajectory/∂c (L, D)) of file i under its varying control."""
+        u_smp, u_int = self._acting(self._eta(c))[i]
+        return self.model.trajectory_sensitivities_varying(
+            self._theta(c, u_int),
+            self._theta(c, u_smp),
+            self._theta_jacobian_rows(c, u_int),
+            self._theta_jacobian_rows(c, u_smp),
+            self.parts[i].signal,
+            self.state,
+        )
+
     def _eta(self, c):
         return float(c[-1]) if self.filtered else None
 
@@ -414,8 +436,14 @@ class ControlledProblem:
 
     @property
     def jacobian_cost(self) -> int:
+        """Plain evaluations an exact Jacobian is charged (0: none, take differences). Under a varying
+        control (Spencer's model, identifiable formulation): the sensitivities' cost for the state and each
+        block of six coefficients (``spencer_varying``), plus one plain evaluation for the filter's rate."""
         if self.varying:
-            return 0
+            if self.design is None or not hasattr(self.model, "trajectory_sensitivities_varying"):
+                return 0
+            coefficients = self.dim - int(self.filtered)
+            return int(self.model.sensitivity_cost) * (1 + -(-coefficients // 6)) + int(self.filtered)
         if self.design is not None:
             return int(self.model.sensitivity_cost)
         return int(self.model.sensitivity_cost) if hasattr(self.model, "force_sensitivities") else 0
@@ -429,6 +457,13 @@ class ControlledProblem:
         c = np.asarray(params, dtype=float)
         values, derivatives = [], []
         for i, part in enumerate(self.parts):
+            if self.varying and (self.filtered or np.ptp(self.commands[i]) > 0):
+                found = self._varying_sensitivities(c, i)
+                if found[1] is None:
+                    return np.full(self.N, np.inf), None
+                values.append(found[0])
+                derivatives.append(found[1])
+                continue
             level = float(self.commands[i][0])
             theta = self._theta(c, np.array([level]))[0]
             T = self._theta_jacobian(c, level)
@@ -444,7 +479,13 @@ class ControlledProblem:
             derivatives.append(found[1] @ T)
         z, dZ = np.concatenate(values), np.concatenate(derivatives, axis=0)
         if self.design is not None:
-            return self.design.residual_jacobian(z, dZ)
+            found = self._design(self._eta(c)).residual_jacobian(z, dZ)
+            if found is not None and self.filtered:  # the rate moves the control every column sees: a difference
+                r, J = found
+                step = c.copy()
+                step[-1] *= 1.0 + 1e-6
+                J[:, -1] = (self.residual_batch(step[None, :])[0] - r) / (step[-1] - c[-1])
+            return found
         sw = np.sqrt(self.sample_weight)
         return (z - self.f) * sw, dZ * sw[:, None]
 

@@ -49,7 +49,7 @@ def covariance(problem, params) -> tuple[tuple, np.ndarray, float]:
 
 def _trajectory_derivatives(problem, c):
     """∂(stacked trajectories)/∂c (N, D), exact at constant levels, else None."""
-    if problem.jacobian_cost == 0:
+    if problem.jacobian_cost == 0 or problem.varying:  # a varying control: differences (once per fit)
         return None
     blocks = []
     for i, part in enumerate(problem.parts):
