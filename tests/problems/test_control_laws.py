@@ -201,3 +201,43 @@ def test_leave_one_level_out_predicts_a_held_out_level_better_than_the_nearest_c
     assert held["left_out"] < 0.1 * held["nearest"]  # the laws carry v_y and c1 to 1 V; 0.5 V's constants do not
     assert held["left_out"] < 1.1 * held["laws"]
     assert "| a1 | 1 |" in comparison.table() and "the laws better on 1 of 1 files" in comparison.summary()
+
+
+def test_the_command_line_fits_laws_and_predicts_a_level_from_a_flag(specimens, tmp_path, capsys, monkeypatch):
+    import json
+
+    from bwbench.cli import main
+
+    paths = controlled.write(specimens, tmp_path / "data")
+    monkeypatch.chdir(tmp_path)
+    out = ["--out", "fit.json", "--laws-figure", "laws.png"]
+    assert (
+        main(
+            [
+                "fit",
+                *paths,
+                "--model",
+                "spencer",
+                "--control",
+                "voltage_V",
+                "--law",
+                "vy=linear",
+                "--budget",
+                "60",
+                *out,
+            ]
+        )
+        == 0
+    )
+    printed = capsys.readouterr().out
+    assert "laws of voltage_V (vy linear):" in printed and "vy@2.25V = " in printed and "mm/s" in printed
+    result = json.loads((tmp_path / "fit.json").read_text())
+    assert result["control"]["laws"]["vy"]["nodes"] == [0.0, 2.25] and (tmp_path / "laws.png").stat().st_size > 10_000
+    bare = tmp_path / "bare.csv"  # the 0.5 V test without its column: the level from the flag
+    bare.write_text(
+        "\n".join(",".join(line.split(",")[:4]) for line in (tmp_path / "data" / "b1.csv").read_text().splitlines())
+    )
+    assert main(["predict", "--fit", "fit.json", str(bare), "--control", "voltage_V=0.5"]) == 0
+    assert "bare: RMSE" in capsys.readouterr().out
+    assert main(["predict", "--fit", "fit.json", str(bare)]) == 2
+    assert "no column voltage_V and no voltage_V level for this file" in capsys.readouterr().err

@@ -48,7 +48,10 @@ def after(args, setup, status: int) -> int:
     print(f"  laws of {problem.control_name} ({laws}):")
     for row in result.get("coefficients", []):
         unit = "" if row["unit"] in ("", "-", "–") else f" {row['unit']}"
-        print(f"    {row['name']} = {row['value']:.6g} ± {row['stderr']:.2g}{unit}")
+        value, error = row["value"], row["stderr"]  # null in the JSON: not finite
+        shown = "not finite" if value is None else f"{value:.6g}"
+        spread = "not determined" if error is None or error == float("inf") else f"{error:.2g}"
+        print(f"    {row['name']} = {shown} ± {spread}{unit}")
     with threads.limited(args.threads):
         if args.leave_one_level_out:
             from bwbench.problems.hysteresis.control.levels import compare_levels
