@@ -375,7 +375,17 @@ class ControlledProblem:
         }
 
     def exploration(self):
-        return None
+        """A copy simulating more cheaply for lsq-trf's exploring searches (the model's ``exploring``: Spencer's
+        at a looser tolerance), or None; no decimation (the laws' columns are per sample)."""
+        exploring = getattr(self.model, "exploring", None)
+        if not callable(exploring):
+            return None
+        import copy
+
+        cheaper = copy.copy(self)
+        cheaper.model = exploring()
+        cheaper.exploration_note = str(getattr(cheaper.model, "exploration_note", ""))
+        return cheaper
 
     def from_unit(self, U) -> np.ndarray:
         from bwbench.optimize.box import box_from_unit
