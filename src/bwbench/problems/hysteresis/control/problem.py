@@ -600,9 +600,35 @@ class ControlledProblem:
         return out
 
     def fit_checks(self, result, synthetic: bool = False):
+        """``fit_checks.check`` of each file at a constant level with the plain model there (its energy,
+        residual and plausibility checks), as a joint fit's files are checked; a file whose control
+        varies is not checked. A finding every checked file makes is said once."""
         from bwbench.problems.hysteresis import fit_checks
+        from bwbench.problems.hysteresis.control.fitted import parameters_at
+        from bwbench.problems.hysteresis.joint_problem import _FileView
 
-        return fit_checks.FitChecks()
+        merged = fit_checks.FitChecks()
+        values = dict(result.params)
+        c = np.array([values.get(n, np.nan) for n in self.param_names], dtype=float)
+        if not np.all(np.isfinite(c)):
+            return merged
+        control = self.laws_json(values)
+        findings = []
+        for force, part, u in zip(self.forces(c), self.parts, self.commands):
+            if np.ptp(u) > 0 or self.filtered:
+                continue
+            at_level = parameters_at(control, values, float(u[0]), dict(self.laws))
+            theta = np.array([at_level[n] for n in part.param_names], dtype=float)
+            checks = fit_checks.check(_FileView(part, force, at_level), theta, synthetic, {})
+            merged.json.setdefault("files", {})[part.specimen.name] = checks.json
+            merged.notes += [f"{part.specimen.name}: {n}" for n in checks.notes]
+            merged.warnings += [f"{part.specimen.name}: {w}" for w in checks.warnings]
+            merged.explained |= checks.explained
+            findings.append((part.specimen.name, checks.findings))
+        common = set.intersection(*(set(f) for _, f in findings)) if findings else set()
+        merged.findings += [f for f in findings[0][1] if f in common] if findings else []
+        merged.findings += [f"{name}: {f}" for name, fs in findings for f in fs if f not in common]
+        return merged
 
 
 def build(specimens, settings: dict, laws: dict, control_filter: bool = False) -> ControlledProblem:
