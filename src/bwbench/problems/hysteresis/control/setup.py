@@ -38,7 +38,12 @@ def read_controlled(items, name, control, control_levels, laws, control_filter):
             level = levels.get(str(item), levels.get(Path(item).name, levels.get(Path(item).stem)))
             out.append(control_mod.read(item, spec, level))
             continue
-        specimen = item if isinstance(item, Specimen) else as_specimen(item, name)
+        if isinstance(item, Specimen):
+            specimen = item
+        elif hasattr(item, "columns") and spec.name in [str(c).strip() for c in item.columns]:
+            specimen = _frame_with_control(item, name, spec)
+        else:
+            specimen = as_specimen(item, name)
         out.append(control_mod.attach(specimen, spec, levels.get(specimen.name)))
     return tuple(out), parsed
 
@@ -73,3 +78,27 @@ def build_controlled(specimens, settings: dict, laws, control_filter: bool, law_
     problem.law_choices = tuple(choices)
     problem.law_points = points
     return problem
+
+
+def _frame_with_control(frame, name, spec):
+    """The ``Specimen`` of a DataFrame that carries the control column: the column checked (numeric, every
+    value finite, its row named), the rest read as any DataFrame is."""
+    import dataclasses
+
+    import numpy as np
+
+    from bwbench.data.specimen_input import as_specimen
+
+    column = next(c for c in frame.columns if str(c).strip() == spec.name)
+    label = f"DataFrame {str(name or frame.attrs.get('name') or 'data')!r}"
+    try:
+        u = np.asarray(frame[column], dtype=float)
+    except (TypeError, ValueError):
+        raise UserError(f"{label}: column {spec.name} is not numeric") from None
+    bad = np.flatnonzero(~np.isfinite(u))
+    if bad.size:
+        raise UserError(f"{label}, row {int(bad[0])}: {spec.name} is {float(u[bad[0]])}: every value must be finite")
+    specimen = as_specimen(frame.drop(columns=[column]), name)
+    u = np.ascontiguousarray(u)
+    u.flags.writeable = False
+    return dataclasses.replace(specimen, control=u, control_name=spec.name)
