@@ -98,3 +98,17 @@ def test_bad_laws_are_one_line_and_exit_2(tmp_path, capsys, flags, message):
     err = capsys.readouterr().err
     assert status == 2 and err.count("\n") == 1 and message in err, err
     assert not (tmp_path / "fit.json").exists()
+
+
+def test_a_dataframe_carries_its_control_column_and_a_nan_there_is_refused(tmp_path):
+    import pandas as pd
+
+    from bwbench.problems.hysteresis.control.setup import read_controlled
+
+    frame = pd.read_csv(_write(tmp_path / "f.csv", "current_A", [0.25] * 200))
+    frame.attrs["name"] = "f"
+    (spec,), laws = read_controlled([frame], None, "current_A", None, "vy=linear", False)
+    assert control.level_of(spec) == 0.25 and laws == {"vy": "linear"}
+    frame.loc[7, "current_A"] = float("nan")
+    with pytest.raises(UserError, match="DataFrame 'f', row 7: current_A is nan: every value must be finite"):
+        read_controlled([frame], None, "current_A", None, "vy=linear", False)
