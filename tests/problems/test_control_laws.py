@@ -239,5 +239,7 @@ def test_the_command_line_fits_laws_and_predicts_a_level_from_a_flag(specimens, 
     )
     assert main(["predict", "--fit", "fit.json", str(bare), "--control", "voltage_V=0.5"]) == 0
     assert "bare: RMSE" in capsys.readouterr().out
+    assert main(["simulate", "--params", "fit.json", "--specimen", paths[1], "--out", "sim.csv"]) == 0
+    assert (tmp_path / "sim.csv").read_text().startswith("time_s,displacement_mm,velocity_mm_s,voltage_V,force_model_N")
     assert main(["predict", "--fit", "fit.json", str(bare)]) == 2
     assert "no column voltage_V and no voltage_V level for this file" in capsys.readouterr().err

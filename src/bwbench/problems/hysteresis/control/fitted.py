@@ -115,15 +115,7 @@ class ControlledModel:
         """The force on ``specimen`` (a ``Specimen`` with its control) against its measured one."""
         from bwbench.problems.hysteresis.fitted_model import Prediction
 
-        if not hasattr(specimen, "control"):  # a path or a DataFrame: read with this model's control
-            from bwbench.data import control as control_mod
-            from bwbench.data.specimen_input import as_specimen
-
-            spec = control_mod.ControlSpec(self.control_name)
-            if isinstance(specimen, (str, Path)):
-                specimen = control_mod.read(specimen, spec)
-            else:
-                specimen = control_mod.attach(as_specimen(specimen), spec)
+        specimen = self._read(specimen)  # a path or a DataFrame: read with this model's control
         if specimen.control is None:
             raise UserError(
                 f"{specimen.path}: no {self.control_name} for this file: the model's parameters depend on it"
@@ -143,6 +135,36 @@ class ControlledModel:
             np.asarray(specimen.f, dtype=float),
             np.asarray(signal.v, dtype=float),
         )
+
+    def simulate(self, specimen):
+        """``predict(specimen)`` as a pandas DataFrame: time_s, displacement_mm, velocity_mm_s, the control,
+        force_model_N, force_measured_N (``bwbench simulate --params FIT.json``)."""
+        import pandas as pd
+
+        prediction = self.predict(specimen)
+        spec = self._read(specimen)
+        return pd.DataFrame(
+            {
+                "time_s": prediction.time_s,
+                "displacement_mm": prediction.displacement_mm,
+                "velocity_mm_s": prediction.velocity_mm_s,
+                self.control_name: np.asarray(spec.control, dtype=float),
+                "force_model_N": prediction.force_N,
+                "force_measured_N": prediction.measured_N,
+            }
+        )
+
+    def _read(self, specimen):
+        """``specimen`` (a path, DataFrame or ``Specimen``) with this model's control."""
+        if hasattr(specimen, "control"):
+            return specimen
+        from bwbench.data import control as control_mod
+        from bwbench.data.specimen_input import as_specimen
+
+        spec = control_mod.ControlSpec(self.control_name)
+        if isinstance(specimen, (str, Path)):
+            return control_mod.read(specimen, spec)
+        return control_mod.attach(as_specimen(specimen), spec)
 
     def force_varying(self, signal, command, dt) -> np.ndarray:
         """The force (N) on a record whose control changes (per-sample parameters; Spencer's model)."""
