@@ -64,6 +64,10 @@ def fit(
     name: str | None = None,
     stop: str = "agreed",
     workers: int = 1,
+    control: str | None = None,
+    control_levels: dict | None = None,
+    laws: dict | str | None = None,
+    control_filter: bool = False,
 ) -> FitResult:
     """Fit one test, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
@@ -85,6 +89,13 @@ def fit(
     agree on the optimum; ``nfev`` and the result's message say so) or "budget" (spend it all, as a
     study does). ``workers``: threads for the files of a joint fit, else for the points of a batch;
     the result is the same as with one.
+
+    One model across a control range (docs/control.md): ``control`` names the control column
+    (``"current_A"``) or gives a level for files without it (``"current_A=0.5"``); ``control_levels``
+    gives files their levels ({path, file name or DataFrame name: level}); ``laws`` {parameter: law}
+    (``"linear"``, ``"quadratic"``, ``"exponential"``, ``"constant"`` or a ``CallableLaw``), or
+    ``"auto"``; ``control_filter``: Spencer's first-order lag between command and control, its rate fitted.
+    ``.model`` is then a ``ControlledModel`` (``.at(level)``, ``.predict(data)`` at any level).
 
     Returns a ``FitResult``: ``.ok`` (False for a failed fit, ``.failure`` says why: no finite loss,
     or further from the data than the best constant force), ``.findings`` (everything ``bwbench
@@ -128,6 +139,11 @@ def fit(
             weighting=weighting,
             bounds=bounds,
             name=name,
+            control=control,
+            control_levels=control_levels,
+            laws=laws,
+            control_filter=control_filter,
+            law_search=(optimizer, budget, seed),
         )
     extra: dict = {"formulation_reason": setup.formulation_reason, "bounds_file": setup.bounds_file}
     if setup.box_probe_s is not None:
@@ -140,10 +156,17 @@ def fit(
 
 def load_fit(path) -> FittedModel:
     """The ``FittedModel`` of a result JSON (``bwbench fit --out``, ``FitResult.save``): ``.predict(file)``
-    gives a ``Prediction`` (RMSE in N, NRMSE, the forces), ``.simulate(file)`` a DataFrame."""
+    gives a ``Prediction`` (RMSE in N, NRMSE, the forces), ``.simulate(file)`` a DataFrame. A fit across a
+    control (``laws=``) gives a ``ControlledModel``: ``.predict(file)`` at the file's level, ``.at(level)``."""
 
     if not isinstance(path, (str, Path)):
         raise UserError(f"load_fit needs the path of a fit result JSON, got {path!r}")
+    from bwbench.data.json_input import read_json_file
+    from bwbench.problems.hysteresis.control.fitted import model_of_result
+
+    data = read_json_file(Path(path))
+    if isinstance(data, dict) and isinstance(data.get("control"), dict):
+        return model_of_result(data, str(path))
     return FittedModel.read(path)
 
 

@@ -11,13 +11,14 @@ from bwbench.errors import UserError
 def check(args) -> int:
     """Exit 0 if every file is a valid specimen CSV, else 2 with one error line per bad file; valid
     files that are probably not what their header promises get warnings (exit status still 0)."""
-    from bwbench.data import manifest, plausibility
+    from bwbench.data import control, manifest, plausibility
     from bwbench.data.specimen import read_specimen
 
     status = 0
+    named = control.parse_all(getattr(args, "control", None))  # a bad --control: one line before any file
     for path in args.files:
         try:
-            spec = read_specimen(path)
+            spec = read_specimen(path) if named is None else control.read(path, named)
         except UserError as err:
             print(f"error: {err}", file=sys.stderr)
             status = 2
@@ -28,6 +29,8 @@ def check(args) -> int:
                 f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N"
             )
             print(f"  {signals_text(spec)}")
+            if named is not None:
+                print(f"  {control.summary(spec).text()}")  # type: ignore[union-attr]
             ramps = ramps_text(spec)
             if ramps:
                 print(f"  {ramps}")
@@ -125,6 +128,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         epilog="example:\n  bwbench data check mytest.csv data/mr_damper/*.csv",
     )
     p.add_argument("files", nargs="+", help="specimen CSV files")
+    p.add_argument(
+        "--control",
+        action="append",
+        metavar="COLUMN[=VALUE]",
+        help="the control column to read and report (current_A, voltage_V, underpressure_MPa: <quantity>_<unit>); "
+        "=VALUE: the level of files without the column",
+    )
     p.set_defaults(func=check)
     p = sub.add_parser(
         "generate",

@@ -65,10 +65,18 @@ def fit(args) -> int:
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     workers = threads.check(args.workers, "--workers")
     threads.check(args.threads)
+    from bwbench.commands import control_fit
+
+    controlled = control_fit.wants_control(args)  # one model across a control range (--control, --law)
+    if controlled:
+        control_fit.check_flags(args)
     if args.each:
         return _fit_each(args, options, workers)
-    check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
-    return _fit_setup(args, _read_setup(args), options, workers, args.out, args.plot)
+    outputs = {"--out": args.out, "--plot": args.plot, **control_fit.outputs(args)}
+    check_outputs(outputs, [*args.specimen, getattr(args, "bounds", None)])
+    setup = _read_setup(args)
+    status = _fit_setup(args, setup, options, workers, args.out, args.plot)
+    return control_fit.after(args, setup, status) if controlled else status
 
 
 def _read_setup(args):
@@ -295,4 +303,7 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
         "else the points of a batch (a Jacobian by differences); the result is the same "
         "as with 1 (default 1: on a busy machine more are slower)",
     )
+    from bwbench.commands import control_fit
+
+    control_fit.add_arguments(parser)
     parser.set_defaults(func=fit)

@@ -35,13 +35,13 @@ def stored_model(args, path):
     """The ``FittedModel`` of the fit result ``path`` with the command's flags checked against it; None
     when ``path`` is a plain parameter file. ``UserError`` for a flag that contradicts the file."""
     from bwbench.models import registry
-    from bwbench.problems.hysteresis.fitted_model import FittedModel
+    from bwbench.problems.hysteresis.control.fitted import model_of_result
     from bwbench.problems.hysteresis.formulations import resolve_formulation
 
     data = read_fit(path)
     if data is None:
         return None
-    fitted = FittedModel.from_result(data, str(path))
+    fitted = model_of_result(data, str(path))
     given = {
         "--model": getattr(args, "model", None),
         "--formulation": getattr(args, "formulation", None),
@@ -130,6 +130,17 @@ def _blown_up(specimen, params, mse: float) -> int:
     return 1
 
 
+def _with_control(args, fitted) -> list:
+    """The files of a model across a control, each with its control: the fit's column, or ``--control
+    NAME=VALUE`` for a file without it (a level no fitted file had is a prediction like any other)."""
+    from bwbench.data import control
+
+    spec = control.parse_all(getattr(args, "control", None)) or control.ControlSpec(fitted.control_name)
+    if spec.name != fitted.control_name:
+        raise UserError(f"--control {spec.name}: {args.fit} is a model across {fitted.control_name}")
+    return [control.read(p, spec) for p in args.data]
+
+
 def predict(args) -> int:
     """``bwbench predict --fit FIT.json DATA.csv ...``: exit 0, 1 when the model blows up on a file, 2
     for a mistake in the input (one line, before anything is written)."""
@@ -143,7 +154,7 @@ def predict(args) -> int:
             "`bwbench fit --out` wrote"
         )
     fitted = stored_model(args, args.fit)
-    specimens = [read_specimen(p) for p in args.data]  # every file checked before any is predicted
+    specimens = [read_specimen(p) for p in args.data] if not hasattr(fitted, "control") else _with_control(args, fitted)
     from bwbench.data import plausibility
 
     plausibility.screen(specimens, force_needed=False, warn=False)  # a dead channel refused before any work
@@ -187,6 +198,13 @@ def add_arguments(parser) -> None:
     parser.add_argument("data", nargs="+", help="specimen CSV(s) to predict")
     parser.add_argument(
         "--fit", required=True, metavar="FIT.json", help="a result of `bwbench fit` (one file or joint)"
+    )
+    parser.add_argument(
+        "--control",
+        action="append",
+        metavar="COLUMN[=VALUE]",
+        help="a fit across a control (--law): the level of files without the fit's control column "
+        "(any level: the laws give the parameters there)",
     )
     parser.add_argument("--out", help="JSON with each file's RMSE (N) and NRMSE (RMSE / max|F|)")
     parser.add_argument("--plot", help="PNG of predicted against measured loops and the residual over time")

@@ -93,6 +93,10 @@ def setup_from_args(args, formulation_from_data: bool = False):
         bounds=getattr(args, "bounds", None) or None,
         force_needed=getattr(args, "func", None) not in (simulate, evaluate),
         log=sys.stdout,
+        control=getattr(args, "control", None),
+        laws=getattr(args, "law", None),
+        control_filter=getattr(args, "control_filter", False),
+        law_search=(args.optimizer, args.budget, args.seed) if hasattr(args, "optimizer") else None,
     )
 
 

@@ -61,6 +61,10 @@ class Specimen:
     f: np.ndarray
     v: np.ndarray | None = None
     a: np.ndarray | None = None
+    # The control (current, voltage, underpressure: ``bwbench.data.control``) at each sample, and its
+    # column name ``<quantity>_<unit>``; None for a test without one.
+    control: np.ndarray | None = None
+    control_name: str | None = None
 
     @property
     def measured_signals(self) -> tuple[str, ...]:
@@ -76,8 +80,10 @@ class Specimen:
         return float(self.t[-1] - self.t[0])
 
 
-def read_specimen(path) -> Specimen:
-    """Read and validate a specimen CSV; raise ``InputFileError`` for anything malformed."""
+def read_specimen(path, control: str | None = None) -> Specimen:
+    """Read and validate a specimen CSV; raise ``InputFileError`` for anything malformed. ``control``: the
+    name of a control column (``bwbench.data.control``) the file may carry: read into ``control`` when
+    the header has it."""
     path = str(path)
     data = _read_bytes(path)
     text = _decode(path, data)
@@ -92,7 +98,7 @@ def read_specimen(path) -> Specimen:
             "file with LF or CRLF line endings",
         )
     header, _, rest = text.partition("\n")
-    sep, order, n_columns = _parse_header(path, header)
+    sep, order, n_columns = _parse_header(path, header, (control,) if control else ())
     if not rest or rest.isspace():
         raise InputFileError(path, 1, "header only, no data rows")
 
@@ -113,10 +119,14 @@ def read_specimen(path) -> Specimen:
     t, x, f = (np.ascontiguousarray(values[:, j]) for j in order[:3])  # always there
     v, a = (None if j is None else np.ascontiguousarray(values[:, j]) for j in order[3:])
     _check_values(path, t, x, line_of)
-    for column in (t, x, f, v, a):
+    names = [n.strip().strip('"').strip() for n in header.strip().split(sep)]
+    u = np.ascontiguousarray(values[:, names.index(control)]) if control in names else None
+    for column in (t, x, f, v, a, u):
         if column is not None:
             column.flags.writeable = False  # a frozen Specimen should not change under its users
-    return Specimen(path=path, name=Path(path).stem, t=t, x=x, f=f, v=v, a=a)
+    return Specimen(
+        path=path, name=Path(path).stem, t=t, x=x, f=f, v=v, a=a, control=u, control_name=None if u is None else control
+    )
 
 
 def _read_bytes(path: str) -> bytes:
@@ -148,9 +158,9 @@ def _decode(path: str, data: bytes) -> str:
         ) from None
 
 
-def _parse_header(path: str, header: str) -> tuple[str, list, int]:
+def _parse_header(path: str, header: str, allowed: tuple = ()) -> tuple[str, list, int]:
     """Separator, the index of each of COLUMNS + OPTIONAL_COLUMNS in a row (None for an absent optional
-    column), and the number of columns."""
+    column), and the number of columns. ``allowed``: other column names the caller reads (a control)."""
     sep = ";" if ";" in header else ","
     names = [name.strip().strip('"').strip() for name in header.strip().split(sep)]
     missing = [c for c in COLUMNS if c not in names]
@@ -164,13 +174,14 @@ def _parse_header(path: str, header: str) -> tuple[str, list, int]:
             f"missing column{'s' if len(missing) > 1 else ''} {which} in header "
             f"(expected {','.join(COLUMNS)}, found {found!r})",
         )
-    extra = [n for n in names if n not in COLUMNS + OPTIONAL_COLUMNS]
+    extra = [n for n in names if n not in COLUMNS + OPTIONAL_COLUMNS + tuple(allowed)]
     if extra:
         raise InputFileError(
             path,
             1,
             f"unexpected column {extra[0]!r} in header (expected {','.join(COLUMNS)}, "
-            f"optionally also {' and '.join(OPTIONAL_COLUMNS)})",
+            f"optionally also {' and '.join(OPTIONAL_COLUMNS)}; a control column is read when named with "
+            "--control)",
         )
     dup = next((n for n in names if names.count(n) > 1), None)
     if dup is not None:

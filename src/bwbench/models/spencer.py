@@ -301,6 +301,37 @@ class Spencer(Model):
             raise ValueError(f"theta must have shape (m, {len(HYSTERETIC)}), got {theta.shape}")
         return _ydot(theta, signal, self._integration())
 
+    def trajectories_varying(self, theta_int, theta_smp, signal, state=None) -> np.ndarray:
+        """ẏ (mm/s) at the samples (L,) for θ per sample interval (L − 1, 6) and per sample (L, 6): a control
+        that changes during the record (``spencer_varying``); +inf where the simulation did not finish."""
+        from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET
+        from bwbench.models.spencer_varying import ydot_varying
+
+        out, status = ydot_varying(theta_int, theta_smp, signal, **self._integration())
+        MODEL.step_budget_stops += int(status == STATUS_STEP_BUDGET)
+        return out
+
+    def trajectory_sensitivities_varying(self, theta_int, theta_smp, B_int, B_smp, signal, state=None):
+        """(ẏ (L,), ∂ẏ/∂c (L, D)) for θ per interval and per sample and ∂θ/∂c there (``B_int`` (L − 1, 6, D),
+        ``B_smp`` (L, 6, D)): the coefficients c of laws of a varying control (``spencer_varying``); (ẏ +inf,
+        None) where the simulation did not finish."""
+        from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET
+        from bwbench.models.spencer_varying import ydot_sensitivity_varying
+
+        out, S, status = ydot_sensitivity_varying(theta_int, theta_smp, B_int, B_smp, signal, **self._integration())
+        MODEL.step_budget_stops += int(status == STATUS_STEP_BUDGET)
+        return (out, S) if status == 0 else (out, None)
+
+    def force_varying(self, P_int, P_smp, signal, state=None) -> np.ndarray:
+        """The force (N, (L,)) of direct parameters per sample interval (L − 1, 10) and per sample (L, 10)."""
+        theta_int, _ = theta_from_direct(P_int)
+        theta_smp, coef = theta_from_direct(P_smp)
+        ydot = self.trajectories_varying(theta_int, theta_smp, signal)
+        c1, k1, f0 = coef.T
+        with np.errstate(invalid="ignore", over="ignore"):
+            F = c1 * ydot + k1 * np.asarray(signal.x, dtype=float) + f0
+        return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
+
     # An evaluation with its six sensitivities (the Rosenbrock-W kernel) took 1.4–1.8 plain simulations
     # at the optima of seven MR-damper generator fits (600–6,000 samples) and 1.65 at random points of
     # the box (benchmarks/bench_call_cost.py): charged as 2 evaluations.

@@ -118,6 +118,10 @@ class FitResult:
         from bwbench.problems.hysteresis.fitted_model import FittedModel
 
         p = self.problem
+        if hasattr(p, "laws_json"):  # one model across the control range: its laws with it
+            from bwbench.problems.hysteresis.control.fitted import of_problem
+
+            return of_problem(p, dict(self.result.params))
         return FittedModel(
             p.model.name, p.formulation, dict(self.result.params), p.state, p.excitation, dict(self.result.units)
         )
@@ -149,6 +153,10 @@ class FitResult:
         """The linearised covariance of the free parameters (``bwbench.problems.hysteresis.fit_summary.Uncertainty``)."""
         from bwbench.problems.hysteresis import fit_summary
 
+        if hasattr(self.problem, "covariance"):  # one model across a control range: its laws' coefficients
+            from bwbench.problems.hysteresis.control.uncertainty import uncertainty
+
+            return uncertainty(self.problem, self.result.params)
         return fit_summary.uncertainty(self)
 
     def summary(self):
@@ -206,6 +214,8 @@ class FitResult:
         if self.problem.state is None:
             out["state"] = None  # say it: this model has no state convention
         out.update(self.extra)
+        if hasattr(self.problem, "result_json") and self.success:  # one model across a control range
+            out.update(self.problem.result_json(self.result.params))
         checks = dict(self.checks.json) if self.checks is not None else {}
         by_file = checks.pop("files", {})  # a joint fit's checks, per file
         out.update(checks)
