@@ -60,6 +60,8 @@ def fit(
     name: str | None = None,
     stop: str = "agreed",
     workers: int = 1,
+    initial_state: str = "auto",
+    warmup: float = 0.0,
 ) -> FitResult:
     """Fit one test, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
@@ -78,7 +80,10 @@ def fit(
     numba/BLAS threads. ``stop``: "agreed" (a backend that restarts local searches, lsq-trf, may stop
     before the budget once its searches agree on the optimum; ``nfev`` and the result's message say
     so) or "budget" (spend it all, as a study does). ``workers``: threads for the files of a joint
-    fit, else for the points of a batch; the result is the same as with one.
+    fit, else for the points of a batch; the result is the same as with one. ``initial_state``: how every
+    model starts each test, "auto" (from rest when the test starts from rest, else after a pre-roll of
+    one cycle of its own motion), "rest" or "pre-roll"; ``warmup``: seconds at the start of each test
+    simulated but left out of the loss (docs/fitting.md#the-start-of-a-record).
 
     Returns a ``FitResult``: ``.summary()`` (every parameter with its standard error), ``.report()``,
     ``.correlation()``, ``.plot()``, ``.params``, ``.rmse_N``, ``.table()``, ``.model``,
@@ -126,6 +131,8 @@ def fit(
         offsets=offsets,
         weighting=weighting,
         bounds=bounds,
+        initial_state=initial_state,
+        warmup=warmup,
     )
     refuse_same_file([d.path if isinstance(d, Specimen) else d for d in items])
     loaded = [as_specimen(d, name) for d in items]
@@ -162,14 +169,18 @@ def settings_of(
     offsets=None,
     weighting="equal",
     bounds=None,
+    initial_state="auto",
+    warmup=0.0,
 ) -> dict:
     """The problem settings of a fit's keywords, each checked (``UserError`` with the CLI's wording)."""
     from bwbench.data import bounds as bounds_mod
+    from bwbench.models import start
     from bwbench.problems.hysteresis.formulations import bound_names
     from bwbench.problems.hysteresis.joint_problem import WEIGHTINGS
     from bwbench.problems.hysteresis.settings import check_fit_flags, checked_settings
 
     settings: dict = checked_settings(model, formulation, state, excitation)
+    settings["initial_state"], settings["warmup_s"] = start.check(initial_state, warmup, ("initial_state", "warmup"))
     if weighting not in WEIGHTINGS:
         raise UserError(f"--weighting must be one of {', '.join(map(repr, WEIGHTINGS))}, got {weighting!r}")
     settings["weighting"] = weighting

@@ -48,7 +48,23 @@ def model_settings(args) -> dict:
 
 
 def add_fit_options(p) -> None:
-    """The options of a fit that a study shares (``fit`` and ``compare``): the mass and the weights."""
+    """The options of a fit that a study shares (``fit`` and ``compare``): the mass, the weights and the
+    start of every record."""
+    from bwbench.models.start import INITIAL_STATES
+
+    p.add_argument(
+        "--initial-state",
+        choices=INITIAL_STATES,
+        help="how every model starts each record, the same for all: auto (default: from rest when the record "
+        "starts from rest, else after a pre-roll of one cycle of its own motion, left out of the loss), rest, "
+        "or pre-roll",
+    )
+    p.add_argument(
+        "--warmup",
+        metavar="SECONDS",
+        help="the first SECONDS of each record are simulated but left out of the loss, the errors and the "
+        "checks (shaded in the figure); default 0",
+    )
     p.add_argument(
         "--fix-mass",
         metavar="VALUE",
@@ -83,6 +99,7 @@ def problem_from_args(args):
         settings["offsets"] = args.offsets
     if getattr(args, "weighting", None):
         settings["weighting"] = args.weighting
+    settings.update(start_settings(args))
     paths = args.specimen if isinstance(args.specimen, list) else [args.specimen]
     refuse_same_file(paths)
     specimens = [read_specimen(p) for p in paths]
@@ -105,6 +122,16 @@ def problem_from_args(args):
         problem.box_probe_s = time.perf_counter() - start
         print(f"probing the search box: done in {problem.box_probe_s:.1f} s", flush=True)
     return problem
+
+
+def start_settings(args) -> dict:
+    """{"initial_state", "warmup_s"} of ``--initial-state`` and ``--warmup`` (checked; ``UserError``)."""
+    from bwbench.models import start
+
+    initial_state, warmup_s = start.check(
+        getattr(args, "initial_state", None) or "auto", getattr(args, "warmup", None) or 0.0
+    )
+    return {"initial_state": initial_state, "warmup_s": warmup_s}
 
 
 def read_for(path, problem):

@@ -25,6 +25,12 @@ def held_out_names(study) -> list[str]:
     return list((study.config.get("validation") or {}).keys())
 
 
+def start_of(study) -> dict:
+    """How the study started every record (its [study] initial_state and warmup_s; the defaults when absent)."""
+    settings = study.settings or {}
+    return {"initial_state": settings.get("initial_state", "auto"), "warmup_s": settings.get("warmup_s", 0.0)}
+
+
 def predictions_table(study) -> pd.DataFrame:
     """One row per (ranking run, held-out file): label, specimen (training), replicate, held_out, rmse_N,
     nrmse; NaN where the run found nothing finite, inf where its model blows up on the file."""
@@ -44,6 +50,7 @@ def predictions_table(study) -> pd.DataFrame:
                 params,
                 run.get("state") or None,
                 run.get("excitation") or "measured",
+                **start_of(study),
             )
         except UserError:
             fitted = None
@@ -172,6 +179,7 @@ def _figure(report, table, label, names):
         params,
         run.get("state") or None,
         run.get("excitation") or "measured",
+        **start_of(study),
     )
     predictions = [fitted.predict(read_specimen(study.specimen_path(n))) for n in names[:FIGURE_TESTS]]
     fig = draw_predictions(predictions, f"{label}, fitted to {specimen} (seed {replicate}): held-out tests predicted")
