@@ -11,8 +11,9 @@ Spencer's model y = x, z = 0). The rule decides what that first sample is (``ini
   the cycle ends where the record begins) and simulated first; the model enters the record in the
   state that cycle leads to (for a periodic test, its steady state). The pre-rolled samples are not
   in the loss. A record without a full cycle, or whose first velocity sample is 0, starts from rest.
-- ``"auto"`` (the default): from rest when the record starts from rest (``starts_from_rest``), else
-  after the pre-roll.
+- ``"auto"`` (the default): from rest when the record starts from rest (``starts_from_rest``: its
+  velocity at the first samples within noise of 0, at mid-stroke, ramping in, or at an end of the
+  stroke unloaded), else after the pre-roll.
 
 ``warmup_s``: the record's first seconds are simulated but left out of the loss, of the per-file
 errors and of the checks of the residual (a record cut from a running test whose state the pre-roll
@@ -45,20 +46,33 @@ REST_VELOCITY = 0.02  # × max|ẋ|: the record's first samples move slower than
 REST_POSITION = 0.1  # × amplitude: ... and from near mid-stroke (a record cut at a reversal is at an end)
 
 
-def starts_from_rest(t, x, v) -> bool:
-    """Whether a record starts from rest: over its first few samples (3, or 0.2 % of the record) the
-    recorded or estimated velocity stays within its noise-level ``REST_VELOCITY`` × max|ẋ|, and the
-    damper sits near mid-stroke (within ``REST_POSITION`` × the amplitude of (x_max + x_min)/2) or the
-    test ramps in (``steady_part``). A record cut from the middle of a test at a reversal also has
-    ẋ ≈ 0 at its start, but there x is at an end of the stroke and the damper is loaded."""
+LOADED_MATCH = 0.1  # × the force range: a start whose force is the one a cycle later is the steady state's
+
+
+def starts_from_rest(t, x, v, f=None) -> bool:
+    """Whether a record starts from rest: over its first three samples the recorded or estimated velocity
+    stays within its noise-level ``REST_VELOCITY`` × max|ẋ|, and the damper sits near mid-stroke (within
+    ``REST_POSITION`` × the amplitude of (x_max + x_min)/2) or the test ramps in (``steady_part``). A
+    record cut from the middle of a test at a reversal also has ẋ ≈ 0 at its start, but there x is at an
+    end of the stroke and the damper is loaded: at an end, given the force ``f`` (N), the record starts
+    from rest unless its force there is the one a cycle later at the same displacement and direction
+    (within ``LOADED_MATCH`` × the force range: the steady state's); without ``f``, not from rest. (A
+    test machine's ramp test starts at an end of its stroke, from rest and unloaded.)"""
     from bwbench.data.steady_part import steady_part
 
     x, v = np.asarray(x, dtype=float), np.asarray(v, dtype=float)
-    head = max(3, len(v) // 500)
-    if not np.median(np.abs(v[:head])) <= REST_VELOCITY * float(np.max(np.abs(v))):
+    if not np.median(np.abs(v[:3])) <= REST_VELOCITY * float(np.max(np.abs(v))):
         return False
     mid, amplitude = 0.5 * (x.max() + x.min()), 0.5 * float(np.ptp(x))
-    return bool(abs(x[0] - mid) <= REST_POSITION * amplitude or steady_part(t, x).ramp_in_cycles > 0)
+    if abs(x[0] - mid) <= REST_POSITION * amplitude or steady_part(t, x).ramp_in_cycles > 0:
+        return True
+    if f is None:
+        return False
+    f = np.asarray(f, dtype=float)
+    k = preroll_end(x, v)
+    if k == 0:
+        return True  # no cycle later to compare with: nothing says it is loaded
+    return bool(abs(np.median(f[:3]) - np.median(f[k : k + 3])) > LOADED_MATCH * float(np.ptp(f)))
 
 
 def preroll_end(x, v) -> int:
@@ -171,9 +185,10 @@ def check(initial_state, warmup_s, flags=("--initial-state", "--warmup")) -> tup
     return str(initial_state), seconds
 
 
-def plan(signal, initial_state: str = "auto", warmup_s: float = 0.0, name: str = "the record") -> Start:
-    """The ``Start`` of the record ``signal`` (t, x, v) under the rule of the module docstring;
-    ``UserError`` naming ``name`` when the warm-up leaves fewer than ``MIN_LOSS_SAMPLES`` samples."""
+def plan(signal, initial_state: str = "auto", warmup_s: float = 0.0, name: str = "the record", f=None) -> Start:
+    """The ``Start`` of the record ``signal`` (t, x, v) with measured force ``f`` (N; None when there is
+    none, e.g. a simulation) under the rule of the module docstring; ``UserError`` naming ``name`` when
+    the warm-up leaves fewer than ``MIN_LOSS_SAMPLES`` samples."""
     initial_state, warmup_s = check(initial_state, warmup_s)
     t, x, v = (np.asarray(getattr(signal, k), dtype=float) for k in "txv")
     warmup = int(np.searchsorted(t, t[0] + warmup_s - 1e-9 * max(warmup_s, 1.0), side="left")) if warmup_s else 0
@@ -185,7 +200,7 @@ def plan(signal, initial_state: str = "auto", warmup_s: float = 0.0, name: str =
     base = Start(initial_state, warmup_s, warmup=warmup)
     if initial_state == "rest":
         return dataclasses.replace(base, reason="initial state 'rest' asked")
-    if initial_state == "auto" and starts_from_rest(t, x, v):
+    if initial_state == "auto" and starts_from_rest(t, x, v, f):
         return dataclasses.replace(base, reason="the record starts from rest")
     k = preroll_end(x, v)
     if k == 0:

@@ -272,18 +272,19 @@ class FittedModel:
 
         return excitation.of_specimen(self.excitation, specimen)
 
-    def start(self, signal):
-        """How a record starts (``bwbench.models.start.Start``): the fit's rule applied to ``signal``."""
+    def start(self, signal, f=None):
+        """How a record starts (``bwbench.models.start.Start``): the fit's rule applied to ``signal`` and
+        its measured force ``f`` (N), when there is one."""
         from bwbench.models import start
 
-        return start.plan(signal, self.initial_state, self.warmup_s)
+        return start.plan(signal, self.initial_state, self.warmup_s, f=f)
 
-    def force(self, signal) -> np.ndarray:
-        """Model force (N) on an excitation (t, x, v, a), started by the fit's rule; +inf everywhere where
-        the model blows up. ``UserError`` when the record moves in a direction whose coefficients the fit
-        never saw."""
+    def force(self, signal, f=None) -> np.ndarray:
+        """Model force (N) on an excitation (t, x, v, a) whose measured force is ``f`` (None: none known),
+        started by the fit's rule; +inf everywhere where the model blows up. ``UserError`` when the record
+        moves in a direction whose coefficients the fit never saw."""
         model = self._model
-        start = self.start(signal)
+        start = self.start(signal, f)
         simulated = start.extend(signal)
         if self.formulation != IDENTIFIABLE:
             P = np.array([self.params[n] for n in self.needed()], dtype=float)
@@ -303,10 +304,10 @@ class FittedModel:
             spec.name,
             np.asarray(spec.t, dtype=float),
             np.asarray(signal.x, dtype=float),
-            self.force(signal),
+            self.force(signal, spec.f),
             np.asarray(spec.f, dtype=float),
             np.asarray(signal.v, dtype=float),
-            self.start(signal).warmup,
+            self.start(signal, spec.f).warmup,
         )
 
     def simulate(self, specimen):
@@ -323,7 +324,7 @@ class FittedModel:
                 "displacement_mm": s.x,
                 "velocity_mm_s": s.v,
                 "acceleration_mm_s2": s.a,
-                "force_model_N": self.force(s),
+                "force_model_N": self.force(s, spec.f),
                 "force_measured_N": spec.f,
             }
         )

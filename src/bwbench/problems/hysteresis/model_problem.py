@@ -37,9 +37,10 @@ class ModelFit:
         the model simulates (``sim_signal``), and the samples in the loss (``loss_signal``, ``f_loss``)."""
         from bwbench.models import start as start_mod
 
-        self.start = start_mod.plan(self.signal, initial_state, warmup_s, self.specimen.name)
-        self.sim_signal = self.start.extend(self.signal)
+        where = getattr(self.specimen, "path", None) or self.specimen.name  # the file, to name in an error
         f = np.asarray(self.specimen.f, dtype=float)
+        self.start = start_mod.plan(self.signal, initial_state, warmup_s, str(where), f)
+        self.sim_signal = self.start.extend(self.signal)
         self.f_loss = f if self.start.warmup == 0 else f[self.start.loss]
         self.loss_signal = self.signal if self.start.warmup == 0 else start_mod.cut(self.signal, self.start.loss)
 
