@@ -24,7 +24,7 @@ STYLE: Any = {
 MEASURED = {"color": "0.35", "lw": 0.9, "label": "measured"}
 MODEL = {"color": "tab:red", "lw": 1.1, "label": "model"}
 PANELS = 4
-WARMUP = {"color": "0.6", "alpha": 0.25, "lw": 0, "zorder": 0}
+WARMUP: Any = {"color": "0.6", "alpha": 0.25, "lw": 0, "zorder": 0}  # Any: as STYLE
 
 
 def warmup_label(seconds: float) -> str:

@@ -50,7 +50,7 @@ def draw_predictions(predictions, title: str, what: str = "predicted"):
         resid.set_ylabel("residual (N)")
     more = len(predictions) - len(shown)
     fig.suptitle(title + (f" (first {len(shown)} of {len(predictions)} tests)" if more > 0 else ""))
-    handles = [
+    handles: list = [
         Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
         Line2D([], [], color=colour, lw=1.6, label=f"{what} by the model"),
     ]
