@@ -169,7 +169,7 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     )
     _mark_reversals([force, residual], spec.t, turns)
     formulation = getattr(problem, "formulation", "paper")
-    handles = [
+    handles: list = [
         Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
         style.handle(f"fitted model ({result.optimizer})", marker=False),
         REVERSAL,
