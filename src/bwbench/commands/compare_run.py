@@ -250,6 +250,8 @@ OWN_FLAGS = (
     "bounds",
     "fix_mass",
     "offsets",
+    "initial_state",
+    "warmup",
     "validate",
 )
 
