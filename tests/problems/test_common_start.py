@@ -194,3 +194,48 @@ def test_the_api_refuses_a_bad_start_with_the_keywords_names(dahl_tests):
         bwbench.fit(dahl_tests[0], initial_state="moving")
     with pytest.raises(bwbench.UserError, match="warmup must be a number of seconds"):
         bwbench.fit(dahl_tests[0], warmup=float("nan"))
+
+
+def _study_toml(tmp_path, dahl_tests, extra: str = "") -> "Path":  # noqa: F821 (pathlib's, returned)
+    for i, frame in enumerate(dahl_tests[:2]):
+        frame.to_csv(tmp_path / f"d{i}.csv", index=False)
+    toml = tmp_path / "s.toml"
+    toml.write_text(
+        f'[study]\nname = "s"\nseed = 1\nbudget = 6\nseeds = 1\nmodel = ["spencer", "bouc-wen"]\n{extra}'
+        f'[specimens]\nfiles = ["d0.csv", "d1.csv"]\n[optimizers]\nrandom = {{}}\n'
+    )
+    return toml
+
+
+def test_a_study_starts_every_model_by_its_rule_and_keeps_its_identity_with_the_defaults(tmp_path, dahl_tests):
+    from bwbench.errors import UserError
+    from bwbench.study.config import load_study_config
+
+    plain = load_study_config(_study_toml(tmp_path, dahl_tests)).to_json_dict()
+    assert "initial_state" not in plain["study"] and "warmup_s" not in plain["study"]
+    defaults = load_study_config(_study_toml(tmp_path, dahl_tests, 'initial_state = "auto"\nwarmup_s = 0\n'))
+    assert defaults.to_json_dict() == plain  # the defaults said aloud: the same study
+    config = load_study_config(_study_toml(tmp_path, dahl_tests, 'initial_state = "rest"\nwarmup_s = 0.5\n'))
+    assert (config.to_json_dict()["study"]["initial_state"], config.to_json_dict()["study"]["warmup_s"]) == (
+        "rest",
+        0.5,
+    )
+    variants = dict(config.setup.variants)
+    assert set(variants) == {"spencer", "bouc-wen"}
+    for settings in variants.values():  # one rule for every model compared
+        problem = make_problem(as_specimen(dahl_tests[0]), settings)
+        assert (problem.start.resolved, problem.start.warmup) == ("rest", 250)
+    from bwbench.study.config import config_from_arguments
+
+    files = [str(tmp_path / "d0.csv"), str(tmp_path / "d1.csv")]
+    flags = config_from_arguments(files, "random", 1, 6, model="spencer,bouc-wen", initial_state="rest", warmup_s=0.5)
+    assert {k: flags.to_json_dict()["study"][k] for k in ("initial_state", "warmup_s")} == {
+        "initial_state": "rest",
+        "warmup_s": 0.5,
+    }  # bwbench compare --specimens ... --initial-state rest --warmup 0.5, and bwbench.compare(specimens=...)
+    with pytest.raises(UserError, match="--warmup must be a number of seconds ≥ 0"):
+        config_from_arguments(files, "random", 1, 6, warmup_s="later")
+    with pytest.raises(UserError, match=r"\[study\] initial_state must be one of auto, rest, pre-roll"):
+        load_study_config(_study_toml(tmp_path, dahl_tests, 'initial_state = "moving"\n'))
+    with pytest.raises(UserError, match=r"\[study\] warmup_s must be a number of seconds ≥ 0"):
+        load_study_config(_study_toml(tmp_path, dahl_tests, "warmup_s = -2\n"))

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from bwbench.optimize.result import Result, finite_or_null
+from bwbench.problems.hysteresis.model_problem import start_settings
 
 # Two normalisations of the RMSE: by the largest force magnitude (bwbench's ``nrmse``, symmetric in the
 # sign of F) and by the largest force (``nrmse_max_F``), the one the MR-damper literature reports (e.g.
@@ -233,12 +234,6 @@ class FitResult:
         from bwbench.data import strict_json
 
         strict_json.write(path, self._json_values(), why=self.result.not_finite_reasons())
-
-
-def start_settings(problem) -> tuple[str, float]:
-    """(initial_state, warmup_s) as asked of a fit's problem (one file or joint: every file the same)."""
-    first = (getattr(problem, "parts", None) or [problem])[0]
-    return first.start.initial_state, first.start.warmup_s
 
 
 def start_json(problem) -> dict:

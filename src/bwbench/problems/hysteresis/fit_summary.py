@@ -107,8 +107,8 @@ class _FreeVector:
         theta, coef = self.split(v)
         if self.design is None:
             return self.problem.residual_batch(theta[None, :])[0]
-        from bwbench.problems.hysteresis.fit_result import start_settings
         from bwbench.problems.hysteresis.fitted_model import FittedModel
+        from bwbench.problems.hysteresis.model_problem import start_settings
 
         p = self.problem
         values = {**dict(zip(self.searched, map(float, theta))), **coef}

@@ -294,6 +294,12 @@ class IdentifiableProblem(ModelFit):
         return identifiable_parameters(self, params)
 
 
+def start_settings(problem) -> tuple[str, float]:
+    """(initial_state, warmup_s) as asked of a fit's problem (one file or joint: every file the same)."""
+    first = (getattr(problem, "parts", None) or [problem])[0]
+    return first.start.initial_state, first.start.warmup_s
+
+
 def _in_loss(start, found):
     """(values (L_sim,), derivatives (L_sim, d)) simulated from ``start`` cut to the samples in the loss; None
     and (z, None) (a simulation that did not finish) passed on, cut likewise."""
