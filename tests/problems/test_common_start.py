@@ -239,3 +239,18 @@ def test_a_study_starts_every_model_by_its_rule_and_keeps_its_identity_with_the_
         load_study_config(_study_toml(tmp_path, dahl_tests, 'initial_state = "moving"\n'))
     with pytest.raises(UserError, match=r"\[study\] warmup_s must be a number of seconds ≥ 0"):
         load_study_config(_study_toml(tmp_path, dahl_tests, "warmup_s = -2\n"))
+
+
+def test_the_report_says_how_every_record_was_started():
+    from types import SimpleNamespace
+
+    from bwbench.problems.hysteresis.report.sections import setup_text
+
+    def text(**settings):
+        study = SimpleNamespace(settings={"state": "shared", "excitation": "measured", **settings})
+        return setup_text(SimpleNamespace(study=study, problem_type=SimpleNamespace(is_synthetic=lambda s: False)))
+
+    assert "every model starts each record the same way: from rest when it starts from rest, else after a " in text()
+    assert "the same way: from rest at its first sample, its first 1 s simulated but left out of the loss;" in text(
+        model=["spencer", "bouc-wen"], initial_state="rest", warmup_s=1.0
+    )

@@ -171,6 +171,16 @@ class Start:
         }
 
 
+def rule_text(initial_state: str = "auto", warmup_s: float = 0.0) -> str:
+    """The rule as asked, in words (a study's report says it once for all its records)."""
+    text = {
+        "auto": "from rest when it starts from rest, else after a pre-roll of one cycle of its own motion",
+        "rest": "from rest at its first sample",
+        "pre-roll": "after a pre-roll of one cycle of its own motion",
+    }[initial_state]
+    return text + (f", its first {warmup_s:g} s simulated but left out of the loss" if warmup_s else "")
+
+
 def check(initial_state, warmup_s, flags=("--initial-state", "--warmup")) -> tuple[str, float]:
     """(initial_state, warmup_s) checked, ``UserError`` naming ``flags`` (the CLI's, the API's keywords or
     the TOML's keys) otherwise."""

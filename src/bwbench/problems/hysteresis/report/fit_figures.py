@@ -328,12 +328,15 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     residual.set_xlabel("time t (s)")
     residual.set_title("residual of the best run of each backend", loc="left")
     _mark_reversals([force_ax, residual], spec.t, turns)
+    shade_warmup([force_ax, residual], spec.t, best_problem.start.warmup)
     text = {o: f"{o}: RMSE {np.sqrt(fits[o][0]['mse']):.3g} N (seed {int(fits[o][0]['replicate'])})" for o in shown}
     handles: list[Any] = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"})]
     handles += backend_handles(look, shown, text, marker=False)
     handles.append(REVERSAL)
     if noise is not None:
         handles.append(Patch(color="0.85", label=f"±2σ of the noise (truth's residual, σ = {noise:.2g} N)"))
+    if best_problem.start.warmup:
+        handles.append(Patch(**WARMUP, label=warmup_label(best_problem.start.warmup_s)))
     if band is not None:
         handles.append(
             Patch(
@@ -369,5 +372,5 @@ def _noise_band(study, specimen, cache):
     if params is None:
         return None
     problem = problem_for(study, specimen, "paper", cache)
-    error = problem.simulate(params) - problem.specimen.f
+    error = (problem.simulate(params) - problem.specimen.f)[problem.start.loss]
     return float(np.sqrt(np.mean(error**2))) if np.all(np.isfinite(error)) else None
