@@ -224,9 +224,7 @@ class FittedModel:
                 "to read it as a parameter file"
             )
         name = data.get("model") or registry.DEFAULT
-        start = data.get("start")
-        if start is None:  # a result written before the rule: each model started as it did then
-            start = {"initial_state": "auto" if name == "spencer" else "rest", "warmup_s": 0.0}
+        start = data.get("start", {})  # absent (a result written before the rule, or by hand): the default
         # null is how strict JSON writes a coefficient the fit could not have (a branch without samples)
         params = {
             k: math.nan if v is None else v
