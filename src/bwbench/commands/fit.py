@@ -221,7 +221,7 @@ def worse_than_zero(problem, files) -> list[str]:
 
     out = []
     for part, row in zip(getattr(problem, "parts", None) or [problem], files):
-        rms = float(np.sqrt(np.mean(np.square(part.specimen.f))))
+        rms = float(np.sqrt(np.mean(np.square(part.f_loss))))  # over the samples the RMSE is of
         if row["rmse_N"] > rms:
             hint = (
                 "try --formulation identifiable (its box is scaled from the data), or another --model "
