@@ -68,6 +68,8 @@ def fit(
     control_levels: dict | None = None,
     laws: dict | str | None = None,
     control_filter: bool = False,
+    initial_state: str = "auto",
+    warmup: float = 0.0,
 ) -> FitResult:
     """Fit one test, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
@@ -88,7 +90,10 @@ def fit(
     backend that restarts local searches, lsq-trf, may stop before the budget once its searches
     agree on the optimum; ``nfev`` and the result's message say so) or "budget" (spend it all, as a
     study does). ``workers``: threads for the files of a joint fit, else for the points of a batch;
-    the result is the same as with one.
+    the result is the same as with one. ``initial_state``: how every model starts each test, "auto"
+    (from rest when the test starts from rest, else after a pre-roll of one cycle of its own motion),
+    "rest" or "pre-roll"; ``warmup``: seconds at the start of each test simulated but left out of the
+    loss (docs/fitting.md#the-start-of-a-record).
 
     One model across a control range (docs/control.md): ``control`` names the control column
     (``"current_A"``) or gives a level for files without it (``"current_A=0.5"``); ``control_levels``
@@ -144,6 +149,8 @@ def fit(
             laws=laws,
             control_filter=control_filter,
             law_search=(optimizer, budget, seed),
+            initial_state=initial_state,
+            warmup=warmup,
         )
     extra: dict = {"formulation_reason": setup.formulation_reason, "bounds_file": setup.bounds_file}
     if setup.box_probe_s is not None:

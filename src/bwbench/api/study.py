@@ -228,6 +228,8 @@ def compare(
     threads: int = 1,
     data=None,
     log=None,
+    initial_state=None,
+    warmup=None,
 ) -> Study:
     """Run (or resume) a study as ``bwbench compare`` does and return its ``Study``.
 
@@ -238,7 +240,9 @@ def compare(
     ``fix_mass``, ``offsets``, ``validate`` (held-out files every fit predicts), ``name``. ``db``: the
     database (default: ``<name>.sqlite`` next to the TOML or in the current folder); ``workers``:
     local processes (default 1: in this process); ``threads``: numba/BLAS threads per worker;
-    ``data``: the TOML's data folder replaced; ``log``: where progress goes (default: nowhere).
+    ``data``: the TOML's data folder replaced; ``log``: where progress goes (default: nowhere);
+    ``initial_state`` ("auto", "rest", "pre-roll") and ``warmup`` (s): how every model starts each record
+    (with specimens=; a TOML says it under [study]).
     A study that is already complete in ``db`` is read, not run again. Raises ``UserError`` with the
     command line's message for bad input; runs that failed are in ``runs`` (``finished`` False).
     """
@@ -264,6 +268,8 @@ def compare(
             threads=threads,
             data=data,
             log=log,
+            initial_state=initial_state,
+            warmup=warmup,
         )
 
 
@@ -289,6 +295,8 @@ def _compare(
     threads,
     data,
     log,
+    initial_state=None,
+    warmup=None,
 ) -> Study:
     import bwbench.threads as threads_mod
     from bwbench.api.arguments import count as check_count
@@ -313,6 +321,8 @@ def _compare(
                 ("state", state),
                 ("bounds", bounds),
                 ("validate", validate),
+                ("initial_state", initial_state),
+                ("warmup", warmup),
             )
             if v is not None
         ]
@@ -347,6 +357,8 @@ def _compare(
             validate=None
             if validate is None
             else [str(v) for v in ([validate] if isinstance(validate, (str, Path)) else validate)],
+            initial_state="auto" if initial_state is None else initial_state,
+            warmup_s=0.0 if warmup is None else warmup,
         )
     path = Path(db) if db is not None else study_config.default_db
     refuse_inputs({"db": path}, study_inputs(study_config, bounds))

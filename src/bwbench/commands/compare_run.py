@@ -246,6 +246,8 @@ OWN_FLAGS = (
     "bounds",
     "fix_mass",
     "offsets",
+    "initial_state",
+    "warmup",
     "validate",
 )
 
@@ -279,6 +281,8 @@ def study_config(args):
         fix_mass=_given(args.fix_mass, "auto"),
         offsets=_given(args.offsets, "branch"),
         validate=args.validate,
+        initial_state=_given(getattr(args, "initial_state", None), "auto"),
+        warmup_s=_given(getattr(args, "warmup", None), 0.0),
     )
 
 

@@ -51,7 +51,23 @@ def model_settings(args) -> dict:
 
 
 def add_fit_options(p) -> None:
-    """The options of a fit that a study shares (``fit`` and ``compare``): the mass and the weights."""
+    """The options of a fit that a study shares (``fit`` and ``compare``): the mass, the weights and the
+    start of every record."""
+    from bwbench.models.start import INITIAL_STATES
+
+    p.add_argument(
+        "--initial-state",
+        choices=INITIAL_STATES,
+        help="how every model starts each record, the same for all: auto (default: from rest when the record "
+        "starts from rest, else after a pre-roll of one cycle of its own motion, left out of the loss), rest, "
+        "or pre-roll",
+    )
+    p.add_argument(
+        "--warmup",
+        metavar="SECONDS",
+        help="the first SECONDS of each record are simulated but left out of the loss, the errors and the "
+        "checks (shaded in the figure); default 0",
+    )
     p.add_argument(
         "--fix-mass",
         metavar="VALUE",
@@ -97,6 +113,8 @@ def setup_from_args(args, formulation_from_data: bool = False):
         laws=getattr(args, "law", None),
         control_filter=getattr(args, "control_filter", False),
         law_search=(args.optimizer, args.budget, args.seed) if hasattr(args, "optimizer") else None,
+        initial_state=getattr(args, "initial_state", None) or "auto",
+        warmup=getattr(args, "warmup", None) or 0.0,
     )
 
 

@@ -223,11 +223,6 @@ class Model:
         when the model cannot say. Used to turn a velocity error into a force error."""
         return None
 
-    def initial_state(self, signal, state=None) -> str:
-        """Which state the model starts the record ``signal`` from, in words ("" when the model does not
-        say): the fit's result records it."""
-        return ""
-
     def linear_branches(self, theta, trajectory, signal, state=None) -> dict:
         """{branch: True when the fitted branch is linear in x (no yield within the stroke)} for the
         identifiable θ and its trajectory; {} when the model has no such notion."""

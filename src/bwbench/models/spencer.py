@@ -23,15 +23,12 @@ the relative velocity of the yield force α·z_s. The published per-test fits of
 kind fixed A = 300, n = 2, γ = β (η = 0), k₀ = k₁ = x₀ = 0; the direct parameters of an
 identifiable fit are reported in that gauge, A = 300.
 
-Initial state. A record that starts at rest starts the model at rest (y = x, z = 0): a record
-whose first samples move within the noise of its velocity from near mid-stroke, or that ramps in
-(``starts_from_rest``); without that test a recorded velocity's noise at the first sample read as
-motion and the pre-roll put the model at its yield force at t = 0 (a start-up spike of ~1 kN on a
-damper at rest). A record that starts in motion was taken in the middle of a test: the model is first run over one cycle of
-the record's own motion and starts from the state reached there (``spencer_kernel``). Without it,
-an MR-damper test recorded in motion carries a ~200 N transient over its first ~40 ms, and with
-k₀ > 0 (y relaxes towards x in (1 + r₀)/κ₀, 6 s for Spencer's damper) an offset over the whole
-record. With κ₀ searched the identifiable fits of the MR-damper generator's tests reach the force
+Initial state. The model starts at rest (y = x, z = 0) at the first sample it is given. How a
+record is started — from rest, or after a pre-roll of one cycle of its own motion (a test recorded in
+motion: without it an MR-damper test carries a ~200 N transient over its first ~40 ms, and with
+k₀ > 0 — y relaxes towards x in (1 + r₀)/κ₀, 6 s for Spencer's damper — an offset over the whole
+record) — is one rule for every model (``bwbench.models.start``), applied where a record is
+simulated. With κ₀ searched the identifiable fits of the MR-damper generator's tests reach the force
 noise (6.0–6.1 N on 6 N); with κ₀ fixed at 0, as the published per-test fits fixed k₀, they stopped
 at 14–17 N on the 1 Hz tests with η and x_y on their box edges.
 """
@@ -42,11 +39,10 @@ import numpy as np
 
 from bwbench.models.base import Box, LinearLayout, Model, Parameter, amplitude, velocity_scale
 from bwbench.models.spencer_plausibility import X0_STROKES, _series_damping, plausibility
-from bwbench.models.spencer_start import (  # noqa: F401 (REST_*, starts_from_rest: read here by callers)
+from bwbench.models.spencer_start import _kernel_inputs
+from bwbench.models.start import (  # noqa: F401 (REST_*, starts_from_rest: read here by callers)
     REST_POSITION,
     REST_VELOCITY,
-    _kernel_inputs,
-    initial_state,
     starts_from_rest,
 )
 
@@ -344,7 +340,7 @@ class Spencer(Model):
         from bwbench.models.spencer_kernel import STATUS_STEP_BUDGET
         from bwbench.models.spencer_sensitivity import ydot_sensitivity_batch
 
-        arrays = _kernel_inputs(signal)  # the plain simulation's: from rest where the record starts at rest
+        arrays = _kernel_inputs(signal)
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         how = self._integration()
         Z, S, status = ydot_sensitivity_batch(theta, *arrays, **how)
@@ -383,9 +379,6 @@ class Spencer(Model):
 
     def viscous_coefficients(self, values: dict, state=None) -> dict | None:
         return _series_damping(values)
-
-    def initial_state(self, signal, state=None) -> str:
-        return initial_state(signal)
 
     def coefficient_limits(self, state=None) -> dict:
         return dict(COEFFICIENT_LIMITS)

@@ -204,23 +204,6 @@ def _step_factor(err):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def preroll_end(x, v) -> int:
-    """The first sample after one full cycle of the record's own motion where it passes its starting
-    displacement in its starting direction (after two reversals); 0 when there is none or the record
-    starts at rest. See ``_ydot_into``."""
-    s0 = 1.0 if v[0] > 0.0 else (-1.0 if v[0] < 0.0 else 0.0)
-    if s0 == 0.0:
-        return 0
-    reversals = 0
-    for k in range(1, x.shape[0]):
-        if v[k] * v[k - 1] < 0.0:
-            reversals += 1
-        if reversals >= 2 and v[k] * s0 > 0.0 and (x[k - 1] - x[0]) * s0 < 0.0 <= (x[k] - x[0]) * s0:
-            return k
-    return 0
-
-
-@numba.njit(cache=True, error_model="numpy")
 def _run(p, t, x, v, a, y, w, stop, out, used, start, total, tol, pace):
     """Integrate from (y, w) at sample 0 to sample ``stop``, writing ẏ into ``out`` when it is not
     empty; ``used`` steps taken so far, this run's first interval the simulation's ``start``-th of
@@ -244,7 +227,7 @@ def _run(p, t, x, v, a, y, w, stop, out, used, start, total, tol, pace):
 
 
 # The work a simulation may do: this many steps per sample interval on average, over the whole record
-# (pre-roll included). At a fit's optimum the L-stable step takes 1.5–3.7 per interval (500 Hz–1 kHz
+# (a pre-roll put before it included). At a fit's optimum the L-stable step takes 1.5–3.7 per interval (500 Hz–1 kHz
 # records with a noisy velocity); a corner of the search box where the relative velocity hovers about
 # 0 with η ≪ −1 takes hundreds per interval there (the branch flips with the velocity's noise), 25×
 # the optimum's cost per simulation at 64 (the budget the explicit integrator had). Such a simulation
@@ -266,27 +249,13 @@ def _allowance(used, interval, total, pace):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_into(p, t, x, v, a, preroll, out, tol, pace):
+def _ydot_into(p, t, x, v, a, out, tol, pace):
     """ẏ (mm/s) at every sample into ``out``; the status (``STATUS_*``). ``pace``: the step budget, in
-    steps per sample interval (``_allowance``).
-
-    Initial state: a record that starts at rest starts from rest (y = x, w = 0). A record that starts
-    in motion was recorded in the middle of a test; its first state is then taken as the one the
-    model reaches after one cycle of the record's own motion (``preroll`` = ``preroll_end``): the
-    model is run from rest to that sample, and the record is run again from the state reached
-    there (y shifted by the same x). For a periodic test that is its steady state; without it the
-    first ~40 ms of an MR-damper test recorded in motion carry a transient of ~200 N.
-    """
-    total = pace * (x.shape[0] - 1 + preroll)
+    steps per sample interval (``_allowance``). The model starts at rest at the first sample (y = x,
+    w = 0): what comes before a record (a pre-roll of its own motion) is put before it by the caller,
+    the same for every model (``bwbench.models.start``)."""
     p = with_reciprocals(p)
-    y, w = x[0], 0.0
-    used = 0
-    if preroll > 0:
-        y, w, used, status = _run(p, t, x, v, a, y, w, preroll, out[:0], used, 0, total, tol, pace)
-        if status != STATUS_OK:
-            return status
-        y += x[0] - x[preroll]
-    return _run(p, t, x, v, a, y, w, x.shape[0] - 1, out, used, preroll, total, tol, pace)[3]
+    return _run(p, t, x, v, a, x[0], 0.0, x.shape[0] - 1, out, 0, 0, pace * (x.shape[0] - 1), tol, pace)[3]
 
 
 def kernel_arrays(*arrays) -> list:
@@ -315,26 +284,25 @@ def ydot_batch(TH, t, x, v, a, tol=_TOL, pace=STEPS_PER_SAMPLE):
     t, x, v, a = kernel_arrays(t, x, v, a)
     out = np.empty((TH.shape[0], x.shape[0]))
     status = np.zeros(TH.shape[0], dtype=np.int8)
-    preroll = preroll_end(x, v)
     threads = numba.get_num_threads()
     if threads > 1 and TH.shape[0] >= 2 * threads:
-        _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol, int(pace))
+        _ydot_parallel(TH, t, x, v, a, out, status, tol, int(pace))
     else:
-        _ydot_serial(TH, t, x, v, a, preroll, out, status, tol, int(pace))
+        _ydot_serial(TH, t, x, v, a, out, status, tol, int(pace))
     return out, status
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol, pace):
+def _ydot_parallel(TH, t, x, v, a, out, status, tol, pace):
     for i in numba.prange(TH.shape[0]):
-        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol, pace)
+        status[i] = _ydot_into(TH[i], t, x, v, a, out[i], tol, pace)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
-def _ydot_serial(TH, t, x, v, a, preroll, out, status, tol, pace):
+def _ydot_serial(TH, t, x, v, a, out, status, tol, pace):
     for i in range(TH.shape[0]):
-        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol, pace)
+        status[i] = _ydot_into(TH[i], t, x, v, a, out[i], tol, pace)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf

@@ -7,8 +7,7 @@ those of the plain simulation and ẏ is the same numbers):
 
     Ṡ_y = ∂ẏ/∂y·S_y + ∂ẏ/∂w·S_w + ∂ẏ/∂θ,   Ṡ_w = ∂ẇ/∂y·S_y + ∂ẇ/∂w·S_w + ∂ẇ/∂θ,
 
-from S = 0 at the first state (rest, or the pre-roll's start: the state after the pre-roll carries
-its S). ∂ẏ/∂θ at a sample is then ∂ẏ/∂y·S_y + ∂ẏ/∂w·S_w + ∂ẏ/∂θ. The switch between loading and
+from S = 0 at the first state (rest at the first sample the kernel is given). ∂ẏ/∂θ at a sample is then ∂ẏ/∂y·S_y + ∂ẏ/∂w·S_w + ∂ẏ/∂θ. The switch between loading and
 unloading (c = 1 or η) is a kink of the rates, differentiated on either side (it is crossed at
 isolated instants). The sensitivities take the Rosenbrock-W stages with the same matrix W as the
 state (the 2×2 Jacobian of the rates, for each θ_j: W applied to (S_y, S_w)): the augmented system's
@@ -55,7 +54,6 @@ from bwbench.models.spencer_kernel import (
     _step_factor,
     _step_inverse,
     kernel_arrays,
-    preroll_end,
     with_reciprocals,
 )
 
@@ -309,28 +307,19 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total,
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S, tol, pace):
+def _ydot_sens_into(p, t, x, v, a, out, out_S, tol, pace):
     """ẏ (mm/s) and ∂ẏ/∂θ at every sample (as ``spencer_kernel._ydot_into``); the status."""
-    total = pace * (x.shape[0] - 1 + preroll)
     p = with_reciprocals(p)
-    y, w = x[0], 0.0
     Sy = np.zeros(_D)
     Sw = np.zeros(_D)
-    used = 0
-    if preroll > 0:
-        y, w, used, status = _run_sens(
-            p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], used, 0, total, tol, pace
-        )
-        if status != STATUS_OK:
-            return status
-        y += x[0] - x[preroll]
-    return _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, used, preroll, total, tol, pace)[3]
+    total = pace * (x.shape[0] - 1)
+    return _run_sens(p, t, x, v, a, x[0], 0.0, Sy, Sw, x.shape[0] - 1, out, out_S, 0, 0, total, tol, pace)[3]
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
-def _ydot_sens_serial(TH, t, x, v, a, preroll, out, out_S, status, tol, pace):
+def _ydot_sens_serial(TH, t, x, v, a, out, out_S, status, tol, pace):
     for i in range(TH.shape[0]):
-        status[i] = _ydot_sens_into(TH[i], t, x, v, a, preroll, out[i], out_S[i], tol, pace)
+        status[i] = _ydot_sens_into(TH[i], t, x, v, a, out[i], out_S[i], tol, pace)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf
             out_S[i] = np.nan
@@ -345,5 +334,5 @@ def ydot_sensitivity_batch(TH, t, x, v, a, tol=_TOL, pace=STEPS_PER_SAMPLE):
     out = np.empty((TH.shape[0], x.shape[0]))
     out_S = np.empty((TH.shape[0], x.shape[0], _D))
     status = np.zeros(TH.shape[0], dtype=np.int8)
-    _ydot_sens_serial(TH, t, x, v, a, preroll_end(x, v), out, out_S, status, tol, int(pace))
+    _ydot_sens_serial(TH, t, x, v, a, out, out_S, status, tol, int(pace))
     return out, out_S, status

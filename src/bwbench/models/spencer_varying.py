@@ -22,7 +22,6 @@ from bwbench.models.spencer_kernel import (
     _interval,
     _rates,
     kernel_arrays,
-    preroll_end,
     with_reciprocals,
 )
 from bwbench.models.spencer_sensitivity import _interval_sens, _ydot_sens_at
@@ -78,7 +77,8 @@ def ydot_varying(P_int, P_smp, signal, tol=_TOL, pace=STEPS_PER_SAMPLE):
     P_int, P_smp = kernel_arrays(P_int, P_smp)
     out = np.empty(x.shape[0])
     good = bool(np.all(np.isfinite(P_int)) and np.all(P_int[:, 0] > 0) and np.all(P_smp[:, 0] > 0))
-    status = _ydot_varying(P_int, P_smp, t, x, v, a, preroll_end(x, v), out, tol, int(pace)) if good else STATUS_BLOW_UP
+    # the kernel starts at rest at the first sample it is given: the start rule is the problem's (models/start.py)
+    status = _ydot_varying(P_int, P_smp, t, x, v, a, 0, out, tol, int(pace)) if good else STATUS_BLOW_UP
     if status != STATUS_OK:
         out[:] = np.inf
     return out, status
@@ -230,7 +230,7 @@ def ydot_sensitivity_varying(P_int, P_smp, B_int, B_smp, signal, tol=_TOL, pace=
     out_S = np.empty((x.shape[0], B_int.shape[2]))
     good = bool(np.all(np.isfinite(P_int)) and np.all(P_int[:, 0] > 0) and np.all(P_smp[:, 0] > 0))
     status = (
-        _ydot_sens_varying(P_int, P_smp, B_int, B_smp, t, x, v, a, preroll_end(x, v), out, out_S, tol, int(pace))
+        _ydot_sens_varying(P_int, P_smp, B_int, B_smp, t, x, v, a, 0, out, out_S, tol, int(pace))
         if good
         else STATUS_BLOW_UP
     )

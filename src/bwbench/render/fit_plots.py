@@ -24,6 +24,20 @@ STYLE: Any = {
 MEASURED = {"color": "0.35", "lw": 0.9, "label": "measured"}
 MODEL = {"color": "tab:red", "lw": 1.1, "label": "model"}
 PANELS = 4
+WARMUP: Any = {"color": "0.6", "alpha": 0.25, "lw": 0, "zorder": 0}  # Any: as STYLE
+
+
+def warmup_label(seconds: float) -> str:
+    return f"warm-up, {seconds:g} s: simulated, not in the loss"
+
+
+def shade_warmup(axes, t, warmup: int) -> None:
+    """Shade the warm-up (the first ``warmup`` samples: simulated but left out of the loss) on Axes whose
+    x axis is the time ``t`` (s); nothing when there is none."""
+    if not warmup:
+        return
+    for ax in axes:
+        ax.axvspan(t[0], t[warmup], **WARMUP)
 
 
 def velocity_of(prediction) -> np.ndarray:
@@ -74,6 +88,9 @@ def draw(prediction, axes) -> None:
         ax.set_ylabel(ylabel)
         ax.set_title(title, fontsize="medium")
     axes[0].legend(loc="best", fontsize="small")
+    shade_warmup(axes[2:], t, getattr(p, "warmup", 0))
+    if getattr(p, "warmup", 0) and len(axes) > 2:
+        axes[2].set_title(f"force against time (shaded: {warmup_label(p.warmup_s)})", fontsize="small")
 
 
 def figure(predictions, title: str | None = None, ax=None):

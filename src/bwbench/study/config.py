@@ -308,13 +308,16 @@ def config_from_arguments(
     fix_mass="auto",
     offsets: str = "branch",
     validate=None,
+    initial_state="auto",
+    warmup_s=0.0,
 ) -> StudyConfig:
     """A study over the files ``specimens`` (paths or globs, relative to the current folder) with no
     TOML and no manifest: ``bwbench compare --specimens ...``. ``model`` and ``formulation``: a name
     or comma-separated names (None: the switched model, and each model's own formulation);
     ``bounds_file``: a JSON search box, read by the problem type (it knows the parameter names);
     ``fix_mass``/``offsets``: the identifiable formulation's (read by the problem type); ``validate``:
-    held-out files (paths or globs) every fit predicts."""
+    held-out files (paths or globs) every fit predicts; ``initial_state``/``warmup_s``: how every model
+    starts each record (``bwbench.models.start``)."""
 
     def fail(message):
         raise UserError(message)
@@ -345,6 +348,8 @@ def config_from_arguments(
         model=model,
         fix_mass=fix_mass,
         offsets=offsets,
+        initial_state=initial_state,
+        warmup_s=warmup_s,
     )
     validation = ()
     if validate:

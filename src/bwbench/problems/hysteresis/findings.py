@@ -124,7 +124,7 @@ def failure_reasons(fit) -> list[str]:
     out = []
     parts = getattr(fit.problem, "parts", None) or [fit.problem]
     for part, row in zip(parts, fit.files):
-        f = np.asarray(part.specimen.f, dtype=float)
+        f = np.asarray(getattr(part, "f_loss", part.specimen.f), dtype=float)  # the samples the RMSE is of
         spread = float(np.std(f))
         if row["rmse_N"] > spread:
             hint = (

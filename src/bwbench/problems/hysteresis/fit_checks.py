@@ -17,7 +17,9 @@
   on its physical limit that the unbounded solve would put beyond it, and a searched parameter on a
   box edge that is a physical limit, are findings about the model or the data — not box warnings;
 - plausibility of every fitted parameter with its physical meaning (``Model.plausibility``);
-- the model's initial state on the record (``Model.initial_state``).
+- how the record was started, the same for every model (``bwbench.models.start``).
+
+Every check is of the samples in the loss: a warm-up left out of the loss is left out of them too.
 """
 
 from __future__ import annotations
@@ -88,15 +90,15 @@ def linear_branches(problem, params) -> dict:
     if getattr(problem, "formulation", "") != "identifiable":
         return {}
     theta = np.asarray(params, dtype=float)
-    w = problem.model.trajectories(theta[None, :], problem.signal, problem.state)[0]
-    return problem.model.linear_branches(theta, w, problem.signal, problem.state)
+    w = problem.record_trajectories(theta)[0][problem.start.loss]
+    return problem.model.linear_branches(theta, w, problem.loss_signal, problem.state)
 
 
 def energy_per_cycle(problem, params) -> tuple[float, float, float]:
     """(∮F·dx per cycle of the fitted model in N·mm, cycles, the size below which its sign is not called:
     ``LOOP_SIGN_FRACTION`` × 2·amplitude × force range, N·mm)."""
-    force = problem.simulate(np.asarray(params, dtype=float))
-    x = problem.signal.x
+    force = problem.simulate(np.asarray(params, dtype=float))[problem.start.loss]
+    x = problem.loss_signal.x
     if not np.all(np.isfinite(force)):
         return float("nan"), 0.0, 0.0
     per_cycle, cycles = loop_work(x, force)
@@ -141,10 +143,9 @@ def check(problem, params, synthetic: bool = False, at_bound: dict | None = None
     physical_limit_findings(problem, params, at_bound, out)
     failing_checks(problem, params, out)
     plausibility_findings(problem, params, out)
-    start = problem.model.initial_state(problem.signal, problem.state) if hasattr(problem, "signal") else ""
-    if start:
-        out.json["initial_state"] = start
-        out.notes.append(f"initial state: {start}")
+    if hasattr(problem, "start"):
+        out.json["initial_state"] = problem.start.describe()
+        out.notes.append(f"initial state: {problem.start.describe()}")
     error = expected_force_error(problem, params)
     if error is not None:
         out.json["velocity_estimate"] = error
@@ -225,10 +226,10 @@ def failing_checks(problem, params, out: FitChecks) -> None:
 
     if not hasattr(problem, "simulate") or not hasattr(problem, "specimen"):
         return
-    force = problem.simulate(np.asarray(params, dtype=float))
+    force = problem.simulate(np.asarray(params, dtype=float))[problem.start.loss]
     if not np.all(np.isfinite(force)):
         return
-    signal, measured = problem.signal, np.asarray(problem.specimen.f, dtype=float)
+    signal, measured = problem.loss_signal, np.asarray(problem.f_loss, dtype=float)
     energy = residual_checks.energy_split(signal.x, signal.v, force, measured)
     out.json["energy_check"] = energy
     if not energy["passed"]:

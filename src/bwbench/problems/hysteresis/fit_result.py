@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from bwbench.optimize.result import Result, finite_or_null
+from bwbench.problems.hysteresis.model_problem import start_settings
 
 # Two normalisations of the RMSE: by the largest force magnitude (bwbench's ``nrmse``, symmetric in the
 # sign of F) and by the largest force (``nrmse_max_F``), the one the MR-damper literature reports (e.g.
@@ -122,8 +123,16 @@ class FitResult:
             from bwbench.problems.hysteresis.control.fitted import of_problem
 
             return of_problem(p, dict(self.result.params))
+        initial_state, warmup_s = start_settings(p)
         return FittedModel(
-            p.model.name, p.formulation, dict(self.result.params), p.state, p.excitation, dict(self.result.units)
+            p.model.name,
+            p.formulation,
+            dict(self.result.params),
+            p.state,
+            p.excitation,
+            dict(self.result.units),
+            initial_state,
+            warmup_s,
         )
 
     def predict(self, specimen):
@@ -224,6 +233,7 @@ class FitResult:
             out["nrmse"] = self.files[0]["nrmse"]
             out["nrmse_max_F"] = self.files[0]["nrmse_max_F"]
         out["nrmse_definitions"] = dict(NRMSE_DEFINITIONS)
+        out["start"] = start_json(self.problem)
         out["units"] = {**self.result.units, **METRIC_UNITS}
         from bwbench.version import __version__
 
@@ -256,12 +266,29 @@ class FitResult:
         strict_json.write(path, self._json_values(), why=self.result.not_finite_reasons())
 
 
+def start_json(problem) -> dict:
+    """The result JSON's "start": the rule as asked and, per file, what it resolved to
+    (``bwbench.models.start.Start.to_json``)."""
+    parts = getattr(problem, "parts", None)
+    if not parts:
+        return problem.start.to_json()
+    initial_state, warmup_s = start_settings(problem)
+    first = parts[0].start.to_json()
+    return {
+        "initial_state": initial_state,
+        "warmup_s": warmup_s,
+        "rule": first["rule"],
+        "files": {p.specimen.name: p.start.to_json() for p in parts},
+        "units": first["units"],
+    }
+
+
 def per_file(problem, result: Result) -> tuple:
     """Each file's errors at the best parameters of ``result`` (see ``FitResult.files``), with both
     NRMSEs (``NRMSE_DEFINITIONS``)."""
     if hasattr(problem, "per_file"):
         params = np.array([result.params.get(n, np.nan) for n in problem.param_names])
-        specimens = [p.specimen for p in problem.parts]
+        scored = [p.f_loss for p in problem.parts]  # the force after each file's warm-up
         if np.all(np.isfinite(params)):
             rows = list(problem.per_file(params))
         else:
@@ -276,10 +303,8 @@ def per_file(problem, result: Result) -> tuple:
                 }
                 for p, w in zip(problem.parts, problem.file_weight)
             ]
-        return tuple(
-            {**row, "nrmse_max_F": _over_max_force(row["rmse_N"], spec.f)} for row, spec in zip(rows, specimens)
-        )
-    peak = float(np.max(np.abs(problem.specimen.f)))
+        return tuple({**row, "nrmse_max_F": _over_max_force(row["rmse_N"], f)} for row, f in zip(rows, scored))
+    peak = float(np.max(np.abs(problem.f_loss)))
     return (
         {
             "specimen": problem.specimen.name,
@@ -288,7 +313,7 @@ def per_file(problem, result: Result) -> tuple:
             "mse": result.mse,
             "rmse_N": result.rmse_N,
             "nrmse": result.rmse_N / peak if peak > 0 else math.inf,
-            "nrmse_max_F": _over_max_force(result.rmse_N, problem.specimen.f),
+            "nrmse_max_F": _over_max_force(result.rmse_N, problem.f_loss),
         },
     )
 

@@ -5,11 +5,13 @@ state and excitation and holds every parameter by name. ``FittedModel`` rebuilds
 those numbers alone, nothing refitted:
 
 - direct formulation: the model's own parameters through ``Model.force_batch``;
-- identifiable: the θ-dependent column w(θ) simulated on the new excitation (from the model's own
-  initial state for that record), then F = Σ β_j·g_j with the **stored** linear coefficients β
-  (``linear_columns``; a branched model's '+' set where ẋ ≥ 0, its '−' set where ẋ < 0).
+- identifiable: the θ-dependent column w(θ) simulated on the new excitation, then F = Σ β_j·g_j with
+  the **stored** linear coefficients β (``linear_columns``; a branched model's '+' set where ẋ ≥ 0,
+  its '−' set where ẋ < 0).
 
-``predict`` adds the errors: RMSE (N), and NRMSE = RMSE / max|F_measured| (–), the measure the MR-damper
+Every record starts as the fit's did (``initial_state``, ``warmup_s``: the rule of
+``bwbench.models.start``, stored in the fit's JSON under "start"). ``predict`` adds the errors over
+the samples after the warm-up: RMSE (N), and NRMSE = RMSE / max|F_measured| (–), the measure the MR-damper
 literature reports. It is what ``bwbench predict``, ``evaluate``/``simulate`` given a fit result, the
 report's held-out check and ``bwbench.FittedModel`` all use.
 """
@@ -34,7 +36,8 @@ class Prediction:
 
     ``force_N`` and ``measured_N`` (L,) in N, ``time_s`` (L,), ``displacement_mm`` (L,) the
     displacement that drove the model; ``rmse_N`` (N), ``nrmse`` = RMSE/max|measured| (–),
-    ``mse`` (N²); +inf when the model blows up on this record."""
+    ``mse`` (N²) over the samples after the first ``warmup`` (the warm-up: simulated, not scored);
+    +inf when the model blows up on this record."""
 
     specimen: str
     time_s: np.ndarray
@@ -42,15 +45,17 @@ class Prediction:
     force_N: np.ndarray
     measured_N: np.ndarray
     velocity_mm_s: np.ndarray | None = field(default=None, repr=False)  # what drove the model (for the F–v loop)
+    warmup: int = 0  # samples at the start simulated but not scored
 
     @property
     def n(self) -> int:
-        return len(self.measured_N)
+        """The samples scored (after the warm-up)."""
+        return len(self.measured_N) - self.warmup
 
     @property
     def mse(self) -> float:
         with np.errstate(over="ignore", invalid="ignore"):
-            value = float(np.mean((self.force_N - self.measured_N) ** 2))
+            value = float(np.mean((self.force_N - self.measured_N)[self.warmup :] ** 2))
         return value if math.isfinite(value) else math.inf
 
     @property
@@ -59,8 +64,13 @@ class Prediction:
 
     @property
     def nrmse(self) -> float:
-        peak = float(np.max(np.abs(self.measured_N)))
+        peak = float(np.max(np.abs(self.measured_N[self.warmup :])))
         return self.rmse_N / peak if peak > 0 else math.inf
+
+    @property
+    def warmup_s(self) -> float:
+        """The span of the warm-up (s)."""
+        return float(self.time_s[self.warmup] - self.time_s[0]) if self.warmup else 0.0
 
     def metrics(self) -> dict:
         """The numbers of this prediction by name, and their units under ``units``."""
@@ -70,13 +80,15 @@ class Prediction:
             "mse": self.mse,
             "rmse_N": self.rmse_N,
             "nrmse": self.nrmse,
-            "max_abs_force_N": float(np.max(np.abs(self.measured_N))),
+            "max_abs_force_N": float(np.max(np.abs(self.measured_N[self.warmup :]))),
+            "warmup_samples": self.warmup,
             "units": {
                 "mse": "N²",
                 "rmse_N": "N",
                 "nrmse": "– (RMSE / max|F measured|)",
                 "max_abs_force_N": "N",
-                "n": "samples",
+                "n": "samples (after the warm-up)",
+                "warmup_samples": "samples",
             },
         }
 
@@ -119,7 +131,8 @@ class FittedModel:
     ``model``: a registered model name (``bwbench models``); ``formulation``: its direct one or
     "identifiable"; ``state``: the state convention (None for a model without one); ``excitation``:
     "measured" or "sine"; ``params``: every parameter the formulation needs, by name; ``units``:
-    their units (for the record)."""
+    their units (for the record); ``initial_state`` and ``warmup_s``: how every record starts
+    (``bwbench.models.start``), as the fit started its own."""
 
     model: str
     formulation: str
@@ -127,6 +140,8 @@ class FittedModel:
     state: str | None = None
     excitation: str = "measured"
     units: dict = field(default_factory=dict)
+    initial_state: str = "auto"
+    warmup_s: float = 0.0
 
     def __post_init__(self):
         from bwbench.models import registry
@@ -144,6 +159,9 @@ class FittedModel:
             raise UserError(f'"excitation" is {self.excitation!r}: it must be one of {", ".join(EXCITATIONS)}')
         if self.state is not None and not isinstance(self.state, str):
             raise UserError(f'"state" is {self.state!r}: it must be a name or null')
+        from bwbench.models import start
+
+        start.check(self.initial_state, self.warmup_s, ('"start.initial_state"', '"start.warmup_s"'))
         model = registry.get(self.model)
         if self.formulation not in model.formulations:
             raise UserError(
@@ -206,6 +224,7 @@ class FittedModel:
                 "to read it as a parameter file"
             )
         name = data.get("model") or registry.DEFAULT
+        start = data.get("start", {})  # absent (a result written before the rule, or by hand): the default
         # null is how strict JSON writes a coefficient the fit could not have (a branch without samples)
         params = {
             k: math.nan if v is None else v
@@ -218,17 +237,28 @@ class FittedModel:
                 raise UserError(f'"units" is a JSON {type(units).__name__}, not an object of name -> unit')
             if not isinstance(name, str):
                 raise UserError(f'"model" is {name!r}: it must be a model name (see `bwbench models`)')
+            if not isinstance(start, dict):
+                raise UserError(f'"start" is {start!r}: it must be an object with initial_state and warmup_s')
             return cls(
-                name, data["formulation"], params, data.get("state"), data.get("excitation", "measured"), dict(units)
+                name,
+                data["formulation"],
+                params,
+                data.get("state"),
+                data.get("excitation", "measured"),
+                dict(units),
+                start.get("initial_state", "auto"),
+                start.get("warmup_s", 0.0),
             )
         except UserError as err:
             raise UserError(f"{source}: {err}") from None
 
     @classmethod
-    def from_run(cls, run) -> "FittedModel":
+    def from_run(cls, run, start: dict | None = None) -> "FittedModel":
         """The fitted model of a study's run (a row of ``Study.runs``: model, formulation, state,
-        excitation, params_json). A column the database left empty (NaN, None, "") takes its default:
-        a model without states stores none. ``UserError`` when the run's parameters cannot make a model."""
+        excitation, params_json), started as the study started its records (``start``: initial_state,
+        warmup_s; the defaults when None). A column the database left empty (NaN, None, "") takes its
+        default: a model without states stores none. ``UserError`` when the run's parameters cannot make
+        a model."""
         import json
 
         def text(key, default):
@@ -246,6 +276,7 @@ class FittedModel:
             params,
             text("state", None),
             text("excitation", "measured"),
+            **(start or {}),
         )
 
     @classmethod
@@ -257,7 +288,8 @@ class FittedModel:
 
     def describe(self) -> str:
         state = f", {self.state} state" if self.state else ""
-        return f"{self.model} ({self.formulation} formulation{state}, {self.excitation} excitation)"
+        start = f", initial state {self.initial_state}" + (f", warm-up {self.warmup_s:g} s" if self.warmup_s else "")
+        return f"{self.model} ({self.formulation} formulation{state}, {self.excitation} excitation{start})"
 
     def signal(self, specimen):
         """The excitation this model is driven by on ``specimen`` (a ``Specimen``)."""
@@ -265,37 +297,28 @@ class FittedModel:
 
         return excitation.of_specimen(self.excitation, specimen)
 
-    def force(self, signal) -> np.ndarray:
-        """Model force (N) on an excitation (t, x, v, a); +inf everywhere where the model blows up.
-        ``UserError`` when the record moves in a direction whose coefficients the fit never saw."""
+    def start(self, signal, f=None):
+        """How a record starts (``bwbench.models.start.Start``): the fit's rule applied to ``signal`` and
+        its measured force ``f`` (N), when there is one."""
+        from bwbench.models import start
+
+        return start.plan(signal, self.initial_state, self.warmup_s, f=f)
+
+    def force(self, signal, f=None) -> np.ndarray:
+        """Model force (N) on an excitation (t, x, v, a) whose measured force is ``f`` (None: none known),
+        started by the fit's rule; +inf everywhere where the model blows up. ``UserError`` when the record
+        moves in a direction whose coefficients the fit never saw."""
         model = self._model
+        start = self.start(signal, f)
+        simulated = start.extend(signal)
         if self.formulation != IDENTIFIABLE:
             P = np.array([self.params[n] for n in self.needed()], dtype=float)
-            return model.force_batch(P[None, :], signal, self.state)[0]
-        from bwbench.problems.hysteresis.linear.columns import branch_masks, signal_column
+            return start.crop(model.force_batch(P[None, :], simulated, self.state))[0]
+        from bwbench.problems.hysteresis.linear.columns import linear_force
 
         theta = np.array([self.params[p.name] for p in model.hysteretic_parameters(self.state)], dtype=float)
-        w = model.trajectories(theta[None, :], signal, self.state)[0]
-        layout = model.linear_layout(self.state)
-        F = np.zeros(len(signal.x))
-        if layout.mass:
-            F += self.params[layout.mass] * np.asarray(signal.a, dtype=float)
-        for b, mask in branch_masks(layout, signal.v).items():
-            if not mask.any():
-                continue
-            coefficients = {name: self.params[f"{name}{b}"] for name, _ in layout.fixed}
-            coefficients[layout.varying] = self.params[f"{layout.varying}{b}"]
-            unknown = [f"{n}{b}" for n, v in coefficients.items() if not math.isfinite(v)]
-            if unknown:
-                raise UserError(
-                    f"the record moves in branch {b} (ẋ {'≥' if b == '+' else '<'} 0), whose "
-                    f"coefficients ({', '.join(unknown)}) the fit's data never had"
-                )
-            for name, source in layout.fixed:
-                F += coefficients[name] * signal_column(signal, source, mask)
-            with np.errstate(invalid="ignore", over="ignore"):
-                F += coefficients[layout.varying] * np.where(mask, w, 0.0)
-        return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
+        w = start.crop(model.trajectories(theta[None, :], simulated, self.state))[0]
+        return linear_force(model.linear_layout(self.state), self.params, signal, w, strict=True)
 
     def predict(self, specimen) -> Prediction:
         """The force on ``specimen`` (a specimen CSV's path, a ``Specimen`` or a DataFrame with the file's
@@ -306,9 +329,10 @@ class FittedModel:
             spec.name,
             np.asarray(spec.t, dtype=float),
             np.asarray(signal.x, dtype=float),
-            self.force(signal),
+            self.force(signal, spec.f),
             np.asarray(spec.f, dtype=float),
             np.asarray(signal.v, dtype=float),
+            self.start(signal, spec.f).warmup,
         )
 
     def simulate(self, specimen):
@@ -325,7 +349,7 @@ class FittedModel:
                 "displacement_mm": s.x,
                 "velocity_mm_s": s.v,
                 "acceleration_mm_s2": s.a,
-                "force_model_N": self.force(s),
+                "force_model_N": self.force(s, spec.f),
                 "force_measured_N": spec.f,
             }
         )
@@ -349,6 +373,7 @@ class FittedModel:
             "excitation": self.excitation,
             "params": dict(self.params),
             "units": dict(self.units),
+            "start": {"initial_state": self.initial_state, "warmup_s": self.warmup_s},
         }
 
 

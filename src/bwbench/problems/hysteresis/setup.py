@@ -169,12 +169,16 @@ def setup_fit(
     laws=None,
     control_filter: bool = False,
     law_search: tuple | None = None,
+    initial_state: str = "auto",
+    warmup: float = 0.0,
 ) -> FitSetup:
     """The ``FitSetup`` of ``data`` (a path, ``Specimen`` or DataFrame, or a list of them: a joint fit)
     with these settings (see ``checked_settings``). ``bounds``: {name: (lower, upper)} or the path of
     a JSON file of them (searched names set the search box, solved coefficients bound the linear
     solve); a given box is probed at its corners before any fit, the probe announced on ``log``.
-    ``force_needed``: refuse a file without force (a fit; not a simulation). ``control`` (a column
+    ``force_needed``: refuse a file without force (a fit; not a simulation). ``initial_state`` ("auto",
+    "rest", "pre-roll") and ``warmup`` (s): how every model starts each record and what the loss leaves
+    out (``bwbench.models.start``). ``control`` (a column
     ``<quantity>_<unit>`` or ``COLUMN=VALUE``), ``control_levels`` ({file: level}), ``laws``
     ({parameter: law} or "auto"), ``control_filter``: one model across a control range
     (``problems.hysteresis.control``; ``law_search``: optimizer, budget, seed of ``auto``'s per-level
@@ -232,6 +236,9 @@ def setup_fit(
             settings["bounds"] = bounds_mod.validate(table, names, bounds_file or "bounds")
         except InputFileError as err:
             raise _other_formulation_hint(err, table, chosen, settings, chosen_from_data) from None
+    from bwbench.models import start as start_rule
+
+    settings["initial_state"], settings["warmup_s"] = start_rule.check(initial_state, warmup)
     problem_settings = {k: v for k, v in settings.items() if v is not None or k == "fix_mass"}
     if problem_settings.get("offsets") is None:
         problem_settings.pop("offsets", None)

@@ -25,6 +25,7 @@ from bwbench.problems.hysteresis.report.figure_common import (
     travel_arrows,
     truth,
 )
+from bwbench.render.fit_plots import WARMUP, shade_warmup, warmup_label
 from bwbench.render.palette import (
     MAX_WIDTH_IN,
     OKABE_ITO,
@@ -154,17 +155,21 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
         steady=steady.part if steady.ramped else None,
     )
     error = fitted - spec.f
-    rmse = float(np.sqrt(np.mean(error**2)))
+    scored = problem.start.loss  # a warm-up is simulated and drawn, but not in the loss: shaded
+    rmse = float(np.sqrt(np.mean(error[scored] ** 2)))
     residual.plot(spec.t, error, **style.line(lw=0.9, ls="-"))
+    shade_warmup([force, residual], spec.t, problem.start.warmup)
     residual.axhline(0.0, color="black", lw=0.8)
     limit = _residual_limit({"fit": error})
     residual.set_ylim(-limit, limit)
     residual.set_ylabel("model − measured (N)")
     residual.set_xlabel("time t (s)")
-    residual.set_title(f"residual: RMSE {rmse:.3g} N, NRMSE {nrmse_pair(rmse, spec.f)[1]:.3g} (RMSE/max F)", loc="left")
+    residual.set_title(
+        f"residual: RMSE {rmse:.3g} N, NRMSE {nrmse_pair(rmse, problem.f_loss)[1]:.3g} (RMSE/max F)", loc="left"
+    )
     _mark_reversals([force, residual], spec.t, turns)
     formulation = getattr(problem, "formulation", "paper")
-    handles = [
+    handles: list = [
         Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
         style.handle(f"fitted model ({result.optimizer})", marker=False),
         REVERSAL,
@@ -181,8 +186,10 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
                 label=f"ramp cycles, lighter ({steady.describe()})",
             )
         )
-    legend(fig, handles, ncol=2 if steady.ramped else 3)
-    nrmse_abs, nrmse_max = nrmse_pair(rmse, spec.f)
+    if problem.start.warmup:
+        handles.append(Patch(**WARMUP, label=warmup_label(problem.start.warmup_s)))
+    legend(fig, handles, ncol=2 if len(handles) > 3 else 3)
+    nrmse_abs, nrmse_max = nrmse_pair(rmse, problem.f_loss)
     title(
         fig,
         f"{spec.name} — {problem.model.name} ({formulation} formulation), {result.optimizer}, seed "
@@ -321,12 +328,15 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     residual.set_xlabel("time t (s)")
     residual.set_title("residual of the best run of each backend", loc="left")
     _mark_reversals([force_ax, residual], spec.t, turns)
+    shade_warmup([force_ax, residual], spec.t, best_problem.start.warmup)
     text = {o: f"{o}: RMSE {np.sqrt(fits[o][0]['mse']):.3g} N (seed {int(fits[o][0]['replicate'])})" for o in shown}
     handles: list[Any] = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"})]
     handles += backend_handles(look, shown, text, marker=False)
     handles.append(REVERSAL)
     if noise is not None:
         handles.append(Patch(color="0.85", label=f"±2σ of the noise (truth's residual, σ = {noise:.2g} N)"))
+    if best_problem.start.warmup:
+        handles.append(Patch(**WARMUP, label=warmup_label(best_problem.start.warmup_s)))
     if band is not None:
         handles.append(
             Patch(
@@ -362,5 +372,5 @@ def _noise_band(study, specimen, cache):
     if params is None:
         return None
     problem = problem_for(study, specimen, "paper", cache)
-    error = problem.simulate(params) - problem.specimen.f
+    error = (problem.simulate(params) - problem.specimen.f)[problem.start.loss]
     return float(np.sqrt(np.mean(error**2))) if np.all(np.isfinite(error)) else None

@@ -21,6 +21,7 @@ from bwbench.render.labels import split_label
 
 def setup_text(report) -> str:
     from bwbench.models import registry
+    from bwbench.models.start import rule_text
 
     s = report.study.settings
     models = s.get("model", registry.DEFAULT)
@@ -43,9 +44,10 @@ def setup_text(report) -> str:
         titles = [f"{m} ({registry.get(m).title})" for m in models]
         model_text = ("models compared side by side: " if len(models) > 1 else "model: ") + ", ".join(titles) + "; "
     state = f"state convention **{s.get('state', '?')}**, " if any(registry.get(m).states for m in models) else ""
+    start = rule_text(s.get("initial_state", "auto"), s.get("warmup_s", 0.0))
     return (
         f"{model_text[:1].upper() + model_text[1:]}{'m' if model_text else 'M'}odel {state}excitation "
-        f"**{s.get('excitation', '?')}**; {label}: {text}."
+        f"**{s.get('excitation', '?')}**; every model starts each record the same way: {start}; {label}: {text}."
     )
 
 
