@@ -132,6 +132,9 @@ def fit(
     if stop not in ("agreed", "budget"):
         raise UserError(f"--stop must be 'agreed' or 'budget', got {stop!r}")
     options = backends.resolve_options(optimizer, dict(options or {}))
+    from bwbench.models import start
+
+    start.check(initial_state, warmup, ("initial_state", "warmup"))  # the API's own words for the start
     with threads_mod.limited(threads_mod.check(threads)):
         setup = setup_fit(
             list(data),

@@ -239,6 +239,8 @@ def setup_fit(
     from bwbench.models import start as start_rule
 
     settings["initial_state"], settings["warmup_s"] = start_rule.check(initial_state, warmup)
+    if controlled and settings["warmup_s"]:
+        raise UserError("--warmup does not apply to a fit across a control yet: its files are scored whole")
     problem_settings = {k: v for k, v in settings.items() if v is not None or k == "fix_mass"}
     if problem_settings.get("offsets") is None:
         problem_settings.pop("offsets", None)

@@ -312,9 +312,10 @@ class ControlledProblem:
         return out
 
     def _plain(self, part, theta, kind):
+        # each file starts by the common rule (``bwbench.models.start``): its pre-roll simulated and cropped
         if kind == "trajectory":
-            return self.model.trajectories(theta, part.signal, self.state)
-        return self.model.force_batch(theta, part.signal, self.state)
+            return part.start.crop(self.model.trajectories(theta, part.sim_signal, self.state))
+        return part.start.crop(self.model.force_batch(theta, part.sim_signal, self.state))
 
     def _plain_varying(self, part, theta_int, theta_smp, kind):
         if kind == "trajectory":
@@ -478,13 +479,15 @@ class ControlledProblem:
             theta = self._theta(c, np.array([level]))[0]
             T = self._theta_jacobian(c, level)
             if self.design is not None:
-                found = self.model.trajectory_sensitivities(theta, part.signal, self.state)
+                found = self.model.trajectory_sensitivities(theta, part.sim_signal, self.state)
             else:
-                found = self.model.force_sensitivities(theta, part.signal, self.state)
+                found = self.model.force_sensitivities(theta, part.sim_signal, self.state)
             if found is None:
                 return None
             if found[1] is None:
                 return np.full(self.N, np.inf), None
+            k = part.start.preroll  # the pre-roll's samples cropped: (L,) values, (L, d) derivatives
+            found = (found[0][k:], found[1][k:])
             values.append(found[0])
             derivatives.append(found[1] @ T)
         z, dZ = np.concatenate(values), np.concatenate(derivatives, axis=0)
