@@ -54,7 +54,9 @@ def refuse_edited_runs(db) -> None:
 def export_csv(db, path) -> None:
     """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
     each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
-    read_runs(db).to_csv(path, index=False)
+    from bwbench.data.output_paths import write_frame
+
+    write_frame(read_runs(db), path, index=False)
 
 
 def summary_table(db, problem_type=None) -> str:

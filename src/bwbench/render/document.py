@@ -49,7 +49,9 @@ class Document:
         if len(frame) > COLLAPSE_ROWS:
             csv = csv or f"table_{_slug(caption or 'data')}.csv"
             self.out_dir.mkdir(parents=True, exist_ok=True)
-            frame.to_csv(self.out_dir / csv, index=False)
+            from bwbench.data.output_paths import write_frame
+
+            write_frame(frame, self.out_dir / csv, index=False)
         self.blocks.append(("table", frame, caption, csv if len(frame) > COLLAPSE_ROWS else None))
 
     def figure(self, png: Path, caption: str):

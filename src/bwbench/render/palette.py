@@ -348,7 +348,9 @@ def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool | st
     out_dir.mkdir(parents=True, exist_ok=True)
     png = out_dir / f"{stem}.png"
     write_png(fig, png, synthetic_data, rect)
-    frame.to_csv(png.with_suffix(".csv"), index=False, float_format="%.6g")
+    from bwbench.data.output_paths import write_frame
+
+    write_frame(frame, png.with_suffix(".csv"), index=False, float_format="%.6g")
     return png
 
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bwbench.analysis import comparisons, statistics
-from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder
+from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder, refuse_link_out, write_frame, write_text
 from bwbench.errors import UserError
 from bwbench.render.document import Document
 from bwbench.render.labels import variant_noun
@@ -148,6 +148,8 @@ def build_report(
     out = Path(out)
     refuse_inputs_in_folder("--out", out, [db, *report_inputs(study)], REPORT_SUFFIXES)
     check_folder("--out", out)
+    for name in ("report.md", "report.html", "ranking.csv", "comparisons.csv"):
+        refuse_link_out(out / name, "--out")  # before any work: a link out of the folder is not written through
     out.mkdir(parents=True, exist_ok=True)
     problem_type = study.problem_type
     print("ranking: statistics and the recommendation ...", file=log, flush=True)
@@ -185,16 +187,18 @@ def build_report(
     sections.setup(report)
     problem_type.report_intro(report)
     sections.ranking(report)
-    table.assign(verdict=[report.verdict.role(n) for n in table["optimizer"]]).to_csv(out / "ranking.csv", index=False)
-    sections.comparisons_frame(report).to_csv(out / "comparisons.csv", index=False)
+    write_frame(
+        table.assign(verdict=[report.verdict.role(n) for n in table["optimizer"]]), out / "ranking.csv", index=False
+    )
+    write_frame(sections.comparisons_frame(report), out / "comparisons.csv", index=False)
     report.progress("figures: convergence, runtime distributions, waterfall")
     sections.run_figures(report)
     problem_type.report_sections(report)
     sections.limits(report)
 
-    (out / "report.md").write_text(doc.markdown(), encoding="utf-8")
+    write_text(out / "report.md", doc.markdown())
     html_path = out / "report.html"
-    html_path.write_text(doc.html(f"bwbench report: {title}"), encoding="utf-8")
+    write_text(html_path, doc.html(f"bwbench report: {title}"))
     if announce is not None:
         line = one_line(report.verdict, table.set_index("optimizer"), study.settings.get("budget", "?"))
         print((f"{provisional[0].upper()}{provisional[1:]}: " if provisional else "") + line, file=announce)
