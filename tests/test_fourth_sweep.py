@@ -139,3 +139,71 @@ def test_two_spellings_of_one_database_take_one_lock(tmp_path):
                     pass
     with StudyLock(tmp_path / "link.sqlite"):  # released: any spelling takes it
         pass
+
+
+# ------------------------------------------------------------------ markup from data
+
+
+def test_report_markdown_carries_no_markup_from_data(tmp_path):
+    """A specimen, a manifest field and a column named with HTML: inert in report.md (a Markdown viewer
+    renders inline HTML), as in report.html; "p < 0.05" still reads as written."""
+    import pandas as pd
+
+    from bwbench.render.document import Document
+
+    name = "<img src=x onerror=alert(1)>"
+    doc = Document(tmp_path)
+    doc.h(3, name)
+    doc.p("material <script>alert(1)</script>, p < 0.05, a [link](javascript:alert(1))")
+    doc.bullets([f"{name}\n| injected | row |"])
+    doc.table(pd.DataFrame({"<b onmouseover=x>": [name], "n": [1]}), caption=name)
+    doc.pre("```\n<script>x</script>")
+    markdown = doc.markdown()
+    outside_code = markdown.split("````")[0]  # inside a fence, text is shown as text
+    for raw in ("<img", "<script", "<b ", "](javascript"):
+        assert raw not in outside_code, markdown
+    assert "&lt;img src=x onerror=alert(1)>" in markdown and "p < 0.05" in markdown
+    assert "\n| injected" not in markdown  # the list item stays one line: no table row injected
+    assert markdown.count("````") == 2  # the fence outlasts the text's own backticks
+    html_text = doc.html("t")
+    assert "<img src=x" not in html_text and "<script>" not in html_text
+
+
+def test_fit_plot_draws_a_mathtext_name_as_written(lab):
+    """``r$\\undefinedmacro$.csv`` crashed ``fit --plot`` (ParseFatalException in mathtext)."""
+    shutil.copy(lab / "in" / "mr.csv", lab / "r$\\undefinedmacro$.csv")
+    done = bwbench(
+        "fit",
+        "r$\\undefinedmacro$.csv",
+        "--optimizer",
+        "random",
+        "--budget",
+        "5",
+        "--out",
+        "m.json",
+        "--plot",
+        "m.png",
+        cwd=lab,
+    )
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    assert (lab / "m.png").stat().st_size > 10_000
+
+
+def test_literal_text_keeps_the_tick_labels_mathtext(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    from bwbench.render.literal_text import make_literal
+
+    fig = Figure()
+    ax = fig.subplots()
+    ax.loglog([1, 10, 1000], [1e-3, 1, 1e5])
+    ax.set_title("r$\\undefinedmacro$")
+    ax.legend(["$\\nope$"])
+    make_literal(fig)
+    fig.savefig(tmp_path / "f.png")  # mathtext would raise on the title and the legend
+    fig.canvas.draw()
+    assert ax.xaxis.get_major_ticks()[2].label1.get_parse_math()
+    assert not ax.title.get_parse_math()

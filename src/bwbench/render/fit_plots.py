@@ -72,7 +72,7 @@ def draw(prediction, axes) -> None:
         plot(ax)
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
-        ax.set_title(title, fontsize="medium")
+        ax.set_title(title, fontsize="medium", parse_math=False)  # a specimen's name, as written
     axes[0].legend(loc="best", fontsize="small")
 
 
@@ -93,7 +93,7 @@ def figure(predictions, title: str | None = None, ax=None):
         for row, prediction in zip(grid, predictions):
             draw(prediction, row)
         if title:
-            fig.suptitle(title, fontsize="medium")
+            fig.suptitle(title, fontsize="medium", parse_math=False)  # names from the data, as written
     show_inline()
     return fig
 
