@@ -14,10 +14,12 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 
+from bwbench import cli
 from bwbench.errors import UserError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -207,3 +209,79 @@ def test_literal_text_keeps_the_tick_labels_mathtext(tmp_path):
     fig.canvas.draw()
     assert ax.xaxis.get_major_ticks()[2].label1.get_parse_math()
     assert not ax.title.get_parse_math()
+
+
+# ------------------------------------------------------------------ signals
+
+
+def test_a_closed_terminal_ends_a_study_with_129_keeping_its_runs(tmp_path):
+    """``compare --workers 2`` on a terminal that closes (SIGHUP to the whole process group, and the
+    terminal gone: every later write to it fails): exit 129, no worker left, the finished runs kept and
+    resumed by the same command."""
+    import io
+    import pty
+    import select
+
+    import psutil
+
+    from robustness_helpers import count_runs, write_config
+
+    config = write_config(tmp_path / "hup.toml")  # 24 runs of 200 evaluations
+    db = tmp_path / "hup.sqlite"
+    pid, terminal = pty.fork()
+    if pid == 0:  # the child: bwbench on the terminal
+        os.execv(sys.executable, [sys.executable, "-m", "bwbench.cli", "compare", "--config", str(config),
+                                  "--db", str(db), "--workers", "2"])  # fmt: skip
+    try:
+        deadline = time.monotonic() + HANG
+        while count_runs(db) < 1:
+            assert time.monotonic() < deadline, "hang: no run committed"
+            if select.select([terminal], [], [], 0.05)[0]:
+                os.read(terminal, 65536)  # keep the terminal drained, as a terminal would
+        workers = psutil.Process(pid).children(recursive=True)
+        os.close(terminal)  # the terminal closes: the kernel sends SIGHUP to its process group
+        while not (ended := os.waitpid(pid, os.WNOHANG))[0]:
+            assert time.monotonic() < deadline, "hang after SIGHUP"
+            time.sleep(0.05)
+    finally:
+        try:
+            os.kill(pid, 9)
+        except ProcessLookupError:
+            pass
+    assert os.waitstatus_to_exitcode(ended[1]) == 129
+    time.sleep(1)  # a grace period for the kernel to deliver the workers' death signals
+    assert not [p for p in workers if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
+    kept = count_runs(db)
+    assert 1 <= kept < 24
+    from bwbench.study.config import load_study_config
+    from bwbench.study.execute import run_study
+
+    outcome = run_study(load_study_config(config), db, workers=1, log=io.StringIO())
+    assert (outcome.already, outcome.recorded) == (kept, 24 - kept)
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGHUP"])
+def test_a_signal_swallowed_by_a_library_still_ends_the_command_stopped(sig, monkeypatch, capsys):
+    """A library that catches the exception of Ctrl-C (or of a hangup) and carries on cannot turn a
+    stopped command into a success: exit 128 + the signal, one line."""
+    import signal
+
+    from bwbench.commands import models
+
+    def swallowing(args):
+        try:
+            os.kill(os.getpid(), getattr(signal, sig))
+            time.sleep(1)  # the handler runs here
+        except BaseException:  # what a careless library does
+            pass
+        return 0
+
+    monkeypatch.setattr(models, "list_models", swallowing)
+    previous = signal.signal(signal.SIGHUP, lambda *_: None)  # should bwbench not handle it: not the test's end
+    try:
+        status = cli.main(["models"])
+    finally:
+        signal.signal(signal.SIGHUP, previous)
+    assert status == 128 + getattr(signal, sig)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith("no output is left half-written") and "bwbench models stopped" in err[0]

@@ -95,6 +95,7 @@ def _fit_each(args, options, workers: int) -> int:
 
     from bwbench.data import manifest
     from bwbench.data.output_paths import FIGURE_FORMATS, check_folder
+    from bwbench.study import stop
 
     stems: dict[str, str] = {}
     for path in args.specimen:
@@ -133,6 +134,7 @@ def _fit_each(args, options, workers: int) -> int:
         print(f"[{k}/{len(runs)}] {one.specimen[0]}")
         synthetic = manifest.is_synthetic(one.specimen[0])
         statuses.append(_fit_problem(one, problem, options, workers, synthetic, out, plot))
+        stop.kept.append(f"{k} of {len(runs)} fits written in {out_dir} (run the rest with --each on their files)")
     failed = sum(1 for status in statuses if status)
     print(
         f"{len(runs)} fit{'s' if len(runs) > 1 else ''} in {time.perf_counter() - started:.1f} s -> {out_dir}"

@@ -50,9 +50,11 @@ def die_with_parent(parent_pid: int) -> None:
 
 def _init_worker(parent_pid: int) -> None:
     die_with_parent(parent_pid)
-    # Ctrl-C reaches the whole foreground process group: the study process alone handles it (it
-    # kills the workers), rather than every worker printing its own KeyboardInterrupt traceback.
+    # Ctrl-C and a closed terminal (SIGHUP) reach the whole foreground process group: the study
+    # process alone handles them (it kills the workers and keeps the finished runs), rather than every
+    # worker printing its own KeyboardInterrupt traceback or dying with its run.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
 
 
 # Tries of one run whose worker died under it, in one call: a SIGKILL from outside or the OOM killer
