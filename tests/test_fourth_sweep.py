@@ -285,3 +285,64 @@ def test_a_signal_swallowed_by_a_library_still_ends_the_command_stopped(sig, mon
     assert status == 128 + getattr(signal, sig)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].endswith("no output is left half-written") and "bwbench models stopped" in err[0]
+
+
+# ------------------------------------------------------------------ networks that never answer
+
+
+@pytest.fixture()
+def listener():
+    """A local TCP port served by ``answer(conn)`` in a thread; yields a function making one."""
+    import socket
+    import threading
+
+    sockets = []
+
+    def serve(answer):
+        server = socket.socket()
+        server.bind(("127.0.0.1", 0))
+        server.listen(8)
+        sockets.append(server)
+
+        def loop():
+            while True:
+                try:
+                    conn, _ = server.accept()
+                except OSError:
+                    return
+                sockets.append(conn)
+                answer(conn)
+
+        threading.Thread(target=loop, daemon=True).start()
+        return f"tcp://127.0.0.1:{server.getsockname()[1]}"
+
+    yield serve
+    for s in sockets:
+        s.close()
+
+
+def test_a_scheduler_that_accepts_and_never_answers_is_one_line(lab, listener):
+    """The port accepts the connection and says nothing (a dead proxy, a stopped process): one line
+    after the wait, exit 2, no database made. It was a wait with no end."""
+    address = listener(lambda conn: None)
+    done = bwbench(
+        "compare", "--specimens", "in/mr.csv", "--optimizers", "random", "--seeds", "1", "--budget", "5",
+        "--scheduler", address, "--db", "s.sqlite", cwd=lab, env={"BWBENCH_SCHEDULER_WAIT_S": "2"},
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    one_error(done.stderr, f"cannot connect to the Dask scheduler at {address}: no answer within 2 s")
+    assert not (lab / "s.sqlite").exists()
+
+
+def test_a_scheduler_port_held_by_another_protocol_is_named(listener):
+    """An HTTP server on the port was reported as "not enough memory" (its answer read as a frame)."""
+    from bwbench.study.cluster import reach
+
+    def http(conn):
+        conn.recv(65536)
+        conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+        conn.close()
+
+    address = listener(http)
+    with pytest.raises(UserError, match="does not speak Dask's protocol"):
+        reach(address)
