@@ -346,3 +346,32 @@ def test_a_scheduler_port_held_by_another_protocol_is_named(listener):
     address = listener(http)
     with pytest.raises(UserError, match="does not speak Dask's protocol"):
         reach(address)
+
+
+# ------------------------------------------------------------------ a script's workers
+
+
+def test_a_script_read_from_stdin_runs_its_study_on_workers(lab):
+    """``python - < script.py`` with ``bwbench.compare(..., workers=2)``: every worker died trying to
+    run "<stdin>" again, and compare returned a Study of 0 runs with no error."""
+    script = (
+        "import bwbench\n"
+        "s = bwbench.compare(specimens=['in/mr.csv'], optimizers=['random'], seeds=2, budget=5, workers=2, db='s.sqlite')\n"
+        "print(len(s.runs))\n"
+    )
+    done = subprocess.run([sys.executable, "-"], input=script, cwd=lab, capture_output=True, text=True, timeout=HANG)
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "2"
+
+
+def test_workers_that_cannot_start_are_a_failure_not_an_empty_study(monkeypatch):
+    """Workers that die before their first run (here: numba refuses the environment they inherit)
+    raise ``WorkersCannotStart`` (a ``UserError``: the CLI's one line, the API's exception)."""
+    import numba  # noqa: F401 (imported here first: only the workers meet the broken setting)
+
+    from bwbench.study.pool import WorkersCannotStart, in_pool
+    from robustness_helpers import KeyOnly, die_or_echo
+
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "0")
+    with pytest.raises(WorkersCannotStart, match="cannot start .* died before their first run"):
+        list(in_pool([KeyOnly(("ranking", "s", "random", i)) for i in range(3)], 2, run=die_or_echo))
