@@ -375,3 +375,36 @@ def test_workers_that_cannot_start_are_a_failure_not_an_empty_study(monkeypatch)
     monkeypatch.setenv("NUMBA_NUM_THREADS", "0")
     with pytest.raises(WorkersCannotStart, match="cannot start .* died before their first run"):
         list(in_pool([KeyOnly(("ranking", "s", "random", i)) for i in range(3)], 2, run=die_or_echo))
+
+
+# ------------------------------------------------------------------ locales
+
+
+@pytest.mark.parametrize("encoding", ["latin-1", "ascii"])
+def test_a_fit_prints_on_a_latin_1_or_ascii_terminal(lab, encoding):
+    """N², ≥, … and ∮F·dx on a terminal that cannot show them (``LC_ALL=de_DE.ISO-8859-1``,
+    ``PYTHONIOENCODING=ascii``) were a UnicodeEncodeError; now ASCII words where the encoding lacks
+    the symbol, the symbol where it has it (² is Latin-1). The result file is UTF-8 JSON all the same."""
+    done = subprocess.run(
+        [sys.executable, "-m", "bwbench.cli", "fit", "in/mr.csv", "--optimizer", "random", "--budget", "5",
+         "--out", "r.json"],
+        cwd=lab, capture_output=True, timeout=HANG, stdin=subprocess.DEVNULL,
+        env={**os.environ, "PYTHONIOENCODING": encoding, "LC_ALL": "de_DE.ISO-8859-1"},
+    )  # fmt: skip
+    out, err = done.stdout.decode(encoding), done.stderr.decode(encoding)
+    assert done.returncode == 0 and "Traceback" not in err, err
+    assert ("N²" if encoding == "latin-1" else "N^2") in out
+    assert "loop-integral F" in out + err and "?" not in out.replace("?)", "").replace("? ", "")
+    assert json.loads((lab / "r.json").read_text(encoding="utf-8"))["params"]
+
+
+def test_the_ascii_words_of_the_symbols():
+    from bwbench.text_streams import HANDLER
+
+    text = "MSE 27.9 N² (∮F·dx ≥ 0 …, R̂ ≤ 1.01, ẋ < 0, 10 µm, ☃)"
+    assert (
+        text.encode("ascii", HANDLER) == b"MSE 27.9 N^2 (loop-integral F*dx >= 0 ..., R^ <= 1.01, dx/dt < 0, 10 um, ?)"
+    )
+    assert text.encode("latin-1", HANDLER).decode("latin-1") == (
+        "MSE 27.9 N² (loop-integral F·dx >= 0 ..., R^ <= 1.01, dx/dt < 0, 10 µm, ?)"
+    )

@@ -18,6 +18,7 @@ from typing import NamedTuple
 import bwbench.threads as threads
 from bwbench.errors import UserError
 from bwbench.study import stop
+from bwbench.text_streams import survive_any_locale
 from bwbench.version import __version__
 
 DESCRIPTION = """Fit hysteresis models of dampers to force–displacement tests, and compare optimisers on
@@ -128,6 +129,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     # ArviZ 0.2x announces its coming refactor once a day at import: nothing a bwbench user can act on.
     warnings.filterwarnings("ignore", message=r"\s*ArviZ is undergoing a major refactor", category=FutureWarning)
+    survive_any_locale()  # N², ≥, … on a Latin-1 or ASCII terminal: words, not a UnicodeEncodeError
     argv = sys.argv[1:] if argv is None else list(argv)
     command = next((a for a in argv if not a.startswith("-")), None)
     stop.received.clear()
