@@ -408,3 +408,97 @@ def test_the_ascii_words_of_the_symbols():
     assert text.encode("latin-1", HANDLER).decode("latin-1") == (
         "MSE 27.9 N² (loop-integral F·dx >= 0 ..., R^ <= 1.01, dx/dt < 0, 10 µm, ?)"
     )
+
+
+# ------------------------------------------------------------------ files read silently wrong
+
+
+@pytest.fixture(scope="module")
+def fit_json(tmp_path_factory):
+    """A fit result of the specimen (5 evaluations) and the specimen, in a folder of their own."""
+    folder = tmp_path_factory.mktemp("fit")
+    shutil.copy(SPECIMENS / NAME, folder / "mr.csv")
+    assert cli.main(["fit", str(folder / "mr.csv"), "--optimizer", "random", "--budget", "5", "--out",
+                     str(folder / "f.json")]) == 0  # fmt: skip
+    return folder
+
+
+def test_a_fit_converted_to_si_units_is_refused_naming_the_key(fit_json, capsys):
+    """Values and units converted to m by hand were read as mm (RMSE 5e5 N, no word)."""
+    fit = json.loads((fit_json / "f.json").read_text())
+    for b in "+-":
+        for k in ("beta", "gamma"):
+            fit["params"][k + b] *= 1000.0 ** fit["params"]["n" + b]
+            fit["units"][k + b] = f"m^-n{b}"
+    (fit_json / "si.json").write_text(json.dumps(fit))
+    status = cli.main(["evaluate", "--params", str(fit_json / "si.json"), "--specimen", str(fit_json / "mr.csv")])
+    assert status == 2
+    one_error(capsys.readouterr().err, 'si.json: units.beta+ is "m^-n+", but bwbench computes beta+ in "mm^-n+"')
+
+
+def test_a_json_key_given_twice_is_refused_naming_its_line(fit_json, capsys):
+    text = (fit_json / "f.json").read_text().replace('"A+":', '"A+": 5,\n    "A+":', 1)
+    (fit_json / "dup.json").write_text(text)
+    line = [n for n, row in enumerate(text.splitlines(), start=1) if row.strip().startswith('"A+":')][1]
+    status = cli.main(["evaluate", "--params", str(fit_json / "dup.json"), "--specimen", str(fit_json / "mr.csv")])
+    assert status == 2
+    one_error(capsys.readouterr().err, f'dup.json:{line}: the key "A+" appears twice in one object')
+
+
+def _with_force(tmp_path, name, force) -> Path:
+    lines = (SPECIMENS / NAME).read_text().splitlines()
+    j = lines[0].split(",").index("force_N")
+    rows = [line.split(",") for line in lines[1:]]
+    for row in rows:
+        row[j] = force(float(row[j]))
+    (tmp_path / name).write_text("\n".join([lines[0], *(",".join(r) for r in rows)]) + "\n")
+    return tmp_path / name
+
+
+def german(value: float) -> str:
+    """10 × the force in N, as a German export writes it: a point between thousands."""
+    whole = round(10 * value)
+    sign, whole = ("-" if whole < 0 else ""), abs(whole)
+    return f"{sign}{whole // 1000}.{whole % 1000:03d}" if whole >= 1000 else f"{sign}{whole}"
+
+
+@pytest.mark.parametrize(
+    "name, force, problem",
+    [
+        ("german.csv", german, "force_N reads like numbers with a thousands separator"),
+        ("subnormal.csv", lambda f: repr(f * 1e-312), "force_N is at most 6.11e-310 N in every row: effectively 0"),
+    ],
+)
+def test_a_force_read_silently_wrong_is_refused_by_fit(tmp_path, capsys, name, force, problem):
+    """German thousands separators (1.141 = 1141 N) were read as decimals; subnormal forces gave
+    "MSE 0". Both are refused before the fit, naming the file; ``data check`` says the same."""
+    path = _with_force(tmp_path, name, force)
+    assert (
+        cli.main(["fit", str(path), "--optimizer", "random", "--budget", "5", "--out", str(tmp_path / "r.json")]) == 2
+    )
+    one_error(capsys.readouterr().err, f"{path}: {problem}")
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_shipped_specimens_do_not_read_as_thousands():
+    from bwbench.data.plausibility import thousands_separator
+    from bwbench.data.specimen import read_specimen
+
+    assert not [p.name for p in sorted(SPECIMENS.glob("*.csv")) if thousands_separator(read_specimen(p).f)]
+
+
+@pytest.mark.parametrize("content", ['{"mine": true}', "[1, 2]", '{"specimens": 5}', "{not json"])
+def test_another_programs_manifest_beside_the_specimens_is_ignored_with_a_warning(fit_json, capsys, content):
+    """It was a TypeError or KeyError traceback; now the specimens are read as measured data, said once."""
+    folder = fit_json / "foreign"
+    folder.mkdir(exist_ok=True)
+    shutil.copy(fit_json / "mr.csv", folder / "mr.csv")
+    (folder / "manifest.json").write_text(content)
+    from bwbench import notices
+
+    notices._said.clear()  # noqa: SLF001 (said once per process: this test runs several times in one)
+    status = cli.main(["fit", str(folder / "mr.csv"), "--optimizer", "random", "--budget", "5",
+                       "--out", str(folder / "r.json")])  # fmt: skip
+    assert status == 0
+    err = capsys.readouterr().err
+    assert f"warning: {folder / 'manifest.json'} is not a bwbench manifest" in err and "Traceback" not in err

@@ -16,6 +16,7 @@ import warnings
 from typing import NamedTuple
 
 import bwbench.threads as threads
+from bwbench import notices
 from bwbench.errors import UserError
 from bwbench.study import stop
 from bwbench.text_streams import survive_any_locale
@@ -139,10 +140,14 @@ def main(argv=None) -> int:
         # the status a shell expects (128 + the signal), even if a library swallowed the exception.
         with stop.signals_raise((signal.SIGINT, signal.SIGTERM, signal.SIGHUP)):
             threads.check_environment()  # before a command imports numba, which fails on NUMBA_NUM_THREADS=0
+            notices.writable_matplotlib_folder()  # before a command imports matplotlib
             args = build_parser(command).parse_args(argv)
             # one thread per process unless --threads (or fit's --workers) asks for more
             fit_workers = getattr(args, "workers", 1) if command == "fit" else 1  # compare's are processes
-            with threads.environment(max(getattr(args, "threads", 1), fit_workers or 1)):
+            with (
+                threads.environment(max(getattr(args, "threads", 1), fit_workers or 1)),
+                notices.command_line_warnings(),
+            ):
                 status = args.func(args)
         if stop.received and status != 128 + stop.received[0]:  # swallowed on its way: still a stop
             return _stopped(command, stop.received[0])
