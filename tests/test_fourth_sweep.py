@@ -502,3 +502,114 @@ def test_another_programs_manifest_beside_the_specimens_is_ignored_with_a_warnin
     assert status == 0
     err = capsys.readouterr().err
     assert f"warning: {folder / 'manifest.json'} is not a bwbench manifest" in err and "Traceback" not in err
+
+
+# ------------------------------------------------------------------ settings accepted silently
+
+
+def _toml(tmp_path, extra_study="", tables="") -> Path:
+    shutil.copy(SPECIMENS / NAME, tmp_path / "mr.csv")
+    path = tmp_path / "s.toml"
+    path.write_text(
+        f'[study]\nname = "t"\nseed = 1\nbudget = 5\nseeds = 1\n{extra_study}'
+        f'[specimens]\nfiles = ["mr.csv"]\n[optimizers]\nrandom = {{}}\n{tables}'
+    )
+    return path
+
+
+def test_an_infinite_mass_in_a_toml_is_refused(tmp_path, capsys):
+    config = _toml(tmp_path, 'formulation = "identifiable"\nfix_mass = inf\n')
+    assert cli.main(["compare", "--config", str(config), "--db", str(tmp_path / "s.sqlite"), "--workers", "1"]) == 2
+    one_error(capsys.readouterr().err, "[study] fix_mass must be", "a finite mass ≥ 0", "got inf")
+    assert not (tmp_path / "s.sqlite").exists()
+
+
+def test_a_posterior_of_an_optimiser_or_of_ten_evaluations_is_said(tmp_path):
+    """``[posterior] optimizer = "cmaes"`` ran an optimiser as a sampler and the report dropped the
+    section without a word; ``budget = 10`` could draw nothing. Both are accepted, with a warning."""
+    import warnings
+
+    from bwbench.notices import BwbenchWarning
+    from bwbench.study.config import load_study_config
+
+    config = _toml(tmp_path, tables='[posterior]\noptimizer = "cmaes"\nbudget = 10\n')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_study_config(config)
+    said = [str(w.message) for w in caught if issubclass(w.category, BwbenchWarning)]
+    assert any('optimizer "cmaes" is an optimiser (evolution-strategy), not a sampler' in s for s in said), said
+    assert any("[posterior] budget = 10: below 1000 evaluations" in s for s in said), said
+
+
+def test_weighting_without_a_joint_fit_and_a_copy_in_one_are_refused(lab, capsys):
+    shutil.copy(lab / "in" / "mr.csv", lab / "in" / "copy.csv")
+    fit = ["fit", "--optimizer", "random", "--budget", "5"]
+    assert (
+        cli.main([*fit, "--each", str(lab / "in" / "mr.csv"), "--weighting", "samples", "--out", str(lab / "o")]) == 2
+    )
+    one_error(
+        capsys.readouterr().err, "--weighting samples weighs the files of a joint fit; --each fits every file alone"
+    )
+    assert cli.main([*fit, str(lab / "in" / "mr.csv"), str(lab / "in" / "copy.csv"), "--out", str(lab / "j.json")]) == 2
+    one_error(
+        capsys.readouterr().err, "copy.csv holds the same bytes as", "mr.csv: a joint fit would count one test twice"
+    )
+    assert not (lab / "j.json").exists()
+
+
+def test_a_dataframe_with_complex_or_twice_named_forces_is_a_user_error():
+    import pandas as pd
+
+    from bwbench.data.specimen import read_specimen
+    from bwbench.data.specimen_input import from_frame
+
+    s = read_specimen(SPECIMENS / NAME)
+    frame = pd.DataFrame({"time_s": s.t, "displacement_mm": s.x, "force_N": s.f})
+    with pytest.raises(UserError, match="column force_N holds complex numbers"):
+        from_frame(frame.assign(force_N=s.f + 1e-3j))
+    with pytest.raises(UserError, match="column force_N appears twice"):
+        from_frame(pd.concat([frame, frame[["force_N"]]], axis=1))
+
+
+def test_a_deleted_working_folder_is_named(tmp_path):
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    done = subprocess.run(
+        ["sh", "-c", f'cd "{gone}" && rmdir "{gone}" && exec "{sys.executable}" -m bwbench.cli data check x.csv'],
+        capture_output=True, text=True, timeout=HANG, env={**os.environ, "PYTHONPATH": str(REPO / "src")},
+    )  # fmt: skip
+    assert done.returncode == 2
+    one_error(done.stderr, "the current folder no longer exists")
+
+
+def test_a_held_out_file_edited_after_the_study_is_refused_by_the_report(tmp_path):
+    """The report compared fits with a [validation] file that had changed since the study ran."""
+    from types import SimpleNamespace
+
+    from bwbench.data.identity import files_sha256
+    from bwbench.report.build import refuse_changed_data
+
+    for name in ("a", "held"):
+        shutil.copy(SPECIMENS / NAME, tmp_path / f"{name}.csv")
+    digest = files_sha256([tmp_path / "a.csv"], [""])
+    study = SimpleNamespace(
+        config={"specimens": {"a": digest}, "validation": {"held": digest}},
+        specimens=["a"],
+        specimen_path=lambda name: tmp_path / f"{name}.csv",
+    )
+    refuse_changed_data(study)  # both as the study ran on them
+    (tmp_path / "held.csv").write_text((tmp_path / "held.csv").read_text().replace(",", ", ", 1))
+    with pytest.raises(UserError, match="held.csv: changed since the study ran"):
+        refuse_changed_data(study)
+
+
+def test_a_deleted_specimen_is_named_where_the_study_read_it(tmp_path):
+    """After the files were deleted the report named a file of another folder (the study's default)."""
+    import dataclasses
+
+    from bwbench.store.reader import Study
+
+    missing = dataclasses.MISSING
+    fields = {f.name: None for f in dataclasses.fields(Study) if f.default is missing and f.default_factory is missing}
+    study = Study(**{**fields, "data_dir": tmp_path / "elsewhere"}, recorded={"mr": "/lab/tests/mr.csv"})
+    assert study.specimen_path("mr") == Path("/lab/tests/mr.csv")

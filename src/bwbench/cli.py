@@ -139,6 +139,7 @@ def main(argv=None) -> int:
         # Ctrl-C, a closed terminal (SIGHUP) or SIGTERM end every command the same way: one line and
         # the status a shell expects (128 + the signal), even if a library swallowed the exception.
         with stop.signals_raise((signal.SIGINT, signal.SIGTERM, signal.SIGHUP)):
+            _check_working_folder()
             threads.check_environment()  # before a command imports numba, which fails on NUMBA_NUM_THREADS=0
             notices.writable_matplotlib_folder()  # before a command imports matplotlib
             args = build_parser(command).parse_args(argv)
@@ -173,6 +174,19 @@ def main(argv=None) -> int:
             "error: not enough memory for this command (a file or a study too large for this machine?)", file=sys.stderr
         )
         return 2
+
+
+def _check_working_folder() -> None:
+    """``UserError`` when the current folder was deleted under the shell: every relative path would
+    fail later with "No such file or directory" and no name."""
+    import os
+
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        raise UserError(
+            "the current folder no longer exists (deleted while the shell was in it): cd to a folder that exists"
+        ) from None
 
 
 def _stopped(command, signum: int) -> int:

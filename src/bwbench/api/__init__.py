@@ -128,6 +128,10 @@ def fit(
         bounds=bounds,
     )
     refuse_same_file([d.path if isinstance(d, Specimen) else d for d in items])
+    if len(items) > 1:
+        from bwbench.data.input_files import refuse_same_content
+
+        refuse_same_content([d for d in items if isinstance(d, (str, Path))])  # a copy counted twice
     loaded = [as_specimen(d, name) for d in items]
     plausibility.screen(loaded)  # data check's checks: a dead channel or no force refused, the rest warned
     synthetic = all(isinstance(d, (str, Path)) and manifest.is_synthetic(d) for d in items)

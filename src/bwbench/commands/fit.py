@@ -64,6 +64,15 @@ def fit(args) -> int:
     from bwbench.problems.hysteresis.settings import refuse_same_file
 
     refuse_same_file(args.specimen)  # by identity: ./a.csv, a symlink or a hard link of a.csv is a.csv
+    if getattr(args, "weighting", "equal") != "equal" and (args.each or len(args.specimen) == 1):
+        raise UserError(
+            f"--weighting {args.weighting} weighs the files of a joint fit; "
+            + ("--each fits every file alone" if args.each else "one file has nothing to weigh")
+        )
+    if not args.each:
+        from bwbench.data.input_files import refuse_same_content
+
+        refuse_same_content(args.specimen)  # a copy: one test counted twice in a joint fit
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     workers = threads.check(args.workers, "--workers")

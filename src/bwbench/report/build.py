@@ -230,8 +230,8 @@ def refuse_changed_data(study) -> None:
     SHA-256 is stored with the configuration): the report would draw edited data against old fits."""
     from bwbench.data.identity import files_sha256
 
-    stored = study.config.get("specimens", {})
-    for name in study.specimens:
+    stored = {**study.config.get("specimens", {}), **(study.config.get("validation") or {})}
+    for name in [*study.specimens, *(study.config.get("validation") or {})]:  # the held-out tests too
         digest, path = stored.get(name), study.specimen_path(name)
         if isinstance(digest, str) and path.is_file() and files_sha256([path], [""]) != digest:
             raise UserError(
