@@ -613,3 +613,15 @@ def test_a_deleted_specimen_is_named_where_the_study_read_it(tmp_path):
     fields = {f.name: None for f in dataclasses.fields(Study) if f.default is missing and f.default_factory is missing}
     study = Study(**{**fields, "data_dir": tmp_path / "elsewhere"}, recorded={"mr": "/lab/tests/mr.csv"})
     assert study.specimen_path("mr") == Path("/lab/tests/mr.csv")
+
+
+def test_saving_a_fit_onto_its_own_bounds_file_is_refused(lab):
+    """``FitResult.save()`` onto the bounds JSON the fit read replaced it (data loss)."""
+    import bwbench
+
+    box = lab / "box.json"
+    box.write_text('{"xi+": [1.0, 50.0]}\n')
+    fit = bwbench.fit(str(lab / "in" / "mr.csv"), optimizer="random", budget=5, bounds=str(box))
+    with pytest.raises(UserError, match="is an input of this command"):
+        fit.save(lab / "." / "box.json")
+    assert box.read_text() == '{"xi+": [1.0, 50.0]}\n'

@@ -35,7 +35,14 @@ KNOWN = {
     ),
     (RuntimeWarning, "Degrees of freedom <= 0"): None,  # a spread of one value: shown as "–" already
     (RuntimeWarning, "Mean of empty slice"): None,
+    # numpy's floating-point notes: a model that blows up is a loss of +inf by design, said in the results
+    (RuntimeWarning, "invalid value encountered"): None,
+    (RuntimeWarning, "divide by zero encountered"): None,
+    (RuntimeWarning, "overflow encountered"): None,
 }
+# Loggers of libraries whose messages the report already says in its own words (ArviZ's "shape
+# validation failed" for a posterior too short to diagnose: the posterior section says it did not converge).
+QUIET_LOGGERS = ("arviz",)
 
 
 def words(message, category) -> str | None:
@@ -70,11 +77,19 @@ def command_line_warnings():
         except (OSError, ValueError):  # a closed terminal: nothing to say it on
             pass
 
+    import logging
+
+    loggers = [logging.getLogger(name) for name in QUIET_LOGGERS]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL)
     warnings.showwarning = show
     try:
         yield
     finally:
         warnings.showwarning = previous
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
 
 
 def writable_matplotlib_folder() -> None:

@@ -142,7 +142,9 @@ def fit(
 
             bounds_mod.refuse_if_blows_up(problem, "bounds")
     with threads_mod.for_workers(problem, max(workers, threads)):
-        result = run_fit(problem, optimizer, budget, seed, options, synthetic, stop=stop)
+        # the bounds file is an input, as with ``fit --bounds``: ``FitResult.save`` refuses to overwrite it
+        extra = {"bounds_file": str(bounds)} if isinstance(bounds, (str, Path)) else None
+        result = run_fit(problem, optimizer, budget, seed, options, synthetic, extra=extra, stop=stop)
     if not result.success:
         import warnings
 
