@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 from bwbench.data.input_files import read_text
 from bwbench.errors import InputFileError
@@ -50,7 +51,7 @@ def _line_of_duplicate(text: str) -> int | None:
     import json.scanner
     import re
 
-    decoder = json.JSONDecoder(object_pairs_hook=_no_duplicates)
+    decoder: Any = json.JSONDecoder(object_pairs_hook=_no_duplicates)  # its scanner hooks are untyped
     starts: list[int] = []
     parse_object = decoder.parse_object
 
@@ -62,7 +63,7 @@ def _line_of_duplicate(text: str) -> int | None:
             raise
 
     decoder.parse_object = located
-    decoder.scan_once = json.scanner.py_make_scanner(decoder)
+    decoder.scan_once = json.scanner.py_make_scanner(decoder)  # type: ignore[attr-defined]
     try:
         decoder.decode(text)
     except _Duplicate as dup:

@@ -22,12 +22,14 @@ def load_manifest(directory) -> dict | None:
     try:
         document = json.loads(read_text(path))
     except ValueError as err:  # not JSON (or not UTF-8)
-        return _not_ours(path, f"not JSON ({err})")
+        _not_ours(path, f"not JSON ({err})")
+        return None
     specimens = document.get("specimens") if isinstance(document, dict) else None
     if not isinstance(specimens, list) or not all(
         isinstance(e, dict) and isinstance(e.get("file"), str) for e in specimens
     ):
-        return _not_ours(path, 'no "specimens" list of objects naming their "file"')
+        _not_ours(path, 'no "specimens" list of objects naming their "file"')
+        return None
     return document
 
 
@@ -35,7 +37,6 @@ def _not_ours(path, why: str) -> None:
     from bwbench.notices import assume
 
     assume(f"{path} is not a bwbench manifest ({why}): ignored; the specimens are read as measured data")
-    return None
 
 
 def read_manifest(directory):
