@@ -94,7 +94,7 @@ def reach(address: str) -> int:
         pass
     try:
         _knock(address, wait)  # a refused port is said at once (distributed retries until its timeout)
-        asyncio.run(handshake())
+        _run_coroutine(handshake)
     except (TimeoutError, asyncio.TimeoutError):
         raise UserError(
             f"{where}: no answer within {wait} s (is a Dask scheduler listening there? raise the wait "
@@ -109,6 +109,22 @@ def reach(address: str) -> int:
     except Exception as err:  # distributed's own errors (CommClosedError, ...): not a scheduler that answers
         raise UserError(f"{where}: {type(err).__name__}: {' '.join(str(err).split())}") from None
     return wait
+
+
+def _run_coroutine(make) -> None:
+    """``asyncio.run(make())``, in a thread of its own when this thread already runs an event loop (a
+    notebook's), where ``asyncio.run`` is refused."""
+    import asyncio
+
+    try:
+        asyncio.get_running_loop()
+    except RuntimeError:  # no loop here: the usual case
+        asyncio.run(make())
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(1) as pool:
+        pool.submit(lambda: asyncio.run(make())).result()
 
 
 def _knock(address: str, wait: float) -> None:
