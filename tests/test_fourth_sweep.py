@@ -625,3 +625,40 @@ def test_saving_a_fit_onto_its_own_bounds_file_is_refused(lab):
     with pytest.raises(UserError, match="is an input of this command"):
         fit.save(lab / "." / "box.json")
     assert box.read_text() == '{"xi+": [1.0, 50.0]}\n'
+
+
+# ------------------------------------------------------------------ the third sweep's leftovers
+
+
+def test_a_model_named_twice_is_refused_on_the_command_line_and_in_a_toml(tmp_path, capsys):
+    shutil.copy(SPECIMENS / NAME, tmp_path / "mr.csv")
+    argv = ["compare", "--specimens", str(tmp_path / "mr.csv"), "--optimizers", "random", "--seeds", "1"]
+    assert cli.main([*argv, "--model", "spencer,spencer", "--db", str(tmp_path / "a.sqlite")]) == 2
+    one_error(capsys.readouterr().err, "model lists a model twice")
+    config = _toml(tmp_path, 'model = ["spencer", "spencer"]\n')
+    assert cli.main(["compare", "--config", str(config), "--db", str(tmp_path / "b.sqlite")]) == 2
+    one_error(capsys.readouterr().err, "s.toml: model lists a model twice")
+
+
+def test_a_negative_bound_on_n_is_refused(lab, capsys):
+    (lab / "box.json").write_text('{"n+": [-1, 2]}')
+    argv = ["fit", str(lab / "in" / "mr.csv"), "--bounds", str(lab / "box.json"), "--optimizer", "random"]
+    assert cli.main([*argv, "--budget", "5", "--out", str(lab / "r.json")]) == 2
+    one_error(capsys.readouterr().err, "box.json: bounds of n+: lower must be > 0", "got -1")
+
+
+def test_a_spencer_fit_is_analysed_and_compared_as_spencer(lab, capsys):
+    """identifiability of a Spencer fit without --model, and compare --model spencer on two workers,
+    use Spencer's model (both once fell back to the switched model)."""
+    import sqlite3
+
+    spec, fit = str(lab / "in" / "mr.csv"), str(lab / "sp.json")
+    assert cli.main(["fit", spec, "--model", "spencer", "--optimizer", "random", "--budget", "5", "--out", fit]) == 0
+    capsys.readouterr()
+    assert cli.main(["identifiability", spec, "--params", fit]) == 0
+    assert capsys.readouterr().out.startswith("identifiability of mr (spencer, identifiable formulation")
+    db = lab / "sp.sqlite"
+    argv = ["compare", "--specimens", spec, "--optimizers", "random", "--seeds", "2", "--budget", "5"]
+    assert cli.main([*argv, "--model", "spencer", "--workers", "2", "--db", str(db)]) == 0
+    with sqlite3.connect(db) as conn:
+        assert conn.execute("SELECT DISTINCT model FROM runs").fetchall() == [("spencer",)]
