@@ -662,3 +662,23 @@ def test_a_spencer_fit_is_analysed_and_compared_as_spencer(lab, capsys):
     assert cli.main([*argv, "--model", "spencer", "--workers", "2", "--db", str(db)]) == 0
     with sqlite3.connect(db) as conn:
         assert conn.execute("SELECT DISTINCT model FROM runs").fetchall() == [("spencer",)]
+
+
+def test_a_signal_after_the_work_still_ends_the_program_stopped():
+    """``report`` and ``fit --each`` exited 0 on a Ctrl-C: it came once their work was done, while the
+    interpreter freed its modules (seconds). The program now exits as soon as the work is done, and a
+    signal up to that exit gives 128 + the signal and one line."""
+    code = (
+        "import os, signal, bwbench.cli as cli\n"
+        "def main():\n"
+        "    print('done', flush=True)\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "    return 0\n"
+        "cli.main = main\n"
+        "cli.run()\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code, "report"], capture_output=True, text=True, timeout=HANG)
+    assert done.returncode == 130 and done.stdout == "done\n", done.stderr
+    assert done.stderr.strip().splitlines() == [
+        "interrupted: bwbench report stopped (Ctrl-C); no output is left half-written"
+    ]

@@ -215,5 +215,23 @@ def _quiet_streams() -> None:
                 pass
 
 
+def run() -> None:
+    """The ``bwbench`` program: ``main``, then an exit that skips the interpreter's teardown. Freeing
+    numba's, scipy's and pandas' modules takes seconds after the command's work is done and written,
+    and a Ctrl-C in those seconds was lost (exit status 0); every output is closed by then, and the
+    streams are flushed here. A signal until the very exit still gives its status."""
+    import os
+
+    status = 1
+    try:
+        with stop.signals_raise((signal.SIGINT, signal.SIGTERM, signal.SIGHUP)):
+            status = main()
+            _quiet_streams()  # flushed while a signal still has its status
+    except (KeyboardInterrupt, stop.Interrupted) as interrupt:
+        command = next((a for a in sys.argv[1:] if not a.startswith("-")), None)
+        status = _stopped(command, getattr(interrupt, "signum", signal.SIGINT))
+    os._exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()
