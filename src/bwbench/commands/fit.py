@@ -61,6 +61,11 @@ def fit(args) -> int:
     limits.check("--budget", args.budget, "BWBENCH_MAX_BUDGET")
     if args.seed < 0:
         raise UserError(f"--seed must be a non-negative integer, got {args.seed}")
+    if getattr(args, "weighting", "equal") != "equal" and (args.each or len(args.specimen) == 1):
+        raise UserError(
+            f"--weighting {args.weighting} weighs the files of a joint fit; "
+            + ("--each fits every file alone" if args.each else "one file has nothing to weigh")
+        )
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     workers = threads.check(args.workers, "--workers")
@@ -98,6 +103,7 @@ def _fit_each(args, options, workers: int) -> int:
 
     from bwbench.data.output_paths import FIGURE_FORMATS, check_folder
     from bwbench.problems.hysteresis.setup import refuse_same_file
+    from bwbench.study import stop
 
     refuse_same_file(args.specimen)
     stems: dict[str, str] = {}
@@ -136,6 +142,7 @@ def _fit_each(args, options, workers: int) -> int:
     for k, ((one, setup), (out, plot)) in enumerate(zip(runs, outputs), start=1):
         print(f"[{k}/{len(runs)}] {one.specimen[0]}")
         statuses.append(_fit_setup(one, setup, options, workers, out, plot))
+        stop.kept.append(f"{k} of {len(runs)} fits written in {out_dir} (run the rest with --each on their files)")
     failed = sum(1 for status in statuses if status)
     print(
         f"{len(runs)} fit{'s' if len(runs) > 1 else ''} in {time.perf_counter() - started:.1f} s -> {out_dir}"

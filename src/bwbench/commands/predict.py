@@ -85,12 +85,12 @@ def evaluate_stored(args, fitted) -> int:
 
 def simulate_stored(args, fitted) -> int:
     """``bwbench simulate --params FIT.json``: the stored model's force on ``--specimen`` as a CSV."""
-    from bwbench.data.output_paths import check_outputs, writing
+    from bwbench.data.output_paths import check_outputs, write_frame, writing
 
     check_outputs({"--out": args.out}, [args.specimen, args.params])
     frame = fitted.simulate(args.specimen)
     with writing(args.out):
-        frame.to_csv(args.out, index=False, float_format="%.6g")
+        write_frame(frame, args.out, index=False, float_format="%.6g")
     error = frame["force_model_N"] - frame["force_measured_N"]
     mse = float((error**2).mean()) if error.notna().all() else math.inf
     mse = mse if math.isfinite(mse) else math.inf

@@ -173,7 +173,7 @@ def simulate(args) -> int:
     import pandas as pd
 
     from bwbench.commands.predict import simulate_stored
-    from bwbench.data.output_paths import check_outputs, writing
+    from bwbench.data.output_paths import check_outputs, write_frame, writing
 
     fitted = _stored(args)
     if fitted is not None:
@@ -194,7 +194,7 @@ def simulate(args) -> int:
         }
     )
     with writing(args.out):
-        frame.to_csv(args.out, index=False, float_format="%.6g")
+        write_frame(frame, args.out, index=False, float_format="%.6g")
     mse = float(problem.loss_batch(params[None, :])[0])
     extra = {"linear_coefficients": SOLVED} if problem.formulation == "identifiable" else {}
     print(strict_json.dumps({"out": str(args.out), **fit_metrics(mse, len(force)), **extra}, why=BLOWS_UP))

@@ -26,6 +26,8 @@ SLOWEST_CYCLE_S = 1000.0
 SPARSEST_STEP_S = 10.0
 # Force varying by less than this fraction of its magnitude is flat: nothing to fit.
 FLAT_FORCE_FRACTION = 1e-6
+# Below this force (N) in every row a record is effectively zero (1e-310 N would give a loss of 0).
+TINY_FORCE_N = 1e-9
 # Beyond this force (N) a record is a unit or export error, not a test: bwbench refuses to fit it.
 MAX_PLAUSIBLE_FORCE_N = 1e9
 # |∮F dx| below this fraction of (2·amplitude × force range × cycles) is too small a loop to call its sign.
@@ -39,6 +41,31 @@ def loop_work(x, f) -> tuple[float, float]:
     amplitude = 0.5 * float(x.max() - x.min())
     cycles = float(np.sum(np.abs(np.diff(x)))) / (4.0 * amplitude) if amplitude > 0 else 0.0
     return (work / cycles if cycles > 0 else 0.0), cycles
+
+
+def thousands_separator(f) -> str | None:
+    """A sentence when a column reads like numbers written with a point as thousands separator (German,
+    "1.141" for 1141 N) and read as decimals: every value with a fraction has at most three decimals,
+    none reaches 1000, and where a whole number meets one with a fraction the record jumps more than
+    twice as far read as decimals than read as thousands. None otherwise."""
+    f = np.asarray(f, dtype=float)
+    fraction = f != np.round(f)
+    if not fraction.any() or fraction.all() or float(np.abs(f).max()) >= 1000.0:
+        return None
+    scaled = f[fraction] * 1000.0
+    if float(np.abs(scaled - np.round(scaled)).max()) > 1e-6:
+        return None
+    as_thousands = np.where(fraction, f * 1000.0, f)
+    crossing = fraction[1:] != fraction[:-1]  # a whole number next to one with a fraction
+    jump_as_read = float(np.median(np.abs(np.diff(f))[crossing]))
+    if jump_as_read <= 2.0 * float(np.median(np.abs(np.diff(as_thousands))[crossing])):
+        return None
+    k = int(np.argmax(fraction))
+    return (
+        f"force_N reads like numbers with a thousands separator: {f[k]:.3f} among whole numbers below 1000 "
+        f"(read as {as_thousands[k]:.0f} N it joins its neighbours, read as {f[k]:.3f} N it jumps); remove "
+        "the separators (bwbench reads a point as the decimal point)"
+    )
 
 
 def time_unit_warnings(spec) -> list[str]:
@@ -57,11 +84,20 @@ def time_unit_warnings(spec) -> list[str]:
 
 
 def force_warnings(spec) -> list[str]:
-    """A sentence when the force is zero, constant or flat: no hysteresis loop to fit."""
+    """A sentence when the force is zero, constant, flat or effectively zero (below ``TINY_FORCE_N``), or
+    written with thousands separators: no hysteresis loop to fit, or not the loop the file means."""
     f = spec.f
     span, size = float(f.max() - f.min()), float(np.abs(f).max())
     if size == 0.0:
         return ["force_N is 0 in every row: no force was recorded (load cell off, or an empty column?)"]
+    if size < TINY_FORCE_N:
+        return [
+            f"force_N is at most {size:.3g} N in every row: effectively 0 (every loss would read 0); "
+            "no test records that (a unit or export error?)"
+        ]
+    separator = thousands_separator(f)
+    if separator:
+        return [separator]
     if span <= FLAT_FORCE_FRACTION * size:
         return [
             f"force_N is flat ({float(f.mean()):.6g} N, varying by {span:.3g} N): no loop to fit "

@@ -41,6 +41,9 @@ def from_frame(frame, name: str | None = None):
             f"{where}: no column {', '.join(missing)}; the columns are {', '.join(COLUMNS)} "
             f"(optionally {', '.join(OPTIONAL_COLUMNS)}), got {', '.join(columns) or 'none'}"
         )
+    twice = next((c for c in columns if columns.count(c) > 1), None)
+    if twice is not None:
+        raise UserError(f"{where}: column {twice} appears twice: which one is meant? drop the other")
     other = [c for c in columns if c not in COLUMNS + OPTIONAL_COLUMNS]
     if other:
         raise UserError(
@@ -49,6 +52,8 @@ def from_frame(frame, name: str | None = None):
         )
     values = {}
     for column, original in zip(columns, frame.columns):
+        if np.iscomplexobj(frame[original].to_numpy()):  # float() would drop the imaginary part silently
+            raise UserError(f"{where}: column {column} holds complex numbers: every value must be real")
         try:
             array = np.asarray(frame[original], dtype=float)
         except (TypeError, ValueError):

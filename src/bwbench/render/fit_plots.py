@@ -86,7 +86,7 @@ def draw(prediction, axes) -> None:
         plot(ax)
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
-        ax.set_title(title, fontsize="medium")
+        ax.set_title(title, fontsize="medium", parse_math=False)  # a specimen's name, as written
     axes[0].legend(loc="best", fontsize="small")
     shade_warmup(axes[2:], t, getattr(p, "warmup", 0))
     if getattr(p, "warmup", 0) and len(axes) > 2:
@@ -110,7 +110,7 @@ def figure(predictions, title: str | None = None, ax=None):
         for row, prediction in zip(grid, predictions):
             draw(prediction, row)
         if title:
-            fig.suptitle(title, fontsize="medium")
+            fig.suptitle(title, fontsize="medium", parse_math=False)  # names from the data, as written
     show_inline()
     return fig
 

@@ -86,6 +86,7 @@ def posterior_table(fail, table, setup: ProblemSetup) -> PosteriorConfig:
     if len(set(names)) != len(names):
         fail("[posterior] specimens lists a specimen twice")
     samplers = _samplers(fail, table)
+    _say_assumptions(samplers, table["budget"])
     return PosteriorConfig(
         specimens=tuple(available[stem] for stem in names),
         optimizer=samplers[0][0],
@@ -98,6 +99,34 @@ def posterior_table(fail, table, setup: ProblemSetup) -> PosteriorConfig:
         options=samplers[0][1],
         samplers=samplers if len(samplers) > 1 else (),
     )
+
+
+SAMPLER_FAMILIES = ("mcmc", "nested")  # the backends that draw from a posterior
+# Below this many evaluations no built-in sampler draws enough for its convergence check: emcee's default
+# ensemble (2·d + 2 walkers, up to 30) would take fewer steps than it has walkers, nested sampling's live
+# points alone take 100 evaluations per run.
+MIN_POSTERIOR_BUDGET = 1000
+
+
+def _say_assumptions(samplers, budget) -> None:
+    """A warning for a posterior that will run but cannot give what the report's posterior section
+    shows: an optimiser in place of a sampler, or a budget below ``MIN_POSTERIOR_BUDGET``."""
+    from bwbench.notices import assume
+    from bwbench.optimize import registry
+
+    for name, _ in samplers:
+        family = registry.get(name).family
+        if family not in SAMPLER_FAMILIES:
+            assume(
+                f'[posterior] optimizer "{name}" is an optimiser ({family}), not a sampler: its runs are '
+                "recorded, but they draw no posterior and the report has no posterior section for them "
+                '(samplers: "emcee", "nested")'
+            )
+    if isinstance(budget, int) and not isinstance(budget, bool) and 0 < budget < MIN_POSTERIOR_BUDGET:
+        assume(
+            f"[posterior] budget = {budget}: below {MIN_POSTERIOR_BUDGET} evaluations no sampler draws enough "
+            "for its convergence check (R̂, ESS); the report will say the posterior did not converge"
+        )
 
 
 def _samplers(fail, table: dict) -> tuple:

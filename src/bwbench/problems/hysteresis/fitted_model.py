@@ -30,6 +30,11 @@ IDENTIFIABLE = "identifiable"
 EXCITATIONS = ("measured", "sine")
 
 
+def _bare_unit(unit: str) -> str:
+    """A unit without its note ("kg (the mass ...)" -> "kg") or spaces, for comparing."""
+    return unit.split(" (", 1)[0].replace(" ", "")
+
+
 @dataclass(frozen=True)
 class Prediction:
     """The force a fitted model predicts on one record, against the measured one.
@@ -175,6 +180,28 @@ class FittedModel:
                 "not in these parameters"
             )
         self._check_domain()
+        self._check_units()
+
+    def _check_units(self) -> None:
+        """``UserError`` naming the key for a parameter whose unit (as the file states it) is not the one
+        bwbench computes with: a fit converted by hand to SI (m, m^-n) would otherwise be read in mm
+        and its force be off by orders of magnitude, with no word."""
+        model = self._model
+        expected = {p.name: p.unit for p in model.direct_parameters(self.state)}
+        expected.update({p.name: p.unit for p in model.hysteretic_parameters(self.state)})
+        if self.formulation == IDENTIFIABLE:
+            from bwbench.problems.hysteresis.linear.columns import coefficient_units
+
+            expected.update(coefficient_units(model.linear_layout(self.state)))
+        for name in self.needed():
+            stated, unit = self.units.get(name), expected.get(name)
+            if not isinstance(stated, str) or unit is None:
+                continue  # not stated (a hand-written parameter file): read in bwbench's units
+            if _bare_unit(stated) != _bare_unit(unit):
+                raise UserError(
+                    f'units.{name} is "{stated}", but bwbench computes {name} in "{_bare_unit(unit)}" (mm, N, s): '
+                    "convert the value back, or refit in those units"
+                )
 
     def _check_domain(self) -> None:
         """``UserError`` naming the key for a parameter outside its model's domain: not finite (only a

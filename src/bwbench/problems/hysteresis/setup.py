@@ -208,6 +208,14 @@ def setup_fit(
         raise UserError(f"bounds must be a dict of name -> (lower, upper) or a JSON file, got {bounds!r}")
     paths = tuple(d.path if isinstance(d, Specimen) else d for d in items)
     refuse_same_file(paths)
+    if len(items) == 1 and settings["weighting"] != "equal":
+        raise UserError(
+            f"--weighting {settings['weighting']} weighs the files of a joint fit; one file has nothing to weigh"
+        )
+    if len(items) > 1:
+        from bwbench.data.input_files import refuse_same_content
+
+        refuse_same_content([p for p in paths if isinstance(p, (str, Path)) and str(p)])  # a copy counted twice
     from bwbench.problems.hysteresis.control import setup as control_setup
 
     controlled = control_setup.wanted(control, laws, control_filter)

@@ -65,9 +65,10 @@ def mass_setting(fail, label: str, value):
         except ValueError:
             number = math.nan
         value = number if math.isfinite(number) else value
-    if value == "auto" or (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0):
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if value == "auto" or (number and math.isfinite(value) and value >= 0):  # inf (TOML's inf) is no mass
         return value
-    fail(f'{label} must be "auto", "fit" or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}')
+    fail(f'{label} must be "auto", "fit" or a finite mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}')
 
 
 class HysteresisProblem(ProblemType):

@@ -167,7 +167,9 @@ def section(report) -> None:
         )
         return
     table = predictions_table(study)
-    table.to_csv(report.out / "held_out.csv", index=False)
+    from bwbench.data.output_paths import write_frame
+
+    write_frame(table, report.out / "held_out.csv", index=False)
     ranked = ranking(report, table)
     doc.p(
         f"Every ranking run's fit predicts the {len(names)} held-out test(s) ({', '.join(names)}), never fitted, "
