@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bwbench.analysis import mcmc, nested, sampler_comparison
+from bwbench.analysis import mcmc, posterior_verdict, sampler_comparison
 from bwbench.optimize import fitting
 from bwbench.problems.hysteresis.report.posterior_draws import PosteriorChain
 from bwbench.problems.hysteresis.report.samplers_section import comparison_table, groups
@@ -33,7 +33,7 @@ def posterior(label, result):
     )
     run = {"nfev": result.nfev, "wall_s": 12.5}
     if "log_z" in e:
-        verdict = nested.assess(samples, e["log_prob"], e["log_z"], e["log_z_err"], NAMES)
+        verdict = posterior_verdict.judge(samples, e["log_prob"], e["log_z"], e["log_z_err"], NAMES)
         whole = mcmc.Mode(tuple(range(chain.walkers)), np.arange(chain.walkers), 0.0)
         assessment = {"converged": verdict["converged"], "modes": [whole], "diagnostics": [verdict["diagnostics"]]}
         return PosteriorChain(chain, None, run, chain.walkers, assessment, NAMES, [], verdict)

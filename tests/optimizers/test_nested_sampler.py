@@ -4,7 +4,7 @@ masses, ln Z in closed form, a ridge, and the verdict when the budget or the liv
 import numpy as np
 import pytest
 
-from bwbench.analysis import nested
+from bwbench.analysis import nested, posterior_verdict
 from bwbench.optimize import fitting
 from toy_posteriors import GaussianToy, MixtureToy, RidgeToy
 
@@ -18,7 +18,7 @@ def test_two_modes_of_mass_0_7_and_0_3_are_found_with_their_masses():
     toy = MixtureToy([[0.3, 0.3], [0.7, 0.7]], 0.04, [0.7, 0.3])
     result = run(toy)
     extras = result.extras
-    verdict = nested.assess(extras["chain"], extras["log_prob"], extras["log_z"], extras["log_z_err"], ["p0", "p1"])
+    verdict = posterior_verdict.judge(extras["chain"], extras["log_prob"], extras["log_z"], extras["log_z_err"], ["p0", "p1"])
     assert len(verdict["modes"]) == 2
     heavy, light = verdict["modes"]
     centre = extras["chain"].reshape(-1, 2)[heavy.members].mean(axis=0)
@@ -73,10 +73,10 @@ def test_a_mode_missed_for_want_of_live_points_is_said_and_never_converged():
     draws, lp = extras["chain"], extras["log_prob"]
     assert np.all(np.abs(draws - 0.85).max(axis=2) > 0.1)  # no draw in the narrow mode
     names = ["p0", "p1", "p2"]
-    alone = nested.assess(draws, lp, extras["log_z"], extras["log_z_err"], names)
+    alone = posterior_verdict.judge(draws, lp, extras["log_z"], extras["log_z_err"], names)
     assert alone["converged"], alone["message"]  # by R̂, ESS, ln Z and masses
     best = np.array([0.85, 0.85, 0.85])  # what an optimiser finds: the narrow mode's peak
-    verdict = nested.assess(
+    verdict = posterior_verdict.judge(
         draws,
         lp,
         extras["log_z"],

@@ -184,35 +184,48 @@ def best_ranking_fit(study, problem, specimen: str):
 
 
 def nested_chain(study, chain, problem, run: dict, names) -> PosteriorChain:
-    """A nested-sampling posterior read for the report: the runs' verdict (``nested.assess``, with the
-    best ranking fit located against the draws) and a single "mode" holding every run, so that the
-    summaries, figures and the decomposition read the whole posterior, every mode with its mass."""
-    from bwbench.analysis import nested
+    """A nested-sampling posterior read for the report and the API: its verdict (``posterior_verdict.judge``
+    on the stored runs, with the best ranking fit located against the draws) and a single "mode" holding
+    every run, so that the summaries, figures and the decomposition read the whole posterior, every mode
+    with its mass."""
+    verdict = verdict_of(study, chain, problem, names)
+    lp = chain.log_prob
+    whole = mcmc.Mode(
+        tuple(range(chain.walkers)), np.arange(chain.walkers), float(np.median(lp)) if lp is not None else float("nan")
+    )
+    assessment = {
+        "converged": verdict.converged,
+        "modes": [whole],
+        "diagnostics": [verdict.diagnostics] if verdict.diagnostics is not None else [],
+        "why": verdict.reasons,
+        "modes_text": "",
+        "steps": chain.steps,
+    }
+    return PosteriorChain(chain, problem, run, chain.walkers, assessment, list(names), [], verdict)
+
+
+def verdict_of(study, chain, problem, names):
+    """``posterior_verdict.judge`` of a stored nested-sampling chain: what the report, the terminal and the
+    API say of it (the best ranking fit of its specimen located against the draws)."""
+    from bwbench.analysis import posterior_verdict
 
     ev = chain.evidence
-    best = best_ranking_fit(study, problem, chain.specimen)
-    verdict = nested.assess(
+    table = parameters(problem)
+    return posterior_verdict.judge(
         chain.samples,
         chain.log_prob,
         ev["log_z"],
         ev["log_z_err"],
         names,
         complete=ev.get("run_complete"),
-        best_fit=best,
+        ess=ev.get("run_ess"),
+        insertion=ev.get("insertion"),
+        run_nfev=ev.get("run_nfev"),
+        steps=ev.get("run_steps"),
+        best_fit=best_ranking_fit(study, problem, chain.specimen),
+        from_unit=problem.from_unit,
+        labels=[axis(problem, n, table) for n in names],
     )
-    lp = chain.log_prob
-    whole = mcmc.Mode(
-        tuple(range(chain.walkers)), np.arange(chain.walkers), float(np.median(lp)) if lp is not None else float("nan")
-    )
-    assessment = {
-        "converged": verdict["converged"],
-        "modes": [whole],
-        "diagnostics": [verdict["diagnostics"]],
-        "why": verdict["failed"],
-        "modes_text": "",
-        "steps": chain.steps,
-    }
-    return PosteriorChain(chain, problem, run, chain.walkers, assessment, list(names), [], verdict)
 
 
 def in_coordinates(values: dict, problem):
