@@ -141,18 +141,15 @@ def minimize(
     plan, lost = runs, 0
     while len(results) < plan:
         k = plan - len(results)
-        share = (objective.remaining - reserve) // k
-        live = min(live_points, share // 4)  # a share too small for the asked live points: fewer
+        factors = [2 if (len(results) + i) % DOUBLED_EVERY == DOUBLED_EVERY - 1 else 1 for i in range(k)]
+        # each run's share of what is left in proportion to its steps (a run of doubled steps costs more)
+        unit_share = (objective.remaining - reserve) // sum(factors)
+        live = min(live_points, unit_share // 4)  # a share too small for the asked live points: fewer
         if live < MIN_LIVE:
             break
         specs = [
-            {
-                "seed": int(rng.integers(2**63)),
-                "share": share,
-                "live": live,
-                "steps": steps * (2 if (len(results) + i) % DOUBLED_EVERY == DOUBLED_EVERY - 1 else 1),
-            }
-            for i in range(k)
+            {"seed": int(rng.integers(2**63)), "share": unit_share * f, "live": live, "steps": steps * f}
+            for f in factors
         ]
         for found in _execute(job, specs, workers):
             _count(objective, found.pop("objective"))
@@ -219,7 +216,7 @@ def _next_plan(results, objective, job, max_runs, reserve) -> int:
     )
     if verdict.precision_met or verdict.needed is None:
         return len(results)
-    per_run = max(r["nfev"] for r in results) * 1.1  # a run's size varies: keep a margin
+    per_run = max(r["nfev"] for r in results) * 1.1  # a run's size varies (doubled steps cost more): a margin
     affordable = len(results) + int((objective.remaining - reserve) // per_run)
     want = max(verdict.needed["runs"], len(results) + MIN_ADDED)
     return min(max_runs, affordable, want)

@@ -65,15 +65,16 @@ def find_modes(draws: np.ndarray, log_prob: np.ndarray) -> tuple[list[Mode], flo
     flat, lp = draws.reshape(-1, d), log_prob.reshape(-1)
     unit = scale(draws)
     X = flat / unit
-    step = max(1, -(-len(X) // MAX_CLUSTERED))
-    picked = np.arange(0, len(X), step)
-    tree = cKDTree(X[picked])
-    near = tree.query(X[picked], k=2)[0][:, 1]
+    # the geometry of the distinct draws (a run's weighted points resampled repeat its heavy ones): a
+    # repeated draw would stand at distance 0 from itself
+    distinct = np.unique(X, axis=0)
+    step = max(1, -(-len(distinct) // MAX_CLUSTERED))
+    Xp = distinct[np.arange(0, len(distinct), step)]
+    tree = cKDTree(Xp)
+    near = tree.query(Xp, k=2)[0][:, 1] if len(Xp) > 1 else np.zeros(1)
     cut = GAP * float(np.median(near[near > 0])) if np.any(near > 0) else 1e-9
     labels_picked = (
-        fcluster(linkage(X[picked], method="single"), t=cut, criterion="distance")
-        if len(picked) > 1
-        else np.ones(1, dtype=int)
+        fcluster(linkage(Xp, method="single"), t=cut, criterion="distance") if len(Xp) > 1 else np.ones(1, dtype=int)
     )
     labels = labels_picked[tree.query(X, k=1)[1]]
     # tails: groups below MIN_MASS join the group of their nearest draw in a big group

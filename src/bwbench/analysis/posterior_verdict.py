@@ -15,9 +15,9 @@ rule, its Kish effective sample size, UltraNest's insertion-order test). The ver
 4. every run passes UltraNest's insertion-order test (a new live point's rank among the live points is
    uniform when the sampler draws from the constrained prior; Buchner 2023, §4.5.2): the check that sees
    a bias all runs share, which agreement between runs cannot;
-5. the best fit found otherwise (the ranking's best) lies inside the posterior: with a flat prior the
-   highest-likelihood region holds it, so draws that never come near it while it is as probable missed a
-   mode (``nested.locate``), whatever the runs' agreement.
+5. the best fit found otherwise (the ranking's best, and its other good fits) lies inside the posterior:
+   with a flat prior the highest-likelihood region holds it, so draws that never come near it while it is
+   as probable missed a mode (``nested.locate``), whatever the runs' agreement.
 
 **Precision from the scatter between runs** (never from each run's own error, which on the default
 specimen understated the runs' scatter of a region's mass ~13×): the standard error of the pooled mean
@@ -158,8 +158,8 @@ def judge(
     """The verdict on draws (n, runs, d) of independent runs (see the module's docstring).
 
     ``complete``, ``ess``, ``insertion`` (True/False/None), ``run_nfev``, ``steps`` (slice steps per new
-    point): one per run; ``best_fit``:
-    (unit point, log-likelihood, label) of the best fit found otherwise; ``from_unit``: unit → physical
+    point): one per run; ``best_fit``: (unit point, log-likelihood, label) of the best fit found otherwise,
+    or a list of such, best first (the ranking's good fits); ``from_unit``: unit → physical
     rows (precision and region ranges are computed on physical values; default: the unit coordinates);
     ``labels``: display names with units, one per parameter (default ``names``)."""
     n, runs, d = draws.shape
@@ -175,22 +175,14 @@ def judge(
     doubled = steps_check(P, steps, labels)
     if doubled is not None:
         checks.append(doubled)
-    place = None
-    if best_fit is not None:
-        point, like, label = best_fit
-        place = nested.locate(point, like, draws, log_prob, {"scale": unit, "cut": cut, "modes": modes})
-        missed = place["where"] == "missed"
-        checks.append(
-            Check(
-                "best fit inside",
-                not missed,
-                f"the sampler missed a mode at least as probable as {label} (log-likelihood {like:.1f}, where no "
-                f"draw goes; the draws' best {np.nanmax(log_prob):.1f})"
-                if missed
-                else f"{label} lies "
-                + (f"in mode {place['mode'] + 1}" if place["where"] == "mode" else "below the posterior's support"),
-            )
-        )
+    fits = [] if best_fit is None else [best_fit] if isinstance(best_fit, tuple) else list(best_fit)
+    places = [
+        nested.locate(point, like, draws, log_prob, {"scale": unit, "cut": cut, "modes": modes})
+        for point, like, _ in fits
+    ]
+    place = places[0] if places else None
+    if fits:
+        checks.append(_fits_check(fits, places, log_prob))
     precision = precision_table(P, labels)
     met = _precision_met(precision, regions, runs)
     ess_runs = np.asarray(ess, float) if ess is not None else np.full(runs, float(n))
@@ -221,6 +213,27 @@ def judge(
         scale=unit,
         best_fit_place=place,
         diagnostics=badge.get("table"),
+    )
+
+
+def _fits_check(fits, places, log_prob) -> Check:
+    """Check 5: no good fit found otherwise lies where no draw goes while as probable as the draws."""
+    missed = [(label, like) for (_, like, label), place in zip(fits, places) if place["where"] == "missed"]
+    if not missed:
+        return Check(
+            "good fits inside",
+            True,
+            f"{fits[0][2]} lies "
+            + (f"in mode {places[0]['mode'] + 1}" if places[0]["where"] == "mode" else "below the posterior's support")
+            + (f", and so do the other {len(fits) - 1} good fits (or below)" if len(fits) > 1 else ""),
+        )
+    label, like = missed[0]
+    return Check(
+        "good fits inside",
+        False,
+        f"the sampler missed a mode at least as probable as {label} (log-likelihood {like:.1f}, where no draw "
+        f"goes; the draws' best {np.nanmax(log_prob):.1f})"
+        + (f"; {len(missed) - 1} more good fit(s) likewise" if len(missed) > 1 else ""),
     )
 
 
@@ -347,7 +360,7 @@ def find_regions(draws: np.ndarray, physical: np.ndarray, labels, modes=None) ->
         j = int(np.argmax(np.where(psd > 0, apart / np.where(psd > 0, psd, 1.0), -1.0)))
         lo, hi = np.quantile(phys[members, j], [0.05, 0.95])
         run_mass = np.array([members[run_of == k].mean() for k in range(runs)])
-        out.append(Region(f"{labels[j]} {_short(lo)}–{_short(hi)}", float(members.mean()), run_mass, members))
+        out.append(Region(f"{labels[j]}: {_short(lo)}–{_short(hi)}", float(members.mean()), run_mass, members))
     out.sort(key=lambda r: -r.mass)
     return out
 
@@ -484,13 +497,22 @@ def reproduce_badge(draws: np.ndarray, names, ess) -> dict:
     }
 
 
-def _line(converged, reasons, runs, n, precision, regions) -> str:
+def sentence(converged: bool, reasons, converged_text: str) -> str:
+    """The verdict in one line: "Posterior converged: <converged_text>" or "Posterior not converged: <first
+    reason> (and N more)" — every sampler's verdict in the same words."""
     if converged:
-        parts = [f"{len(regions)} regions" if len(regions) > 1 else "one region"]
-        return (
-            f"Posterior converged: {runs} independent runs reproduce each other within the precision target "
-            f"(pooled means and 5/95 % quantiles within {TARGET_SD:g} posterior sd, region masses within "
-            f"{TARGET_MASS:g}; {parts[0]}), every hard check passed"
-        )
+        return f"Posterior converged: {converged_text}"
+    reasons = list(reasons) or ["see the diagnostics"]
     more = f" (and {len(reasons) - 1} more)" if len(reasons) > 1 else ""
     return f"Posterior not converged: {reasons[0]}{more}"
+
+
+def _line(converged, reasons, runs, n, precision, regions) -> str:
+    return sentence(
+        converged,
+        reasons,
+        f"{runs} independent runs reproduce each other within the precision target (pooled means and 5/95 % "
+        f"quantiles within {TARGET_SD:g} posterior sd, region masses within {TARGET_MASS:g}; "
+        f"{len(regions) if len(regions) > 1 else 'one'} region{'s' if len(regions) > 1 else ''}), every hard "
+        "check passed",
+    )
