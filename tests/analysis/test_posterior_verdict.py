@@ -121,10 +121,11 @@ def test_a_flat_direction_is_called_undetermined_and_a_cut_box_moves_the_mass():
     found = posterior_profile.profile(ridge, draws, ridge(draws))
     flat, pinned = np.asarray(found["log_like"][0]), np.asarray(found["log_like"][2])
     assert np.nanmax(flat) - np.nanmin(flat) < 0.1  # flat within the noise along the ridge
-    assert posterior_profile.undetermined(flat) == (0.0, 1.0)
-    assert posterior_profile.undetermined(pinned) is None  # p2 is pinned to 0.5 ± 0.05
-    lo, hi = posterior_profile.allowed(pinned)
-    assert 0.3 < lo and hi < 0.7
+    lo, hi = posterior_profile.undetermined(found["unit"][0], flat)
+    assert lo < 0.06 and hi > 0.94  # over the whole grid across the box
+    assert posterior_profile.undetermined(found["unit"][2], pinned) is None  # p2 is pinned to 0.5 ± 0.05
+    lo, hi = posterior_profile.allowed(found["unit"][2], pinned)
+    assert 0.35 < lo < 0.5 < hi < 0.65
     # the box of p0 cut to its upper two thirds: the posterior's draws with p0 ≥ 1/3
     verdict = posterior_verdict.judge(
         draws.reshape(1000, 4, 3), ridge(draws).reshape(1000, 4), [0.0] * 4, [0.1] * 4, ["p0", "p1", "p2"]

@@ -2,8 +2,8 @@
 where the profile is flat (the data allow that stretch of the box, and the posterior's mass there follows
 the box), and how the posterior moves when such a parameter's box is cut.
 
-**Profile** (``profile``): on ``GRID`` values of each parameter across its box (unit coordinates), the
-others re-maximised by L-BFGS-B from the best posterior draw near that value (the gradient by central
+**Profile** (``profile``): on ``GRID`` values of each parameter evenly across its box (unit coordinates)
+and ``QUANTILES`` of its posterior draws (where the marginal is drawn beside it), the others re-maximised by L-BFGS-B from the best posterior draw near that value (the gradient by central
 differences, one batched call per gradient), at most ``ITERATIONS`` iterations a point. A maximisation is
 a lower bound of the true profile; started from the posterior's best draws it is within a fraction of a
 nat on the stretches the posterior covers.
@@ -24,7 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-GRID = 12  # profile points per parameter
+GRID = 10  # profile points per parameter evenly across its box
+QUANTILES = (0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 0.98)  # and at these quantiles of its posterior draws
 ITERATIONS = 25  # L-BFGS-B iterations per profile point
 ALLOW = 1.92  # χ²₁(0.95)/2: the 95 % profile-likelihood region
 UNDETERMINED = 0.5  # an allowed stretch of at least this share of the box: undetermined there
@@ -35,25 +36,32 @@ CUTS = ((1 / 3, 1.0), (0.0, 2 / 3))  # the boxes read for the prior sensitivity:
 def cost(dim: int) -> int:
     """Evaluations ``profile`` spends at most on ``dim`` parameters (a budget to reserve for it)."""
     per_point = (ITERATIONS + 5) * (1 + 2 * max(dim - 1, 0))
-    return dim * GRID * per_point
+    return dim * (GRID + len(QUANTILES)) * per_point
 
 
-def grid() -> np.ndarray:
-    return (np.arange(GRID) + 0.5) / GRID
+def grid(u: np.ndarray) -> np.ndarray:
+    """The profile's values of one parameter (unit coordinates), sorted: ``GRID`` evenly across the box and
+    the ``QUANTILES`` of its draws ``u``."""
+    even = (np.arange(GRID) + 0.5) / GRID
+    return np.unique(np.round(np.concatenate([even, np.quantile(u, QUANTILES)]), 6))
 
 
 def profile(log_like, draws: np.ndarray, log_prob: np.ndarray) -> dict:
-    """{"unit": grid, "log_like": (d, GRID) list}: the profile log-likelihood of each parameter.
+    """{"unit": (d lists of values), "log_like": (d lists)}: the profile log-likelihood of each parameter at
+    its ``grid`` values.
 
     ``log_like(U) -> (m,)``: the batched log-likelihood of unit points (−inf or a very low value where the
     model blows up; it may raise ``StopIteration`` to stop, e.g. when a budget is spent: the points left
     read NaN). ``draws`` (m, d) and ``log_prob`` (m,): the posterior's draws, the starts."""
     draws, log_prob = np.asarray(draws, float), np.asarray(log_prob, float)
     d = draws.shape[1]
-    values = grid()
-    out = np.full((d, GRID), np.nan)
+    units = [grid(draws[:, j]) for j in range(d)]
+    out = [np.full(len(v), np.nan) for v in units]
+    spent = False
     for j in range(d):
-        for g, value in enumerate(values):
+        for g, value in enumerate(units[j]):
+            if spent:
+                break
             near = np.abs(draws[:, j] - value) <= 0.5 / GRID
             pool = np.flatnonzero(near) if near.any() else np.argsort(np.abs(draws[:, j] - value))[:20]
             start = draws[pool[np.argmax(log_prob[pool])]].copy()
@@ -62,10 +70,9 @@ def profile(log_like, draws: np.ndarray, log_prob: np.ndarray) -> dict:
             try:
                 _maximise(log_like, start, j, best)
             except StopIteration:  # the budget is spent: what was found stands, the rest is NaN
-                out[j, g] = best[0] if np.isfinite(best[0]) else np.nan
-                return {"unit": values.tolist(), "log_like": out.tolist()}
-            out[j, g] = best[0] if np.isfinite(best[0]) else np.nan
-    return {"unit": values.tolist(), "log_like": out.tolist()}
+                spent = True
+            out[j][g] = best[0] if np.isfinite(best[0]) else np.nan
+    return {"unit": [v.tolist() for v in units], "log_like": [v.tolist() for v in out]}
 
 
 def _maximise(log_like, start: np.ndarray, j: int, best: list) -> None:
@@ -95,24 +102,23 @@ def _maximise(log_like, start: np.ndarray, j: int, best: list) -> None:
     )
 
 
-def allowed(profile_values) -> tuple[float, float] | None:
-    """(lowest, highest) unit value whose profile is within ``ALLOW`` of the maximum; None without values."""
-    x = np.asarray(grid(), float)
-    y = np.asarray(profile_values, float)
+def allowed(unit, values) -> tuple[float, float] | None:
+    """(lowest, highest) unit value of a profile (``unit``, ``values``) within ``ALLOW`` of its maximum;
+    None without values."""
+    x, y = np.asarray(unit, float), np.asarray(values, float)
     ok = np.isfinite(y)
     if not ok.any():
         return None
     inside = ok & (y >= np.nanmax(y) - ALLOW)
-    half = 0.5 / GRID
-    return float(x[inside].min() - half), float(x[inside].max() + half)
+    return float(x[inside].min()), float(x[inside].max())
 
 
-def undetermined(profile_values) -> tuple[float, float] | None:
-    """The allowed stretch (unit) when it covers at least ``UNDETERMINED`` of the box, else None."""
-    span = allowed(profile_values)
+def undetermined(unit, values) -> tuple[float, float] | None:
+    """The allowed stretch (unit) when it spans at least ``UNDETERMINED`` of the box, else None."""
+    span = allowed(unit, values)
     if span is None or span[1] - span[0] < UNDETERMINED:
         return None
-    return max(0.0, span[0]), min(1.0, span[1])
+    return span
 
 
 def sensitivity(draws: np.ndarray, j: int, regions, physical: np.ndarray) -> list:

@@ -135,11 +135,10 @@ def box_statements(pc, profile) -> list[str]:
     """One sentence per searched parameter the data leave undetermined over part of its box, and one
     naming the determined ones with their 95 % profile range."""
     labels = parameters(pc.problem)
-    values = np.asarray(profile["log_like"], float)
     out, pinned = [], []
     for j, name in enumerate(pc.names):
-        span = posterior_profile.undetermined(values[j])
-        allowed = posterior_profile.allowed(values[j])
+        span = posterior_profile.undetermined(profile["unit"][j], profile["log_like"][j])
+        allowed = posterior_profile.allowed(profile["unit"][j], profile["log_like"][j])
         if allowed is None:
             continue
         lo, hi = _physical(pc, j, allowed)
@@ -180,12 +179,11 @@ def _mass_share(pc, j: int, span) -> str:
 def sensitivity_table(pc, profile) -> pd.DataFrame:
     """Rows per (undetermined parameter, cut box) of ``posterior_profile.sensitivity``."""
     v, labels = pc.nested, parameters(pc.problem)
-    values = np.asarray(profile["log_like"], float)
     flat = pc.chain.samples.reshape(-1, len(pc.names))
     physical = pc.problem.from_unit(flat)
     rows = []
     for j, name in enumerate(pc.names):
-        if posterior_profile.undetermined(values[j]) is None:
+        if posterior_profile.undetermined(profile["unit"][j], profile["log_like"][j]) is None:
             continue
         for cut in posterior_profile.sensitivity(flat, j, v.regions, physical):
             lo, hi = _physical(pc, j, cut["box"])
@@ -228,11 +226,10 @@ def runs_figure(study, out_dir, pc, profile):
     fig = canvas(12, 2.7 * nrows + 1.6)
     grid = fig.add_gridspec(nrows, ncols)
     colours = [OKABE_ITO[k % len(OKABE_ITO)] for k in range(runs)]
-    values = np.asarray(profile["log_like"], float) if profile else None
     rows = []
     for j, name in enumerate(pc.names):
         ax = fig.add_subplot(grid[j // ncols, j % ncols])
-        span = posterior_profile.undetermined(values[j]) if values is not None else None
+        span = posterior_profile.undetermined(profile["unit"][j], profile["log_like"][j]) if profile else None
         edges = _edges(samples[:, :, j], span)
         U = np.full((len(edges), d), 0.5)
         U[:, j] = edges
@@ -246,12 +243,13 @@ def runs_figure(study, out_dir, pc, profile):
         ax.set_ylabel("share of draws per bin")
         if np.ptp(x) > 0 and x.min() > 0 and x.max() / x.min() > 100:
             ax.set_xscale("log")
-        if values is not None and np.isfinite(values[j]).any():
-            g = np.asarray(profile["unit"], float)
+        values = np.asarray(profile["log_like"][j], float) if profile else np.full(1, np.nan)
+        if np.isfinite(values).any():
+            g = np.asarray(profile["unit"][j], float)
             U = np.full((len(g), d), 0.5)
             U[:, j] = g
             gx = pc.problem.from_unit(U)[:, j]
-            delta = values[j] - np.nanmax(values[j])
+            delta = values - np.nanmax(values)
             keep = (g >= edges[0]) & (g <= edges[-1])  # the profile where the marginal is drawn
             twin = ax.twinx()
             twin.plot(gx[keep], delta[keep], "-o", color="black", ms=3.5, lw=1.2, zorder=3)
@@ -266,7 +264,7 @@ def runs_figure(study, out_dir, pc, profile):
         rows += [{"parameter": name, "kind": "pooled share", "x": a, "value": b} for a, b in zip(x[:-1], pooled)]
     handles = [Patch(color="0.8", label="pooled marginal")]
     handles += [Line2D([], [], color=colours[k], lw=1.2, label=f"run {k + 1}") for k in range(min(runs, 8))]
-    if values is not None:
+    if profile:
         handles += [
             Line2D([], [], color="black", marker="o", ms=3.5, label="profile log-likelihood (right axis)"),
             Line2D([], [], color="black", ls=":", label=f"95 % threshold (−{posterior_profile.ALLOW})"),
