@@ -118,7 +118,8 @@ def posterior(
         keep[posterior.main.walkers] = True
         stuck = ~keep
         if diagnostics is None:
-            diagnostics = posterior.assessment["diagnostics"][posterior.assessment["modes"].index(posterior.main)]
+            found = posterior.assessment["diagnostics"]  # none for runs too small for the R̂ badge
+            diagnostics = found[posterior.assessment["modes"].index(posterior.main)] if found else False
     else:
         names = list(PARAM_NAMES if names is None else names)
         stuck = mcmc.stuck_walkers(chain.samples, chain.log_prob, burn)
