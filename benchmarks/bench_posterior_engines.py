@@ -168,11 +168,12 @@ def main():
         )
         if "run_nfev" in extras:
             print("  evaluations per run: " + ", ".join(f"{n:,}" for n in extras["run_nfev"]))
-        print("  precision (SE from the runs' scatter, in posterior sd; target ≤ 0.1):")
+        print("  precision (SE from the runs' scatter, in posterior sd of the searched coordinate; target ≤ 0.1):")
         for r in verdict.precision.itertuples():
             print(
-                f"    {r.parameter:>14}: mean {r.mean:.4g} ± {r.se_mean:.2f} sd, 5 % {r.q05:.4g} ± {r.se_q05:.2f}, "
-                f"95 % {r.q95:.4g} ± {r.se_q95:.2f} (runs' means {r.run_mean_min:.4g}–{r.run_mean_max:.4g})"
+                f"    {r.parameter:>14}: mean {r.mean_physical:.4g} ± {r.se_mean:.2f} sd, 5 % {r.q05_physical:.4g} ± "
+                f"{r.se_q05:.2f}, 95 % {r.q95_physical:.4g} ± {r.se_q95:.2f} (runs' means "
+                f"{r.run_mean_min_physical:.4g}–{r.run_mean_max_physical:.4g})"
             )
         print("  regions (mass ± SE from the runs' scatter; target ≤ 0.05):")
         for region in verdict.regions:

@@ -22,7 +22,8 @@ rule, its Kish effective sample size, UltraNest's insertion-order test). The ver
 **Precision from the scatter between runs** (never from each run's own error, which on the default
 specimen understated the runs' scatter of a region's mass ~13×): the standard error of the pooled mean
 and of the pooled 5 % and 95 % quantiles of every parameter, from the runs' own estimates (sd over runs
-/ √runs), within ``TARGET_SD`` posterior standard deviations, and of every region's mass within
+/ √runs), within ``TARGET_SD`` posterior standard deviations — in the searched coordinates, where the
+prior is uniform (log for a log-scaled box: a long physical tail would swamp the sd), and of every region's mass within
 ``TARGET_MASS``. Needs ``MIN_RUNS`` runs. When it fails, the runs it would take follow from the SE's
 1/√runs (``needed``).
 
@@ -183,7 +184,7 @@ def judge(
     place = places[0] if places else None
     if fits:
         checks.append(_fits_check(fits, places, log_prob))
-    precision = precision_table(P, labels)
+    precision = precision_table(draws, labels, from_unit)
     met = _precision_met(precision, regions, runs)
     ess_runs = np.asarray(ess, float) if ess is not None else np.full(runs, float(n))
     badge = reproduce_badge(draws, names, ess_runs)
@@ -385,15 +386,17 @@ def _short(x: float) -> str:
     return f"{x:.3g}"
 
 
-def precision_table(P: np.ndarray, labels) -> pd.DataFrame:
-    """Per parameter: the pooled mean, sd and 5/95 % quantiles of physical draws P (n, runs, d), each
-    run's mean, and the standard errors of the pooled mean and quantiles from the runs' scatter, in
-    posterior sd (``se_mean``, ``se_q05``, ``se_q95``); a parameter the posterior holds fixed has sd 0 and
-    no row."""
-    n, runs, d = P.shape
+def precision_table(draws: np.ndarray, labels, from_unit=None) -> pd.DataFrame:
+    """Per parameter, in the searched coordinates (``draws`` (n, runs, d), unit: the coordinates the prior
+    is uniform in, so a log-scaled parameter's long tail in physical units does not swamp its sd): the
+    pooled mean, sd and 5/95 % quantiles, each run's mean, and the standard errors of the pooled mean and
+    quantiles from the runs' scatter, in posterior sd (``se_mean``, ``se_q05``, ``se_q95``); with
+    ``from_unit``, the same mean, quantiles and runs' means mapped to physical units (``*_physical``). A
+    parameter the posterior holds fixed has sd 0 and no row."""
+    n, runs, d = draws.shape
     rows = []
     for j in range(d):
-        x = P[:, :, j]
+        x = draws[:, :, j]
         sd = float(np.std(x))
         if not sd > 0:
             continue
@@ -403,6 +406,7 @@ def precision_table(P: np.ndarray, labels) -> pd.DataFrame:
         rows.append(
             {
                 "parameter": labels[j],
+                "index": j,
                 "mean": float(x.mean()),
                 "sd": sd,
                 "q05": float(np.quantile(x, QUANTILES[0])),
@@ -417,7 +421,20 @@ def precision_table(P: np.ndarray, labels) -> pd.DataFrame:
     frame = pd.DataFrame(rows)
     if len(frame):
         frame["met"] = frame[["se_mean", "se_q05", "se_q95"]].max(axis=1) <= TARGET_SD
+        for column in ("mean", "q05", "q95", "run_mean_min", "run_mean_max"):
+            frame[f"{column}_physical"] = _physical(frame, column, d, from_unit)
     return frame
+
+
+def _physical(frame: pd.DataFrame, column: str, d: int, from_unit) -> list:
+    """The unit-coordinate values of ``column`` (one per row, parameter ``index``) in physical units (each
+    coordinate of the box maps on its own)."""
+    if from_unit is None:
+        return list(frame[column])
+    U = np.full((len(frame), d), 0.5)
+    U[np.arange(len(frame)), frame["index"].to_numpy()] = frame[column].to_numpy()
+    P = np.asarray(from_unit(U), float)
+    return [float(P[i, j]) for i, j in enumerate(frame["index"])]
 
 
 def _se(values, runs: int, sd: float) -> float:

@@ -26,8 +26,9 @@ def verdict_block(doc, pc) -> None:
         doc.table(
             precision_table(v),
             "Pooled posterior means and 5/95 % quantiles, each ± its standard error from the scatter between "
-            f"the {v.runs} runs (in posterior sd; target ≤ {posterior_verdict.TARGET_SD:g}), and the range of the "
-            "runs' own means",
+            f"the {v.runs} runs, in posterior sd (target ≤ {posterior_verdict.TARGET_SD:g}), and the range of the "
+            "runs' own means; computed in the searched coordinates, where the prior is uniform (a log-scaled "
+            "parameter's mean is then its geometric mean)",
         )
     doc.table(
         regions_table(v),
@@ -78,11 +79,10 @@ def precision_table(v) -> pd.DataFrame:
         rows.append(
             {
                 "parameter": r.parameter,
-                "pooled mean": f"{number(r.mean, 4)} ± {r.se_mean:.2f} sd",
-                "5 %": f"{number(r.q05, 4)} ± {r.se_q05:.2f} sd",
-                "95 %": f"{number(r.q95, 4)} ± {r.se_q95:.2f} sd",
-                "posterior sd": number(r.sd, 3),
-                "runs' means": f"{number(r.run_mean_min, 4)} … {number(r.run_mean_max, 4)}",
+                "pooled mean": f"{number(r.mean_physical, 4)} ± {r.se_mean:.2f} sd",
+                "5 %": f"{number(r.q05_physical, 4)} ± {r.se_q05:.2f} sd",
+                "95 %": f"{number(r.q95_physical, 4)} ± {r.se_q95:.2f} sd",
+                "runs' means": f"{number(r.run_mean_min_physical, 4)} … {number(r.run_mean_max_physical, 4)}",
                 "within target": "yes" if r.met else "**no**",
             }
         )
