@@ -50,7 +50,7 @@ they are) and never a table of NaN; each run's effective sample size is kept bes
 the same number of draws, so they form the chains (draws, runs, d) of the verdict.
 
 A model that blows up, or a point past the budget: log-likelihood −1e300 (UltraNest refuses −inf),
-never a live point. Options: ``runs`` (4 first), ``max_runs`` (32), ``live_points`` (400), ``steps``
+never a live point. Options: ``runs`` (4 first), ``max_runs`` (32), ``live_points`` (200), ``steps``
 (slice steps per parameter, 1), ``dlogz`` (0.5), ``min_ess`` (300 per run: the verdict's R̂ badge wants
 ≥ 300 effective draws a run), ``step_sampler`` ("auto"), ``workers`` (1), ``n_data`` (None). Extras:
 ``chain`` (draws, runs, d) unit coordinates, ``log_prob`` (draws, runs) log-likelihood, per run
@@ -100,7 +100,7 @@ _JOB: dict = {}  # the problem and settings a forked worker reads (set before th
     options={
         "runs": Int(4, minimum=1, maximum=64),
         "max_runs": Int(32, minimum=1, maximum=256),
-        "live_points": Int(400, minimum=20, maximum=100_000),
+        "live_points": Int(200, minimum=20, maximum=100_000),
         "steps": Int(1, minimum=1, maximum=64),
         "dlogz": Float(0.5, minimum=0.001, maximum=100.0),
         "min_ess": Int(300, minimum=10, maximum=1_000_000),
@@ -115,7 +115,7 @@ def minimize(
     rng,
     runs=4,
     max_runs=32,
-    live_points=400,
+    live_points=200,
     steps=1,
     dlogz=0.5,
     min_ess=300,

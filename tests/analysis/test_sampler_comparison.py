@@ -88,3 +88,22 @@ def test_the_table_says_which_sampler_misses_a_mode_with_masses_evaluations_and_
 def test_one_sampler_per_specimen_is_no_comparison(samplers):
     reference, _ = samplers
     assert groups([reference]) == {}
+
+
+def test_an_emcee_posterior_that_misses_a_good_fit_is_never_called_converged(samplers, monkeypatch):
+    """The ensemble sampler settles in the 0.7 mode and passes R̂; a good ranking fit at the 0.3 mode's peak,
+    as probable as its draws, where none go, makes its verdict "not converged" with the reason."""
+    import pandas as pd
+
+    from bwbench.problems.hysteresis.report import posterior_draws, spread_decomposition
+
+    _, emcee = samplers
+    toy = MixtureToy([[0.3, 0.3], [0.7, 0.7]], 0.04, [0.7, 0.3])
+    pc = PosteriorChain(emcee.chain, toy, emcee.run, emcee.ensembles, dict(emcee.assessment), NAMES)
+    assert pc.converged  # by R̂ and ESS alone
+    fit = pd.DataFrame([{"optimizer": "lsq-trf", "replicate": 0, "mse": 1.0, "p0": 0.7, "p1": 0.7}])
+    monkeypatch.setattr(spread_decomposition, "good_fits", lambda study, specimen: fit)
+    posterior_draws._best_fit_covered(None, pc)
+    assert not pc.converged
+    assert pc.verdict_line.startswith("Posterior not converged: the sampler missed a mode at least as probable as")
+    assert "lsq-trf, seed 1" in pc.verdict_line

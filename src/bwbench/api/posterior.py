@@ -68,18 +68,23 @@ def _draws(posterior, thin: int) -> tuple[dict, dict]:
 
 
 def _verdict_attrs(posterior) -> dict:
-    return {
+    out = {
         "converged": bool(posterior.converged),
         "reasons": list(posterior.reasons),
         "verdict": posterior.verdict_line,
     }
+    ess = (posterior.chain.evidence or {}).get("run_ess") if posterior.nested is not None else None
+    if ess:  # how many independent draws each run's weighted points are worth (a cut run: about 1)
+        out["effective_draws"] = [float(e) for e in ess]
+    return out
 
 
 def frame(study, specimen: str, thin: int | None = None):
     """A DataFrame of posterior draws of ``specimen`` in physical units (``Study.units`` of the problem):
     a nested-sampling posterior's distinct points per ``run`` with their ``weight``; an emcee posterior's
     ``walker``, ``step`` (after burn-in). ``attrs``: ``units`` (dict), ``held`` (dict), ``converged``,
-    ``reasons``, ``verdict``."""
+    ``reasons``, ``verdict``, and for nested sampling ``effective_draws`` (each run's Kish effective sample
+    size: a run cut by its budget is worth about one draw, its weight on its heaviest point)."""
     import pandas as pd
 
     posterior = chain_of(study, specimen)
@@ -142,6 +147,7 @@ def inference_data(study, specimen: str, thin: int | None = None):
             "converged": int(verdict["converged"]),
             "verdict": verdict["verdict"],
             "reasons": json.dumps(verdict["reasons"], ensure_ascii=False),
+            **({"effective_draws": verdict["effective_draws"]} if "effective_draws" in verdict else {}),
         },
     )
     data.posterior.attrs["units"] = json.dumps(units(posterior.problem, list(draws)), ensure_ascii=False)

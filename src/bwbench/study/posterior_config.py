@@ -27,7 +27,7 @@ POSTERIOR_OPTIONS = {
         "stop": "converged",
     },
     "nested": {},
-}  # its defaults are the posterior's: runs of 400 live points, added until precise
+}  # its defaults are the posterior's: runs of 200 live points, added until precise
 
 
 DEFAULT_POSTERIOR_OPTIMIZER = "nested"

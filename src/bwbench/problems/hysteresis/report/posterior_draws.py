@@ -34,9 +34,9 @@ class PosteriorChain:
     assessment: dict
     names: list
     fixed: list = field(default_factory=list)
-    # a nested-sampling posterior: ``bwbench.analysis.nested.assess`` of its runs (the chain's walkers are
-    # the runs, its steps their equal-weight draws); ``assessment`` then has one "mode" holding every run
-    nested: dict | None = None
+    # a nested-sampling posterior: ``posterior_verdict.judge`` of its runs, a ``Verdict`` (the chain's
+    # walkers are the runs, its steps their equal-weight draws); ``assessment`` then has one "mode"
+    nested: Any = None
 
     @property
     def burn(self) -> int:
@@ -223,7 +223,7 @@ def good_ranking_fits(study, problem, specimen: str) -> list:
     reach) or of another model are left out."""
     from bwbench.problems.hysteresis.report.spread_decomposition import good_fits
 
-    out = []
+    out: list = []
     for _, row in good_fits(study, specimen).sort_values("mse").iterrows():
         theta = in_coordinates(row.to_dict(), problem)
         if theta is None:
