@@ -95,14 +95,14 @@ def test_an_emcee_posterior_that_misses_a_good_fit_is_never_called_converged(sam
     as probable as its draws, where none go, makes its verdict "not converged" with the reason."""
     import pandas as pd
 
-    from bwbench.problems.hysteresis.report import posterior_draws, spread_decomposition
+    from bwbench.problems.hysteresis.report import posterior_draws
 
     _, emcee = samplers
     toy = MixtureToy([[0.3, 0.3], [0.7, 0.7]], 0.04, [0.7, 0.3])
     pc = PosteriorChain(emcee.chain, toy, emcee.run, emcee.ensembles, dict(emcee.assessment), NAMES)
     assert pc.converged  # by R̂ and ESS alone
     fit = pd.DataFrame([{"optimizer": "lsq-trf", "replicate": 0, "mse": 1.0, "p0": 0.7, "p1": 0.7}])
-    monkeypatch.setattr(spread_decomposition, "good_fits", lambda study, specimen: fit)
+    monkeypatch.setattr(posterior_draws, "good_fits", lambda study, specimen: fit)
     posterior_draws._best_fit_covered(None, pc)
     assert not pc.converged
     assert pc.verdict_line.startswith("Posterior not converged: the sampler missed a mode at least as probable as")

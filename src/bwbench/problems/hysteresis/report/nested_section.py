@@ -45,12 +45,11 @@ def best_fit_text(pc) -> str | None:
 
 
 def good_fits_placed(study, pc) -> pd.DataFrame:
-    """Every good ranking fit (``spread_decomposition.good_fits``) against a nested posterior's draws
+    """Every good ranking fit (``posterior_draws.good_fits``) against a nested posterior's draws
     (``nested.locate``): in which mode, or below the posterior's support by how much, or outside every
     draw while as probable (a mode the sampler missed)."""
     from bwbench.analysis import nested
-    from bwbench.problems.hysteresis.report.posterior_draws import in_coordinates, log_posterior
-    from bwbench.problems.hysteresis.report.spread_decomposition import good_fits
+    from bwbench.problems.hysteresis.report.posterior_draws import good_fits, in_coordinates, log_posterior
 
     rows = []
     for _, run in good_fits(study, pc.chain.specimen).sort_values("mse").iterrows():

@@ -13,10 +13,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from bwbench.analysis import mcmc
 from bwbench.models import switched_parameters
 
+TOLERANCE = 0.10  # good fits: final MSE within 10 % of the best known for the specimen
 EDGE = 1e-3  # a fit within this of an edge of the box (unit coordinates) lies on it
 DRAWS = 1000  # kept draws summarised and pushed through the model (thinned evenly)
 
@@ -216,13 +218,20 @@ def _best_fit_covered(study, pc: PosteriorChain) -> None:
         return
 
 
+def good_fits(study, specimen: str, tolerance: float = TOLERANCE) -> pd.DataFrame:
+    """Ranking runs on ``specimen`` whose final MSE is within ``tolerance`` of the best known."""
+    from bwbench.analysis import statistics
+
+    best = statistics.best_known(study.runs)[specimen]
+    runs = study.ranking[(study.ranking["specimen"] == specimen) & (study.ranking["status"] == "ok")]
+    return runs[runs["mse"] <= best * (1 + tolerance)]
+
+
 def good_ranking_fits(study, problem, specimen: str) -> list:
     """[(unit point, log-likelihood, label)] of the ranking's good fits on ``specimen`` (final MSE within
-    10 % of the best known: ``spread_decomposition.good_fits``), best first, in ``problem``'s coordinates;
+    10 % of the best known: ``good_fits``), best first, in ``problem``'s coordinates;
     fits outside the box, on its edge (a search stopped by its box: a sliver of the prior the draws seldom
     reach) or of another model are left out."""
-    from bwbench.problems.hysteresis.report.spread_decomposition import good_fits
-
     out: list = []
     for _, row in good_fits(study, specimen).sort_values("mse").iterrows():
         theta = in_coordinates(row.to_dict(), problem)
