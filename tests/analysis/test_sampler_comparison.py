@@ -99,8 +99,10 @@ def test_an_emcee_posterior_that_misses_a_good_fit_is_never_called_converged(sam
 
     _, emcee = samplers
     toy = MixtureToy([[0.3, 0.3], [0.7, 0.7]], 0.04, [0.7, 0.3])
-    pc = PosteriorChain(emcee.chain, toy, emcee.run, emcee.ensembles, dict(emcee.assessment), NAMES)
-    assert pc.converged  # by R̂ and ESS alone
+    # as if its R̂ and ESS had passed (all its walkers sit in the 0.7 mode)
+    passed = {**emcee.assessment, "converged": True, "why": []}
+    pc = PosteriorChain(emcee.chain, toy, emcee.run, emcee.ensembles, passed, NAMES)
+    assert pc.converged and pc.verdict_line.startswith("Posterior converged")
     fit = pd.DataFrame([{"optimizer": "lsq-trf", "replicate": 0, "mse": 1.0, "p0": 0.7, "p1": 0.7}])
     monkeypatch.setattr(posterior_draws, "good_fits", lambda study, specimen: fit)
     posterior_draws._best_fit_covered(None, pc)
