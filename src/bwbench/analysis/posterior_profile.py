@@ -35,7 +35,7 @@ CUTS = ((1 / 3, 1.0), (0.0, 2 / 3))  # the boxes read for the prior sensitivity:
 
 def cost(dim: int) -> int:
     """Evaluations ``profile`` spends at most on ``dim`` parameters (a budget to reserve for it)."""
-    per_point = (ITERATIONS + 5) * (1 + 2 * max(dim - 1, 0))
+    per_point = (ITERATIONS + 5) * (1 + 2 * max(dim - 1, 0)) + 2
     return dim * (GRID + len(QUANTILES)) * per_point
 
 
@@ -57,32 +57,45 @@ def profile(log_like, draws: np.ndarray, log_prob: np.ndarray) -> dict:
     d = draws.shape[1]
     units = [grid(draws[:, j]) for j in range(d)]
     out = [np.full(len(v), np.nan) for v in units]
+    # "near" for the draws that count as the profile's value: a quarter of the posterior's sd, within half a
+    # grid step (a draw further off in a parameter the data pin down says nothing of the value)
+    width = np.minimum(0.5 / GRID, 0.25 * draws.std(axis=0))
     spent = False
     for j in range(d):
+        previous = None  # the optimum at the grid's previous value: a second start, walking along the grid
         for g, value in enumerate(units[j]):
             if spent:
                 break
             near = np.abs(draws[:, j] - value) <= 0.5 / GRID
             pool = np.flatnonzero(near) if near.any() else np.argsort(np.abs(draws[:, j] - value))[:20]
-            start = draws[pool[np.argmax(log_prob[pool])]].copy()
-            start[j] = value
-            best = [-np.inf]
+            starts = [draws[pool[np.argmax(log_prob[pool])]].copy()] + (
+                [previous.copy()] if previous is not None else []
+            )
+            for start in starts:
+                start[j] = value
+            best = [-np.inf, starts[0]]
             try:
-                _maximise(log_like, start, j, best)
+                first = np.asarray(log_like(np.array(starts)), float)
+                _maximise(log_like, starts[int(np.argmax(first))], j, best)
             except StopIteration:  # the budget is spent: what was found stands, the rest is NaN
                 spent = True
-            out[j][g] = best[0] if np.isfinite(best[0]) else np.nan
+            previous = best[1]
+            # a maximisation is a lower bound; so is the best draw close to the value (a failed
+            # maximisation would otherwise show as a dip where the draws say the likelihood is as high)
+            close = np.abs(draws[:, j] - value) <= width[j]
+            found = max(best[0], float(np.max(log_prob[close])) if close.any() else -np.inf)
+            out[j][g] = found if np.isfinite(found) else np.nan
     return {"unit": [v.tolist() for v in units], "log_like": [v.tolist() for v in out]}
 
 
 def _maximise(log_like, start: np.ndarray, j: int, best: list) -> None:
     """Maximise the log-likelihood over every coordinate but ``j`` (held at ``start[j]``) from ``start``;
-    the highest value met goes into ``best[0]`` (kept when ``log_like`` stops the search)."""
+    the highest value met and its point go into ``best`` (kept when ``log_like`` stops the search)."""
     from scipy.optimize import minimize
 
     free = [i for i in range(len(start)) if i != j]
     if not free:
-        best[0] = float(log_like(start[None, :])[0])
+        best[0], best[1] = float(log_like(start[None, :])[0]), start
         return
     eye = STEP * np.eye(len(free))
 
@@ -93,7 +106,8 @@ def _maximise(log_like, start: np.ndarray, j: int, best: list) -> None:
         ll = np.asarray(log_like(points), float)
         if not np.isfinite(ll[0]) or ll[0] < -1e200:
             return 1e300, np.zeros(len(free))
-        best[0] = max(best[0], float(ll[0]))
+        if ll[0] > best[0]:
+            best[0], best[1] = float(ll[0]), points[0].copy()
         grad = (ll[1 : 1 + len(free)] - ll[1 + len(free) :]) / np.diag(hi - lo)
         return -float(ll[0]), -np.where(np.isfinite(grad), grad, 0.0)
 
