@@ -10,8 +10,8 @@
 - ``recommendation``: what the report recommends (``label``, ``backend``, ``formulation``,
   ``model``, ``budget``, ``sentence``, ``text``), from ``bwbench.report.recommend``;
 - ``report(out_dir)``: the report of ``bwbench report`` (report.html, report.md, figures, CSVs);
-- ``posterior(specimen)`` / ``to_inference_data(specimen)``: a posterior run's draws in physical
-  units (``bwbench.api.posterior``).
+- ``posterior(specimen)`` / ``to_inference_data(specimen)`` / ``posterior_verdict(specimen)``: a
+  posterior run's draws in physical units with its verdict (``bwbench.api.posterior``).
 
 Anything else of the stored study (``settings``, ``chains``, ``specimen_path``, ...) is read through.
 """
@@ -163,6 +163,14 @@ class Study:
 
         with untouched():
             return posterior_api.inference_data(self._stored, specimen, thin)
+
+    def posterior_verdict(self, specimen: str):
+        """The verdict on the posterior of ``specimen``, the report's and the terminal's: ``converged``,
+        ``reasons``, ``line`` (``bwbench.api.posterior.verdict``)."""
+        from bwbench.api import posterior as posterior_api
+
+        with untouched():
+            return posterior_api.verdict(self._stored, specimen)
 
     # -- display ----------------------------------------------------------------------------------
     def _counts(self) -> str:

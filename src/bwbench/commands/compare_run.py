@@ -149,6 +149,17 @@ def recommendation_line(db) -> str:
         return f"Recommendation: see the report ({err})."
 
 
+def posterior_lines(db) -> list[str]:
+    """The verdict of each posterior in the study, one line each, in the report's words."""
+    from bwbench.api.posterior import verdict_lines
+    from bwbench.store.reader import load_study
+
+    try:
+        return verdict_lines(load_study(db))
+    except UserError:
+        return []
+
+
 # ------------------------------------------------------------------------------------ entry point
 
 
@@ -212,6 +223,8 @@ def _print_results(config, db, outcome, csv) -> None:
             print(f"wrote {csv}")
         print(f"the statistics behind the recommendation: bwbench report --db {db} --out reports/{config.name}")
         print(recommendation_line(db))
+        for line in posterior_lines(db):
+            print(line)
         sys.stdout.flush()
     except BrokenPipeError:  # `compare ... | head`: the reader left, the study is recorded all the same
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit

@@ -21,7 +21,7 @@ Generic format (``studies/quick.toml`` is a worked example)::
     [posterior]               # optional: the posterior, kept out of the ranking
     specimens = ["pom-mt24u01_0.01MPa_r1"]   # names (file stems); may be omitted with one specimen
     optimizer = "nested"      # the default: nested sampling, every mode and ln Z ("emcee" also works)
-    budget = 250000
+    budget = 6000000          # the default: a cap on evaluations (runs stop once they agree); optional
     seeds = 1                 # the default
     options = {}              # on top of POSTERIOR_OPTIONS (what converges without options)
 

@@ -27,10 +27,14 @@ POSTERIOR_OPTIONS = {
         "stop": "converged",
     },
     "nested": {},
-}  # its defaults are the posterior's: 4 independent runs of 100 live points
+}  # its defaults are the posterior's: runs of 200 live points, added until precise
 
 
 DEFAULT_POSTERIOR_OPTIMIZER = "nested"
+# Evaluations per specimen, all runs together, when [posterior] gives no budget: a cap (nested sampling's
+# runs stop once they agree to the precision target). What the default specimen's posterior needs
+# (docs/posterior.md): ~4 runs of 400 live points and the runs the precision then asks for.
+DEFAULT_POSTERIOR_BUDGET = 6_000_000
 
 
 @dataclass(frozen=True)
@@ -67,8 +71,6 @@ def posterior_table(fail, table, setup: ProblemSetup) -> PosteriorConfig:
     unknown = [k for k in table if k not in POSTERIOR_KEYS]
     if unknown:
         fail(f"[posterior] unknown key {unknown[0]!r} (known: {', '.join(POSTERIOR_KEYS)})")
-    if "budget" not in table:
-        fail("[posterior] budget is required")
     available = setup.available
     only = list(available) if len(available) == 1 else None
     if "specimens" not in table and only is None:
@@ -91,7 +93,10 @@ def posterior_table(fail, table, setup: ProblemSetup) -> PosteriorConfig:
         specimens=tuple(available[stem] for stem in names),
         optimizer=samplers[0][0],
         budget=bounded(
-            fail, "[posterior] budget", integer(fail, "[posterior] budget", table["budget"]), "BWBENCH_MAX_BUDGET"
+            fail,
+            "[posterior] budget",
+            integer(fail, "[posterior] budget", table.get("budget", DEFAULT_POSTERIOR_BUDGET)),
+            "BWBENCH_MAX_BUDGET",
         ),
         seeds=bounded(
             fail, "[posterior] seeds", integer(fail, "[posterior] seeds", table.get("seeds", 1)), "BWBENCH_MAX_SEEDS"

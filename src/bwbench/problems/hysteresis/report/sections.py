@@ -240,7 +240,9 @@ def limits(report) -> list[str]:
     for chain, d in report.options.get("chain_diagnostics", []):
         if not d["converged"]:
             items.append(
-                f"The posterior chain on {chain.specimen} has not converged ({d['steps']:,} steps; worst "
+                f"The posterior on {chain.specimen}: {d['line'][0].lower()}{d['line'][1:]}; its summaries are not reliable."
+                if d.get("line")
+                else f"The posterior chain on {chain.specimen} has not converged ({d['steps']:,} steps; worst "
                 f"R̂ {d['worst_r_hat']:.3f}, least bulk ESS {d['min_ess']:,.0f}): its summaries are not reliable."
             )
     return items
