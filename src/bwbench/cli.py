@@ -120,7 +120,22 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         )
         if name == command:
             getattr(importlib.import_module(spec.module), spec.adder)(command_parser)
+            from bwbench.commands import reading_options
+
+            if name in reading_options.READS_SPECIMENS:
+                reading_options.add(command_parser)
     return parser
+
+
+def _reading(args):
+    """The command's ``--units`` and ``--rebuild-time`` declared while it runs (``bwbench.data.units``)."""
+    import contextlib
+
+    if not hasattr(args, "units"):
+        return contextlib.nullcontext()
+    from bwbench.data import units
+
+    return units.declaring(args.units, args.rebuild_time)
 
 
 def main(argv=None) -> int:
@@ -133,7 +148,7 @@ def main(argv=None) -> int:
         args = build_parser(command).parse_args(argv)
         # one thread per process unless --threads (or fit's --workers) asks for more
         fit_workers = getattr(args, "workers", 1) if command == "fit" else 1  # compare's are processes
-        with threads.environment(max(getattr(args, "threads", 1), fit_workers or 1)):
+        with threads.environment(max(getattr(args, "threads", 1), fit_workers or 1)), _reading(args):
             return args.func(args)
     except KeyboardInterrupt:
         # Ctrl-C: one line, exit 130 (128 + SIGINT). Outputs are written at the end of a command and

@@ -27,6 +27,8 @@ def check(args) -> int:
                 f"ok: {path}: {spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s, displacement "
                 f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N"
             )
+            if spec.reading_notes:
+                print(f"  read: {'; '.join(spec.reading_notes)}")
             print(f"  {signals_text(spec)}")
             ramps = ramps_text(spec)
             if ramps:
@@ -125,6 +127,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         epilog="example:\n  bwbench data check mytest.csv data/mr_damper/*.csv",
     )
     p.add_argument("files", nargs="+", help="specimen CSV files")
+    from bwbench.commands import reading_options
+
+    reading_options.add(p)
     p.set_defaults(func=check)
     p = sub.add_parser(
         "generate",
