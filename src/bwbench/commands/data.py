@@ -12,6 +12,7 @@ def check(args) -> int:
     """Exit 0 if every file is a valid specimen CSV, else 2 with one error line per bad file; valid
     files that are probably not what their header promises get warnings (exit status still 0)."""
     from bwbench.data import manifest, plausibility
+    from bwbench.data.protocol import protocol
     from bwbench.data.specimen import read_specimen
 
     status = 0
@@ -23,12 +24,19 @@ def check(args) -> int:
             status = 2
         else:
             rate = (spec.n_samples - 1) / spec.duration_s
+            sampling = (
+                f"{spec.n_samples} points, quasi-static (no time_s column: read as a sequence along the "
+                "displacement path)"
+                if spec.quasi_static
+                else f"{spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s"
+            )
             print(
-                f"ok: {path}: {spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s, displacement "
+                f"ok: {path}: {sampling}, displacement "
                 f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N"
             )
             if spec.reading_notes:
                 print(f"  read: {'; '.join(spec.reading_notes)}")
+            print(f"  protocol: {protocol(spec.x).describe()}")
             print(f"  {signals_text(spec)}")
             ramps = ramps_text(spec)
             if ramps:
@@ -65,6 +73,14 @@ def signals_text(spec) -> str:
     expected error (mm/s rms) and the force error that makes per ``REFERENCE_VISCOUS`` of ∂F/∂ẋ."""
     from bwbench.models import derivatives
 
+    if spec.quasi_static:
+        from bwbench.data.protocol import dead_band
+
+        return (
+            "signals: the displacement path and its direction of motion (a reversal counts once the motion "
+            f"goes back by more than {dead_band(spec.x):.3g} mm, against digitising jitter); no velocity or "
+            "acceleration: the models' viscous and inertia terms are off"
+        )
     if spec.v is not None:
         return "signals: displacement and velocity measured (velocity_mm_s), acceleration " + (
             "measured (acceleration_mm_s2)" if spec.a is not None else "estimated from the velocity"

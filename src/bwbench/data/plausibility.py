@@ -43,6 +43,8 @@ def loop_work(x, f) -> tuple[float, float]:
 
 def time_unit_warnings(spec) -> list[str]:
     """A sentence when the time column looks like milliseconds (see ``SLOWEST_CYCLE_S``)."""
+    if getattr(spec, "quasi_static", False):
+        return []  # no time column
     step = spec.duration_s / (spec.n_samples - 1)
     _, cycles = loop_work(spec.x, spec.f)
     period = spec.duration_s / cycles if cycles >= 0.5 else None

@@ -64,6 +64,9 @@ class Specimen:
     a: np.ndarray | None = None
     # What reading did to the file's numbers (declared units converted, a rounded time rebuilt), in words.
     reading_notes: tuple = ()
+    # No time column: a quasi-static (rate-independent) test read as a sequence of points, t the point's
+    # index (docs/file-formats.md#quasi-static-tests); a model sees the displacement path and its direction.
+    quasi_static: bool = False
 
     @property
     def measured_signals(self) -> tuple[str, ...]:
@@ -117,6 +120,10 @@ def read_specimen(path) -> Specimen:
             line_nos = _slow_parse(path, text, sep)[1]
         return int(line_nos[row])
 
+    quasi_static = order[0] is None
+    if quasi_static:  # no time: the sample index orders the path (docs/file-formats.md#quasi-static-tests)
+        values = np.column_stack([values, np.arange(len(values), dtype=float)])
+        order = [values.shape[1] - 1, *order[1:]]
     t, x, f = (np.ascontiguousarray(values[:, j]) for j in order[:3])  # always there
     v, a = (None if j is None else np.ascontiguousarray(values[:, j]) for j in order[3:])
     named = dict(zip(COLUMNS + OPTIONAL_COLUMNS, (t, x, f, v, a)))
@@ -130,7 +137,9 @@ def read_specimen(path) -> Specimen:
     for column in (t, x, f, v, a):
         if column is not None:
             column.flags.writeable = False  # a frozen Specimen should not change under its users
-    return Specimen(path=path, name=Path(path).stem, t=t, x=x, f=f, v=v, a=a, reading_notes=tuple(said))
+    return Specimen(
+        path=path, name=Path(path).stem, t=t, x=x, f=f, v=v, a=a, reading_notes=tuple(said), quasi_static=quasi_static
+    )
 
 
 def _read_bytes(path: str) -> bytes:
@@ -172,6 +181,8 @@ def _parse_header(path: str, header: str) -> tuple[str, list, int]:
         if quantity in units.UNITS and re.fullmatch(r"\w+", unit, re.ASCII) and name not in COLUMNS + OPTIONAL_COLUMNS:
             raise InputFileError(path, 1, f"column {name!r}: unknown unit; {quantity} may be {units.known(quantity)}")
     missing = [c for c in COLUMNS if c not in names]
+    if missing == ["time_s"] and not any(c in names for c in OPTIONAL_COLUMNS):
+        missing = []  # a quasi-static test: the displacement path and its force (``read_specimen``)
     if missing:
         found = header.strip()
         found = found if len(found) <= 60 else found[:57] + "..."

@@ -116,6 +116,7 @@ class BoucWenBaberNoori(Model):
         "71(3):342-349, 2004"
     )
     default_formulation = "identifiable"
+    rate_independent = True  # z is integrated in displacement
 
     def direct_parameters(self, state=None) -> tuple:
         return DIRECT

@@ -7,7 +7,7 @@ direction s = sign(dx):
     dw/dx = h(w, e)·Φ(w, e) / (η_d(e)·x_y),        de/dx = w,
     Φ   = 1 − ν(e)·c·|w|ⁿ,          c = 1 loading (w·s > 0), η unloading,
     ν   = 1 + δν·e,  η_d = 1 + δη·e (strength and stiffness degradation),
-    h   = 1 − ζ₁·exp(−((w·s − q·w_u)/ζ₂)²)  (Foliente's pinching), w_u = ν^(−1/n),
+    h   = 1 − ζ₁·exp(−((w·sign(ẋ) − q·w_u)/ζ₂)²)  (Foliente's pinching), w_u = ν^(−1/n),
     ζ₁  = ζ_s·(1 − exp(−p·e)),  ζ₂ = (ψ + δψ·e)·(λ + ζ₁).
 
 θ = (x_y, n, η, δν, δη, ζ_s, p, q, ψ, δψ, λ). The model is rate-independent, so it is integrated in
@@ -38,8 +38,9 @@ _MAX_SUBSTEPS = 20000
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _rhs(y, s, th, out, d):
-    """dy/dx of y = (w, e, ∂w/∂θ (d), ∂e/∂θ (d)) into ``out`` (d = 0: w and e only)."""
+def _rhs(y, s, sp, th, out, d):
+    """dy/dx of y = (w, e, ∂w/∂θ (d), ∂e/∂θ (d)) into ``out`` (d = 0: w and e only) along a piece of
+    direction s = sign(dx), the pinching centred for the direction of motion sp (``_advance``)."""
     w, e = y[0], y[1]
     xy, n, eta = th[_XY], th[_N], th[_ETA]
     dnu, deta, zs, p, q = th[_DNU], th[_DETA], th[_ZS], th[_P], th[_Q]
@@ -56,7 +57,7 @@ def _rhs(y, s, th, out, d):
     z1 = zs * (1.0 - ex)
     width = psi + dpsi * e
     z2 = width * (lam + z1)
-    u = (w * s - q * wu) / z2
+    u = (w * sp - q * wu) / z2
     G = math.exp(-u * u)
     hp = 1.0 - z1 * G
     D = eta_d * xy
@@ -69,7 +70,7 @@ def _rhs(y, s, th, out, d):
     # u_j = −q·w_u_j/ζ₂ − u·ζ₂_j/ζ₂ for everything reaching the pinching).
     two_gu = 2.0 * z1 * G * u
     phi_w = -nu * c * n * P / w if aw > 0.0 else 0.0
-    hp_w = two_gu * s / z2
+    hp_w = two_gu * sp / z2
     g_w = (hp_w * phi + hp * phi_w) / D
     z1_e = zs * p * ex
     z2_e = dpsi * (lam + z1) + width * z1_e
@@ -126,11 +127,14 @@ def _work(w, e, dx, th):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _advance(y, dx, th, d, K, Y):
-    """Integrate y over the monotone piece dx in place; False when it is not finite or too stiff."""
+def _advance(y, dx, th, d, K, Y, v):
+    """Integrate y over the monotone piece dx in place; False when it is not finite or too stiff. The
+    pinching's sign(ẋ) is that of the velocity ``v`` (of dx where v = 0): on a quasi-static record the
+    direction of motion with its dead band, so that digitising jitter does not flip the pinching."""
     if dx == 0.0:
         return True
     s = 1.0 if dx > 0.0 else -1.0
+    sp = 1.0 if v > 0.0 else -1.0 if v < 0.0 else s
     work = _work(y[0], y[1], dx, th)
     if not work < _WORK_PER_SUBSTEP * _MAX_SUBSTEPS:
         return False
@@ -138,16 +142,16 @@ def _advance(y, dx, th, d, K, Y):
     h = dx / m
     size = 2 + 2 * d
     for _ in range(m):
-        _rhs(y, s, th, K[0], d)
+        _rhs(y, s, sp, th, K[0], d)
         for i in range(size):
             Y[i] = y[i] + 0.5 * h * K[0, i]
-        _rhs(Y, s, th, K[1], d)
+        _rhs(Y, s, sp, th, K[1], d)
         for i in range(size):
             Y[i] = y[i] + 0.5 * h * K[1, i]
-        _rhs(Y, s, th, K[2], d)
+        _rhs(Y, s, sp, th, K[2], d)
         for i in range(size):
             Y[i] = y[i] + h * K[2, i]
-        _rhs(Y, s, th, K[3], d)
+        _rhs(Y, s, sp, th, K[3], d)
         for i in range(size):
             y[i] = y[i] + h * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i]) / 6.0
         if not (np.isfinite(y[0]) and np.isfinite(y[1])):
@@ -168,10 +172,10 @@ def trajectory_into(th, t, x, v, w, dW, d):
         dW[0, j] = 0.0
     for k in range(x.shape[0] - 1):
         if (v[k] >= 0.0) == (v[k + 1] >= 0.0):
-            ok = _advance(y, x[k + 1] - x[k], th, d, K, Y)
+            ok = _advance(y, x[k + 1] - x[k], th, d, K, Y, v[k])
         else:
             dx0, dx1 = _reversal_pieces(t[k], t[k + 1], x[k], x[k + 1], v[k], v[k + 1])
-            ok = _advance(y, dx0, th, d, K, Y) and _advance(y, dx1, th, d, K, Y)
+            ok = _advance(y, dx0, th, d, K, Y, v[k]) and _advance(y, dx1, th, d, K, Y, v[k + 1])
         if not ok:
             return False
         w[k + 1] = y[0]

@@ -42,6 +42,7 @@ class SwitchedBoucWen(Model):
     # specimens whose loops dissipate: a sign bound put 15 of the 45 synthetic truths out of reach
     # (MSE 35–806 × the noise). The loops' energy is carried by the whole branch pair, not by c₋.
     viscous_sign_bound = False
+    rate_independent = True  # z is integrated in displacement
 
     def direct_parameters(self, state=None) -> tuple:
         from bwbench.models.switched_parameters import LABELS, UNITS

@@ -25,6 +25,8 @@ class ModelFit:
     def _setup(self, model, specimen, state, excitation):
         self.model, self.specimen, self.excitation = model, specimen, excitation
         self.state = model.check_state(state)
+        if getattr(specimen, "quasi_static", False):
+            refuse_quasi_static(model, self.formulation, specimen)
         self.signal = excitation_mod.of_specimen(excitation, specimen)
 
     @property
@@ -87,8 +89,8 @@ class DirectProblem(ModelFit):
     """The model's own parameters fitted to one specimen (loss: MSE in N²)."""
 
     def __init__(self, model, specimen, state=None, excitation: str = "measured", *, bounds: dict | None = None):
-        self._setup(model, specimen, state, excitation)
         self.formulation = model.direct_name
+        self._setup(model, specimen, state, excitation)
         self.parameter_list = model.direct_parameters(self.state)
         self._box(model.direct_box(self.signal, specimen.f, self.state), bounds)
 
@@ -220,6 +222,24 @@ class IdentifiableProblem(ModelFit):
     def parameters(self, params) -> dict:
         """θ, the solved coefficients and the model's direct parameters of the same force, where they exist."""
         return identifiable_parameters(self, params)
+
+
+def refuse_quasi_static(model, formulation: str, specimen) -> None:
+    """``UserError`` when ``model`` in ``formulation`` cannot be fitted to the quasi-static ``specimen``
+    (no time): a rate-dependent model, or a direct formulation, whose parameters hold a viscous or
+    inertia force that a record without time cannot give."""
+    from bwbench.errors import UserError
+
+    where = f"{specimen.path}: a quasi-static test (no time_s column)"
+    if not getattr(model, "rate_independent", False):
+        raise UserError(
+            f"{where}: the {model.name} model is rate-dependent and needs time; fit a Bouc-Wen model (bouc-wen, switched-bouc-wen, bwbn)"
+        )
+    if formulation != "identifiable":
+        raise UserError(
+            f"{where}: the {formulation} formulation has viscous and inertia terms in its parameters; "
+            "use --formulation identifiable (they are held at 0 there)"
+        )
 
 
 def identifiable_parameters(problem, params) -> dict:

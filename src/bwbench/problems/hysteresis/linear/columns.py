@@ -60,9 +60,12 @@ def fixed_columns(signal, layout, masks, offsets=True):
     mode = offsets_mode(offsets)
     names, cols = [], []
     present = [(b, mask) for b, mask in masks.items() if mask.any()]
+    rates = getattr(signal, "rate_independent", False)  # a quasi-static record: no viscous or inertia term
     for b, mask in present:
         for name, source in layout.fixed:
             if source == "1" and (mode == "none" or (mode == "continuous" and b != present[0][0])):
+                continue
+            if rates and source in ("v", "a"):
                 continue
             names.append(f"{name}{b}")
             whole = mode == "continuous" and source == "1"
