@@ -11,10 +11,10 @@ import pytest
 
 import bwbench
 from bwbench.cli import main
-from bwbench.data import protocol
 from bwbench.data.specimen import read_specimen
 from bwbench.data.steady_part import steady_part
 from bwbench.errors import UserError
+from bwbench.models import protocol
 from bwbench.models.excitation import of_specimen
 from bwbench.problems.hysteresis.formulations import make_problem
 from reference_bwbn import growing_cycles, reference_force

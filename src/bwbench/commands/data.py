@@ -12,8 +12,8 @@ def check(args) -> int:
     """Exit 0 if every file is a valid specimen CSV, else 2 with one error line per bad file; valid
     files that are probably not what their header promises get warnings (exit status still 0)."""
     from bwbench.data import manifest, plausibility
-    from bwbench.data.protocol import protocol
     from bwbench.data.specimen import read_specimen
+    from bwbench.models.protocol import protocol
 
     status = 0
     for path in args.files:
@@ -74,7 +74,7 @@ def signals_text(spec) -> str:
     from bwbench.models import derivatives
 
     if spec.quasi_static:
-        from bwbench.data.protocol import dead_band
+        from bwbench.models.protocol import dead_band
 
         return (
             "signals: the displacement path and its direction of motion (a reversal counts once the motion "

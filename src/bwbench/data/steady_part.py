@@ -25,7 +25,7 @@ BAND = 0.05  # × amplitude: a half-cycle starts where x leaves this band around
 RAMP_TOLERANCE = 0.05  # a half-cycle whose peak is below 95 % of the steady amplitude is a ramp cycle
 MIN_STEADY = 3  # half-cycles of constant amplitude needed to call a record a constant-amplitude test
 # A rig ramps in over a cycle or two; a longer run of smaller cycles is the protocol itself (a column
-# test of growing amplitude), not a ramp (``bwbench.data.protocol``).
+# test of growing amplitude), not a ramp (``bwbench.models.protocol``).
 MAX_RAMP_CYCLES = 2.0
 
 

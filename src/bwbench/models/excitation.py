@@ -150,7 +150,7 @@ def quasi_static(x) -> Excitation:
     direction of motion (``protocol.directions``: ±1, 0 at a reversal, a dead band against jitter) as
     the velocity — it picks a switched model's branch, never a rate — and no acceleration; t is the
     point's index."""
-    from bwbench.data.protocol import directions
+    from bwbench.models.protocol import directions
 
     x = np.asarray(x, dtype=float)
     t = np.arange(len(x), dtype=float)
