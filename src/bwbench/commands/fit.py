@@ -159,7 +159,9 @@ def _fit_problem(args, problem, options, workers: int, synthetic: bool, out: str
     result, checks = fitted.result, fitted.checks
     with writing(out):
         fitted.write_json(out)
-    where = " + ".join(args.specimen)
+    from bwbench.render.format import files_text
+
+    where = files_text(args.specimen)  # one line even for a joint fit of dozens of files
     if not math.isfinite(result.mse):
         print(
             f"error: {where}: none of the {result.nfev} evaluations gave a finite force: the model blows "
@@ -183,8 +185,10 @@ def _fit_problem(args, problem, options, workers: int, synthetic: bool, out: str
         print(f"  {result.message} ({result.nfev} of {args.budget} evaluations)")
     if result.extras.get("step_budget_stops"):
         print(
-            f"  {result.extras['step_budget_stops']} evaluations stopped at the simulation's step budget (stiff "
-            "corners of the search box): loss +inf"
+            f"  {result.extras['step_budget_stops']} evaluations stopped at the simulation's step budget: parameter "
+            "sets in stiff corners of the search box, whose simulation would have needed more integration steps "
+            "than the model allows (docs/models.md); their loss counted as +inf and the search moved away from "
+            "them — harmless while the fit ends inside the box"
         )
     for row in fitted.files if joint else ():
         print(f"  {row['specimen']}: RMSE {row['rmse_N']:.4g} N, {_nrmse_text(row)} (weight {row['weight']:.3g})")
@@ -210,7 +214,9 @@ def _fit_problem(args, problem, options, workers: int, synthetic: bool, out: str
 
 def _nrmse_text(row: dict) -> str:
     """Both NRMSEs of a file's row, the literature's named (``fit_result.NRMSE_DEFINITIONS``)."""
-    return f"NRMSE {row['nrmse_max_F']:.4g} (RMSE/max F, the literature's; {row['nrmse']:.4g} RMSE/max|F|)"
+    from bwbench.problems.hysteresis.fit_result import nrmse_text
+
+    return nrmse_text(row["nrmse"], row["nrmse_max_F"])
 
 
 def worse_than_zero(problem, files) -> list[str]:
@@ -240,7 +246,7 @@ def worse_than_zero(problem, files) -> list[str]:
 def _plot(problem, fitted, path, synthetic: bool) -> None:
     """One fit: the loops, force and residual of ``plot_fit``; a joint fit: one row per file."""
     if len(fitted.files) == 1:
-        from bwbench.problems.hysteresis.report.fit_figures import plot_fit  # not report.figures: scipy.stats
+        from bwbench.problems.hysteresis.report.record_fit_figure import plot_fit  # not report.figures: scipy.stats
 
         plot_fit(problem, fitted.result, path, synthetic=synthetic)
         return
@@ -248,13 +254,11 @@ def _plot(problem, fitted, path, synthetic: bool) -> None:
 
     model = fitted.model
     predictions = [model.predict(spec) for spec in problem.specimens]
-    nrmse = ", ".join(f"{row['nrmse_max_F']:.3g}" for row in fitted.files)
     plot_predictions(
         predictions,
         path,
         f"joint fit of {len(predictions)} tests: {model.describe()}\n"
-        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file; "
-        f"NRMSE (RMSE/max F) {nrmse}",
+        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file",
         what="fitted",
         synthetic=synthetic,
     )

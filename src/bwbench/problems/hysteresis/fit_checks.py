@@ -113,7 +113,14 @@ def check(problem, params, synthetic: bool = False, at_bound: dict | None = None
         return out
     work, cycles, threshold = energy_per_cycle(problem, params)
     out.json["energy_per_cycle_Nmm"] = work
-    if np.isfinite(work) and cycles >= 0.5:
+    shape = record_protocol(problem)
+    if shape is not None and not shape.periodic:
+        out.json["periodic_checks"] = f"skipped: {shape.describe()}"
+        out.notes.append(
+            f"periodic-motion checks skipped (energy per cycle, its split by branch and reversal zone, the "
+            f"residual's reversal statistics): the record is {shape.describe()}"
+        )
+    elif np.isfinite(work) and cycles >= 0.5:
         out.notes.append(
             f"energy dissipated per cycle by the fitted model: ∮F·dx = {work:.4g} N·mm ({work / 1000:.3g} J)"
         )
@@ -217,6 +224,15 @@ def physical_limit_findings(problem, params, at_bound: dict, out: FitChecks) -> 
         )
 
 
+def record_protocol(problem):
+    """The loading protocol (``models.protocol``) of a one-file problem's displacement; None for a joint one."""
+    if not hasattr(problem, "specimen") or not hasattr(problem, "signal"):
+        return None
+    from bwbench.models.protocol import protocol
+
+    return protocol(problem.signal.x)
+
+
 def failing_checks(problem, params, out: FitChecks) -> None:
     """The energy split and the residual structure of ``residual_checks`` (one file; a joint fit: each
     file's own), as JSON and, where they fail, findings."""
@@ -229,6 +245,19 @@ def failing_checks(problem, params, out: FitChecks) -> None:
     if not np.all(np.isfinite(force)):
         return
     signal, measured = problem.signal, np.asarray(problem.specimen.f, dtype=float)
+    shape = record_protocol(problem)
+    if shape is not None and not shape.periodic:  # per-cycle quantities of an irregular record mean nothing
+        structure = residual_checks.residual_structure(signal.t, signal.x, force - measured, force_noise(measured), None)
+        out.json["residual_structure"] = structure
+        text = (
+            f"residual: RMSE {structure['rmse_N']:.3g} N = {structure['rmse_over_noise']:.2g} × the force noise "
+            f"{structure['noise_N']:.3g} N; autocorrelation {structure['autocorrelation']:.2f} at 1 sample"
+        )
+        if structure["model_error_dominates"]:
+            out.findings.append(f"{text}: model error, not noise, dominates the residual")
+        else:
+            out.notes.append(f"{text}: the residual is close to the noise")
+        return
     energy = residual_checks.energy_split(signal.x, signal.v, force, measured)
     out.json["energy_check"] = energy
     if not energy["passed"]:

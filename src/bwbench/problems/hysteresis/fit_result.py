@@ -263,6 +263,14 @@ def per_file(problem, result: Result) -> tuple:
     )
 
 
+def nrmse_text(nrmse: float, nrmse_max_F: float, digits: int = 4) -> str:
+    """The NRMSE of one record in words: RMSE/max F (the literature's) first where the force has a positive
+    peak, else RMSE/max|F| alone, defined for any sign of force (a record whose force is all negative)."""
+    if nrmse_max_F is None or not math.isfinite(nrmse_max_F):
+        return f"NRMSE {nrmse:.{digits}g} (RMSE/max|F|; the force is never positive, so RMSE/max F is undefined)"
+    return f"NRMSE {nrmse_max_F:.{digits}g} (RMSE/max F, the literature's; {nrmse:.{digits}g} RMSE/max|F|)"
+
+
 def _over_max_force(rmse: float, f) -> float:
     peak = float(np.max(np.asarray(f, dtype=float)))
     return rmse / peak if peak > 0 else math.inf

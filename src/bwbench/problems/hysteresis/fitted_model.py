@@ -42,10 +42,18 @@ class Prediction:
     force_N: np.ndarray
     measured_N: np.ndarray
     velocity_mm_s: np.ndarray | None = field(default=None, repr=False)  # what drove the model (for the F–v loop)
+    quasi_static: bool = False  # no time: time_s is the point's index, the velocity the direction of motion
 
     @property
     def n(self) -> int:
         return len(self.measured_N)
+
+    @property
+    def reversals(self) -> int:
+        """How many times the motion reverses (``models.protocol.reversals``): a figure zooms in on a long record."""
+        from bwbench.models.protocol import reversals
+
+        return len(reversals(self.displacement_mm))
 
     @property
     def mse(self) -> float:
@@ -285,6 +293,7 @@ class FittedModel:
             self.force(signal),
             np.asarray(spec.f, dtype=float),
             np.asarray(signal.v, dtype=float),
+            bool(getattr(signal, "rate_independent", False)),
         )
 
     def simulate(self, specimen):
