@@ -147,6 +147,11 @@ class SwitchedBoucWen(Model):
         theta, linear = fm.from_paper(P, self.check_state(state))
         return theta, dict(zip(LINEAR_NAMES, map(float, linear)))
 
+    def parameter_limits(self, state=None) -> dict:
+        """η± = 1 (γ = 0) in the identifiable formulation: the model's limit, not a search limit."""
+        why = "η = 1 is γ = 0, the model's limit (beyond it unloading runs away from saturation)"
+        return {f"eta{b}": {"upper": why} for b in "+-"}
+
     def viscous_coefficients(self, values: dict, state=None) -> dict | None:
         if "c+" in values:
             return {"+": values["c+"], "-": values["c-"]}

@@ -146,6 +146,7 @@ def check(problem, params, synthetic: bool = False, at_bound: dict | None = None
             if at_bound.get(f"xy{b}") == "upper":
                 out.explained.add(f"xy{b}")
     physical_limit_findings(problem, params, at_bound, out)
+    edge_findings(problem, params, at_bound, out)
     failing_checks(problem, params, out)
     plausibility_findings(problem, params, out)
     start = problem.model.initial_state(problem.signal, problem.state) if hasattr(problem, "signal") else ""
@@ -222,6 +223,18 @@ def physical_limit_findings(problem, params, at_bound: dict, out: FitChecks) -> 
             f"the data alone would put it at {unbounded[name]:.4g} {unit} (RMSE {rmse:.4g} N → "
             f"{rmse_free:.4g} N): {verdict}"
         )
+
+
+def edge_findings(problem, params, at_bound: dict, out: FitChecks) -> None:
+    """The box edges no other check explains, classified (``edges.classify``): an undetermined one is a
+    finding, not a "widen" warning; a box too small keeps its warning."""
+    from bwbench.problems.hysteresis import edges
+
+    for edge in edges.classify(problem, params, {n: s for n, s in at_bound.items() if n not in out.explained}):
+        out.json.setdefault("edges", {})[edge.name] = edge.to_json()
+        if edge.kind != edges.TOO_SMALL:
+            out.explained.add(edge.name)
+            out.findings.append(edge.text)
 
 
 def record_protocol(problem):

@@ -329,6 +329,11 @@ def run_fit(
     if stop == "agreed" and "stop_agree" in registry.get(optimizer).options and not options.get("stop_agree"):
         options["stop_agree"] = AGREEING_SEARCHES
     result = fitting.run(problem, optimizer, budget, seed, options)
+    from bwbench.problems.hysteresis.edges import widen
+
+    result, widened = widen(problem, result, optimizer, budget, seed, options)  # a box too small, on the rest
     checks = problem.fit_checks(result, synthetic) if hasattr(problem, "fit_checks") else None
+    if checks is not None:
+        checks.notes[:0] = widened
     box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}
     return FitResult(result, problem, per_file(problem, result), checks, {**(extra or {}), "bounds": box})

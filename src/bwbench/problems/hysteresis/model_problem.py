@@ -80,6 +80,9 @@ class ModelFit:
         return box_to_unit(P, self.lower, self.upper, self.log_scaled)
 
     def _box(self, box, bounds):
+        from bwbench.problems.hysteresis.edges import refuse_past_limits
+
+        refuse_past_limits(self.model, self.state, box.names, box.lower, box.upper, bounds)
         self.param_names = tuple(box.names)
         self.log_scaled = np.array(box.log, dtype=bool)
         self.lower, self.upper = bounds_mod.apply(box.lower, box.upper, self.param_names, bounds or {})
