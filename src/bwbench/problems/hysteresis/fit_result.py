@@ -99,9 +99,10 @@ class FitResult:
             p.model.name, p.formulation, dict(self.result.params), p.state, p.excitation, dict(self.result.units)
         )
 
-    def predict(self, specimen):
-        """``model.predict(specimen)``: the force on another test, nothing refitted (a ``Prediction``)."""
-        return self.model.predict(specimen)
+    def predict(self, specimen, refit_offset: bool = False):
+        """``model.predict(specimen)``: the force on another test, nothing refitted (a ``Prediction``);
+        ``refit_offset``: the constant force re-solved on that test (``FittedModel.predict``)."""
+        return self.model.predict(specimen, refit_offset=refit_offset)
 
     def table(self):
         """The per-file errors as a pandas DataFrame (specimen, n, weight, mse, rmse_N, nrmse)."""

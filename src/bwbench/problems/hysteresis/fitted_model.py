@@ -43,6 +43,9 @@ class Prediction:
     measured_N: np.ndarray
     velocity_mm_s: np.ndarray | None = field(default=None, repr=False)  # what drove the model (for the F–v loop)
     quasi_static: bool = False  # no time: time_s is the point's index, the velocity the direction of motion
+    # The constant force (N) re-solved on this record and added to the stored model's (``refit_offset``);
+    # None when every coefficient is as stored.
+    offset_N: float | None = None
 
     @property
     def n(self) -> int:
@@ -79,7 +82,9 @@ class Prediction:
             "rmse_N": self.rmse_N,
             "nrmse": self.nrmse,
             "max_abs_force_N": float(np.max(np.abs(self.measured_N))),
+            **({} if self.offset_N is None else {"refitted_offset_N": self.offset_N}),
             "units": {
+                **({} if self.offset_N is None else {"refitted_offset_N": "N (added to the stored constant force)"}),
                 "mse": "N²",
                 "rmse_N": "N",
                 "nrmse": "– (RMSE / max|F measured|)",
@@ -262,7 +267,8 @@ class FittedModel:
         w = model.trajectories(theta[None, :], signal, self.state)[0]
         layout = model.linear_layout(self.state)
         F = np.zeros(len(signal.x))
-        if layout.mass:
+        quasi = getattr(signal, "rate_independent", False)  # no time: no viscous or inertia force
+        if layout.mass and not quasi:
             F += self.params[layout.mass] * np.asarray(signal.a, dtype=float)
         for b, mask in branch_masks(layout, signal.v).items():
             if not mask.any():
@@ -276,24 +282,34 @@ class FittedModel:
                     f"coefficients ({', '.join(unknown)}) the fit's data never had"
                 )
             for name, source in layout.fixed:
-                F += coefficients[name] * signal_column(signal, source, mask)
+                if not (quasi and source in ("v", "a")):
+                    F += coefficients[name] * signal_column(signal, source, mask)
             with np.errstate(invalid="ignore", over="ignore"):
                 F += coefficients[layout.varying] * np.where(mask, w, 0.0)
         return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
 
-    def predict(self, specimen) -> Prediction:
+    def predict(self, specimen, refit_offset: bool = False) -> Prediction:
         """The force on ``specimen`` (a specimen CSV's path, a ``Specimen`` or a DataFrame with the file's
-        columns) against its measured one."""
+        columns) against its measured one. ``refit_offset``: the constant force re-solved on this record
+        (least squares: the mean of measured − predicted, added to the stored model's) — for a record from
+        another test set-up, whose load cell reads another zero; every other coefficient as stored."""
         spec = _specimen(specimen)
         signal = self.signal(spec)
+        force = self.force(signal)
+        measured = np.asarray(spec.f, dtype=float)
+        offset = None
+        if refit_offset and np.all(np.isfinite(force)):
+            offset = float(np.mean(measured - force))
+            force = force + offset
         return Prediction(
             spec.name,
             np.asarray(spec.t, dtype=float),
             np.asarray(signal.x, dtype=float),
-            self.force(signal),
-            np.asarray(spec.f, dtype=float),
+            force,
+            measured,
             np.asarray(signal.v, dtype=float),
             bool(getattr(signal, "rate_independent", False)),
+            offset,
         )
 
     def simulate(self, specimen):
