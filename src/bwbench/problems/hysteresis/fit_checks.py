@@ -227,12 +227,15 @@ def physical_limit_findings(problem, params, at_bound: dict, out: FitChecks) -> 
 
 def edge_findings(problem, params, at_bound: dict, out: FitChecks) -> None:
     """The box edges no other check explains, classified (``edges.classify``): an undetermined one is a
-    finding, not a "widen" warning; a box too small keeps its warning."""
+    note, not a "widen" warning; a box too small keeps its warning."""
     from bwbench.problems.hysteresis import edges
 
     for edge in edges.classify(problem, params, {n: s for n, s in at_bound.items() if n not in out.explained}):
         out.json.setdefault("edges", {})[edge.name] = edge.to_json()
-        if edge.kind != edges.TOO_SMALL:
+        if edge.kind == edges.UNDETERMINED:
+            out.explained.add(edge.name)
+            out.notes.append(edge.text)
+        elif edge.kind == edges.MODEL_LIMIT:
             out.explained.add(edge.name)
             out.findings.append(edge.text)
 
@@ -260,7 +263,9 @@ def failing_checks(problem, params, out: FitChecks) -> None:
     signal, measured = problem.signal, np.asarray(problem.specimen.f, dtype=float)
     shape = record_protocol(problem)
     if shape is not None and not shape.periodic:  # per-cycle quantities of an irregular record mean nothing
-        structure = residual_checks.residual_structure(signal.t, signal.x, force - measured, force_noise(measured), None)
+        structure = residual_checks.residual_structure(
+            signal.t, signal.x, force - measured, force_noise(measured), None
+        )
         out.json["residual_structure"] = structure
         text = (
             f"residual: RMSE {structure['rmse_N']:.3g} N = {structure['rmse_over_noise']:.2g} × the force noise "
