@@ -124,6 +124,10 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
             if name in reading_options.READS_SPECIMENS:
                 reading_options.add(command_parser)
+            from bwbench.commands import plugin_option
+
+            if name in plugin_option.COMMANDS:
+                plugin_option.add(command_parser)
     return parser
 
 
@@ -146,6 +150,10 @@ def main(argv=None) -> int:
     try:
         threads.check_environment()  # before a command imports numba, which fails on NUMBA_NUM_THREADS=0
         args = build_parser(command).parse_args(argv)
+        if getattr(args, "plugin", None):
+            from bwbench.commands import plugin_option
+
+            plugin_option.load(args.plugin)  # before anything looks a model or backend up by name
         # one thread per process unless --threads (or fit's --workers) asks for more
         fit_workers = getattr(args, "workers", 1) if command == "fit" else 1  # compare's are processes
         with threads.environment(max(getattr(args, "threads", 1), fit_workers or 1)), _reading(args):

@@ -64,7 +64,10 @@ def draw(prediction, axes) -> None:
     zoomed = w != slice(0, len(t))
     plane = (
         (
-            lambda ax: (ax.plot(x, model - p.measured_N, color="tab:blue", lw=0.8), ax.axhline(0.0, color="0.5", lw=0.6)),
+            lambda ax: (
+                ax.plot(x, model - p.measured_N, color="tab:blue", lw=0.8),
+                ax.axhline(0.0, color="0.5", lw=0.6),
+            ),
             "displacement (mm)",
             "residual (N)",
             "residual against displacement",
