@@ -124,7 +124,26 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         )
         if name == command:
             getattr(importlib.import_module(spec.module), spec.adder)(command_parser)
+            from bwbench.commands import reading_options
+
+            if name in reading_options.READS_SPECIMENS:
+                reading_options.add(command_parser)
+            from bwbench.commands import plugin_option
+
+            if name in plugin_option.COMMANDS:
+                plugin_option.add(command_parser)
     return parser
+
+
+def _reading(args):
+    """The command's ``--units`` and ``--rebuild-time`` declared while it runs (``bwbench.data.units``)."""
+    import contextlib
+
+    if not hasattr(args, "units"):
+        return contextlib.nullcontext()
+    from bwbench.data import units
+
+    return units.declaring(args.units, args.rebuild_time)
 
 
 def main(argv=None) -> int:
@@ -143,11 +162,16 @@ def main(argv=None) -> int:
             threads.check_environment()  # before a command imports numba, which fails on NUMBA_NUM_THREADS=0
             notices.writable_matplotlib_folder()  # before a command imports matplotlib
             args = build_parser(command).parse_args(argv)
+            if getattr(args, "plugin", None):
+                from bwbench.commands import plugin_option
+
+                plugin_option.load(args.plugin)  # before anything looks a model or backend up by name
             # one thread per process unless --threads (or fit's --workers) asks for more
             fit_workers = getattr(args, "workers", 1) if command == "fit" else 1  # compare's are processes
             with (
                 threads.environment(max(getattr(args, "threads", 1), fit_workers or 1)),
                 notices.command_line_warnings(),
+                _reading(args),
             ):
                 status = args.func(args)
         if stop.received and status != 128 + stop.received[0]:  # swallowed on its way: still a stop

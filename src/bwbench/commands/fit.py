@@ -163,7 +163,9 @@ def _fit_setup(args, setup, options, workers: int, out: str, plot: str | None) -
     extra["formulation_reason"] = setup.formulation_reason
     if setup.box_probe_s is not None:
         extra["box_probe_s"] = setup.box_probe_s  # not in wall_s, the backend's own time
-    where = " + ".join(args.specimen)
+    from bwbench.render.format import files_text
+
+    where = files_text(args.specimen)  # one line even for a joint fit of dozens of files
     print(f"fitting {where}: {setup.formulation_reason}")
     with threads.for_workers(problem, max(workers, args.threads)):
         fitted = run_fit(
@@ -201,13 +203,15 @@ def _fit_setup(args, setup, options, workers: int, out: str, plot: str | None) -
 
 def _nrmse_text(row: dict) -> str:
     """Both NRMSEs of a file's row, the literature's named (``fit_result.NRMSE_DEFINITIONS``)."""
-    return f"NRMSE {row['nrmse_max_F']:.4g} (RMSE/max F, the literature's; {row['nrmse']:.4g} RMSE/max|F|)"
+    from bwbench.problems.hysteresis.fit_result import nrmse_text
+
+    return nrmse_text(row["nrmse"], row["nrmse_max_F"])
 
 
 def _plot(problem, fitted, path, synthetic: bool) -> None:
     """One fit: the loops, force and residual of ``plot_fit``; a joint fit: one row per file."""
     if len(fitted.files) == 1:
-        from bwbench.problems.hysteresis.report.fit_figures import plot_fit  # not report.figures: scipy.stats
+        from bwbench.problems.hysteresis.report.record_fit_figure import plot_fit  # not report.figures: scipy.stats
 
         plot_fit(problem, fitted.result, path, synthetic=synthetic)
         return
@@ -215,13 +219,11 @@ def _plot(problem, fitted, path, synthetic: bool) -> None:
 
     model = fitted.model
     predictions = [model.predict(spec) for spec in problem.specimens]
-    nrmse = ", ".join(f"{row['nrmse_max_F']:.3g}" for row in fitted.files)
     plot_predictions(
         predictions,
         path,
         f"joint fit of {len(predictions)} tests: {model.describe()}\n"
-        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file; "
-        f"NRMSE (RMSE/max F) {nrmse}",
+        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file",
         what="fitted",
         synthetic=synthetic,
     )

@@ -70,6 +70,8 @@ def thousands_separator(f) -> str | None:
 
 def time_unit_warnings(spec) -> list[str]:
     """A sentence when the time column looks like milliseconds (see ``SLOWEST_CYCLE_S``)."""
+    if getattr(spec, "quasi_static", False):
+        return []  # no time column
     step = spec.duration_s / (spec.n_samples - 1)
     _, cycles = loop_work(spec.x, spec.f)
     period = spec.duration_s / cycles if cycles >= 0.5 else None
@@ -81,6 +83,35 @@ def time_unit_warnings(spec) -> list[str]:
         else f"one loading cycle takes {period:.4g} s ({cycles:.3g} cycles in {spec.duration_s / 3600:.3g} h)"
     )
     return [f"{what}: is time_s in milliseconds? the header promises seconds (divide by 1000 if so)"]
+
+
+# A peak force below this (N) is small for a test machine's load cell: more likely kN or kips (an
+# inch–kip friction damper's ±5 kips read as ±5 N), unless the file declares its unit (force_kip, --units).
+SMALL_FORCE_N = 20.0
+# With such a force, an amplitude below this (mm) is more likely inches.
+SMALL_AMPLITUDE_MM = 5.0
+
+
+def unit_warnings(spec) -> list[str]:
+    """A sentence naming the likely units when a file that declares none has magnitudes of another
+    (``SMALL_FORCE_N``: kips or kN; with ``SMALL_AMPLITUDE_MM`` also inches); [] otherwise."""
+    if getattr(spec, "reading_notes", ()):
+        return []  # units were declared (a column name or --units): the user has said what they are
+    peak = float(np.abs(spec.f).max())
+    if not 0 < peak < SMALL_FORCE_N:
+        return []
+    amplitude = 0.5 * float(spec.x.max() - spec.x.min())
+    if amplitude < SMALL_AMPLITUDE_MM:
+        return [
+            f"force_N peaks at {peak:.3g} N and the displacement amplitude is {amplitude:.3g} mm: small for a test "
+            f"machine — an inch–kip file? (then {peak:.3g} kips = {peak * 4.4482216:.3g} kN and {amplitude:.3g} in = "
+            f"{amplitude * 25.4:.3g} mm: name the columns displacement_in and force_kip, or add --units "
+            "displacement=in,force=kip)"
+        ]
+    return [
+        f"force_N peaks at {peak:.3g} N: small for a test machine — is it in kN or kips? (name the column "
+        "force_kN or force_kip, or add --units force=kN)"
+    ]
 
 
 def force_warnings(spec) -> list[str]:
@@ -108,7 +139,7 @@ def force_warnings(spec) -> list[str]:
 
 def warnings(spec, synthetic: bool = False) -> list[str]:
     """Plain sentences about ``spec`` (a ``Specimen``) that deserve a look; [] when nothing does."""
-    out = [*time_unit_warnings(spec), *force_warnings(spec), *dead_channels(spec)]
+    out = [*time_unit_warnings(spec), *force_warnings(spec), *unit_warnings(spec), *dead_channels(spec)]
     peak = float(np.abs(spec.f).max())
     if peak > MAX_PLAUSIBLE_FORCE_N:
         out.append(
@@ -149,7 +180,14 @@ def warnings(spec, synthetic: bool = False) -> list[str]:
 # or channel. Commanded and measured motion of a servo machine agree far better than 10 %.
 SIGNAL_GAIN_RANGE = (0.9, 1.1)
 SIGNAL_MISFIT = 0.05
-_UNIT_SLIPS = {60.0: "mm/min", 1000.0: "µm/s", 1e-3: "m/s"}  # recorded / implied -> the unit it was in
+# recorded / implied -> the unit it was in
+_UNIT_SLIPS = {
+    60.0: "mm/min",
+    1000.0: "µm/s",
+    1e-3: "m/s",
+    1 / 25.4: "in/s (velocity_in_s)",
+    25.4: "mm/s while the displacement is in inches (displacement_in)",
+}
 
 
 def _integral(t, y):

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bwbench.data import units
 from bwbench.errors import InputFileError
 
 COLUMNS = ("time_s", "displacement_mm", "force_N")
@@ -65,6 +66,11 @@ class Specimen:
     # column name ``<quantity>_<unit>``; None for a test without one.
     control: np.ndarray | None = None
     control_name: str | None = None
+    # What reading did to the file's numbers (declared units converted, a rounded time rebuilt), in words.
+    reading_notes: tuple = ()
+    # No time column: a quasi-static (rate-independent) test read as a sequence of points, t the point's
+    # index (docs/file-formats.md#quasi-static-tests); a model sees the displacement path and its direction.
+    quasi_static: bool = False
 
     @property
     def measured_signals(self) -> tuple[str, ...]:
@@ -98,6 +104,10 @@ def read_specimen(path, control: str | None = None) -> Specimen:
             "file with LF or CRLF line endings",
         )
     header, _, rest = text.partition("\n")
+    try:
+        header, scale, said = units.header(header)
+    except ValueError as err:
+        raise InputFileError(path, 1, str(err)) from None
     sep, order, n_columns = _parse_header(path, header, (control,) if control else ())
     if not rest or rest.isspace():
         raise InputFileError(path, 1, "header only, no data rows")
@@ -116,8 +126,19 @@ def read_specimen(path, control: str | None = None) -> Specimen:
             line_nos = _slow_parse(path, text, sep)[1]
         return int(line_nos[row])
 
+    quasi_static = order[0] is None
+    if quasi_static:  # no time: the sample index orders the path (docs/file-formats.md#quasi-static-tests)
+        values = np.column_stack([values, np.arange(len(values), dtype=float)])
+        order = [values.shape[1] - 1, *order[1:]]
     t, x, f = (np.ascontiguousarray(values[:, j]) for j in order[:3])  # always there
     v, a = (None if j is None else np.ascontiguousarray(values[:, j]) for j in order[3:])
+    named = dict(zip(COLUMNS + OPTIONAL_COLUMNS, (t, x, f, v, a)))
+    for name, factor in scale.items():
+        named[name] *= factor
+    if units.declared().rebuild_time and units.rounded_time(t) is not None and _uneven(t) is not None:
+        fs, worst = units.rounded_time(t)
+        t = units.rebuilt_time(t)
+        said.append(f"time rebuilt as t₀ + k/fs, fs = {fs:.6g} Hz (--rebuild-time; it was up to {worst:.2g} s off)")
     _check_values(path, t, x, line_of)
     names = [n.strip().strip('"').strip() for n in header.strip().split(sep)]
     u = np.ascontiguousarray(values[:, names.index(control)]) if control in names else None
@@ -125,7 +146,17 @@ def read_specimen(path, control: str | None = None) -> Specimen:
         if column is not None:
             column.flags.writeable = False  # a frozen Specimen should not change under its users
     return Specimen(
-        path=path, name=Path(path).stem, t=t, x=x, f=f, v=v, a=a, control=u, control_name=None if u is None else control
+        path=path,
+        name=Path(path).stem,
+        t=t,
+        x=x,
+        f=f,
+        v=v,
+        a=a,
+        control=u,
+        control_name=None if u is None else control,
+        reading_notes=tuple(said),
+        quasi_static=quasi_static,
     )
 
 
@@ -163,7 +194,13 @@ def _parse_header(path: str, header: str, allowed: tuple = ()) -> tuple[str, lis
     column), and the number of columns. ``allowed``: other column names the caller reads (a control)."""
     sep = ";" if ";" in header else ","
     names = [name.strip().strip('"').strip() for name in header.strip().split(sep)]
+    for name in names:
+        quantity, _, unit = name.partition("_")
+        if quantity in units.UNITS and re.fullmatch(r"\w+", unit, re.ASCII) and name not in COLUMNS + OPTIONAL_COLUMNS:
+            raise InputFileError(path, 1, f"column {name!r}: unknown unit; {quantity} may be {units.known(quantity)}")
     missing = [c for c in COLUMNS if c not in names]
+    if missing == ["time_s"] and not any(c in names for c in OPTIONAL_COLUMNS):
+        missing = []  # a quasi-static test: the displacement path and its force (``read_specimen``)
     if missing:
         found = header.strip()
         found = found if len(found) <= 60 else found[:57] + "..."
@@ -261,6 +298,14 @@ def _parse_cell(path: str, line_no: int, cell: str, column: str, sep: str) -> fl
     return value
 
 
+def _uneven(t: np.ndarray) -> int | None:
+    """The row of the first time step off the median step by more than ``SAMPLING_TOLERANCE``, or None."""
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    uneven = np.flatnonzero(np.abs(dt - step) > SAMPLING_TOLERANCE * step)
+    return int(uneven[0]) + 1 if uneven.size else None
+
+
 def _check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
@@ -268,16 +313,21 @@ def _check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
         raise InputFileError(path, line_of(i), f"time not strictly increasing: {t[i]:.9g} s after {t[i - 1]:.9g} s")
     if t.size < MIN_SAMPLES:
         raise InputFileError(path, line_of(t.size - 1), f"too few samples: {t.size}, need at least {MIN_SAMPLES}")
-    dt = np.diff(t)
-    step = float(np.median(dt))
-    uneven = np.flatnonzero(np.abs(dt - step) > SAMPLING_TOLERANCE * step)
-    if uneven.size:
-        i = int(uneven[0]) + 1
+    row = _uneven(t)
+    if row is not None:
+        dt = np.diff(t)
+        step = float(np.median(dt))
+        rounded = units.rounded_time(t)
+        advice = (
+            f"the time column is an even grid printed with too few digits (every time within {rounded[1]:.2g} s "
+            f"of t₀ + k/fs, fs = {rounded[0]:.6g} Hz): rebuild it as t = t₀ + k/fs, or add --rebuild-time"
+            if rounded is not None
+            else "bwbench needs uniformly sampled data (resample it first, e.g. numpy.interp onto an even time grid)"
+        )
         raise InputFileError(
             path,
-            line_of(i),
-            f"time step {dt[i - 1]:.6g} s here, but the file is sampled every {step:.6g} s: bwbench needs "
-            "uniformly sampled data (resample it first, e.g. numpy.interp onto an even time grid)",
+            line_of(row),
+            f"time step {dt[row - 1]:.6g} s here, but the file is sampled every {step:.6g} s: {advice}",
         )
     span = float(x.max() - x.min())
     if span < MIN_DISPLACEMENT_RANGE_MM:

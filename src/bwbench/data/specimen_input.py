@@ -34,7 +34,12 @@ def from_frame(frame, name: str | None = None):
 
     name = str(name or frame.attrs.get("name") or "data")
     where = f"DataFrame {name!r}"
-    columns = [str(c).strip() for c in frame.columns]
+    from bwbench.data import units
+
+    try:
+        columns, scale, said = units.factors([str(c).strip() for c in frame.columns])
+    except ValueError as err:
+        raise UserError(f"DataFrame {name!r}: {err}") from None
     missing = [c for c in COLUMNS if c not in columns]
     if missing:
         raise UserError(
@@ -63,7 +68,7 @@ def from_frame(frame, name: str | None = None):
             raise UserError(
                 f"{where}, row {int(bad[0])}: {column} is {float(array[bad[0]])}: every value must be finite"
             )
-        array = np.ascontiguousarray(array)
+        array = np.ascontiguousarray(array * scale.get(column, 1.0))
         array.flags.writeable = False
         values[column] = array
 
@@ -85,4 +90,5 @@ def from_frame(frame, name: str | None = None):
         f=values["force_N"],
         v=values.get("velocity_mm_s"),
         a=values.get("acceleration_mm_s2"),
+        reading_notes=tuple(said),
     )

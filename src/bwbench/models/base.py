@@ -125,6 +125,11 @@ class Model:
     # Simulations this model's kernel stopped at its step budget (a stiff corner of a search box: the
     # loss is +inf), in this process so far; a model whose kernel caps its work adds to it.
     step_budget_stops = 0
+    # Whether the model's hysteresis is rate-independent (driven by the displacement path alone), so that
+    # it may be fitted to a quasi-static record without time (``Specimen.quasi_static``) in its
+    # identifiable formulation, its viscous and inertia terms off. A model with internal dynamics in time
+    # (Spencer's) is not.
+    rate_independent = False
 
     @property
     def formulations(self) -> tuple:

@@ -21,6 +21,7 @@ BUILTIN = {
     "switched-bouc-wen": "bwbench.models.switched",
     "bouc-wen": "bwbench.models.classic_bouc_wen",
     "spencer": "bwbench.models.spencer",
+    "bwbn": "bwbench.models.bwbn",
 }
 
 

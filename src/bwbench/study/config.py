@@ -8,6 +8,7 @@ Generic format (``studies/quick.toml`` is a worked example)::
     budget = 4100             # evaluations, identical for every backend
     seeds = 5                 # replicates per (specimen, backend)
     problem = "switched-bouc-wen"   # the default; see `bwbench.problems`
+    plugins = ["my_model.py"] # optional: models, problems or backends loaded from files (relative to this TOML)
     # ... the problem's own keys (e.g. state, excitation, data)
 
     [specimens]               # the problem's own table: which data sets
@@ -58,7 +59,7 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib  # type: ignore[no-redef]
 
-GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem")
+GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem", "plugins")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 
 
@@ -157,6 +158,12 @@ def load_study_config(path, data=None) -> StudyConfig:
     if not isinstance(document.get("study"), dict):
         fail("missing table [study]")
     study = document["study"]
+    given = study.get("plugins", [])
+    if not isinstance(given, list) or not all(isinstance(p, str) for p in given):
+        fail('[study] plugins must be a list of Python files, e.g. plugins = ["my_model.py"]')
+    import bwbench.plugins as plugins  # before any name is looked up: a file may give the model or backend
+
+    plugins.load_files([Path(path).resolve().parent / p for p in given], f"{where}: [study] plugins:")
     problem_name = study.get("problem", problems.DEFAULT)
     if not isinstance(problem_name, str) or problem_name not in problems.names():
         fail(f"[study] problem must be one of {', '.join(repr(n) for n in problems.names())}, got {problem_name!r}")

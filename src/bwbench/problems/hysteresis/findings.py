@@ -90,8 +90,10 @@ def fit_findings(fit) -> list[Finding]:
         out.append(
             Finding(
                 "note",
-                f"{stops} evaluations stopped at the simulation's step budget (stiff corners of the search box): "
-                "loss +inf",
+                f"{stops} evaluations stopped at the simulation's step budget: parameter sets in stiff corners of "
+                "the search box, whose simulation would have needed more integration steps than the model allows "
+                "(docs/models.md); their loss counted as +inf and the search moved away from them — harmless "
+                "while the fit ends inside the box",
             )
         )
     out += [Finding("note", f"linear solve: {n}") for n in getattr(fit.problem, "notes", [])]

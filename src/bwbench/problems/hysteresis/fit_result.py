@@ -135,9 +135,10 @@ class FitResult:
             warmup_s,
         )
 
-    def predict(self, specimen):
-        """``model.predict(specimen)``: the force on another test, nothing refitted (a ``Prediction``)."""
-        return self.model.predict(specimen)
+    def predict(self, specimen, refit_offset: bool = False):
+        """``model.predict(specimen)``: the force on another test, nothing refitted (a ``Prediction``);
+        ``refit_offset``: the constant force re-solved on that test (``FittedModel.predict``)."""
+        return self.model.predict(specimen, refit_offset=refit_offset)
 
     def table(self):
         """The per-file errors as a pandas DataFrame (specimen, n, weight, mse, rmse_N, nrmse)."""
@@ -318,6 +319,14 @@ def per_file(problem, result: Result) -> tuple:
     )
 
 
+def nrmse_text(nrmse: float, nrmse_max_F: float, digits: int = 4) -> str:
+    """The NRMSE of one record in words: RMSE/max F (the literature's) first where the force has a positive
+    peak, else RMSE/max|F| alone, defined for any sign of force (a record whose force is all negative)."""
+    if nrmse_max_F is None or not math.isfinite(nrmse_max_F):
+        return f"NRMSE {nrmse:.{digits}g} (RMSE/max|F|; the force is never positive, so RMSE/max F is undefined)"
+    return f"NRMSE {nrmse_max_F:.{digits}g} (RMSE/max F, the literature's; {nrmse:.{digits}g} RMSE/max|F|)"
+
+
 def _over_max_force(rmse: float, f) -> float:
     peak = float(np.max(np.asarray(f, dtype=float)))
     return rmse / peak if peak > 0 else math.inf
@@ -376,7 +385,12 @@ def run_fit(
     if stop == "agreed" and "stop_agree" in registry.get(optimizer).options and not options.get("stop_agree"):
         options["stop_agree"] = AGREEING_SEARCHES
     result = fitting.run(problem, optimizer, budget, seed, options)
+    from bwbench.problems.hysteresis.edges import widen
+
+    result, widened = widen(problem, result, optimizer, budget, seed, options)  # a box too small, on the rest
     checks = problem.fit_checks(result, synthetic) if hasattr(problem, "fit_checks") else None
+    if checks is not None:
+        checks.notes[:0] = widened
     box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}
     return FitResult(
         result, problem, per_file(problem, result), checks, {**(extra or {}), "bounds": box}, budget, synthetic

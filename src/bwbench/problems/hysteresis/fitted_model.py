@@ -51,11 +51,22 @@ class Prediction:
     measured_N: np.ndarray
     velocity_mm_s: np.ndarray | None = field(default=None, repr=False)  # what drove the model (for the F–v loop)
     warmup: int = 0  # samples at the start simulated but not scored
+    quasi_static: bool = False  # no time: time_s is the point's index, the velocity the direction of motion
+    # The constant force (N) re-solved on this record and added to the stored model's (``refit_offset``);
+    # None when every coefficient is as stored.
+    offset_N: float | None = None
 
     @property
     def n(self) -> int:
         """The samples scored (after the warm-up)."""
         return len(self.measured_N) - self.warmup
+
+    @property
+    def reversals(self) -> int:
+        """How many times the motion reverses (``models.protocol.reversals``): a figure zooms in on a long record."""
+        from bwbench.models.protocol import reversals
+
+        return len(reversals(self.displacement_mm))
 
     @property
     def mse(self) -> float:
@@ -87,7 +98,9 @@ class Prediction:
             "nrmse": self.nrmse,
             "max_abs_force_N": float(np.max(np.abs(self.measured_N[self.warmup :]))),
             "warmup_samples": self.warmup,
+            **({} if self.offset_N is None else {"refitted_offset_N": self.offset_N}),
             "units": {
+                **({} if self.offset_N is None else {"refitted_offset_N": "N (added to the stored constant force)"}),
                 "mse": "N²",
                 "rmse_N": "N",
                 "nrmse": "– (RMSE / max|F measured|)",
@@ -341,25 +354,37 @@ class FittedModel:
         if self.formulation != IDENTIFIABLE:
             P = np.array([self.params[n] for n in self.needed()], dtype=float)
             return start.crop(model.force_batch(P[None, :], simulated, self.state))[0]
+
         from bwbench.problems.hysteresis.linear.columns import linear_force
 
         theta = np.array([self.params[p.name] for p in model.hysteretic_parameters(self.state)], dtype=float)
         w = start.crop(model.trajectories(theta[None, :], simulated, self.state))[0]
         return linear_force(model.linear_layout(self.state), self.params, signal, w, strict=True)
 
-    def predict(self, specimen) -> Prediction:
+    def predict(self, specimen, refit_offset: bool = False) -> Prediction:
         """The force on ``specimen`` (a specimen CSV's path, a ``Specimen`` or a DataFrame with the file's
-        columns) against its measured one."""
+        columns) against its measured one. ``refit_offset``: the constant force re-solved on this record
+        (least squares: the mean of measured − predicted, added to the stored model's) — for a record from
+        another test set-up, whose load cell reads another zero; every other coefficient as stored."""
         spec = _specimen(specimen)
         signal = self.signal(spec)
+        start = self.start(signal, spec.f)
+        force = self.force(signal, spec.f)
+        measured = np.asarray(spec.f, dtype=float)
+        offset = None
+        if refit_offset and np.all(np.isfinite(force)):
+            offset = float(np.mean((measured - force)[start.warmup :]))  # over the samples scored
+            force = force + offset
         return Prediction(
             spec.name,
             np.asarray(spec.t, dtype=float),
             np.asarray(signal.x, dtype=float),
-            self.force(signal, spec.f),
-            np.asarray(spec.f, dtype=float),
+            force,
+            measured,
             np.asarray(signal.v, dtype=float),
-            self.start(signal, spec.f).warmup,
+            warmup=start.warmup,
+            quasi_static=bool(getattr(signal, "rate_independent", False)),
+            offset_N=offset,
         )
 
     def simulate(self, specimen):

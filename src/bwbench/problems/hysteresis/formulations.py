@@ -13,6 +13,7 @@ from __future__ import annotations
 from bwbench.data import bounds as bounds_mod
 from bwbench.models import registry
 from bwbench.problems.base import choice
+from bwbench.problems.hysteresis.edges import refuse_past_limits
 
 FORMULATIONS = ("paper", "direct", "identifiable")
 
@@ -120,6 +121,7 @@ def make_problem(specimen, settings: dict):
     else:
         problem = DirectProblem(model, specimen, state, excitation, **start)
     box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
+    refuse_past_limits(model, problem.state, problem.param_names, problem.lower, problem.upper, box)
     problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
     return problem
 
@@ -147,6 +149,7 @@ def _joint_problem(specimens, settings: dict):
         coefficient_bounds=_solved_bounds(model, state, bounds),
     )
     box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
+    refuse_past_limits(model, problem.state, problem.param_names, problem.lower, problem.upper, box)
     problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
     return problem
 

@@ -29,6 +29,8 @@ class ModelFit:
     def _setup(self, model, specimen, state, excitation, initial_state="auto", warmup_s=0.0):
         self.model, self.specimen, self.excitation = model, specimen, excitation
         self.state = model.check_state(state)
+        if getattr(specimen, "quasi_static", False):
+            refuse_quasi_static(model, self.formulation, specimen)
         self.signal = excitation_mod.of_specimen(excitation, specimen)
         self.set_start(initial_state, warmup_s)
 
@@ -117,6 +119,9 @@ class ModelFit:
         return box_to_unit(P, self.lower, self.upper, self.log_scaled)
 
     def _box(self, box, bounds):
+        from bwbench.problems.hysteresis.edges import refuse_past_limits
+
+        refuse_past_limits(self.model, self.state, box.names, box.lower, box.upper, bounds)
         self.param_names = tuple(box.names)
         self.log_scaled = np.array(box.log, dtype=bool)
         self.lower, self.upper = bounds_mod.apply(box.lower, box.upper, self.param_names, bounds or {})
@@ -138,6 +143,7 @@ class DirectProblem(ModelFit):
     ):
         self._setup(model, specimen, state, excitation, initial_state, warmup_s)
         self.formulation = model.direct_name
+        self._setup(model, specimen, state, excitation)
         self.parameter_list = model.direct_parameters(self.state)
         self._box(model.direct_box(self.signal, specimen.f, self.state), bounds)
 
@@ -309,6 +315,24 @@ def _in_loss(start, found):
     part = start.loss
     z = start.crop(z)[part]
     return z, None if dz is None else np.asarray(dz)[start.preroll :][part]
+
+
+def refuse_quasi_static(model, formulation: str, specimen) -> None:
+    """``UserError`` when ``model`` in ``formulation`` cannot be fitted to the quasi-static ``specimen``
+    (no time): a rate-dependent model, or a direct formulation, whose parameters hold a viscous or
+    inertia force that a record without time cannot give."""
+    from bwbench.errors import UserError
+
+    where = f"{specimen.path}: a quasi-static test (no time_s column)"
+    if not getattr(model, "rate_independent", False):
+        raise UserError(
+            f"{where}: the {model.name} model is rate-dependent and needs time; fit a Bouc-Wen model (bouc-wen, switched-bouc-wen, bwbn)"
+        )
+    if formulation != "identifiable":
+        raise UserError(
+            f"{where}: the {formulation} formulation has viscous and inertia terms in its parameters; "
+            "use --formulation identifiable (they are held at 0 there)"
+        )
 
 
 def identifiable_parameters(problem, params) -> dict:

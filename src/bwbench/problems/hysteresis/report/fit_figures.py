@@ -131,7 +131,8 @@ def _residual_limit(residuals: dict, skip=()) -> float:
 
 def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     """One fit: the loop with its direction of travel, force against time, and the residual against
-    time with its RMSE; PNG at ``path``. The title names the formulation when the problem has one."""
+    time with its RMSE; PNG at ``path``. The title names the formulation when the problem has one (a
+    long record: ``record_fit_figure``)."""
     theme()
     from bwbench.data.steady_part import steady_part
 
@@ -163,12 +164,9 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     limit = _residual_limit({"fit": error})
     residual.set_ylim(-limit, limit)
     residual.set_ylabel("model − measured (N)")
-    residual.set_xlabel("time t (s)")
-    residual.set_title(
-        f"residual: RMSE {rmse:.3g} N, NRMSE {nrmse_pair(rmse, problem.f_loss)[1]:.3g} (RMSE/max F)", loc="left"
-    )
+    residual.set_xlabel(_time_label(problem))
+    residual.set_title(f"residual: RMSE {rmse:.3g} N, {_nrmse_short(rmse, problem.f_loss)}", loc="left")
     _mark_reversals([force, residual], spec.t, turns)
-    formulation = getattr(problem, "formulation", "paper")
     handles: list = [
         Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
         style.handle(f"fitted model ({result.optimizer})", marker=False),
@@ -189,14 +187,36 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     if problem.start.warmup:
         handles.append(Patch(**WARMUP, label=warmup_label(problem.start.warmup_s)))
     legend(fig, handles, ncol=2 if len(handles) > 3 else 3)
-    nrmse_abs, nrmse_max = nrmse_pair(rmse, problem.f_loss)
-    title(
-        fig,
-        f"{spec.name} — {problem.model.name} ({formulation} formulation), {result.optimizer}, seed "
-        f"{result.seed}, {result.nfev} evaluations\nRMSE {result.rmse_N:.3g} N, NRMSE {nrmse_max:.3g} "
-        f"(RMSE/max F; {nrmse_abs:.3g} RMSE/max|F|); {conditions(problem)}, {_velocity_source(problem)}",
-    )
+    title(fig, _fit_title(problem, result))
     write_png(fig, path, synthetic)
+
+
+def _fit_title(problem, result) -> str:
+    spec = problem.specimen
+    formulation = getattr(problem, "formulation", "paper")
+    return (
+        f"{spec.name} — {problem.model.name} ({formulation} formulation), {result.optimizer}, seed "
+        f"{result.seed}, {result.nfev} evaluations\nRMSE {result.rmse_N:.3g} N, "
+        f"{_nrmse_words(result.rmse_N, problem.f_loss, 3)}; {conditions(problem)}, {_velocity_source(problem)}"
+    )
+
+
+def _nrmse_words(rmse: float, f, digits: int) -> str:
+    from bwbench.problems.hysteresis.fit_result import nrmse_text
+
+    nrmse_abs, nrmse_max = nrmse_pair(rmse, f)
+    return nrmse_text(nrmse_abs, nrmse_max, digits)
+
+
+def _nrmse_short(rmse: float, f) -> str:
+    """A panel's NRMSE: RMSE/max F where the force has a positive peak, else RMSE/max|F|."""
+    nrmse_abs, nrmse_max = nrmse_pair(rmse, f)
+    return f"NRMSE {nrmse_max:.3g} (RMSE/max F)" if np.isfinite(nrmse_max) else f"NRMSE {nrmse_abs:.3g} (RMSE/max|F|)"
+
+
+def _time_label(problem) -> str:
+    quasi = getattr(problem.signal, "rate_independent", False)
+    return "point along the path (quasi-static: no time)" if quasi else "time t (s)"
 
 
 def nrmse_pair(rmse: float, f) -> tuple[float, float]:
@@ -208,6 +228,8 @@ def nrmse_pair(rmse: float, f) -> tuple[float, float]:
 
 def _velocity_source(problem) -> str:
     """ "velocity recorded", "velocity estimated from the displacement" or "velocity of the sine fit"."""
+    if getattr(problem.signal, "rate_independent", False):
+        return "quasi-static: the displacement path and its direction of motion, no time"
     source = problem.signal.sources.get("velocity", "")
     return {"measured": "velocity recorded", "estimated": "velocity estimated from the displacement"}.get(
         source, f"velocity of the {source}" if source else "velocity"

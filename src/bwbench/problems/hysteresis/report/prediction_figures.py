@@ -14,6 +14,7 @@ from matplotlib.patches import Patch
 
 from bwbench.render.fit_plots import WARMUP, shade_warmup, warmup_label
 from bwbench.render.palette import MAX_WIDTH_IN, OKABE_ITO, figure, legend, theme, write_png
+from bwbench.render.palette import title as palette_title
 
 MEASURED: dict = {"color": "black", "marker": ".", "ls": "", "ms": 2.0, "alpha": 0.7, "zorder": 3, "rasterized": True}
 MAX_ROWS = 8  # more tests than this: the first MAX_ROWS are drawn, the title says how many
@@ -46,10 +47,17 @@ def draw_predictions(predictions, title: str, what: str = "predicted"):
         loop.set_xlabel("displacement x (mm)")
         loop.set_ylabel("force F (N)")
         resid.set_title(f"{what} − measured: RMSE {p.rmse_N:.3g} N, NRMSE {p.nrmse:.3g} (RMSE / max|F|)", loc="left")
-        resid.set_xlabel("time t (s)")
+        resid.set_xlabel("point (no time: quasi-static)" if getattr(p, "quasi_static", False) else "time t (s)")
         resid.set_ylabel("residual (N)")
+    predictions = list(predictions)
     more = len(predictions) - len(shown)
-    fig.suptitle(title + (f" (first {len(shown)} of {len(predictions)} tests)" if more > 0 else ""))
+    which = (
+        f"\nshown: the first {len(shown)} of {len(predictions)} tests, one per row ({shown[0].specimen} … "
+        f"{shown[-1].specimen}); every test's RMSE is in the result"
+        if more > 0
+        else ""
+    )
+    palette_title(fig, title + which)
     handles: list = [
         Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
         Line2D([], [], color=colour, lw=1.6, label=f"{what} by the model"),
