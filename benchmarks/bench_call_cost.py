@@ -43,6 +43,8 @@ CASES = (
     ("bouc-wen", "identifiable", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
     ("bouc-wen", "direct", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
     ("switched-bouc-wen", "identifiable", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv", "split"),
+    ("bwbn", "identifiable", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
+    ("bwbn", "direct", REPO / "data" / "specimens" / "pom-mt24u01_0.01MPa_r1.csv"),
 )
 
 

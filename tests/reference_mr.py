@@ -27,10 +27,11 @@ def hermite_excitation(t, x, v, a):
     return position, speed
 
 
-def spencer_force(p: dict, t, x_of, v_of, rtol=1e-11, method="DOP853"):
-    """F (N) at times t of Spencer et al. (1997)'s model from rest (y = x, z = 0), DOP853 (explicit, adaptive:
-    the stiffness here, ≤ 1e5 /s, costs it small steps, not instability); ``method="Radau"`` for a
-    stiffer corner."""
+def spencer_force(p: dict, t, x_of, v_of, rtol=1e-11, method="DOP853", preroll=False):
+    """F (N) at times t of Spencer et al. (1997)'s model from rest (y = x, z = 0) at t[0], DOP853 (explicit,
+    adaptive: the stiffness here, ≤ 1e5 /s, costs it small steps, not instability); ``method="Radau"`` for a
+    stiffer corner. ``preroll``: a record in motion starts instead from the state one cycle of its own
+    motion leads to (``preroll_sample``)."""
     c0, c1, k0, k1, x0 = p["c0"], p["c1"], p["k0"], p["k1"], p["x0"]
     alpha, beta, gamma, A, n = p["alpha"], p["beta"], p["gamma"], p["A"], p["n"]
 
@@ -44,7 +45,7 @@ def spencer_force(p: dict, t, x_of, v_of, rtol=1e-11, method="DOP853"):
         return [yd, -gamma * abs(u) * z * abs(z) ** (n - 1) - beta * u * abs(z) ** n + A * u]
 
     start = [float(x_of(t[0])), 0.0]
-    k = preroll_sample(x_of(t), v_of(t))
+    k = preroll_sample(x_of(t), v_of(t)) if preroll else 0
     if k:  # started in motion: from the state one cycle of the record's motion leads to
         pre = solve_ivp(rhs, (t[0], t[k]), start, method=method, rtol=rtol, atol=1e-13, max_step=float(t[1] - t[0]))
         assert pre.success, pre.message

@@ -12,6 +12,8 @@ BWBENCH_MAX_RUNS           100000       runs of one study: specimens × backends
 BWBENCH_MAX_WORKERS        4 per core   local worker processes (``--workers``); each costs ~0.15 GB
 BWBENCH_MAX_INPUT_MB       256          size of a specimen CSV (8 million samples at 32 bytes a row)
 BWBENCH_MAX_TEXT_MB        16           size of a TOML or JSON file (parameters, bounds, manifest)
+BWBENCH_SCHEDULER_WAIT_S   20           seconds ``--scheduler`` waits for the Dask scheduler to accept
+                                        the connection and answer its handshake
 =========================  ===========  ==============================================================
 """
 
@@ -28,6 +30,7 @@ DEFAULTS = {
     "BWBENCH_MAX_WORKERS": 4 * (os.cpu_count() or 1),
     "BWBENCH_MAX_INPUT_MB": 256,
     "BWBENCH_MAX_TEXT_MB": 16,
+    "BWBENCH_SCHEDULER_WAIT_S": 20,
 }
 
 

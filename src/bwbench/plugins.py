@@ -10,10 +10,15 @@ ModuleNotFoundError: No module named 'pkg'``.
 
 from __future__ import annotations
 
+import hashlib
 import importlib
+import importlib.util
+import os
+import sys
 import threading
 from importlib.metadata import entry_points
-from typing import Any, Callable, Generic, TypeVar
+from pathlib import Path
+from typing import Any, Callable, Generic, NamedTuple, TypeVar
 
 from bwbench.errors import UserError
 
@@ -89,8 +94,10 @@ class Registry(Generic[T]):
         return {ep.name for ep in entry_points(group=self.group)}
 
     def load_plugins(self) -> None:
-        """Load every installed plug-in of the group once; a broken one is recorded, never raised."""
+        """Load every installed plug-in of the group once; a broken one is recorded, never raised. The
+        modules loaded from files (``load_files``) that hold this registry's ``attribute`` are read too."""
         with self.lock:
+            self._read_files()
             if self.plugins_loaded:
                 return
             for ep in entry_points(group=self.group):
@@ -125,9 +132,88 @@ class Registry(Generic[T]):
         failures = "".join(f"; {line}" for line in self.broken.values())
         raise UserError(f"unknown {self.kind} {name!r}; {self.known}: {', '.join(names())}{failures}")
 
+    def _read_files(self) -> None:
+        """Register what the plug-in files loaded so far (``file_modules``) give this registry, once each."""
+        modules = file_modules()  # a backend's file registers itself as it is imported
+        if self.read is None or self.attribute is None:
+            return
+        seen = self.__dict__.setdefault("files_read", set())
+        for path, module in modules.items():
+            if path in seen or not hasattr(module, self.attribute):
+                continue
+            seen.add(path)
+            ep = _FileEntry(Path(path).stem, path, self.group)
+            try:
+                self.from_entry_points.add(self.read(ep, module))
+            except Exception as err:  # refused by register(): the file's fault, named
+                raise UserError(f"plug-in file {path}: {type(err).__name__}: {err}") from None
+
     def only_in_this_process(self, name: str) -> bool:
         """True for a thing ``register``-ed in this process that is neither built in nor an installed
         plug-in: a fresh process (a spawned worker, a Dask worker) would not find it."""
         self.load_plugins()
         with self.lock:
             return name in self.items and name not in self.builtin and name not in self.from_entry_points
+
+
+# Plug-ins from files: ``--plugin path/to/model.py`` (or a study TOML's ``plugins = [...]``) imports a
+# module that defines a ``MODEL`` or a ``PROBLEM_TYPE``, or registers a backend with
+# ``bwbench.engine.registry.register``, without installing it. The paths travel to spawned workers in
+# this environment variable (they inherit it), so a study's workers load the same files.
+FILES_VARIABLE = "BWBENCH_PLUGIN_FILES"
+_FILE_MODULES: dict[str, Any] = {}
+_FILES_LOCK = threading.RLock()
+
+
+class _FileEntry(NamedTuple):
+    """What a registry's ``read`` needs of an entry point, for a module loaded from a file."""
+
+    name: str
+    value: str
+    group: str
+
+
+def load_files(paths, where: str = "--plugin") -> list[str]:
+    """Import each plug-in file of ``paths`` once (absolute paths; ``where`` names the option or key in a
+    mistake) and declare them to this process's future workers; ``UserError`` naming the file for one
+    that is missing or fails to import. Returns the absolute paths."""
+    out = []
+    for given in paths or ():
+        path = Path(given).expanduser()
+        if path.suffix != ".py" or not path.is_file():
+            raise UserError(f"{where} {given}: not a Python file (give the path of the plug-in's .py module)")
+        out.append(str(path.resolve()))
+    with _FILES_LOCK:
+        for name in out:
+            _import_file(name, where)
+        declared = [p for p in os.environ.get(FILES_VARIABLE, "").split(os.pathsep) if p]
+        os.environ[FILES_VARIABLE] = os.pathsep.join(dict.fromkeys(declared + out))
+    return out
+
+
+def file_modules() -> dict[str, Any]:
+    """{path: module} of the plug-in files loaded in this process, the environment's (``FILES_VARIABLE``,
+    a spawned worker's inheritance) imported first."""
+    with _FILES_LOCK:
+        for path in os.environ.get(FILES_VARIABLE, "").split(os.pathsep):
+            if path and path not in _FILE_MODULES:
+                _import_file(path, FILES_VARIABLE)
+        return dict(_FILE_MODULES)
+
+
+def _import_file(path: str, where: str) -> None:
+    if path in _FILE_MODULES:
+        return
+    name = f"bwbench_plugin_{Path(path).stem}_{hashlib.sha256(path.encode()).hexdigest()[:8]}"
+    try:
+        spec = importlib.util.spec_from_file_location(name, path)
+        if spec is None or spec.loader is None:
+            raise ImportError("not an importable module")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module  # dataclasses and pickling look modules up by name
+        _FILE_MODULES[path] = module  # before executing it: a registry it imports must not load it again
+        spec.loader.exec_module(module)
+    except Exception as err:  # the plug-in's own fault, whatever it is: named, never a traceback
+        _FILE_MODULES.pop(path, None)
+        sys.modules.pop(name, None)
+        raise UserError(f"{where} {path}: failed to load: {type(err).__name__}: {err}") from None

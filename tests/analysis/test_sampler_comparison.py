@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bwbench.analysis import mcmc, nested, sampler_comparison
+from bwbench.analysis import mcmc, posterior_verdict, sampler_comparison
 from bwbench.engine import fitting
 from bwbench.problems.hysteresis.report.posterior_draws import PosteriorChain
 from bwbench.problems.hysteresis.report.samplers_section import comparison_table, groups
@@ -33,7 +33,7 @@ def posterior(label, result):
     )
     run = {"nfev": result.nfev, "wall_s": 12.5}
     if "log_z" in e:
-        verdict = nested.assess(samples, e["log_prob"], e["log_z"], e["log_z_err"], NAMES)
+        verdict = posterior_verdict.judge(samples, e["log_prob"], e["log_z"], e["log_z_err"], NAMES)
         whole = mcmc.Mode(tuple(range(chain.walkers)), np.arange(chain.walkers), 0.0)
         assessment = {"converged": verdict["converged"], "modes": [whole], "diagnostics": [verdict["diagnostics"]]}
         return PosteriorChain(chain, None, run, chain.walkers, assessment, NAMES, [], verdict)
@@ -88,3 +88,24 @@ def test_the_table_says_which_sampler_misses_a_mode_with_masses_evaluations_and_
 def test_one_sampler_per_specimen_is_no_comparison(samplers):
     reference, _ = samplers
     assert groups([reference]) == {}
+
+
+def test_an_emcee_posterior_that_misses_a_good_fit_is_never_called_converged(samplers, monkeypatch):
+    """The ensemble sampler settles in the 0.7 mode and passes R̂; a good ranking fit at the 0.3 mode's peak,
+    as probable as its draws, where none go, makes its verdict "not converged" with the reason."""
+    import pandas as pd
+
+    from bwbench.problems.hysteresis.report import posterior_draws
+
+    _, emcee = samplers
+    toy = MixtureToy([[0.3, 0.3], [0.7, 0.7]], 0.04, [0.7, 0.3])
+    # as if its R̂ and ESS had passed (all its walkers sit in the 0.7 mode)
+    passed = {**emcee.assessment, "converged": True, "why": []}
+    pc = PosteriorChain(emcee.chain, toy, emcee.run, emcee.ensembles, passed, NAMES)
+    assert pc.converged and pc.verdict_line.startswith("Posterior converged")
+    fit = pd.DataFrame([{"optimizer": "lsq-trf", "replicate": 0, "mse": 1.0, "p0": 0.7, "p1": 0.7}])
+    monkeypatch.setattr(posterior_draws, "good_fits", lambda study, specimen: fit)
+    posterior_draws._best_fit_covered(None, pc)
+    assert not pc.converged
+    assert pc.verdict_line.startswith("Posterior not converged: the sampler missed a mode at least as probable as")
+    assert "lsq-trf, seed 1" in pc.verdict_line

@@ -201,3 +201,53 @@ print(plt.get_backend(), matplotlib.rcParams.copy() == before, matplotlib.rcPara
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["pdf", "True", "13.0"]
     assert (tmp_path / "out" / "report.html").is_file()
+
+
+@pytest.fixture(scope="module")
+def cut_posterior_study(files):
+    """Nested sampling on a budget too small for its runs to end (each is cut), the mass held at 0."""
+    toml = files / "cut.toml"
+    toml.write_text(f"""
+[study]
+name = "cut"
+seed = 5
+budget = 40
+seeds = 1
+model = "bouc-wen"
+fix_mass = 0
+[specimens]
+files = ["{(files / "toy1.csv").as_posix()}"]
+[optimizers]
+lsq-trf = {{}}
+[posterior]
+specimens = ["toy1"]
+budget = 1500
+options = {{ live_points = 40, min_ess = 20 }}
+""")
+    return bwbench.compare(config=toml, db=files / "cut.sqlite")
+
+
+def test_a_cut_posterior_gives_each_runs_weighted_draws_and_its_verdict(cut_posterior_study):
+    import json
+
+    draws = cut_posterior_study.posterior("toy1")
+    verdict = cut_posterior_study.posterior_verdict("toy1")
+    assert draws.attrs["converged"] is False and verdict.converged is False
+    assert "cut by the budget" in draws.attrs["reasons"][0] and draws.attrs["verdict"] == verdict.line
+    # every run's weighted points (its distinct draws with their weights), each run worth its effective
+    # draws — a run cut this early puts nearly all its weight on its best point — and nothing NaN
+    assert sorted(set(draws["run"])) == [0, 1, 2, 3] and "weight" in draws
+    assert np.allclose(draws.groupby("run")["weight"].sum(), 0.25) and draws["weight"].sum() == pytest.approx(1)
+    assert len(draws.attrs["effective_draws"]) == 4 and min(draws.attrs["effective_draws"]) >= 1
+    assert np.isfinite(draws[["xy", "n", "eta", "c", "k", "h"]].to_numpy()).all()
+    # the held mass is named, not a column of zeros; the units are a dict
+    assert "m" not in draws and draws.attrs["held"] == {"m": 0.0}
+    assert draws.attrs["units"]["xy"] == "mm"
+    idata = cut_posterior_study.to_inference_data("toy1")
+    assert idata.attrs["converged"] == 0 and json.loads(idata.attrs["reasons"]) == verdict.reasons
+    assert json.loads(idata.posterior.attrs["units"])["h"] == "N" and "m" not in idata.posterior
+    assert idata.posterior.sizes["chain"] == 4 and idata.posterior.sizes["draw"] >= 1000
+    # the terminal's line after `bwbench compare` is the same verdict
+    from bwbench.commands.compare_run import posterior_lines
+
+    assert posterior_lines(cut_posterior_study.path) == [f"toy1 (nested): {verdict.line}"]

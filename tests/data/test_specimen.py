@@ -83,8 +83,9 @@ def test_valid_file_reads_exact_values_and_cli_says_ok(tmp_path, capsys):
     assert main(["data", "check", str(path)]) == 0
     out, err = capsys.readouterr()
     assert err == ""
-    first, signals = out.splitlines()
+    first, protocol, signals = out.splitlines()
     assert first == f"ok: {path}: 50 samples at 100 Hz, 0.49 s, displacement 0 … 2.5 mm, force -100 … 3 N"
+    assert protocol == "  protocol: 1 reversal of motion: too few cycles to name a protocol"
     assert signals.startswith("  signals: displacement measured, velocity and acceleration estimated from it")
 
 

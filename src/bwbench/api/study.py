@@ -12,8 +12,8 @@ one; both give a ``Study``:
 - ``recommendation``: what the report recommends (``label``, ``backend``, ``formulation``,
   ``model``, ``budget``, ``sentence``, ``text``), from ``bwbench.report.recommend``;
 - ``report(out_dir)``: the report of ``bwbench report`` (report.html, report.md, figures, CSVs);
-- ``posterior(specimen)`` / ``to_inference_data(specimen)``: a posterior run's draws in physical
-  units (``bwbench.api.posterior``).
+- ``posterior(specimen)`` / ``to_inference_data(specimen)`` / ``posterior_verdict(specimen)``: a
+  posterior run's draws in physical units with its verdict (``bwbench.api.posterior``).
 
 Anything else of the stored study (``settings``, ``chains``, ``specimen_path``, ...) is read through.
 """
@@ -332,6 +332,16 @@ class Study:
         with untouched():
             return posterior_api.inference_data(self._stored, specimen, thin)
 
+    def posterior_verdict(self, specimen: str):
+        """The verdict on the posterior of ``specimen``, the report's and the terminal's.
+
+        ``converged``, ``reasons``, ``line`` (``bwbench.api.posterior.verdict``).
+        """
+        from bwbench.api import posterior as posterior_api
+
+        with untouched():
+            return posterior_api.verdict(self._stored, specimen)
+
     # -- display ----------------------------------------------------------------------------------
     def _counts(self) -> str:
         runs = self.runs
@@ -413,6 +423,8 @@ def compare(
     threads: int = 1,
     data=None,
     log=None,
+    initial_state=None,
+    warmup=None,
 ) -> Study:
     """Run (or resume) a study as ``bwbench compare`` does and return its ``Study``.
 
@@ -459,6 +471,11 @@ def compare(
         Replaces the TOML's data folder.
     log : file-like or None, default None
         Where progress goes (default: nowhere).
+    initial_state : str, default "auto"
+        How every model starts each record: "auto", "rest" or "pre-roll" (with ``specimens``; a TOML
+        says it under [study]).
+    warmup : float, default 0
+        Seconds at the start of each record simulated but left out of the loss.
 
     Returns
     -------
@@ -496,6 +513,8 @@ def compare(
             threads=threads,
             data=data,
             log=log,
+            initial_state=initial_state,
+            warmup=warmup,
         )
 
 
@@ -521,6 +540,8 @@ def _compare(
     threads,
     data,
     log,
+    initial_state=None,
+    warmup=None,
 ) -> Study:
     import bwbench.threads as threads_mod
     from bwbench.api.arguments import count as check_count
@@ -545,6 +566,8 @@ def _compare(
                 ("state", state),
                 ("bounds", bounds),
                 ("validate", validate),
+                ("initial_state", initial_state),
+                ("warmup", warmup),
             )
             if v is not None
         ]
@@ -579,6 +602,8 @@ def _compare(
             validate=None
             if validate is None
             else [str(v) for v in ([validate] if isinstance(validate, (str, Path)) else validate)],
+            initial_state="auto" if initial_state is None else initial_state,
+            warmup_s=0.0 if warmup is None else warmup,
         )
     path = Path(db) if db is not None else study_config.default_db
     refuse_inputs({"db": path}, study_inputs(study_config, bounds))

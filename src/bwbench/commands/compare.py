@@ -58,6 +58,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "per branch) or continuous (one for both: no jump at a reversal)",
     )
     own.add_argument(
+        "--initial-state",
+        help="how every model starts each record, the same for all: auto (default), rest or pre-roll",
+    )
+    own.add_argument(
+        "--warmup",
+        metavar="SECONDS",
+        help="the first SECONDS of each record simulated but left out of the loss (default 0)",
+    )
+    own.add_argument(
         "--validate",
         nargs="+",
         metavar="FILE",

@@ -19,7 +19,7 @@ from bwbench.study import failures
 from bwbench.study.config import config_from_arguments, load_study_config
 from bwbench.study.execute import run_study
 from bwbench.study.inputs import refuse_blowing_box, screen_specimens, study_inputs
-from bwbench.study.stop import Interrupted, StudyStopped, signals_raise
+from bwbench.study.stop import Interrupted, StudyStopped, say, signals_raise
 
 
 def read_runs(db):
@@ -54,7 +54,9 @@ def refuse_edited_runs(db) -> None:
 def export_csv(db, path) -> None:
     """Write one row per run as CSV: the ``runs`` table with timings, and a column per parameter of
     each run's model (from ``params_json``; empty where a run's model has no such parameter)."""
-    read_runs(db).to_csv(path, index=False)
+    from bwbench.data.output_paths import write_frame
+
+    write_frame(read_runs(db), path, index=False)
 
 
 def summary_table(db, problem_type=None) -> str:
@@ -147,6 +149,17 @@ def recommendation_line(db) -> str:
         return f"Recommendation: see the report ({err})."
 
 
+def posterior_lines(db) -> list[str]:
+    """The verdict of each posterior in the study, one line each, in the report's words."""
+    from bwbench.api.posterior import verdict_lines
+    from bwbench.database.reader import load_study
+
+    try:
+        return verdict_lines(load_study(db))
+    except UserError:
+        return []
+
+
 # ------------------------------------------------------------------------------------ entry point
 
 
@@ -191,7 +204,7 @@ def main(args) -> int:
         what = "interrupted" if isinstance(stop, KeyboardInterrupt) else f"terminated ({stop})"
         # Only a database that exists holds runs: a stop while the study is planned names none.
         where = f"finished runs are in {db}" if db is not None and Path(db).is_file() else "no run had started"
-        print(f"{what}: {where}; run the same command again to resume", file=sys.stderr)
+        say(f"{what}: {where}; run the same command again to resume")  # a closed terminal: no traceback
         return 130 if isinstance(stop, KeyboardInterrupt) else stop.status
     except StudyStopped as stop:
         print(f"error: {stop}", file=sys.stderr)
@@ -210,6 +223,8 @@ def _print_results(config, db, outcome, csv) -> None:
             print(f"wrote {csv}")
         print(f"the statistics behind the recommendation: bwbench report --db {db} --out reports/{config.name}")
         print(recommendation_line(db))
+        for line in posterior_lines(db):
+            print(line)
         sys.stdout.flush()
     except BrokenPipeError:  # `compare ... | head`: the reader left, the study is recorded all the same
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
@@ -246,6 +261,8 @@ OWN_FLAGS = (
     "bounds",
     "fix_mass",
     "offsets",
+    "initial_state",
+    "warmup",
     "validate",
 )
 
@@ -279,6 +296,8 @@ def study_config(args):
         fix_mass=_given(args.fix_mass, "auto"),
         offsets=_given(args.offsets, "branch"),
         validate=args.validate,
+        initial_state=_given(getattr(args, "initial_state", None), "auto"),
+        warmup_s=_given(getattr(args, "warmup", None), 0.0),
     )
 
 

@@ -11,23 +11,36 @@ from bwbench.errors import UserError
 def check(args) -> int:
     """Exit 0 if every file is a valid specimen CSV, else 2 with one error line per bad file; valid
     files that are probably not what their header promises get warnings (exit status still 0)."""
-    from bwbench.data import manifest, plausibility
+    from bwbench.data import control, manifest, plausibility
     from bwbench.data.specimen import read_specimen
+    from bwbench.models.protocol import protocol
 
     status = 0
+    named = control.parse_all(getattr(args, "control", None))  # a bad --control: one line before any file
     for path in args.files:
         try:
-            spec = read_specimen(path)
+            spec = read_specimen(path) if named is None else control.read(path, named)
         except UserError as err:
             print(f"error: {err}", file=sys.stderr)
             status = 2
         else:
             rate = (spec.n_samples - 1) / spec.duration_s
+            sampling = (
+                f"{spec.n_samples} points, quasi-static (no time_s column: read as a sequence along the "
+                "displacement path)"
+                if spec.quasi_static
+                else f"{spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s"
+            )
             print(
-                f"ok: {path}: {spec.n_samples} samples at {rate:.4g} Hz, {spec.duration_s:.4g} s, displacement "
+                f"ok: {path}: {sampling}, displacement "
                 f"{spec.x.min():.4g} … {spec.x.max():.4g} mm, force {spec.f.min():.4g} … {spec.f.max():.4g} N"
             )
+            if spec.reading_notes:
+                print(f"  read: {'; '.join(spec.reading_notes)}")
+            print(f"  protocol: {protocol(spec.x).describe()}")
             print(f"  {signals_text(spec)}")
+            if named is not None:
+                print(f"  {control.summary(spec).text()}")  # type: ignore[union-attr]
             ramps = ramps_text(spec)
             if ramps:
                 print(f"  {ramps}")
@@ -63,6 +76,14 @@ def signals_text(spec) -> str:
     expected error (mm/s rms) and the force error that makes per ``REFERENCE_VISCOUS`` of ∂F/∂ẋ."""
     from bwbench.models import derivatives
 
+    if spec.quasi_static:
+        from bwbench.models.protocol import dead_band
+
+        return (
+            "signals: the displacement path and its direction of motion (a reversal counts once the motion "
+            f"goes back by more than {dead_band(spec.x):.3g} mm, against digitising jitter); no velocity or "
+            "acceleration: the models' viscous and inertia terms are off"
+        )
     if spec.v is not None:
         return "signals: displacement and velocity measured (velocity_mm_s), acceleration " + (
             "measured (acceleration_mm_s2)" if spec.a is not None else "estimated from the velocity"
@@ -128,6 +149,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         epilog="example:\n  bwbench data check mytest.csv data/mr_damper/*.csv",
     )
     p.add_argument("files", nargs="+", help="specimen CSV files")
+    p.add_argument(
+        "--control",
+        action="append",
+        metavar="COLUMN[=VALUE]",
+        help="the control column to read and report (current_A, voltage_V, underpressure_MPa: <quantity>_<unit>); "
+        "=VALUE: the level of files without the column",
+    )
+    from bwbench.commands import reading_options
+
+    reading_options.add(p)
     p.set_defaults(func=check)
     p = sub.add_parser(
         "generate",

@@ -61,14 +61,27 @@ def fit(args) -> int:
     limits.check("--budget", args.budget, "BWBENCH_MAX_BUDGET")
     if args.seed < 0:
         raise UserError(f"--seed must be a non-negative integer, got {args.seed}")
+    if getattr(args, "weighting", "equal") != "equal" and (args.each or len(args.specimen) == 1):
+        raise UserError(
+            f"--weighting {args.weighting} weighs the files of a joint fit; "
+            + ("--each fits every file alone" if args.each else "one file has nothing to weigh")
+        )
     # Options are checked before the specimen is read or anything runs (fitting.run checks them again).
     options = registry.resolve_options(args.optimizer, dict(parse_option(o) for o in args.option))
     workers = threads.check(args.workers, "--workers")
     threads.check(args.threads)
+    from bwbench.commands import control_fit
+
+    controlled = control_fit.wants_control(args)  # one model across a control range (--control, --law)
+    if controlled:
+        control_fit.check_flags(args)
     if args.each:
         return _fit_each(args, options, workers)
-    check_outputs({"--out": args.out, "--plot": args.plot}, [*args.specimen, getattr(args, "bounds", None)])
-    return _fit_setup(args, _read_setup(args), options, workers, args.out, args.plot)
+    outputs = {"--out": args.out, "--plot": args.plot, **control_fit.outputs(args)}
+    check_outputs(outputs, [*args.specimen, getattr(args, "bounds", None)])
+    setup = _read_setup(args)
+    status = _fit_setup(args, setup, options, workers, args.out, args.plot)
+    return control_fit.after(args, setup, status) if controlled else status
 
 
 def _read_setup(args):
@@ -90,6 +103,7 @@ def _fit_each(args, options, workers: int) -> int:
 
     from bwbench.data.output_paths import FIGURE_FORMATS, check_folder
     from bwbench.problems.hysteresis.setup import refuse_same_file
+    from bwbench.study import stop
 
     refuse_same_file(args.specimen)
     stems: dict[str, str] = {}
@@ -128,6 +142,7 @@ def _fit_each(args, options, workers: int) -> int:
     for k, ((one, setup), (out, plot)) in enumerate(zip(runs, outputs), start=1):
         print(f"[{k}/{len(runs)}] {one.specimen[0]}")
         statuses.append(_fit_setup(one, setup, options, workers, out, plot))
+        stop.kept.append(f"{k} of {len(runs)} fits written in {out_dir} (run the rest with --each on their files)")
     failed = sum(1 for status in statuses if status)
     print(
         f"{len(runs)} fit{'s' if len(runs) > 1 else ''} in {time.perf_counter() - started:.1f} s -> {out_dir}"
@@ -148,7 +163,9 @@ def _fit_setup(args, setup, options, workers: int, out: str, plot: str | None) -
     extra["formulation_reason"] = setup.formulation_reason
     if setup.box_probe_s is not None:
         extra["box_probe_s"] = setup.box_probe_s  # not in wall_s, the backend's own time
-    where = " + ".join(args.specimen)
+    from bwbench.render.format import files_text
+
+    where = files_text(args.specimen)  # one line even for a joint fit of dozens of files
     print(f"fitting {where}: {setup.formulation_reason}")
     with threads.for_workers(problem, max(workers, args.threads)):
         fitted = run_fit(
@@ -186,13 +203,15 @@ def _fit_setup(args, setup, options, workers: int, out: str, plot: str | None) -
 
 def _nrmse_text(row: dict) -> str:
     """Both NRMSEs of a file's row, the literature's named (``fit_result.NRMSE_DEFINITIONS``)."""
-    return f"NRMSE {row['nrmse_max_F']:.4g} (RMSE/max F, the literature's; {row['nrmse']:.4g} RMSE/max|F|)"
+    from bwbench.problems.hysteresis.fit_result import nrmse_text
+
+    return nrmse_text(row["nrmse"], row["nrmse_max_F"])
 
 
 def _plot(problem, fitted, path, synthetic: bool) -> None:
     """One fit: the loops, force and residual of ``plot_fit``; a joint fit: one row per file."""
     if len(fitted.files) == 1:
-        from bwbench.problems.hysteresis.report.fit_figures import plot_fit  # not report.figures: scipy.stats
+        from bwbench.problems.hysteresis.report.record_fit_figure import plot_fit  # not report.figures: scipy.stats
 
         plot_fit(problem, fitted.result, path, synthetic=synthetic)
         return
@@ -200,13 +219,11 @@ def _plot(problem, fitted, path, synthetic: bool) -> None:
 
     model = fitted.model
     predictions = [model.predict(spec) for spec in problem.specimens]
-    nrmse = ", ".join(f"{row['nrmse_max_F']:.3g}" for row in fitted.files)
     plot_predictions(
         predictions,
         path,
         f"joint fit of {len(predictions)} tests: {model.describe()}\n"
-        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file; "
-        f"NRMSE (RMSE/max F) {nrmse}",
+        f"{fitted.result.optimizer}, {fitted.result.nfev} evaluations of every file",
         what="fitted",
         synthetic=synthetic,
     )
@@ -295,4 +312,7 @@ def add_fit_arguments(parser: argparse.ArgumentParser) -> None:
         "else the points of a batch (a Jacobian by differences); the result is the same "
         "as with 1 (default 1: on a busy machine more are slower)",
     )
+    from bwbench.commands import control_fit
+
+    control_fit.add_arguments(parser)
     parser.set_defaults(func=fit)

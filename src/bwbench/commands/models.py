@@ -33,6 +33,14 @@ def list_models(args) -> int:
                 + ", ".join(f"{n} ({layout.units[n]})" for n in layout.names)
                 + (" per branch (ẋ ≥ 0, ẋ < 0)" if layout.branched else "")
             )
+        # the keys a --bounds file, --law and a result JSON use
+        names = f"  names: {model.direct_name} " + " ".join(p.name for p in model.direct_parameters(state))
+        if model.has_linear_part:
+            from bwbench.problems.hysteresis.linear.columns import coefficient_names
+
+            names += "; identifiable " + " ".join(p.name for p in model.hysteretic_parameters(state))
+            names += ", solved " + " ".join(coefficient_names(model.linear_layout(state)))
+        print(names)
     return 0
 
 

@@ -35,13 +35,13 @@ def stored_model(args, path):
     """The ``FittedModel`` of the fit result ``path`` with the command's flags checked against it; None
     when ``path`` is a plain parameter file. ``UserError`` for a flag that contradicts the file."""
     from bwbench.models import registry
-    from bwbench.problems.hysteresis.fitted_model import FittedModel
+    from bwbench.problems.hysteresis.control.fitted import model_of_result
     from bwbench.problems.hysteresis.formulations import resolve_formulation
 
     data = read_fit(path)
     if data is None:
         return None
-    fitted = FittedModel.from_result(data, str(path))
+    fitted = model_of_result(data, str(path))
     given = {
         "--model": getattr(args, "model", None),
         "--formulation": getattr(args, "formulation", None),
@@ -85,12 +85,12 @@ def evaluate_stored(args, fitted) -> int:
 
 def simulate_stored(args, fitted) -> int:
     """``bwbench simulate --params FIT.json``: the stored model's force on ``--specimen`` as a CSV."""
-    from bwbench.data.output_paths import check_outputs, writing
+    from bwbench.data.output_paths import check_outputs, write_frame, writing
 
     check_outputs({"--out": args.out}, [args.specimen, args.params])
     frame = fitted.simulate(args.specimen)
     with writing(args.out):
-        frame.to_csv(args.out, index=False, float_format="%.6g")
+        write_frame(frame, args.out, index=False, float_format="%.6g")
     error = frame["force_model_N"] - frame["force_measured_N"]
     mse = float((error**2).mean()) if error.notna().all() else math.inf
     mse = mse if math.isfinite(mse) else math.inf
@@ -130,6 +130,17 @@ def _blown_up(specimen, params, mse: float) -> int:
     return 1
 
 
+def _with_control(args, fitted) -> list:
+    """The files of a model across a control, each with its control: the fit's column, or ``--control
+    NAME=VALUE`` for a file without it (a level no fitted file had is a prediction like any other)."""
+    from bwbench.data import control
+
+    spec = control.parse_all(getattr(args, "control", None)) or control.ControlSpec(fitted.control_name)
+    if spec.name != fitted.control_name:
+        raise UserError(f"--control {spec.name}: {args.fit} is a model across {fitted.control_name}")
+    return [control.read(p, spec) for p in args.data]
+
+
 def predict(args) -> int:
     """``bwbench predict --fit FIT.json DATA.csv ...``: exit 0, 1 when the model blows up on a file, 2
     for a mistake in the input (one line, before anything is written)."""
@@ -143,15 +154,26 @@ def predict(args) -> int:
             "`bwbench fit --out` wrote"
         )
     fitted = stored_model(args, args.fit)
-    specimens = [read_specimen(p) for p in args.data]  # every file checked before any is predicted
+    specimens = [read_specimen(p) for p in args.data] if not hasattr(fitted, "control") else _with_control(args, fitted)
     from bwbench.data import plausibility
 
     plausibility.screen(specimens, force_needed=False, warn=False)  # a dead channel refused before any work
-    predictions = [fitted.predict(s) for s in specimens]
+    refit = bool(getattr(args, "refit_offset", False))
+    predictions = [fitted.predict(s, refit_offset=refit) for s in specimens]
+    stored = (
+        "every coefficient as stored but the constant force, re-solved on each file (--refit-offset)"
+        if refit
+        else "every coefficient as stored, nothing refitted"
+    )
     if args.out:
         document = {
             "fit": str(args.fit),
             **_described(fitted, args.fit),
+            **(
+                {"coefficients": f"as stored in {args.fit} but the constant force, re-solved on each file"}
+                if refit
+                else {}
+            ),
             "predictions": [p.metrics() for p in predictions],
         }
         with writing(args.out):
@@ -166,16 +188,17 @@ def predict(args) -> int:
             plot_predictions(
                 predictions,
                 args.plot,
-                f"prediction by {fitted.describe()}\nevery coefficient as stored in {Path(args.fit).name}",
+                f"prediction by {fitted.describe()} of {Path(args.fit).name}\n{stored}",
                 synthetic=all(manifest.is_synthetic(p) for p in args.data),
             )
     # Printed after every file is written: a reader that stops early (``| head -1``) loses no output.
     for p in predictions:
+        offset = "" if p.offset_N is None else f"; constant force re-solved on this record: {p.offset_N:+.4g} N"
         print(
             f"{p.specimen}: RMSE {p.rmse_N:.4g} N, NRMSE {p.nrmse:.4g} (RMSE / max|F| = {p.rmse_N:.4g} / "
-            f"{float(max(abs(p.measured_N))):.4g} N), {p.n} samples"
+            f"{float(max(abs(p.measured_N))):.4g} N), {p.n} samples{offset}"
         )
-    print(f"predicted by {fitted.describe()} of {args.fit}: every coefficient as stored, nothing refitted")
+    print(f"predicted by {fitted.describe()} of {args.fit}: {stored}")
     plausibility.print_warnings(specimens)  # data check's words, once every refusal is behind
     blown = [p.specimen for p in predictions if not math.isfinite(p.mse)]
     for name in blown:
@@ -188,6 +211,19 @@ def add_arguments(parser) -> None:
     parser.add_argument(
         "--fit", required=True, metavar="FIT.json", help="a result of `bwbench fit` (one file or joint)"
     )
+    parser.add_argument(
+        "--control",
+        action="append",
+        metavar="COLUMN[=VALUE]",
+        help="a fit across a control (--law): the level of files without the fit's control column "
+        "(any level: the laws give the parameters there)",
+    )
     parser.add_argument("--out", help="JSON with each file's RMSE (N) and NRMSE (RMSE / max|F|)")
     parser.add_argument("--plot", help="PNG of predicted against measured loops and the residual over time")
+    parser.add_argument(
+        "--refit-offset",
+        action="store_true",
+        help="re-solve the constant force on each file (a record from another test set-up, whose load cell "
+        "reads another zero); every other coefficient as stored; the output says by how much",
+    )
     parser.set_defaults(func=predict)

@@ -51,7 +51,23 @@ def model_settings(args) -> dict:
 
 
 def add_fit_options(p) -> None:
-    """The options of a fit that a study shares (``fit`` and ``compare``): the mass and the weights."""
+    """The options of a fit that a study shares (``fit`` and ``compare``): the mass, the weights and the
+    start of every record."""
+    from bwbench.models.start import INITIAL_STATES
+
+    p.add_argument(
+        "--initial-state",
+        choices=INITIAL_STATES,
+        help="how every model starts each record, the same for all: auto (default: from rest when the record "
+        "starts from rest, else after a pre-roll of one cycle of its own motion, left out of the loss), rest, "
+        "or pre-roll",
+    )
+    p.add_argument(
+        "--warmup",
+        metavar="SECONDS",
+        help="the first SECONDS of each record are simulated but left out of the loss, the errors and the "
+        "checks (shaded in the figure); default 0",
+    )
     p.add_argument(
         "--fix-mass",
         metavar="VALUE",
@@ -93,6 +109,12 @@ def setup_from_args(args, formulation_from_data: bool = False):
         bounds=getattr(args, "bounds", None) or None,
         force_needed=getattr(args, "func", None) not in (simulate, evaluate),
         log=sys.stdout,
+        control=getattr(args, "control", None),
+        laws=getattr(args, "law", None),
+        control_filter=getattr(args, "control_filter", False),
+        law_search=(args.optimizer, args.budget, args.seed) if hasattr(args, "optimizer") else None,
+        initial_state=getattr(args, "initial_state", None) or "auto",
+        warmup=getattr(args, "warmup", None) or 0.0,
     )
 
 
@@ -151,7 +173,7 @@ def simulate(args) -> int:
     import pandas as pd
 
     from bwbench.commands.predict import simulate_stored
-    from bwbench.data.output_paths import check_outputs, writing
+    from bwbench.data.output_paths import check_outputs, write_frame, writing
 
     fitted = _stored(args)
     if fitted is not None:
@@ -172,7 +194,7 @@ def simulate(args) -> int:
         }
     )
     with writing(args.out):
-        frame.to_csv(args.out, index=False, float_format="%.6g")
+        write_frame(frame, args.out, index=False, float_format="%.6g")
     mse = float(problem.loss_batch(params[None, :])[0])
     extra = {"linear_coefficients": SOLVED} if problem.formulation == "identifiable" else {}
     print(strict_json.dumps({"out": str(args.out), **fit_metrics(mse, len(force)), **extra}, why=BLOWS_UP))

@@ -91,3 +91,34 @@ def read_text(path, limit_variable: str = "BWBENCH_MAX_TEXT_MB") -> str:
     except UnicodeDecodeError as err:
         line = data.count(b"\n", 0, err.start) + 1
         raise InputFileError(Path(path), line, f"not UTF-8 text (byte 0x{data[err.start]:02x})") from None
+
+
+def refuse_same_content(paths) -> None:
+    """``UserError`` when two of ``paths`` (different files) hold the same bytes: a copy of one test
+    would count twice in a joint fit. Sizes first, so files of different sizes are never read."""
+    import hashlib
+
+    from bwbench.errors import UserError
+
+    seen: dict[tuple, str] = {}
+    by_size: dict[int, list] = {}
+    for path in (p for p in paths if isinstance(p, (str, Path))):
+        try:
+            info = os.stat(path)
+        except OSError:  # not there: the reading says so, naming it
+            continue
+        if stat.S_ISREG(info.st_mode):  # a FIFO or a device is refused by the reading, never read here
+            by_size.setdefault(info.st_size, []).append(path)
+    for same_size in (group for group in by_size.values() if len(group) > 1):
+        for path in same_size:
+            try:
+                digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+            except OSError:
+                continue
+            key = (os.stat(path).st_size, digest)
+            if key in seen:
+                raise UserError(
+                    f"{path} holds the same bytes as {seen[key]}: a joint fit would count one test twice "
+                    "(a copy?); name it once"
+                )
+            seen[key] = str(path)

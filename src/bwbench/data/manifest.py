@@ -12,13 +12,31 @@ MANIFEST = "manifest.json"  # JSON, so that `bwbench data check data/specimens/*
 
 
 def load_manifest(directory) -> dict | None:
-    """The manifest.json of a data folder as a dict, or None when the folder has none."""
+    """The manifest.json of a data folder as a dict, or None when the folder has none, or has one that
+    is not bwbench's (another program's file of that name: ignored, with a warning saying so)."""
     path = Path(directory) / MANIFEST
     if not path.exists():
         return None
     from bwbench.data.input_files import read_text  # a regular file of bounded size: a FIFO would block
 
-    return json.loads(read_text(path))
+    try:
+        document = json.loads(read_text(path))
+    except ValueError as err:  # not JSON (or not UTF-8)
+        _not_ours(path, f"not JSON ({err})")
+        return None
+    specimens = document.get("specimens") if isinstance(document, dict) else None
+    if not isinstance(specimens, list) or not all(
+        isinstance(e, dict) and isinstance(e.get("file"), str) for e in specimens
+    ):
+        _not_ours(path, 'no "specimens" list of objects naming their "file"')
+        return None
+    return document
+
+
+def _not_ours(path, why: str) -> None:
+    from bwbench.notices import assume
+
+    assume(f"{path} is not a bwbench manifest ({why}): ignored; the specimens are read as measured data")
 
 
 def read_manifest(directory):
@@ -28,7 +46,7 @@ def read_manifest(directory):
     document = load_manifest(directory)
     if document is None:
         raise FileNotFoundError(Path(directory) / MANIFEST)
-    rows = [{**{k: v for k, v in e.items() if k != "truth"}, **e["truth"]} for e in document["specimens"]]
+    rows = [{**{k: v for k, v in e.items() if k != "truth"}, **(e.get("truth") or {})} for e in document["specimens"]]
     return pd.DataFrame(rows)
 
 
@@ -69,6 +87,6 @@ def is_paper_data(specimen_path) -> bool:
 def truth(specimen_path) -> tuple[str, dict] | None:
     """(model name, truth parameters by name) of a synthetic specimen, or None."""
     entry = manifest_entry(specimen_path)
-    if entry is None or "truth" not in entry:
+    if entry is None or not isinstance(entry.get("truth"), dict):
         return None
     return entry.get("model", "switched-bouc-wen"), dict(entry["truth"])

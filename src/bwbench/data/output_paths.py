@@ -3,6 +3,13 @@ unwritable path, and an input is never overwritten by an output.
 
 "The same file" means the same resolved path (``./s.csv``, ``../x/s.csv``, a symlink) or the same
 device and inode (a hard link): either way writing the output would destroy the input.
+
+Every output is written whole (a hidden file in the same folder, then renamed over the name) and never
+through a symbolic link that leads out of its folder: a link planted in an output folder
+(``fits/a.json -> ~/.bashrc``) would otherwise let a command overwrite a file it was never asked to
+write. A link named on the command line is refused before any work; one met while writing (planted
+during the run) is replaced by the output, the file it names left alone. Only the streams of
+``/dev`` and ``/proc`` (``--out /dev/stdout``) are written through.
 """
 
 from __future__ import annotations
@@ -47,6 +54,35 @@ def refuse_inputs(outputs: dict, inputs) -> None:
                 )
 
 
+def is_stream(path) -> bool:
+    """True for a path of ``/dev`` or ``/proc`` (``/dev/stdout``, ``/dev/fd/3``): a stream the user
+    names to be written through, not a file to replace."""
+    return os.path.abspath(path).startswith(("/dev/", "/proc/"))
+
+
+def link_out_of_folder(path) -> Path | None:
+    """The file a symbolic link ``path`` names when that file is outside the link's own folder (or the
+    link is a loop); None for anything else (a file, a link within its folder, a stream)."""
+    path = Path(path)
+    if not path.is_symlink() or is_stream(path):
+        return None
+    target = Path(os.path.realpath(path))
+    if target.parent == Path(os.path.realpath(path.parent)) and not target.is_symlink():
+        return None
+    return target
+
+
+def refuse_link_out(path, flag: str = "") -> None:
+    """``UserError`` if the output ``path`` is a symbolic link out of its folder (see the module)."""
+    target = link_out_of_folder(path)
+    if target is not None:
+        named = f"{flag} {path}" if flag else str(path)
+        raise UserError(
+            f"{named} is a symbolic link to {target}, outside {Path(path).parent}: bwbench does not write "
+            "through a link out of the output's folder; remove the link, or name the file itself"
+        )
+
+
 def check_writable(*paths) -> None:
     """Refuse an output path that cannot be written before any work is done, not after."""
     for path in paths:
@@ -67,6 +103,9 @@ def try_writing(path) -> None:
     on /proc: only trying tells. A named pipe is opened without blocking, so one with no reader is
     refused at once instead of waiting for a reader forever (``>(gzip > x.gz)`` has one, and works)."""
     path = Path(path)
+    refuse_link_out(path)
+    if path.is_symlink() and not is_stream(path):
+        path = Path(os.path.realpath(path))  # a link within its folder: its file is what is written
     existed = path.exists()
     flags = os.O_WRONLY | os.O_APPEND | (0 if existed else os.O_CREAT | os.O_EXCL)
     try:
@@ -97,6 +136,8 @@ def check_outputs(outputs: dict, inputs=()) -> None:
             raise UserError(
                 f"--plot {path}: the figure format comes from the extension; use one of {', '.join(FIGURE_FORMATS)}"
             )
+    for flag, path in given.items():
+        refuse_link_out(path, flag)
     flags = list(given)
     for i, first in enumerate(flags):
         if any(same_file(given[first], given[second]) for second in flags[i + 1 :]):
@@ -135,21 +176,27 @@ def writing(path):
 def replaced_whole(path):
     """Yield the path to write ``path``'s content to: a hidden file beside it (same suffix, so a figure
     keeps its format) that replaces ``path`` only once written, so an interrupted or failed write
-    (Ctrl-C, a full disk) leaves the old file or none, never half a file. A path that is not a regular
-    file (a FIFO, /dev/stdout, /dev/full) is written directly: it cannot be replaced."""
+    (Ctrl-C, a full disk) leaves the old file or none, never half a file. A stream (``/dev/stdout``) or
+    a path that is not a regular file (a FIFO) is written directly: it cannot be replaced. A symbolic
+    link within its folder has the file it names replaced (the link is kept); a link out of its folder
+    is itself replaced, never written through (see the module)."""
     path = Path(path)
-    if path.is_symlink():
-        if not path.resolve().is_file():  # /dev/stdout, a link to a pipe or device: write through it
-            yield path
-            return
-        path = path.resolve()  # write the file the link names, and keep the link
-    if path.exists() and not path.is_file():
+    if is_stream(path):
+        yield path
+        return
+    if path.is_symlink() and link_out_of_folder(path) is None:
+        path = Path(os.path.realpath(path))  # write the file the link names, and keep the link
+    if path.exists() and not path.is_file() and not path.is_symlink():
         yield path
         return
     partial = path.with_name(f".{path.stem}.partial-{os.getpid()}{path.suffix}")
-    try:
+    try:  # O_EXCL: never through a link planted at the hidden name either
         os.close(os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
     except OSError:  # a folder that takes no new file (the file itself is writable): write in place
+        if path.is_symlink():
+            raise UserError(
+                f"cannot write {path}: a symbolic link out of its folder, in a folder that takes no new file"
+            ) from None
         yield path
         return
     try:
@@ -157,3 +204,15 @@ def replaced_whole(path):
         os.replace(partial, path)
     finally:
         partial.unlink(missing_ok=True)
+
+
+def write_text(path, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` whole (``replaced_whole``)."""
+    with replaced_whole(path) as partial:
+        Path(partial).write_text(text, encoding="utf-8")
+
+
+def write_frame(frame, path, **to_csv) -> None:
+    """Write the DataFrame ``frame`` as CSV (``DataFrame.to_csv`` options) to ``path`` whole."""
+    with replaced_whole(path) as partial:
+        frame.to_csv(partial, **to_csv)

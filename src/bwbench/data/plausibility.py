@@ -26,6 +26,8 @@ SLOWEST_CYCLE_S = 1000.0
 SPARSEST_STEP_S = 10.0
 # Force varying by less than this fraction of its magnitude is flat: nothing to fit.
 FLAT_FORCE_FRACTION = 1e-6
+# Below this force (N) in every row a record is effectively zero (1e-310 N would give a loss of 0).
+TINY_FORCE_N = 1e-9
 # Beyond this force (N) a record is a unit or export error, not a test: bwbench refuses to fit it.
 MAX_PLAUSIBLE_FORCE_N = 1e9
 # |∮F dx| below this fraction of (2·amplitude × force range × cycles) is too small a loop to call its sign.
@@ -41,8 +43,35 @@ def loop_work(x, f) -> tuple[float, float]:
     return (work / cycles if cycles > 0 else 0.0), cycles
 
 
+def thousands_separator(f) -> str | None:
+    """A sentence when a column reads like numbers written with a point as thousands separator (German,
+    "1.141" for 1141 N) and read as decimals: every value with a fraction has at most three decimals,
+    none reaches 1000, and where a whole number meets one with a fraction the record jumps more than
+    twice as far read as decimals than read as thousands. None otherwise."""
+    f = np.asarray(f, dtype=float)
+    fraction = f != np.round(f)
+    if not fraction.any() or fraction.all() or float(np.abs(f).max()) >= 1000.0:
+        return None
+    scaled = f[fraction] * 1000.0
+    if float(np.abs(scaled - np.round(scaled)).max()) > 1e-6:
+        return None
+    as_thousands = np.where(fraction, f * 1000.0, f)
+    crossing = fraction[1:] != fraction[:-1]  # a whole number next to one with a fraction
+    jump_as_read = float(np.median(np.abs(np.diff(f))[crossing]))
+    if jump_as_read <= 2.0 * float(np.median(np.abs(np.diff(as_thousands))[crossing])):
+        return None
+    k = int(np.argmax(fraction))
+    return (
+        f"force_N reads like numbers with a thousands separator: {f[k]:.3f} among whole numbers below 1000 "
+        f"(read as {as_thousands[k]:.0f} N it joins its neighbours, read as {f[k]:.3f} N it jumps); remove "
+        "the separators (bwbench reads a point as the decimal point)"
+    )
+
+
 def time_unit_warnings(spec) -> list[str]:
     """A sentence when the time column looks like milliseconds (see ``SLOWEST_CYCLE_S``)."""
+    if getattr(spec, "quasi_static", False):
+        return []  # no time column
     step = spec.duration_s / (spec.n_samples - 1)
     _, cycles = loop_work(spec.x, spec.f)
     period = spec.duration_s / cycles if cycles >= 0.5 else None
@@ -56,12 +85,50 @@ def time_unit_warnings(spec) -> list[str]:
     return [f"{what}: is time_s in milliseconds? the header promises seconds (divide by 1000 if so)"]
 
 
+# A peak force below this (N) is small for a test machine's load cell: more likely kN or kips (an
+# inch–kip friction damper's ±5 kips read as ±5 N), unless the file declares its unit (force_kip, --units).
+SMALL_FORCE_N = 20.0
+# With such a force, an amplitude below this (mm) is more likely inches.
+SMALL_AMPLITUDE_MM = 5.0
+
+
+def unit_warnings(spec) -> list[str]:
+    """A sentence naming the likely units when a file that declares none has magnitudes of another
+    (``SMALL_FORCE_N``: kips or kN; with ``SMALL_AMPLITUDE_MM`` also inches); [] otherwise."""
+    if getattr(spec, "reading_notes", ()):
+        return []  # units were declared (a column name or --units): the user has said what they are
+    peak = float(np.abs(spec.f).max())
+    if not 0 < peak < SMALL_FORCE_N:
+        return []
+    amplitude = 0.5 * float(spec.x.max() - spec.x.min())
+    if amplitude < SMALL_AMPLITUDE_MM:
+        return [
+            f"force_N peaks at {peak:.3g} N and the displacement amplitude is {amplitude:.3g} mm: small for a test "
+            f"machine — an inch–kip file? (then {peak:.3g} kips = {peak * 4.4482216:.3g} kN and {amplitude:.3g} in = "
+            f"{amplitude * 25.4:.3g} mm: name the columns displacement_in and force_kip, or add --units "
+            "displacement=in,force=kip)"
+        ]
+    return [
+        f"force_N peaks at {peak:.3g} N: small for a test machine — is it in kN or kips? (name the column "
+        "force_kN or force_kip, or add --units force=kN)"
+    ]
+
+
 def force_warnings(spec) -> list[str]:
-    """A sentence when the force is zero, constant or flat: no hysteresis loop to fit."""
+    """A sentence when the force is zero, constant, flat or effectively zero (below ``TINY_FORCE_N``), or
+    written with thousands separators: no hysteresis loop to fit, or not the loop the file means."""
     f = spec.f
     span, size = float(f.max() - f.min()), float(np.abs(f).max())
     if size == 0.0:
         return ["force_N is 0 in every row: no force was recorded (load cell off, or an empty column?)"]
+    if size < TINY_FORCE_N:
+        return [
+            f"force_N is at most {size:.3g} N in every row: effectively 0 (every loss would read 0); "
+            "no test records that (a unit or export error?)"
+        ]
+    separator = thousands_separator(f)
+    if separator:
+        return [separator]
     if span <= FLAT_FORCE_FRACTION * size:
         return [
             f"force_N is flat ({float(f.mean()):.6g} N, varying by {span:.3g} N): no loop to fit "
@@ -72,7 +139,7 @@ def force_warnings(spec) -> list[str]:
 
 def warnings(spec, synthetic: bool = False) -> list[str]:
     """Plain sentences about ``spec`` (a ``Specimen``) that deserve a look; [] when nothing does."""
-    out = [*time_unit_warnings(spec), *force_warnings(spec), *dead_channels(spec)]
+    out = [*time_unit_warnings(spec), *force_warnings(spec), *unit_warnings(spec), *dead_channels(spec)]
     peak = float(np.abs(spec.f).max())
     if peak > MAX_PLAUSIBLE_FORCE_N:
         out.append(
@@ -113,7 +180,14 @@ def warnings(spec, synthetic: bool = False) -> list[str]:
 # or channel. Commanded and measured motion of a servo machine agree far better than 10 %.
 SIGNAL_GAIN_RANGE = (0.9, 1.1)
 SIGNAL_MISFIT = 0.05
-_UNIT_SLIPS = {60.0: "mm/min", 1000.0: "µm/s", 1e-3: "m/s"}  # recorded / implied -> the unit it was in
+# recorded / implied -> the unit it was in
+_UNIT_SLIPS = {
+    60.0: "mm/min",
+    1000.0: "µm/s",
+    1e-3: "m/s",
+    1 / 25.4: "in/s (velocity_in_s)",
+    25.4: "mm/s while the displacement is in inches (displacement_in)",
+}
 
 
 def _integral(t, y):

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bwbench.data import units
 from bwbench.errors import InputFileError
 
 COLUMNS = ("time_s", "displacement_mm", "force_N")
@@ -61,6 +62,15 @@ class Specimen:
     f: np.ndarray
     v: np.ndarray | None = None
     a: np.ndarray | None = None
+    # The control (current, voltage, underpressure: ``bwbench.data.control``) at each sample, and its
+    # column name ``<quantity>_<unit>``; None for a test without one.
+    control: np.ndarray | None = None
+    control_name: str | None = None
+    # What reading did to the file's numbers (declared units converted, a rounded time rebuilt), in words.
+    reading_notes: tuple = ()
+    # No time column: a quasi-static (rate-independent) test read as a sequence of points, t the point's
+    # index (docs/file-formats.md#quasi-static-tests); a model sees the displacement path and its direction.
+    quasi_static: bool = False
 
     @property
     def measured_signals(self) -> tuple[str, ...]:
@@ -76,8 +86,10 @@ class Specimen:
         return float(self.t[-1] - self.t[0])
 
 
-def read_specimen(path) -> Specimen:
-    """Read and validate a specimen CSV; raise ``InputFileError`` for anything malformed."""
+def read_specimen(path, control: str | None = None) -> Specimen:
+    """Read and validate a specimen CSV; raise ``InputFileError`` for anything malformed. ``control``: the
+    name of a control column (``bwbench.data.control``) the file may carry: read into ``control`` when
+    the header has it."""
     path = str(path)
     data = _read_bytes(path)
     text = _decode(path, data)
@@ -92,7 +104,11 @@ def read_specimen(path) -> Specimen:
             "file with LF or CRLF line endings",
         )
     header, _, rest = text.partition("\n")
-    sep, order, n_columns = _parse_header(path, header)
+    try:
+        header, scale, said = units.header(header)
+    except ValueError as err:
+        raise InputFileError(path, 1, str(err)) from None
+    sep, order, n_columns = _parse_header(path, header, (control,) if control else ())
     if not rest or rest.isspace():
         raise InputFileError(path, 1, "header only, no data rows")
 
@@ -110,13 +126,38 @@ def read_specimen(path) -> Specimen:
             line_nos = _slow_parse(path, text, sep)[1]
         return int(line_nos[row])
 
+    quasi_static = order[0] is None
+    if quasi_static:  # no time: the sample index orders the path (docs/file-formats.md#quasi-static-tests)
+        values = np.column_stack([values, np.arange(len(values), dtype=float)])
+        order = [values.shape[1] - 1, *order[1:]]
     t, x, f = (np.ascontiguousarray(values[:, j]) for j in order[:3])  # always there
     v, a = (None if j is None else np.ascontiguousarray(values[:, j]) for j in order[3:])
+    named = dict(zip(COLUMNS + OPTIONAL_COLUMNS, (t, x, f, v, a)))
+    for name, factor in scale.items():
+        named[name] *= factor
+    if units.declared().rebuild_time and units.rounded_time(t) is not None and _uneven(t) is not None:
+        fs, worst = units.rounded_time(t)
+        t = units.rebuilt_time(t)
+        said.append(f"time rebuilt as t₀ + k/fs, fs = {fs:.6g} Hz (--rebuild-time; it was up to {worst:.2g} s off)")
     check_values(path, t, x, line_of)
-    for column in (t, x, f, v, a):
+    names = [n.strip().strip('"').strip() for n in header.strip().split(sep)]
+    u = np.ascontiguousarray(values[:, names.index(control)]) if control in names else None
+    for column in (t, x, f, v, a, u):
         if column is not None:
             column.flags.writeable = False  # a frozen Specimen should not change under its users
-    return Specimen(path=path, name=Path(path).stem, t=t, x=x, f=f, v=v, a=a)
+    return Specimen(
+        path=path,
+        name=Path(path).stem,
+        t=t,
+        x=x,
+        f=f,
+        v=v,
+        a=a,
+        control=u,
+        control_name=None if u is None else control,
+        reading_notes=tuple(said),
+        quasi_static=quasi_static,
+    )
 
 
 def _read_bytes(path: str) -> bytes:
@@ -148,12 +189,18 @@ def _decode(path: str, data: bytes) -> str:
         ) from None
 
 
-def _parse_header(path: str, header: str) -> tuple[str, list, int]:
+def _parse_header(path: str, header: str, allowed: tuple = ()) -> tuple[str, list, int]:
     """Separator, the index of each of COLUMNS + OPTIONAL_COLUMNS in a row (None for an absent optional
-    column), and the number of columns."""
+    column), and the number of columns. ``allowed``: other column names the caller reads (a control)."""
     sep = ";" if ";" in header else ","
     names = [name.strip().strip('"').strip() for name in header.strip().split(sep)]
+    for name in names:
+        quantity, _, unit = name.partition("_")
+        if quantity in units.UNITS and re.fullmatch(r"\w+", unit, re.ASCII) and name not in COLUMNS + OPTIONAL_COLUMNS:
+            raise InputFileError(path, 1, f"column {name!r}: unknown unit; {quantity} may be {units.known(quantity)}")
     missing = [c for c in COLUMNS if c not in names]
+    if missing == ["time_s"] and not any(c in names for c in OPTIONAL_COLUMNS):
+        missing = []  # a quasi-static test: the displacement path and its force (``read_specimen``)
     if missing:
         found = header.strip()
         found = found if len(found) <= 60 else found[:57] + "..."
@@ -164,13 +211,14 @@ def _parse_header(path: str, header: str) -> tuple[str, list, int]:
             f"missing column{'s' if len(missing) > 1 else ''} {which} in header "
             f"(expected {','.join(COLUMNS)}, found {found!r})",
         )
-    extra = [n for n in names if n not in COLUMNS + OPTIONAL_COLUMNS]
+    extra = [n for n in names if n not in COLUMNS + OPTIONAL_COLUMNS + tuple(allowed)]
     if extra:
         raise InputFileError(
             path,
             1,
             f"unexpected column {extra[0]!r} in header (expected {','.join(COLUMNS)}, "
-            f"optionally also {' and '.join(OPTIONAL_COLUMNS)})",
+            f"optionally also {' and '.join(OPTIONAL_COLUMNS)}; a control column is read when named with "
+            "--control)",
         )
     dup = next((n for n in names if names.count(n) > 1), None)
     if dup is not None:
@@ -250,6 +298,14 @@ def _parse_cell(path: str, line_no: int, cell: str, column: str, sep: str) -> fl
     return value
 
 
+def _uneven(t: np.ndarray) -> int | None:
+    """The row of the first time step off the median step by more than ``SAMPLING_TOLERANCE``, or None."""
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    uneven = np.flatnonzero(np.abs(dt - step) > SAMPLING_TOLERANCE * step)
+    return int(uneven[0]) + 1 if uneven.size else None
+
+
 def check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
@@ -257,16 +313,21 @@ def check_values(path: str, t: np.ndarray, x: np.ndarray, line_of) -> None:
         raise InputFileError(path, line_of(i), f"time not strictly increasing: {t[i]:.9g} s after {t[i - 1]:.9g} s")
     if t.size < MIN_SAMPLES:
         raise InputFileError(path, line_of(t.size - 1), f"too few samples: {t.size}, need at least {MIN_SAMPLES}")
-    dt = np.diff(t)
-    step = float(np.median(dt))
-    uneven = np.flatnonzero(np.abs(dt - step) > SAMPLING_TOLERANCE * step)
-    if uneven.size:
-        i = int(uneven[0]) + 1
+    row = _uneven(t)
+    if row is not None:
+        dt = np.diff(t)
+        step = float(np.median(dt))
+        rounded = units.rounded_time(t)
+        advice = (
+            f"the time column is an even grid printed with too few digits (every time within {rounded[1]:.2g} s "
+            f"of t₀ + k/fs, fs = {rounded[0]:.6g} Hz): rebuild it as t = t₀ + k/fs, or add --rebuild-time"
+            if rounded is not None
+            else "bwbench needs uniformly sampled data (resample it first, e.g. numpy.interp onto an even time grid)"
+        )
         raise InputFileError(
             path,
-            line_of(i),
-            f"time step {dt[i - 1]:.6g} s here, but the file is sampled every {step:.6g} s: bwbench needs "
-            "uniformly sampled data (resample it first, e.g. numpy.interp onto an even time grid)",
+            line_of(row),
+            f"time step {dt[row - 1]:.6g} s here, but the file is sampled every {step:.6g} s: {advice}",
         )
     span = float(x.max() - x.min())
     if span < MIN_DISPLACEMENT_RANGE_MM:

@@ -34,13 +34,21 @@ def from_frame(frame, name: str | None = None):
 
     name = str(name or frame.attrs.get("name") or "data")
     where = f"DataFrame {name!r}"
-    columns = [str(c).strip() for c in frame.columns]
+    from bwbench.data import units
+
+    try:
+        columns, scale, said = units.factors([str(c).strip() for c in frame.columns])
+    except ValueError as err:
+        raise UserError(f"DataFrame {name!r}: {err}") from None
     missing = [c for c in COLUMNS if c not in columns]
     if missing:
         raise UserError(
             f"{where}: no column {', '.join(missing)}; the columns are {', '.join(COLUMNS)} "
             f"(optionally {', '.join(OPTIONAL_COLUMNS)}), got {', '.join(columns) or 'none'}"
         )
+    twice = next((c for c in columns if columns.count(c) > 1), None)
+    if twice is not None:
+        raise UserError(f"{where}: column {twice} appears twice: which one is meant? drop the other")
     other = [c for c in columns if c not in COLUMNS + OPTIONAL_COLUMNS]
     if other:
         raise UserError(
@@ -49,6 +57,8 @@ def from_frame(frame, name: str | None = None):
         )
     values = {}
     for column, original in zip(columns, frame.columns):
+        if np.iscomplexobj(frame[original].to_numpy()):  # float() would drop the imaginary part silently
+            raise UserError(f"{where}: column {column} holds complex numbers: every value must be real")
         try:
             array = np.asarray(frame[original], dtype=float)
         except (TypeError, ValueError):
@@ -58,7 +68,7 @@ def from_frame(frame, name: str | None = None):
             raise UserError(
                 f"{where}, row {int(bad[0])}: {column} is {float(array[bad[0]])}: every value must be finite"
             )
-        array = np.ascontiguousarray(array)
+        array = np.ascontiguousarray(array * scale.get(column, 1.0))
         array.flags.writeable = False
         values[column] = array
 
@@ -80,4 +90,5 @@ def from_frame(frame, name: str | None = None):
         f=values["force_N"],
         v=values.get("velocity_mm_s"),
         a=values.get("acceleration_mm_s2"),
+        reading_notes=tuple(said),
     )

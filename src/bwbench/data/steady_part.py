@@ -10,7 +10,7 @@ counted once it leaves a band of ``BAND`` × the amplitude around it (so encoder
 does not split one). The steady amplitude is the largest peak excursion of the half-cycles (the ramps may be half
 the record, so not the median); the ramp
 is the run of leading (ramp-in) or trailing (ramp-out) half-cycles whose peak stays below
-(1 − ``RAMP_TOLERANCE``) × that. The notion holds only for a constant-amplitude test: a record is
+(1 − ``RAMP_TOLERANCE``) × that, for at most ``MAX_RAMP_CYCLES``. The notion holds only for a constant-amplitude test: a record is
 called ramped only when its steady half-cycles agree within ``RAMP_TOLERANCE`` and there are at
 least ``MIN_STEADY`` of them (a random or swept record has no steady part, and no ramps are named).
 """
@@ -24,6 +24,9 @@ import numpy as np
 BAND = 0.05  # × amplitude: a half-cycle starts where x leaves this band around its mid-range
 RAMP_TOLERANCE = 0.05  # a half-cycle whose peak is below 95 % of the steady amplitude is a ramp cycle
 MIN_STEADY = 3  # half-cycles of constant amplitude needed to call a record a constant-amplitude test
+# A rig ramps in over a cycle or two; a longer run of smaller cycles is the protocol itself (a column
+# test of growing amplitude), not a ramp (``bwbench.models.protocol``).
+MAX_RAMP_CYCLES = 2.0
 
 
 @dataclass(frozen=True)
@@ -92,6 +95,8 @@ def steady_part(t, x) -> SteadyPart:
         return whole  # not a constant-amplitude test: no steady part to speak of
     if first == 0 and last == len(peaks) - 1:
         return whole
+    if max(first, len(peaks) - 1 - last) / 2.0 > MAX_RAMP_CYCLES:
+        return whole  # smaller cycles for longer than a ramp: the test's protocol, not its ramps
     # The steady part runs from the crossing before its first half-cycle to the one after its last.
     start = _crossing_before(x, mid, int(edges[first])) if first > 0 else 0
     stop = _crossing_before(x, mid, int(edges[last + 1])) + 1 if last < len(peaks) - 1 else len(x)

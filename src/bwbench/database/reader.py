@@ -81,6 +81,8 @@ class Study:
     chains: tuple  # of Chain
     data_dir: Path
     paths: dict = dataclasses.field(default_factory=dict)  # specimen -> file, where the runner last found it
+    # specimen -> file the runner recorded, even if gone: a missing file is named as the study used it
+    recorded: dict = dataclasses.field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -163,7 +165,10 @@ class Study:
     def specimen_path(self, specimen: str) -> Path:
         if specimen in self.paths:
             return Path(self.paths[specimen])
-        return self.data_dir / f"{specimen}.csv"
+        guess = self.data_dir / f"{specimen}.csv"
+        if not guess.is_file() and specimen in self.recorded:  # deleted: name the file the study ran on
+            return Path(self.recorded[specimen])
+        return guess
 
     def manifest(self) -> dict | None:
         """The manifest.json beside the specimens (generation settings, truth), or None if there is none."""
@@ -356,12 +361,23 @@ def load_study(path, data_dir=None) -> Study:
             runs, traces, chains = read_runs(conn), read_traces(conn), read_chains(conn)
         except (sqlite3.DatabaseError, pd.errors.DatabaseError, KeyError, ValueError, TypeError) as err:
             raise UserError(f"{path}: unreadable study database: {err}") from None
-    paths = {}
+    paths, recorded = {}, {}
     if data_dir is None:  # the files where the runner last found them, while they are still there
-        recorded = json.loads(meta.get("data_paths") or "{}")
+        try:
+            recorded = {name: str(p) for name, p in json.loads(meta.get("data_paths") or "{}").items()}
+        except (ValueError, AttributeError):  # edited by hand: the problem type's folder decides
+            recorded = {}
         paths = {name: Path(p) for name, p in recorded.items() if Path(p).is_file()}
     study = Study(
-        path=path, meta=meta, config=config, runs=runs, traces=traces, chains=chains, data_dir=Path("."), paths=paths
+        path=path,
+        meta=meta,
+        config=config,
+        runs=runs,
+        traces=traces,
+        chains=chains,
+        data_dir=Path("."),
+        paths=paths,
+        recorded=recorded,
     )
     folder = study.problem_type.data_dir(study, data_dir)
     return dataclasses.replace(study, data_dir=Path(folder) if folder is not None else Path("."))

@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numba
 import numpy as np
@@ -266,7 +265,9 @@ def write_test(path, velocity: bool = False, **kwargs) -> SineTest:
     """Simulate ``sine_test(**kwargs)`` and write it to ``path`` as a specimen CSV (``velocity``: with a
     velocity column); returns the test."""
     test = sine_test(**kwargs)
-    Path(path).write_text(render(test, velocity), encoding="utf-8")
+    from bwbench.data.output_paths import write_text
+
+    write_text(path, render(test, velocity))
     return test
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from bwbench.data.manifest import MANIFEST
+from bwbench.data.output_paths import write_text
 from bwbench.datasets import mr_damper, shipped
 
 DATASET_DIR = shipped.MR_DAMPER
@@ -99,7 +100,7 @@ def generate(out_dir=DATASET_DIR, settings: Settings = Settings()) -> list[Path]
         )
         name = f"mr_{amplitude:g}mm_{frequency:g}Hz_{voltage:g}V.csv"
         path = out_dir / name
-        path.write_text(mr_damper.render(test, velocity=True), encoding="utf-8")
+        write_text(path, mr_damper.render(test, velocity=True))
         written.append(path)
         entries.append(
             {
@@ -131,6 +132,6 @@ def generate(out_dir=DATASET_DIR, settings: Settings = Settings()) -> list[Path]
         },
         "specimens": entries,
     }
-    (out_dir / MANIFEST).write_text(json.dumps(document, indent=1) + "\n", encoding="utf-8")
+    write_text(out_dir / MANIFEST, json.dumps(document, indent=1) + "\n")
     written.append(out_dir / MANIFEST)
     return written

@@ -35,6 +35,7 @@ import numpy as np
 
 from bwbench.data import strict_json
 from bwbench.data.manifest import MANIFEST
+from bwbench.data.output_paths import write_text
 from bwbench.datasets import shipped
 from bwbench.models.switched import simulation as model
 from bwbench.models.switched.kernel import PARAM_NAMES
@@ -168,7 +169,7 @@ def generate(out_dir=SPECIMEN_DIR, settings: Settings = Settings(), paper=PAPER_
             underpressure = float(row["underpressure_MPa"])
             name = specimen_filename(row["material"], underpressure, repeat)
             path = out_dir / name
-            path.write_text(_render_specimen(t, x_noisy, v_f[keep], f_noisy), encoding="utf-8")
+            write_text(path, _render_specimen(t, x_noisy, v_f[keep], f_noisy))
             written.append(path)
             manifest.append(
                 {

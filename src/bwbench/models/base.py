@@ -236,6 +236,11 @@ class Model:
     # Simulations this model's kernel stopped at its step budget (a stiff corner of a search box: the
     # loss is +inf), in this process so far; a model whose kernel caps its work adds to it.
     step_budget_stops = 0
+    # Whether the model's hysteresis is rate-independent (driven by the displacement path alone), so that
+    # it may be fitted to a quasi-static record without time (``Specimen.quasi_static``) in its
+    # identifiable formulation, its viscous and inertia terms off. A model with internal dynamics in time
+    # (Spencer's) is not.
+    rate_independent = False
 
     @property
     def formulations(self) -> tuple:
@@ -657,23 +662,6 @@ class Model:
             ẋ, else {"": ..}); None when the model cannot say (the default).
         """
         return None
-
-    def initial_state(self, signal, state=None) -> str:
-        """Which state the model starts the record from, in words: the fit's result records it (optional).
-
-        Parameters
-        ----------
-        signal : object
-            The excitation (attributes ``t, x, v, a``).
-        state : str or None
-            The state convention.
-
-        Returns
-        -------
-        str
-            The description; "" when the model does not say (the default).
-        """
-        return ""
 
     def linear_branches(self, theta, trajectory, signal, state=None) -> dict:
         """Which fitted branches are linear in x, no yield within the stroke (optional).

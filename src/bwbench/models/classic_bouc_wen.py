@@ -71,6 +71,7 @@ class ClassicBoucWen(Model):
         "systems, J. Eng. Mech. Div. 102(2):249-263, 1976"
     )
     default_formulation = "identifiable"
+    rate_independent = True  # z is integrated in displacement
 
     def direct_parameters(self, state=None) -> tuple:
         return DIRECT

@@ -38,6 +38,8 @@ class Excitation:
     sources: dict = field(default_factory=dict)
     displacement_noise: float = float("nan")
     x_recorded: np.ndarray | None = None
+    # A quasi-static record: v is the direction of motion (±1, 0 at a reversal), a is 0, t the point's index.
+    rate_independent: bool = False
 
     @property
     def velocity_estimated(self) -> bool:
@@ -140,6 +142,25 @@ def build(kind: str, t, x, v=None, a=None) -> Excitation:
     raise ValueError(f"excitation must be one of {EXCITATIONS}, got {kind!r}")
 
 
+DIRECTION = "direction of motion"  # the source of a quasi-static record's "velocity"
+
+
+def quasi_static(x) -> Excitation:
+    """The excitation of a quasi-static record (no time): the displacement path as recorded, its
+    direction of motion (``protocol.directions``: ±1, 0 at a reversal, a dead band against jitter) as
+    the velocity — it picks a switched model's branch, never a rate — and no acceleration; t is the
+    point's index."""
+    from bwbench.models.protocol import directions
+
+    x = np.asarray(x, dtype=float)
+    t = np.arange(len(x), dtype=float)
+    sources = {"velocity": DIRECTION, "acceleration": "none (quasi-static)"}
+    return Excitation("measured", t, x, directions(x), np.zeros_like(x), sources, x_recorded=x, rate_independent=True)
+
+
 def of_specimen(kind: str, specimen) -> Excitation:
-    """The excitation ``kind`` of a ``Specimen`` (its recorded velocity and acceleration used if any)."""
+    """The excitation ``kind`` of a ``Specimen`` (its recorded velocity and acceleration used if any; a
+    quasi-static one's path and direction, ``quasi_static``)."""
+    if getattr(specimen, "quasi_static", False):
+        return quasi_static(specimen.x)
     return build(kind, specimen.t, specimen.x, specimen.v, specimen.a)

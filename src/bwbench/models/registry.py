@@ -21,6 +21,7 @@ BUILTIN = {
     "switched-bouc-wen": "bwbench.models.switched.model",
     "bouc-wen": "bwbench.models.classic_bouc_wen",
     "spencer": "bwbench.models.spencer.model",
+    "bwbn": "bwbench.models.bwbn.model",
 }
 
 

@@ -49,7 +49,9 @@ class Document:
         if len(frame) > COLLAPSE_ROWS:
             csv = csv or f"table_{_slug(caption or 'data')}.csv"
             self.out_dir.mkdir(parents=True, exist_ok=True)
-            frame.to_csv(self.out_dir / csv, index=False)
+            from bwbench.data.output_paths import write_frame
+
+            write_frame(frame, self.out_dir / csv, index=False)
         self.blocks.append(("table", frame, caption, csv if len(frame) > COLLAPSE_ROWS else None))
 
     def figure(self, png: Path, caption: str):
@@ -64,30 +66,31 @@ class Document:
         for block in self.blocks:
             kind = block[0]
             if kind == "h":
-                out.append("#" * block[1] + " " + block[2])
+                out.append("#" * block[1] + " " + _md(block[2], one_line=True))
             elif kind == "p":
-                out.append(block[1])
+                out.append(_md(block[1]))
             elif kind == "banner":
-                out.append(f"> **{block[1]}**")
+                out.append(f"> **{_md(block[1], one_line=True)}**")
             elif kind in ("ul", "box"):
-                out.append("\n".join(f"- {item}" for item in block[1]))
+                out.append("\n".join(f"- {_md(item, one_line=True)}" for item in block[1]))
             elif kind == "table":
-                frame, caption, csv = block[1], block[2], block[3]
-                cells = lambda row: "| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |"  # noqa: E731
+                frame, caption, csv = block[1], _md(block[2], one_line=True), block[3]
+                cells = lambda row: "| " + " | ".join(_md(c, one_line=True).replace("|", "\\|") for c in row) + " |"  # noqa: E731
                 lines = [cells(frame.columns), "|" + "|".join("---" for _ in frame.columns) + "|"]
                 lines += [cells(row) for row in frame.itertuples(index=False)]
                 if csv:  # GitHub renders <details> in markdown too
                     out.append(
-                        f"<details><summary>{html.escape(caption)} ({len(frame)} rows; data: {csv})</summary>"
+                        f"<details><summary>{html.escape(block[2])} ({len(frame)} rows; data: {html.escape(csv)})</summary>"
                         "\n\n" + "\n".join(lines) + "\n\n</details>"
                     )
                 else:
                     out.append((f"*{caption}*\n\n" if caption else "") + "\n".join(lines))
             elif kind == "img":
-                png, caption = block[1], block[2]
+                png, caption = block[1], _md(block[2], one_line=True)
                 out.append(f"![{caption}]({png.name})\n\n*{caption}* (data: `{png.with_suffix('.csv').name}`)")
-            elif kind == "pre":
-                out.append("```\n" + block[1] + "\n```")
+            elif kind == "pre":  # a fence longer than any run of backticks in the text: it cannot end early
+                fence = "`" * max(3, 1 + max((len(run) for run in re.findall(r"`+", block[1])), default=0))
+                out.append(f"{fence}\n{block[1]}\n{fence}")
         return "\n\n".join(out) + "\n"
 
     # html -------------------------------------------------------------------------------------
@@ -167,6 +170,19 @@ class Document:
             f"<title>{html.escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n"
         )
         return head + "<body>\n" + "\n".join(body) + "\n</body>\n</html>\n"
+
+
+def _md(text, one_line: bool = False) -> str:
+    """Text for report.md with the markup data could carry made inert: a file name, a manifest field or
+    a column name like ``<img src=x onerror=...>`` would otherwise be raw HTML that a Markdown viewer
+    renders (and runs). Only what starts a tag, a comment or an autolink (``<`` before a letter, ``/``,
+    ``!`` or ``?``) is escaped, so "p < 0.05" reads as written; ``](`` is broken so data cannot become a
+    link; ``one_line``: a line break (which would end a table row or a list item) becomes a space."""
+    text = _TAG_START.sub("&lt;", str(text)).replace("](", "]\\(")
+    return " ".join(text.splitlines()) if one_line else text
+
+
+_TAG_START = re.compile(r"<(?=[A-Za-z/!?])")
 
 
 def _slug(text: str, words: int = 6) -> str:

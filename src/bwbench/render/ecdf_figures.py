@@ -163,7 +163,11 @@ def excess_label(v, _=None) -> str:
     if percent < 1000:
         return f"{prefix}{percent:g} %"
     exponent = int(round(np.log10(percent)))
-    return f"{prefix}$10^{{{exponent}}}$ %" if np.isclose(percent, 10.0**exponent) else f"{prefix}{percent:.0e} %"
+    power = "10" + str(exponent).translate(_SUPERSCRIPT)  # Unicode, not mathtext: text is drawn as written
+    return f"{prefix}{power} %" if np.isclose(percent, 10.0**exponent) else f"{prefix}{percent:.0e} %"
+
+
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 
 def _axes(left, right, budget: float, high: float) -> None:

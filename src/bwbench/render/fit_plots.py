@@ -24,6 +24,20 @@ STYLE: Any = {
 MEASURED = {"color": "0.35", "lw": 0.9, "label": "measured"}
 MODEL = {"color": "tab:red", "lw": 1.1, "label": "model"}
 PANELS = 4
+WARMUP: Any = {"color": "0.6", "alpha": 0.25, "lw": 0, "zorder": 0}  # Any: as STYLE
+
+
+def warmup_label(seconds: float) -> str:
+    return f"warm-up, {seconds:g} s: simulated, not in the loss"
+
+
+def shade_warmup(axes, t, warmup: int) -> None:
+    """Shade the warm-up (the first ``warmup`` samples: simulated but left out of the loss) on Axes whose
+    x axis is the time ``t`` (s); nothing when there is none."""
+    if not warmup:
+        return
+    for ax in axes:
+        ax.axvspan(t[0], t[warmup], **WARMUP)
 
 
 def velocity_of(prediction) -> np.ndarray:
@@ -32,13 +46,54 @@ def velocity_of(prediction) -> np.ndarray:
     return np.asarray(v, float) if v is not None else np.gradient(prediction.displacement_mm, prediction.time_s)
 
 
+# A record with more reversals than this (a few dozen cycles) has its force against time drawn in a
+# zoom window of about ZOOM_REVERSALS reversals in its middle: the whole record is a solid band.
+LONG_RECORD_REVERSALS = 60
+ZOOM_REVERSALS = 12
+
+
+def zoom(prediction) -> slice:
+    """The samples of the force-against-time panel: all of them, or a long record's middle window."""
+    n = len(prediction.measured_N)
+    turns = getattr(prediction, "reversals", 0)
+    if turns <= LONG_RECORD_REVERSALS:
+        return slice(0, n)
+    width = max(int(n * ZOOM_REVERSALS / turns), 10)
+    start = max(n // 2 - width // 2, 0)
+    return slice(start, min(start + width, n))
+
+
 def draw(prediction, axes) -> None:
     """The four panels of one record onto ``axes`` (a sequence of 1 to 4 Axes, in the order F–x, F–v,
-    F(t), residual(t)); one Axes gets the F–x loops only."""
+    F(t), residual(t)); one Axes gets the F–x loops only. A quasi-static record (no time) has the
+    residual against displacement instead of F–v and its points along the path for time; a long record
+    its force against time in a zoom window (``zoom``)."""
     p = prediction
     x, v, t = p.displacement_mm, velocity_of(p), p.time_s
     model = np.where(np.isfinite(p.force_N), p.force_N, np.nan)
     rmse = f"RMSE {p.rmse_N:.3g} N, NRMSE {p.nrmse:.3g}"
+    quasi = getattr(p, "quasi_static", False)
+    time = "point along the path (no time)" if quasi else "time (s)"
+    w = zoom(p)
+    zoomed = w != slice(0, len(t))
+    plane = (
+        (
+            lambda ax: (
+                ax.plot(x, model - p.measured_N, color="tab:blue", lw=0.8),
+                ax.axhline(0.0, color="0.5", lw=0.6),
+            ),
+            "displacement (mm)",
+            "residual (N)",
+            "residual against displacement",
+        )
+        if quasi
+        else (
+            lambda ax: (ax.plot(v, p.measured_N, **MEASURED), ax.plot(v, model, **MODEL)),
+            "velocity (mm/s)",
+            "force (N)",
+            "force–velocity",
+        )
+    )
     panels = [
         (
             lambda ax: (ax.plot(x, p.measured_N, **MEASURED), ax.plot(x, model, **MODEL)),
@@ -46,24 +101,19 @@ def draw(prediction, axes) -> None:
             "force (N)",
             f"{p.specimen}: {rmse}",
         ),
+        plane,
         (
-            lambda ax: (ax.plot(v, p.measured_N, **MEASURED), ax.plot(v, model, **MODEL)),
-            "velocity (mm/s)",
+            lambda ax: (ax.plot(t[w], p.measured_N[w], **MEASURED), ax.plot(t[w], model[w], **MODEL)),
+            time,
             "force (N)",
-            "force–velocity",
-        ),
-        (
-            lambda ax: (ax.plot(t, p.measured_N, **MEASURED), ax.plot(t, model, **MODEL)),
-            "time (s)",
-            "force (N)",
-            "force against time",
+            f"force against time (zoom: {t[w.start]:.4g} … {t[w.stop - 1]:.4g})" if zoomed else "force against time",
         ),
         (
             lambda ax: (
                 ax.plot(t, model - p.measured_N, color="tab:blue", lw=0.8, label="model − measured"),
                 ax.axhline(0.0, color="0.5", lw=0.6),
             ),
-            "time (s)",
+            time,
             "residual (N)",
             "residual",
         ),
@@ -72,8 +122,11 @@ def draw(prediction, axes) -> None:
         plot(ax)
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
-        ax.set_title(title, fontsize="medium")
+        ax.set_title(title, fontsize="medium", parse_math=False)  # a specimen's name, as written
     axes[0].legend(loc="best", fontsize="small")
+    shade_warmup(axes[2:], t, getattr(p, "warmup", 0))
+    if getattr(p, "warmup", 0) and len(axes) > 2:
+        axes[2].set_title(f"force against time (shaded: {warmup_label(p.warmup_s)})", fontsize="small")
 
 
 def figure(predictions, title: str | None = None, ax=None):
@@ -93,7 +146,7 @@ def figure(predictions, title: str | None = None, ax=None):
         for row, prediction in zip(grid, predictions):
             draw(prediction, row)
         if title:
-            fig.suptitle(title, fontsize="medium")
+            fig.suptitle(title, fontsize="medium", parse_math=False)  # names from the data, as written
     show_inline()
     return fig
 

@@ -63,3 +63,12 @@ def seconds_text(x) -> str:
     if x < 10:
         return f"{x:.2g} s"
     return f"{x:,.0f} s" if x < 120 else f"{x / 60:,.1f} min"
+
+
+def files_text(paths, shown: int = 3) -> str:
+    """Several files named in a line of bounded length: "a.csv + b.csv", or "46 files (a.csv, b.csv,
+    c.csv and 43 more)"."""
+    paths = [str(p) for p in paths]
+    if len(paths) <= shown:
+        return " + ".join(paths)
+    return f"{len(paths)} files ({', '.join(paths[:shown])} and {len(paths) - shown} more)"

@@ -352,7 +352,9 @@ def save(fig, out_dir, stem: str, frame: pd.DataFrame, synthetic_data: bool | st
     out_dir.mkdir(parents=True, exist_ok=True)
     png = out_dir / f"{stem}.png"
     write_png(fig, png, synthetic_data, rect)
-    frame.to_csv(png.with_suffix(".csv"), index=False, float_format="%.6g")
+    from bwbench.data.output_paths import write_frame
+
+    write_frame(frame, png.with_suffix(".csv"), index=False, float_format="%.6g")
     return png
 
 
@@ -360,6 +362,9 @@ def write_png(fig, png, synthetic_data: bool | str, rect=(0, 0.03, 1, 0.97)) -> 
     """Lay out, mark (what the data are: ``mark_synthetic``) and write ``fig`` at ``DPI`` to ``png``, then close it. ``rect``: the
     area the axes may use under a tight layout; a constrained layout gets the figure less a strip at
     the bottom for the legend below and the mark."""
+    from bwbench.render.literal_text import make_literal
+
+    make_literal(fig)  # names from the data drawn as written, never as mathtext
     engine = fig.get_layout_engine()
     mark_synthetic(fig, synthetic_data)
     if isinstance(engine, matplotlib.layout_engine.ConstrainedLayoutEngine):

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bwbench.analysis import statistics
-from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder
+from bwbench.data.output_paths import check_folder, refuse_inputs_in_folder, refuse_link_out, write_frame, write_text
 from bwbench.database import reader as results_db
 from bwbench.errors import UserError
 from bwbench.render.document import Document
@@ -157,6 +157,8 @@ def build_report(
     out = Path(out)
     refuse_inputs_in_folder("--out", out, [db, *report_inputs(study)], REPORT_SUFFIXES)
     check_folder("--out", out)
+    for name in ("report.md", "report.html", "ranking.csv", "comparisons.csv"):
+        refuse_link_out(out / name, "--out")  # before any work: a link out of the folder is not written through
     out.mkdir(parents=True, exist_ok=True)
     problem_type = study.problem_type
     print("ranking: statistics and the recommendation ...", file=log, flush=True)
@@ -187,16 +189,16 @@ def build_report(
     sections.setup(report)
     problem_type.report_intro(report)
     sections.ranking(report)
-    decision.ranking().to_csv(out / "ranking.csv", index=False)
-    sections.comparisons_frame(report).to_csv(out / "comparisons.csv", index=False)
+    write_frame(decision.ranking(), out / "ranking.csv", index=False)
+    write_frame(sections.comparisons_frame(report), out / "comparisons.csv", index=False)
     report.progress("figures: convergence, runtime distributions, waterfall")
     sections.run_figures(report)
     problem_type.report_sections(report)
     sections.limits(report)
 
-    (out / "report.md").write_text(doc.markdown(), encoding="utf-8")
+    write_text(out / "report.md", doc.markdown())
     html_path = out / "report.html"
-    html_path.write_text(doc.html(f"bwbench report: {title}"), encoding="utf-8")
+    write_text(html_path, doc.html(f"bwbench report: {title}"))
     if announce is not None:
         print(decision.line(), file=announce)
     return html_path
@@ -207,8 +209,8 @@ def refuse_changed_data(study) -> None:
     SHA-256 is stored with the configuration): the report would draw edited data against old fits."""
     from bwbench.data.identity import files_sha256
 
-    stored = study.config.get("specimens", {})
-    for name in study.specimens:
+    stored = {**study.config.get("specimens", {}), **(study.config.get("validation") or {})}
+    for name in [*study.specimens, *(study.config.get("validation") or {})]:  # the held-out tests too
         digest, path = stored.get(name), study.specimen_path(name)
         if isinstance(digest, str) and path.is_file() and files_sha256([path], [""]) != digest:
             raise UserError(

@@ -41,8 +41,9 @@ def on_cluster(tasks, address: str):
     except ImportError:
         raise UserError("--scheduler needs the 'distributed' package (pip install distributed)") from None
     with quiet_distributed():
+        wait = reach(address)
         try:
-            client = Client(address, timeout="20s")
+            client = Client(address, timeout=f"{wait}s")
         except (OSError, TimeoutError, ValueError) as err:
             raise UserError(f"cannot connect to the Dask scheduler at {address}: {err}") from None
         try:
@@ -59,6 +60,88 @@ def on_cluster(tasks, address: str):
                 yield outcome
         finally:
             _close(client)
+
+
+def reach(address: str) -> int:
+    """Connect to ``address`` and exchange Dask's handshake, within ``BWBENCH_SCHEDULER_WAIT_S`` seconds
+    (returned); ``UserError`` in one line if that fails. ``distributed`` bounds the connection but not
+    the handshake after it: a port that accepts and never answers (a dead proxy, a stopped process)
+    would keep ``Client`` waiting forever, and a server of another protocol (HTTP) sends an answer it
+    reads as a frame of terabytes (``MemoryError``)."""
+    import asyncio
+
+    import bwbench.limits as limits
+
+    try:
+        from distributed.comm import connect
+    except ImportError:
+        raise UserError("--scheduler needs the 'distributed' package (pip install distributed)") from None
+
+    wait = limits.maximum("BWBENCH_SCHEDULER_WAIT_S")
+    where = f"cannot connect to the Dask scheduler at {address}"
+
+    async def handshake():
+        comm = await asyncio.wait_for(connect(address, timeout=wait), wait)
+        await comm.close()
+
+    try:
+        from distributed.comm import get_address_host_port
+
+        get_address_host_port(address)  # a malformed address: distributed's words for it
+    except (ValueError, TypeError) as err:
+        raise UserError(f"{where}: {' '.join(str(err).split())}") from None
+    except Exception:  # an address without a host and port (inproc://): left to distributed
+        pass
+    try:
+        _knock(address, wait)  # a refused port is said at once (distributed retries until its timeout)
+        _run_coroutine(handshake)
+    except (TimeoutError, asyncio.TimeoutError):
+        raise UserError(
+            f"{where}: no answer within {wait} s (is a Dask scheduler listening there? raise the wait "
+            f"with BWBENCH_SCHEDULER_WAIT_S=60 bwbench ...)"
+        ) from None
+    except (MemoryError, ValueError, TypeError, KeyError):  # an answer that is not Dask's protocol
+        raise UserError(f"{where}: what listens there does not speak Dask's protocol (an HTTP server?)") from None
+    except ConnectionRefusedError:
+        raise UserError(f"{where}: the connection was refused (no scheduler listens on that port)") from None
+    except OSError as err:
+        raise UserError(f"{where}: {err.strerror or err}") from None
+    except Exception as err:  # distributed's own errors (CommClosedError, ...): not a scheduler that answers
+        raise UserError(f"{where}: {type(err).__name__}: {' '.join(str(err).split())}") from None
+    return wait
+
+
+def _run_coroutine(make) -> None:
+    """``asyncio.run(make())``, in a thread of its own when this thread already runs an event loop (a
+    notebook's), where ``asyncio.run`` is refused."""
+    import asyncio
+
+    try:
+        asyncio.get_running_loop()
+    except RuntimeError:  # no loop here: the usual case
+        asyncio.run(make())
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(1) as pool:
+        pool.submit(lambda: asyncio.run(make())).result()
+
+
+def _knock(address: str, wait: float) -> None:
+    """Open and close a TCP connection to a ``tcp://HOST:PORT`` address (``OSError`` if refused);
+    other addresses (tls://, inproc://) are left to ``distributed``."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:  # not a number: distributed says what is wrong with it
+        return
+    if parts.scheme != "tcp" or not host or port is None:
+        return
+    with socket.create_connection((host, port), timeout=wait):
+        pass
 
 
 def _check_plugins(client, address: str, tasks) -> None:

@@ -8,6 +8,7 @@ Generic format (``studies/quick.toml`` is a worked example)::
     budget = 4100             # evaluations, identical for every backend
     seeds = 5                 # replicates per (specimen, backend)
     problem = "hysteresis"    # the default (any hysteresis model; formerly "switched-bouc-wen"); see `bwbench.problems`
+    plugins = ["my_model.py"] # optional: models, problems or backends loaded from files (relative to this TOML)
     # ... the problem's own keys (e.g. state, excitation, data)
 
     [specimens]               # the problem's own table: which data sets
@@ -21,7 +22,7 @@ Generic format (``studies/quick.toml`` is a worked example)::
     [posterior]               # optional: the posterior, kept out of the ranking
     specimens = ["pom-mt24u01_0.01MPa_r1"]   # names (file stems); may be omitted with one specimen
     optimizer = "nested"      # the default: nested sampling, every mode and ln Z ("emcee" also works)
-    budget = 250000
+    budget = 6000000          # the default: a cap on evaluations (runs stop once they agree); optional
     seeds = 1                 # the default
     options = {}              # on top of POSTERIOR_OPTIONS (what converges without options)
 
@@ -58,7 +59,7 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib  # type: ignore[no-redef]
 
-GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem")
+GENERIC_STUDY_KEYS = ("name", "seed", "budget", "seeds", "problem", "plugins")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 
 
@@ -157,6 +158,12 @@ def load_study_config(path, data=None) -> StudyConfig:
     if not isinstance(document.get("study"), dict):
         fail("missing table [study]")
     study = document["study"]
+    given = study.get("plugins", [])
+    if not isinstance(given, list) or not all(isinstance(p, str) for p in given):
+        fail('[study] plugins must be a list of Python files, e.g. plugins = ["my_model.py"]')
+    import bwbench.plugins as plugins  # before any name is looked up: a file may give the model or backend
+
+    plugins.load_files([Path(path).resolve().parent / p for p in given], f"{where}: [study] plugins:")
     problem_name = study.get("problem", problems.DEFAULT)
     if isinstance(problem_name, str):
         problem_name = problems.current_name(problem_name)
@@ -293,13 +300,16 @@ def config_from_arguments(
     fix_mass="auto",
     offsets: str = "branch",
     validate=None,
+    initial_state="auto",
+    warmup_s=0.0,
 ) -> StudyConfig:
     """A study over the files ``specimens`` (paths or globs, relative to the current folder) with no
     TOML and no manifest: ``bwbench compare --specimens ...``. ``model`` and ``formulation``: a name
     or comma-separated names (None: the switched model, and each model's own formulation);
     ``bounds_file``: a JSON search box, read by the problem type (it knows the parameter names);
     ``fix_mass``/``offsets``: the identifiable formulation's (read by the problem type); ``validate``:
-    held-out files (paths or globs) every fit predicts."""
+    held-out files (paths or globs) every fit predicts; ``initial_state``/``warmup_s``: how every model
+    starts each record (``bwbench.models.start``)."""
 
     def fail(message):
         raise UserError(message)
@@ -330,6 +340,8 @@ def config_from_arguments(
         model=model,
         fix_mass=fix_mass,
         offsets=offsets,
+        initial_state=initial_state,
+        warmup_s=warmup_s,
     )
     validation = ()
     if validate:

@@ -29,7 +29,7 @@ from bwbench.database.writer import (
     record_run,
 )
 from bwbench.errors import UserError
-from bwbench.study.cluster import SchedulerLost, on_cluster
+from bwbench.study.cluster import SchedulerLost, on_cluster, reach
 from bwbench.study.config import StudyConfig
 from bwbench.study.lock import StudyLock
 from bwbench.study.pool import in_pool
@@ -76,6 +76,8 @@ def run_study(
     tasks = plan_tasks(config)
     if scheduler or (workers or os.cpu_count() or 1) > 1:  # other processes run the tasks: can they load them?
         refuse_plugins_only_here(tasks, f"the Dask cluster at {scheduler}" if scheduler else "its worker processes")
+    if scheduler:  # before the database is touched: a scheduler that is not there is one line, nothing written
+        reach(scheduler)
     db = prepare_database_path(db)
     resume = f"finished runs are in {db}, run the same command again to resume"
     with (

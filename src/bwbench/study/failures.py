@@ -64,4 +64,6 @@ def summarize(recorded, transient) -> list[str]:
 def _first_line(error: str | None) -> str:
     # Stored errors are one line (newlines collapsed): show its start, enough to tell errors apart.
     text = error.splitlines()[0] if error else "unknown error"
+    if text.startswith("OptionError: "):  # a backend's own check of its options against the problem
+        text = "its options do not suit this problem: " + text.removeprefix("OptionError: ")
     return text if len(text) <= SHOWN_TEXT else text[: SHOWN_TEXT - 3] + "..."

@@ -5,6 +5,9 @@ never leaves a stale lock: the file may stay, the lock does not. The file holds 
 for the message the next ``compare`` prints. It is removed on a clean exit; a process that locks a
 file some other process has just removed notices (the path no longer names the locked file) and
 tries again, so two processes never both believe they hold the lock.
+
+The lock file sits beside the database's real path (symbolic links resolved), so every spelling of
+one database (``s.sqlite``, ``./s.sqlite``, ``../x/s.sqlite``, a link to it) takes the same lock.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from bwbench.errors import UserError
 
 
 def lock_path(db) -> Path:
-    db = Path(db)
+    db = Path(os.path.realpath(db))
     return db.with_name(db.name + ".lock")
 
 

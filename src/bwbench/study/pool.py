@@ -21,8 +21,10 @@ import os
 import signal
 import sys
 from collections import Counter, deque
+from contextlib import contextmanager
 from multiprocessing.connection import wait
 
+from bwbench.errors import UserError
 from bwbench.study.tasks import run_task
 
 _PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
@@ -50,9 +52,11 @@ def die_with_parent(parent_pid: int) -> None:
 
 def _init_worker(parent_pid: int) -> None:
     die_with_parent(parent_pid)
-    # Ctrl-C reaches the whole foreground process group: the study process alone handles it (it
-    # kills the workers), rather than every worker printing its own KeyboardInterrupt traceback.
+    # Ctrl-C and a closed terminal (SIGHUP) reach the whole foreground process group: the study
+    # process alone handles them (it kills the workers and keeps the finished runs), rather than every
+    # worker printing its own KeyboardInterrupt traceback or dying with its run.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
 
 
 # Tries of one run whose worker died under it, in one call: a SIGKILL from outside or the OOM killer
@@ -60,15 +64,26 @@ def _init_worker(parent_pid: int) -> None:
 TRIES = 2
 
 
+class WorkersCannotStart(UserError):
+    """The study's worker processes die before their first run: not a run's failure but the set-up's
+    (their own error is on stderr above the line this prints)."""
+
+
+_READY = "ready"  # a worker's first message: it has started (imports done) and takes tasks
+
+
 class _Worker:
-    """One spawned worker process and the pipe to it; ``task`` is the run it has, or None."""
+    """One spawned worker process and the pipe to it; ``task`` is the run it has, or None;
+    ``started``: the worker said it is ready (a death before that is a start-up failure)."""
 
     def __init__(self, context, threads: int, run):
         self.conn, child = context.Pipe()
         self.process = context.Process(target=_serve, args=(child, os.getpid(), threads, run))
-        self.process.start()
+        with _main_hidden():
+            self.process.start()
         child.close()  # the worker holds the only other end: a dead worker reads as end-of-file
         self.task = None
+        self.started = False
 
     def kill(self) -> None:
         try:
@@ -79,11 +94,31 @@ class _Worker:
         self.conn.close()
 
 
+@contextmanager
+def _main_hidden():
+    """Within the block, the ``__main__`` module names no file or module. A spawned process runs the
+    parent's main script again (as ``__mp_main__``) before its target, unless there is none: a script
+    read from standard input has no file to run ("<stdin>": every worker died), and one without an
+    ``if __name__ == "__main__":`` guard would start the study again in every worker. bwbench's
+    workers need nothing from it: their tasks are bwbench's, and a plug-in registered only in the
+    main script is refused before any run (``refuse_plugins_only_here``)."""
+    main = sys.modules.get("__main__")
+    saved = {k: main.__dict__[k] for k in ("__file__", "__spec__") if main is not None and k in main.__dict__}
+    for name in saved:
+        setattr(main, name, None) if name == "__spec__" else delattr(main, name)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            setattr(main, name, value)
+
+
 def _serve(conn, parent_pid: int, threads: int, run) -> None:
     """A worker's loop: run each task it is sent, send back the outcome; stop at None or end-of-file."""
     from bwbench.threads import limited
 
     _init_worker(parent_pid)
+    conn.send(_READY)
     with limited(threads):
         while True:
             try:
@@ -115,6 +150,7 @@ def in_pool(tasks, workers: int, threads: int = 1, run=run_task):
     pending, deaths = deque(tasks), Counter[tuple]()
     pool: list[_Worker] = []
     finished = False
+    unstarted, ever_started = 0, False
     try:
         while pending or any(w.task is not None for w in pool):
             while len(pool) < min(workers, len(pool) + len(pending)):
@@ -124,6 +160,9 @@ def in_pool(tasks, workers: int, threads: int = 1, run=run_task):
             ready = set(wait([w.conn for w in pool if w.task is not None] + [w.process.sentinel for w in pool]))
             for worker in list(pool):
                 outcome = _outcome(worker) if worker.conn in ready or worker.process.sentinel in ready else None
+                if outcome == _READY:
+                    worker.started = ever_started = True
+                    outcome = _outcome(worker)  # its result may already be behind it
                 if outcome is not None:
                     worker.task = None
                     _give(worker, pending)  # before the caller records the outcome: no worker waits for it
@@ -133,6 +172,14 @@ def in_pool(tasks, workers: int, threads: int = 1, run=run_task):
                     worker.process.join(timeout=5)  # reaped: its exit code is known
                     task, why = worker.task, _death(worker.process)
                     worker.kill()
+                    if not worker.started:
+                        unstarted += 1
+                        if unstarted >= TRIES and not any(w.started for w in pool) and not ever_started:
+                            raise WorkersCannotStart(
+                                f"the study's worker processes cannot start ({unstarted} died before their "
+                                f"first run, {why}; their error is above): check that bwbench imports in a "
+                                "fresh Python process, or run on one process (--workers 1, workers=1)"
+                            )
                     if task is None:
                         continue
                     deaths[task.key] += 1

@@ -27,10 +27,14 @@ POSTERIOR_OPTIONS = {
         "stop": "converged",
     },
     "nested": {},
-}  # its defaults are the posterior's: 4 independent runs of 100 live points
+}  # its defaults are the posterior's: runs of 200 live points, added until precise
 
 
 DEFAULT_POSTERIOR_OPTIMIZER = "nested"
+# Evaluations per specimen, all runs together, when [posterior] gives no budget: a cap (nested sampling's
+# runs stop once they agree to the precision target). What the default specimen's posterior needs
+# (docs/posterior.md): ~4 runs of 400 live points and the runs the precision then asks for.
+DEFAULT_POSTERIOR_BUDGET = 6_000_000
 
 
 @dataclass(frozen=True)
@@ -67,8 +71,6 @@ def posterior_table(fail, table, setup: ProblemSetup) -> PosteriorConfig:
     unknown = [k for k in table if k not in POSTERIOR_KEYS]
     if unknown:
         fail(f"[posterior] unknown key {unknown[0]!r} (known: {', '.join(POSTERIOR_KEYS)})")
-    if "budget" not in table:
-        fail("[posterior] budget is required")
     available = setup.available
     only = list(available) if len(available) == 1 else None
     if "specimens" not in table and only is None:
@@ -86,11 +88,15 @@ def posterior_table(fail, table, setup: ProblemSetup) -> PosteriorConfig:
     if len(set(names)) != len(names):
         fail("[posterior] specimens lists a specimen twice")
     samplers = _samplers(fail, table)
+    _say_assumptions(samplers, table["budget"])
     return PosteriorConfig(
         specimens=tuple(available[stem] for stem in names),
         optimizer=samplers[0][0],
         budget=bounded(
-            fail, "[posterior] budget", integer(fail, "[posterior] budget", table["budget"]), "BWBENCH_MAX_BUDGET"
+            fail,
+            "[posterior] budget",
+            integer(fail, "[posterior] budget", table.get("budget", DEFAULT_POSTERIOR_BUDGET)),
+            "BWBENCH_MAX_BUDGET",
         ),
         seeds=bounded(
             fail, "[posterior] seeds", integer(fail, "[posterior] seeds", table.get("seeds", 1)), "BWBENCH_MAX_SEEDS"
@@ -98,6 +104,34 @@ def posterior_table(fail, table, setup: ProblemSetup) -> PosteriorConfig:
         options=samplers[0][1],
         samplers=samplers if len(samplers) > 1 else (),
     )
+
+
+SAMPLER_FAMILIES = ("mcmc", "nested")  # the backends that draw from a posterior
+# Below this many evaluations no built-in sampler draws enough for its convergence check: emcee's default
+# ensemble (2·d + 2 walkers, up to 30) would take fewer steps than it has walkers, nested sampling's live
+# points alone take 100 evaluations per run.
+MIN_POSTERIOR_BUDGET = 1000
+
+
+def _say_assumptions(samplers, budget) -> None:
+    """A warning for a posterior that will run but cannot give what the report's posterior section
+    shows: an optimiser in place of a sampler, or a budget below ``MIN_POSTERIOR_BUDGET``."""
+    from bwbench.engine import registry
+    from bwbench.notices import assume
+
+    for name, _ in samplers:
+        family = registry.get(name).family
+        if family not in SAMPLER_FAMILIES:
+            assume(
+                f'[posterior] optimizer "{name}" is an optimiser ({family}), not a sampler: its runs are '
+                "recorded, but they draw no posterior and the report has no posterior section for them "
+                '(samplers: "emcee", "nested")'
+            )
+    if isinstance(budget, int) and not isinstance(budget, bool) and 0 < budget < MIN_POSTERIOR_BUDGET:
+        assume(
+            f"[posterior] budget = {budget}: below {MIN_POSTERIOR_BUDGET} evaluations no sampler draws enough "
+            "for its convergence check (R̂, ESS); the report will say the posterior did not converge"
+        )
 
 
 def _samplers(fail, table: dict) -> tuple:

@@ -243,6 +243,20 @@ def json_number(x):
     return x if math.isfinite(x) else None  # JSON has no inf/NaN: null = not finite
 
 
+# what a nested-sampling posterior says of each run, stored beside its draws (the verdict reads them)
+EVIDENCE_KEYS = (
+    "log_z",
+    "log_z_err",
+    "run_nfev",
+    "run_complete",
+    "live_points",
+    "run_ess",
+    "run_steps",
+    "insertion",
+    "profile",
+)
+
+
 def _chain_columns(extras: dict) -> dict | None:
     if extras.get("chain") is None:
         return None
@@ -257,7 +271,7 @@ def _chain_columns(extras: dict) -> dict | None:
     steps, walkers, dim = chain.shape
     # a nested-sampling posterior: each run's ln Z with its error, evaluations and whether it ended by its
     # own rule (the chain holds each run's equal-weight draws side by side)
-    evidence = {k: extras[k] for k in ("log_z", "log_z_err", "run_nfev", "run_complete", "live_points") if k in extras}
+    evidence = {k: extras[k] for k in EVIDENCE_KEYS if k in extras}
     return {
         "evidence_json": canonical_json(evidence) if "log_z" in evidence else None,
         "steps": steps,

@@ -17,10 +17,11 @@ PAPER_SPECIMEN = synthetic.SPECIMEN_DIR / "pom-mt24u01_0.05MPa_r1.csv"
 
 def friction_damper(seed: int = 0, rate_hz: float = 250.0, noise_N: float = 8.0) -> pd.DataFrame:
     """A user's damper not made by bwbench's generators: Dahl friction (300 N) + spring + dashpot under a
-    1.2 Hz sine of 12 mm, explicit Euler on a 20× finer grid, 8 N noise."""
+    1.2 Hz sine of 12 mm, explicit Euler on a 20× finer grid, 8 N noise; recorded from a running test
+    (one cycle of motion before the record, so it starts in motion with the friction already loaded)."""
     fine = 20
     dt = 1.0 / (rate_hz * fine)
-    t = np.arange(0.0, 2.5 / 1.2, dt)
+    t = np.arange(-1.0 / 1.2, 2.5 / 1.2, dt)
     x = 12.0 * np.sin(2 * np.pi * 1.2 * t)
     v = np.gradient(x, dt)
     z, zs = 0.0, np.empty_like(t)
@@ -28,10 +29,11 @@ def friction_damper(seed: int = 0, rate_hz: float = 250.0, noise_N: float = 8.0)
         zs[k] = z
         z += dt * 400.0 * v[k] * (1 - np.sign(v[k]) * z / 300.0)
     f = zs + 15.0 * x + 1.5 * v
-    keep = slice(None, None, fine)
+    keep = slice(int(np.searchsorted(t, -dt / 2)), None, fine)  # the record begins at t = 0
     rng = np.random.default_rng(seed)
+    n = len(t[keep])
     return pd.DataFrame(
-        {"time_s": t[keep], "displacement_mm": x[keep], "force_N": f[keep] + rng.normal(0, noise_N, len(t[keep]))}
+        {"time_s": np.arange(n) / rate_hz, "displacement_mm": x[keep], "force_N": f[keep] + rng.normal(0, noise_N, n)}
     )
 
 

@@ -71,11 +71,10 @@ def test_a_parameter_on_its_box_edge_is_warned_about_and_flagged(folder, capsys)
     assert result["units"]["xy+"] == "mm" and result["units"]["beta-"] == "mm^-n-"
     assert result["units"]["m"].startswith("N·s²/mm")
     edge = [line for line in err.splitlines() if "edge of its search box" in line]
-    assert edge == [
-        f"warning: {SPECIMEN}: eta- = {result['params']['eta-']:.6g} ended on the lower edge of its "
-        "search box [-2, 1]: the best fit may lie beyond it (widen it with --bounds, or see docs/models.md "
-        "on the box)"
-    ]
+    # ... where widening it gains nothing (the cause is x_y₋'s bound): undetermined, not "widen"
+    assert edge == []
+    assert "  eta- on its lower edge is undetermined: a fit in a box widened to -5 lowers the loss by 0.00%" in out
+    assert result["edges"]["eta-"]["kind"] == "undetermined"
     # the synthetic specimen's loop runs clockwise, as the paper's parameters make it: a note, no alarm
     assert "note: the fitted loop runs clockwise" in out and "generates energy" not in err
     assert result["energy_per_cycle_Nmm"] < 0
@@ -108,7 +107,8 @@ def test_a_linear_branch_is_named_and_its_cap_is_not_an_edge_warning():
     params = [theta[n] for n in names]
     assert fit_checks.linear_branches(problem, params) == {"+": True, "-": False}
     checks = fit_checks.check(problem, params, synthetic=True, at_bound={"xy+": "upper", "n-": "lower"})
-    assert checks.explained == {"xy+"}
+    assert "xy+" in checks.explained and "xy+" not in checks.json["edges"]  # the cap: no edge to classify
+    assert checks.json["edges"]["n-"]["kind"] == "undetermined"
     assert checks.json["linear_branches"] == {"+": True, "-": False}
     assert any(n.startswith("branch + is linear (no yield within the stroke)") for n in checks.notes)
     # the truth's '+' branch has x_y₊ = 5·a but starts where the '−' branch left w: it is not linear

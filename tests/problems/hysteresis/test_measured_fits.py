@@ -144,24 +144,23 @@ def test_data_check_flags_the_ramps(tmp_path, capsys):
 
 def test_a_record_that_starts_from_rest_starts_the_model_from_rest_without_a_spike(tmp_path):
     spec = spencer_record(tmp_path / "s.csv", noise_N=0.0)
-    signal = excitation.of_specimen("measured", spec)
+    problem = IdentifiableProblem(SPENCER, spec)
+    signal = problem.signal
     assert signal.v[0] != 0.0  # a recorded velocity: noise, not exactly 0
     assert starts_from_rest(signal.t, signal.x, signal.v)
-    assert SPENCER.initial_state(signal).startswith("from rest")
-    force = SPENCER.force_batch(SPENCER_1V[None, :], signal)[0]
+    assert problem.start.resolved == "rest" and problem.start.describe().startswith("from rest")
+    direct = SPENCER.force_batch(SPENCER_1V[None, :], problem.sim_signal)[0]
     # at rest the damper carries its accumulator preload −k1·x0 = −71.5 N and nothing else
-    assert force[0] == pytest.approx(-SPENCER_1V[3] * SPENCER_1V[4], abs=1.0)
-    # the kernel given the noisy first velocity as it is pre-rolls one cycle and starts at the yield force:
-    # the spike the rest test removes
-    from bwbench.models.spencer.kernel import ydot_batch
-
+    assert direct[0] == pytest.approx(-SPENCER_1V[3] * SPENCER_1V[4], abs=1.0)
+    # the same record pre-rolled from its noisy first velocity (what the auto rule would do without the
+    # rest test, and what "pre-roll" asks for) starts the model at its yield force: the spike the rest test removes
     theta, coef = SPENCER.from_direct(SPENCER_1V)
-    arrays = [np.ascontiguousarray(np.asarray(getattr(signal, k), dtype=float)) for k in "txva"]
-    ydot, _status = ydot_batch(theta[None, :], *arrays)  # (ẏ, the simulation's status per row)
-    spiked = coef["c1"] * ydot[0] + coef["k1"] * signal.x + coef["f0"]
-    assert abs(spiked[0] - force[0]) > 100.0
+    pre = IdentifiableProblem(SPENCER, spec, initial_state="pre-roll")
+    assert pre.start.resolved == "pre-roll"
+    spiked = coef["c1"] * pre.record_trajectories(theta)[0] + coef["k1"] * signal.x + coef["f0"]
+    assert abs(spiked[0] - direct[0]) > 100.0
     # after the first cycles the two agree: only the start differs
-    assert np.max(np.abs(spiked - force)[len(force) // 2 :]) < 0.05 * np.max(np.abs(force))
+    assert np.max(np.abs(spiked - direct)[len(direct) // 2 :]) < 0.05 * np.max(np.abs(direct))
 
 
 def test_a_record_cut_at_a_reversal_is_not_taken_as_at_rest():

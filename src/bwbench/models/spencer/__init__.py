@@ -1,1 +1,1 @@
-"""bwbench.models.spencer."""
+"""Spencer's phenomenological MR-damper model: its kernel, sensitivities and start."""

@@ -75,7 +75,7 @@ def hermite_excitation(tau, h, x0, v0, v1, a0, a1):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _rates(y, w, x, xd, p):
+def rates_at(y, w, x, xd, p):
     """(ẏ, ẇ) at state (y, w) and excitation (x, ẋ) for parameters p = (x_y, n, η, v_y, r₀, κ₀, and
     the reciprocals of ``with_reciprocals``)."""
     yd = (p[_VY] * w + p[_R0] * xd + p[_K0] * (x - y)) * p[_INV_S]
@@ -87,7 +87,7 @@ def _rates(y, w, x, xd, p):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _rates_jacobian(y, w, x, xd, p):
-    """``_rates`` (the same numbers) and the matrix W of a Rosenbrock-W step, ∂(ẏ, ẇ)/∂(y, w) at state
+    """``rates_at`` (the same numbers) and the matrix W of a Rosenbrock-W step, ∂(ẏ, ẇ)/∂(y, w) at state
     (y, w) and excitation (x, ẋ) on the current branch (loading or not), sharing one |w|^n: (ẏ, ẇ,
     ∂ẏ/∂y, ∂ẏ/∂w, ∂ẇ/∂y, ∂ẇ/∂w). (W on the stiffer of the two branches where the relative velocity
     hovers about 0 was tried: 3× the steps there.)"""
@@ -123,7 +123,7 @@ TOL = 1e-5  # per step, on w (no unit, |w| ≲ 1) and on y relative to the recor
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
+def integrate_interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
     """Advance (y, w) over [t0, t1] with ROS34PW2 and step-size control; ``h`` is the step (s) to try
     first (the last accepted one of the previous interval), ``tol`` the tolerance per step (``TOL``).
     Returns (y, w, h, steps tried); (NaN, NaN, h, steps) once more than ``allowance`` steps were tried
@@ -146,17 +146,17 @@ def _interval(y, w, t0, t1, x0, v0, v1, a0, a1, p, h, y_scale, allowance, tol):
         r1, r2 = h * fy0, h * fw0
         k1y, k1w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
         x, xd = hermite_excitation((s + C2 * h) / span, span, x0, v0, v1, a0, a1)
-        fy, fw = _rates(y + A21 * k1y, w + A21 * k1w, x, xd, p)
+        fy, fw = rates_at(y + A21 * k1y, w + A21 * k1w, x, xd, p)
         gy, gw = G21 * k1y, G21 * k1w
         r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
         k2y, k2w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
         x, xd = hermite_excitation((s + C3 * h) / span, span, x0, v0, v1, a0, a1)
-        fy, fw = _rates(y + A31 * k1y + A32 * k2y, w + A31 * k1w + A32 * k2w, x, xd, p)
+        fy, fw = rates_at(y + A31 * k1y + A32 * k2y, w + A31 * k1w + A32 * k2w, x, xd, p)
         gy, gw = G31 * k1y + G32 * k2y, G31 * k1w + G32 * k2w
         r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
         k3y, k3w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
         xe, xde = hermite_excitation((s + h) / span, span, x0, v0, v1, a0, a1)
-        fy, fw = _rates(y + k3y, w + k3w, xe, xde, p)
+        fy, fw = rates_at(y + k3y, w + k3w, xe, xde, p)
         gy, gw = G41 * k1y + G42 * k2y + G43 * k3y, G41 * k1w + G42 * k2w + G43 * k3w
         r1, r2 = h * (fy + j11 * gy + j12 * gw), h * (fw + j21 * gy + j22 * gw)
         k4y, k4w = i11 * r1 + i12 * r2, i21 * r1 + i22 * r2
@@ -204,47 +204,30 @@ def step_factor(err):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def preroll_end(x, v) -> int:
-    """The first sample after one full cycle of the record's own motion where it passes its starting
-    displacement in its starting direction (after two reversals); 0 when there is none or the record
-    starts at rest. See ``_ydot_into``."""
-    s0 = 1.0 if v[0] > 0.0 else (-1.0 if v[0] < 0.0 else 0.0)
-    if s0 == 0.0:
-        return 0
-    reversals = 0
-    for k in range(1, x.shape[0]):
-        if v[k] * v[k - 1] < 0.0:
-            reversals += 1
-        if reversals >= 2 and v[k] * s0 > 0.0 and (x[k - 1] - x[0]) * s0 < 0.0 <= (x[k] - x[0]) * s0:
-            return k
-    return 0
-
-
-@numba.njit(cache=True, error_model="numpy")
 def _run(p, t, x, v, a, y, w, stop, out, used, start, total, tol, pace):
     """Integrate from (y, w) at sample 0 to sample ``stop``, writing ẏ into ``out`` when it is not
     empty; ``used`` steps taken so far, this run's first interval the simulation's ``start``-th of
     ``total`` steps' worth at ``pace`` steps per interval (``step_allowance``). Returns (y, w, steps used,
     status)."""
     if out.shape[0]:
-        out[0], _ = _rates(y, w, x[0], v[0], p)
+        out[0], _ = rates_at(y, w, x[0], v[0], p)
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
         allowance = step_allowance(used, start + k, total, pace)
-        y, w, h, steps = _interval(
+        y, w, h, steps = integrate_interval(
             y, w, t[k], t[k + 1], x[k], v[k], v[k + 1], a[k], a[k + 1], p, h, y_scale, allowance, tol
         )
         used += steps
         if not (np.isfinite(y) and np.isfinite(w)):
             return np.nan, np.nan, used, (STATUS_STEP_BUDGET if steps >= allowance else STATUS_BLOW_UP)
         if out.shape[0]:
-            out[k + 1], _ = _rates(y, w, x[k + 1], v[k + 1], p)
+            out[k + 1], _ = rates_at(y, w, x[k + 1], v[k + 1], p)
     return y, w, used, STATUS_OK
 
 
 # The work a simulation may do: this many steps per sample interval on average, over the whole record
-# (pre-roll included). At a fit's optimum the L-stable step takes 1.5–3.7 per interval (500 Hz–1 kHz
+# (a pre-roll put before it included). At a fit's optimum the L-stable step takes 1.5–3.7 per interval (500 Hz–1 kHz
 # records with a noisy velocity); a corner of the search box where the relative velocity hovers about
 # 0 with η ≪ −1 takes hundreds per interval there (the branch flips with the velocity's noise), 25×
 # the optimum's cost per simulation at 64 (the budget the explicit integrator had). Such a simulation
@@ -266,27 +249,13 @@ def step_allowance(used, interval, total, pace):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_into(p, t, x, v, a, preroll, out, tol, pace):
+def _ydot_into(p, t, x, v, a, out, tol, pace):
     """ẏ (mm/s) at every sample into ``out``; the status (``STATUS_*``). ``pace``: the step budget, in
-    steps per sample interval (``step_allowance``).
-
-    Initial state: a record that starts at rest starts from rest (y = x, w = 0). A record that starts
-    in motion was recorded in the middle of a test; its first state is then taken as the one the
-    model reaches after one cycle of the record's own motion (``preroll`` = ``preroll_end``): the
-    model is run from rest to that sample, and the record is run again from the state reached
-    there (y shifted by the same x). For a periodic test that is its steady state; without it the
-    first ~40 ms of an MR-damper test recorded in motion carry a transient of ~200 N.
-    """
-    total = pace * (x.shape[0] - 1 + preroll)
+    steps per sample interval (``step_allowance``). The model starts at rest at the first sample (y = x,
+    w = 0): what comes before a record (a pre-roll of its own motion) is put before it by the caller,
+    the same for every model (``bwbench.models.start``)."""
     p = with_reciprocals(p)
-    y, w = x[0], 0.0
-    used = 0
-    if preroll > 0:
-        y, w, used, status = _run(p, t, x, v, a, y, w, preroll, out[:0], used, 0, total, tol, pace)
-        if status != STATUS_OK:
-            return status
-        y += x[0] - x[preroll]
-    return _run(p, t, x, v, a, y, w, x.shape[0] - 1, out, used, preroll, total, tol, pace)[3]
+    return _run(p, t, x, v, a, x[0], 0.0, x.shape[0] - 1, out, 0, 0, pace * (x.shape[0] - 1), tol, pace)[3]
 
 
 def kernel_arrays(*arrays) -> list:
@@ -315,26 +284,25 @@ def ydot_batch(TH, t, x, v, a, tol=TOL, pace=STEPS_PER_SAMPLE):
     t, x, v, a = kernel_arrays(t, x, v, a)
     out = np.empty((TH.shape[0], x.shape[0]))
     status = np.zeros(TH.shape[0], dtype=np.int8)
-    preroll = preroll_end(x, v)
     threads = numba.get_num_threads()
     if threads > 1 and TH.shape[0] >= 2 * threads:
-        _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol, int(pace))
+        _ydot_parallel(TH, t, x, v, a, out, status, tol, int(pace))
     else:
-        _ydot_serial(TH, t, x, v, a, preroll, out, status, tol, int(pace))
+        _ydot_serial(TH, t, x, v, a, out, status, tol, int(pace))
     return out, status
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _ydot_parallel(TH, t, x, v, a, preroll, out, status, tol, pace):
+def _ydot_parallel(TH, t, x, v, a, out, status, tol, pace):
     for i in numba.prange(TH.shape[0]):
-        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol, pace)
+        status[i] = _ydot_into(TH[i], t, x, v, a, out[i], tol, pace)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
-def _ydot_serial(TH, t, x, v, a, preroll, out, status, tol, pace):
+def _ydot_serial(TH, t, x, v, a, out, status, tol, pace):
     for i in range(TH.shape[0]):
-        status[i] = _ydot_into(TH[i], t, x, v, a, preroll, out[i], tol, pace)
+        status[i] = _ydot_into(TH[i], t, x, v, a, out[i], tol, pace)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf

@@ -23,15 +23,12 @@ the relative velocity of the yield force α·z_s. The published per-test fits of
 kind fixed A = 300, n = 2, γ = β (η = 0), k₀ = k₁ = x₀ = 0; the direct parameters of an
 identifiable fit are reported in that gauge, A = 300.
 
-Initial state. A record that starts at rest starts the model at rest (y = x, z = 0): a record
-whose first samples move within the noise of its velocity from near mid-stroke, or that ramps in
-(``starts_from_rest``); without that test a recorded velocity's noise at the first sample read as
-motion and the pre-roll put the model at its yield force at t = 0 (a start-up spike of ~1 kN on a
-damper at rest). A record that starts in motion was taken in the middle of a test: the model is first run over one cycle of
-the record's own motion and starts from the state reached there (``spencer_kernel``). Without it,
-an MR-damper test recorded in motion carries a ~200 N transient over its first ~40 ms, and with
-k₀ > 0 (y relaxes towards x in (1 + r₀)/κ₀, 6 s for Spencer's damper) an offset over the whole
-record. With κ₀ searched the identifiable fits of the MR-damper generator's tests reach the force
+Initial state. The model starts at rest (y = x, z = 0) at the first sample it is given. How a
+record is started — from rest, or after a pre-roll of one cycle of its own motion (a test recorded in
+motion: without it an MR-damper test carries a ~200 N transient over its first ~40 ms, and with
+k₀ > 0 — y relaxes towards x in (1 + r₀)/κ₀, 6 s for Spencer's damper — an offset over the whole
+record) — is one rule for every model (``bwbench.models.start``), applied where a record is
+simulated. With κ₀ searched the identifiable fits of the MR-damper generator's tests reach the force
 noise (6.0–6.1 N on 6 N); with κ₀ fixed at 0, as the published per-test fits fixed k₀, they stopped
 at 14–17 N on the 1 Hz tests with η and x_y on their box edges.
 """
@@ -42,10 +39,7 @@ import numpy as np
 
 from bwbench.models.base import Box, LinearLayout, Model, Parameter, amplitude, velocity_scale
 from bwbench.models.spencer.plausibility import X0_STROKES, plausibility, series_damping
-from bwbench.models.spencer.start import (
-    initial_state,
-    kernel_inputs,
-)
+from bwbench.models.spencer.start import kernel_inputs
 
 DIRECT = (
     Parameter("c0", "N·s/mm", "c₀", "viscous damping at large velocities"),
@@ -296,6 +290,37 @@ class Spencer(Model):
             raise ValueError(f"theta must have shape (m, {len(HYSTERETIC)}), got {theta.shape}")
         return _ydot(theta, signal, self._integration())
 
+    def trajectories_varying(self, theta_int, theta_smp, signal, state=None) -> np.ndarray:
+        """ẏ (mm/s) at the samples (L,) for θ per sample interval (L − 1, 6) and per sample (L, 6): a control
+        that changes during the record (``spencer_varying``); +inf where the simulation did not finish."""
+        from bwbench.models.spencer.kernel import STATUS_STEP_BUDGET
+        from bwbench.models.spencer.varying import ydot_varying
+
+        out, status = ydot_varying(theta_int, theta_smp, signal, **self._integration())
+        MODEL.step_budget_stops += int(status == STATUS_STEP_BUDGET)
+        return out
+
+    def trajectory_sensitivities_varying(self, theta_int, theta_smp, B_int, B_smp, signal, state=None):
+        """(ẏ (L,), ∂ẏ/∂c (L, D)) for θ per interval and per sample and ∂θ/∂c there (``B_int`` (L − 1, 6, D),
+        ``B_smp`` (L, 6, D)): the coefficients c of laws of a varying control (``spencer_varying``); (ẏ +inf,
+        None) where the simulation did not finish."""
+        from bwbench.models.spencer.kernel import STATUS_STEP_BUDGET
+        from bwbench.models.spencer.varying import ydot_sensitivity_varying
+
+        out, S, status = ydot_sensitivity_varying(theta_int, theta_smp, B_int, B_smp, signal, **self._integration())
+        MODEL.step_budget_stops += int(status == STATUS_STEP_BUDGET)
+        return (out, S) if status == 0 else (out, None)
+
+    def force_varying(self, P_int, P_smp, signal, state=None) -> np.ndarray:
+        """The force (N, (L,)) of direct parameters per sample interval (L − 1, 10) and per sample (L, 10)."""
+        theta_int, _ = theta_from_direct(P_int)
+        theta_smp, coef = theta_from_direct(P_smp)
+        ydot = self.trajectories_varying(theta_int, theta_smp, signal)
+        c1, k1, f0 = coef.T
+        with np.errstate(invalid="ignore", over="ignore"):
+            F = c1 * ydot + k1 * np.asarray(signal.x, dtype=float) + f0
+        return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
+
     # An evaluation with its six sensitivities (the Rosenbrock-W kernel) took 1.4–1.8 plain simulations
     # at the optima of seven MR-damper generator fits (600–6,000 samples) and 1.65 at random points of
     # the box (benchmarks/bench_call_cost.py): charged as 2 evaluations.
@@ -308,7 +333,7 @@ class Spencer(Model):
         from bwbench.models.spencer.kernel import STATUS_STEP_BUDGET
         from bwbench.models.spencer.sensitivity import ydot_sensitivity_batch
 
-        arrays = kernel_inputs(signal)  # the plain simulation's: from rest where the record starts at rest
+        arrays = kernel_inputs(signal)
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         how = self._integration()
         Z, S, status = ydot_sensitivity_batch(theta, *arrays, **how)
@@ -347,9 +372,6 @@ class Spencer(Model):
 
     def viscous_coefficients(self, values: dict, state=None) -> dict | None:
         return series_damping(values)
-
-    def initial_state(self, signal, state=None) -> str:
-        return initial_state(signal)
 
     def coefficient_limits(self, state=None) -> dict:
         return dict(COEFFICIENT_LIMITS)

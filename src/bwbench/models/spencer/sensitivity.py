@@ -7,8 +7,7 @@ those of the plain simulation and ẏ is the same numbers):
 
     Ṡ_y = ∂ẏ/∂y·S_y + ∂ẏ/∂w·S_w + ∂ẏ/∂θ,   Ṡ_w = ∂ẇ/∂y·S_y + ∂ẇ/∂w·S_w + ∂ẇ/∂θ,
 
-from S = 0 at the first state (rest, or the pre-roll's start: the state after the pre-roll carries
-its S). ∂ẏ/∂θ at a sample is then ∂ẏ/∂y·S_y + ∂ẏ/∂w·S_w + ∂ẏ/∂θ. The switch between loading and
+from S = 0 at the first state (rest at the first sample the kernel is given). ∂ẏ/∂θ at a sample is then ∂ẏ/∂y·S_y + ∂ẏ/∂w·S_w + ∂ẏ/∂θ. The switch between loading and
 unloading (c = 1 or η) is a kink of the rates, differentiated on either side (it is crossed at
 isolated instants). The sensitivities take the Rosenbrock-W stages with the same matrix W as the
 state (the 2×2 Jacobian of the rates, for each θ_j: W applied to (S_y, S_w)): the augmented system's
@@ -51,7 +50,6 @@ from bwbench.models.spencer.kernel import (
     TOL,
     hermite_excitation,
     kernel_arrays,
-    preroll_end,
     step_allowance,
     step_factor,
     step_inverse,
@@ -115,7 +113,7 @@ def _start_sens(y, w, Sy, Sw, x, xd, p, dSy, dSw):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_sens_at(y, w, Sy, Sw, x, xd, p, out_S):
+def ydot_sens_at(y, w, Sy, Sw, x, xd, p, out_S):
     """ẏ at a sample, and its total derivative ∂ẏ/∂θ into out_S (6,): ``_rates_sens``' ẏ part alone
     (no |w|^n: one log and exp fewer per sample)."""
     inv_s = p[_INV_S]
@@ -142,7 +140,7 @@ def _stage_sens(kSy, kSw, i, fSy, fSw, gy, gw, j11, j12, j21, j22, i11, i12, i21
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _interval_sens(
+def integrate_interval_sens(
     y,
     w,
     Sy,
@@ -263,12 +261,12 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total,
     fSy, fSw, tmp_y, tmp_w, gy, gw = np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D), np.empty(_D)
     fSy0, fSw0 = np.empty(_D), np.empty(_D)  # stage 1's, kept while a step is retried
     if out.shape[0]:
-        out[0] = _ydot_sens_at(y, w, Sy, Sw, x[0], v[0], p, out_S[0])
+        out[0] = ydot_sens_at(y, w, Sy, Sw, x[0], v[0], p, out_S[0])
     h = t[1] - t[0]
     y_scale = max(0.5 * (np.max(x) - np.min(x)), 1e-9)
     for k in range(stop):
         allowance = step_allowance(used, start + k, total, pace)
-        y, w, h, steps, status = _interval_sens(
+        y, w, h, steps, status = integrate_interval_sens(
             y,
             w,
             Sy,
@@ -302,33 +300,24 @@ def _run_sens(p, t, x, v, a, y, w, Sy, Sw, stop, out, out_S, used, start, total,
         if not (np.isfinite(y) and np.isfinite(w)):
             return np.nan, np.nan, used, STATUS_BLOW_UP
         if out.shape[0]:
-            out[k + 1] = _ydot_sens_at(y, w, Sy, Sw, x[k + 1], v[k + 1], p, out_S[k + 1])
+            out[k + 1] = ydot_sens_at(y, w, Sy, Sw, x[k + 1], v[k + 1], p, out_S[k + 1])
     return y, w, used, STATUS_OK
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _ydot_sens_into(p, t, x, v, a, preroll, out, out_S, tol, pace):
+def _ydot_sens_into(p, t, x, v, a, out, out_S, tol, pace):
     """ẏ (mm/s) and ∂ẏ/∂θ at every sample (as ``kernel._ydot_into``); the status."""
-    total = pace * (x.shape[0] - 1 + preroll)
     p = with_reciprocals(p)
-    y, w = x[0], 0.0
     Sy = np.zeros(_D)
     Sw = np.zeros(_D)
-    used = 0
-    if preroll > 0:
-        y, w, used, status = _run_sens(
-            p, t, x, v, a, y, w, Sy, Sw, preroll, out[:0], out_S[:0], used, 0, total, tol, pace
-        )
-        if status != STATUS_OK:
-            return status
-        y += x[0] - x[preroll]
-    return _run_sens(p, t, x, v, a, y, w, Sy, Sw, x.shape[0] - 1, out, out_S, used, preroll, total, tol, pace)[3]
+    total = pace * (x.shape[0] - 1)
+    return _run_sens(p, t, x, v, a, x[0], 0.0, Sy, Sw, x.shape[0] - 1, out, out_S, 0, 0, total, tol, pace)[3]
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")  # nogil: files of a joint fit run on threads
-def _ydot_sens_serial(TH, t, x, v, a, preroll, out, out_S, status, tol, pace):
+def _ydot_sens_serial(TH, t, x, v, a, out, out_S, status, tol, pace):
     for i in range(TH.shape[0]):
-        status[i] = _ydot_sens_into(TH[i], t, x, v, a, preroll, out[i], out_S[i], tol, pace)
+        status[i] = _ydot_sens_into(TH[i], t, x, v, a, out[i], out_S[i], tol, pace)
         if status[i] != STATUS_OK:
             out[i, :] = np.inf
             out_S[i] = np.nan
@@ -343,5 +332,5 @@ def ydot_sensitivity_batch(TH, t, x, v, a, tol=TOL, pace=STEPS_PER_SAMPLE):
     out = np.empty((TH.shape[0], x.shape[0]))
     out_S = np.empty((TH.shape[0], x.shape[0], _D))
     status = np.zeros(TH.shape[0], dtype=np.int8)
-    _ydot_sens_serial(TH, t, x, v, a, preroll_end(x, v), out, out_S, status, tol, int(pace))
+    _ydot_sens_serial(TH, t, x, v, a, out, out_S, status, tol, int(pace))
     return out, out_S, status

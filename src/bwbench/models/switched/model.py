@@ -43,6 +43,7 @@ class SwitchedBoucWen(Model):
     # specimens whose loops dissipate: a sign bound put 15 of the 45 synthetic truths out of reach
     # (MSE 35–806 × the noise). The loops' energy is carried by the whole branch pair, not by c₋.
     viscous_sign_bound = False
+    rate_independent = True  # z is integrated in displacement
 
     def direct_parameters(self, state=None) -> tuple:
         from bwbench.models.switched.parameters import LABELS, UNITS
@@ -146,6 +147,11 @@ class SwitchedBoucWen(Model):
 
         theta, linear = fm.from_paper(P, self.check_state(state))
         return theta, dict(zip(LINEAR_NAMES, map(float, linear)))
+
+    def parameter_limits(self, state=None) -> dict:
+        """η± = 1 (γ = 0) in the identifiable formulation: the model's limit, not a search limit."""
+        why = "η = 1 is γ = 0, the model's limit (beyond it unloading runs away from saturation)"
+        return {f"eta{b}": {"upper": why} for b in "+-"}
 
     def viscous_coefficients(self, values: dict, state=None) -> dict | None:
         if "c+" in values:

@@ -78,18 +78,11 @@ def samples_per_cycle(v) -> float:
 
 def decimation(problem) -> int:
     """Keep every k-th sample in the exploring searches: k so that ``MIN_SAMPLES_PER_CYCLE`` remain; 1
-    for a problem without a linear solve, or where the model would start the shorter record from
-    another initial state (at rest or in motion: ``model.initial_state``)."""
+    for a problem without a linear solve. The shorter record starts as the record does (the start's
+    resolved rule: ``_keep_every``)."""
     if getattr(problem, "design", None) is None:
         return 1
-    k = int(samples_per_cycle(problem.signal.v) // MIN_SAMPLES_PER_CYCLE)
-    start = problem.model.initial_state(problem.signal, problem.state).split(" ")[0]
-    # The largest k that keeps the start: every k-th sample of a slow record's first ones may move too far
-    # apart to read as a start from rest (a 0.2 Hz test at 1 kHz kept every sample at k = 33, every 10th
-    # sample at k = 10).
-    while k >= 2 and problem.model.initial_state(_every(problem.signal, k), problem.state).split(" ")[0] != start:
-        k -= 1
-    return max(k, 1)
+    return max(int(samples_per_cycle(problem.signal.v) // MIN_SAMPLES_PER_CYCLE), 1)
 
 
 def _every(record, k: int):
@@ -103,7 +96,11 @@ def _every(record, k: int):
 
 
 def _keep_every(cheaper, k: int) -> None:
+    """Every k-th sample of the record, started by the rule the record's own start resolved to (from
+    rest, or a pre-roll of the shorter record's own cycle), its warm-up as long in seconds."""
+    start = cheaper.start
     cheaper.signal = _every(cheaper.signal, k)
     cheaper.specimen = _every(cheaper.specimen, k)
-    cheaper.design = dataclasses.replace(cheaper.design, signal=cheaper.signal, f=cheaper.specimen.f, notes=[])
+    cheaper.set_start(start.resolved, start.warmup_s)
+    cheaper.design = dataclasses.replace(cheaper.design, signal=cheaper.loss_signal, f=cheaper.f_loss, notes=[])
     cheaper.decimated = k

@@ -159,8 +159,10 @@ def fit_findings(fit) -> list[Finding]:
         out.append(
             Finding(
                 "note",
-                f"{stops} evaluations stopped at the simulation's step budget (stiff corners of the search box): "
-                "loss +inf",
+                f"{stops} evaluations stopped at the simulation's step budget: parameter sets in stiff corners of "
+                "the search box, whose simulation would have needed more integration steps than the model allows "
+                "(docs/models.md); their loss counted as +inf and the search moved away from them — harmless "
+                "while the fit ends inside the box",
             )
         )
     out += [Finding("note", f"linear solve: {n}") for n in getattr(fit.problem, "notes", [])]
@@ -211,7 +213,7 @@ def failure_reasons(fit) -> list[str]:
     out = []
     parts = getattr(fit.problem, "parts", None) or [fit.problem]
     for part, row in zip(parts, fit.files):
-        f = np.asarray(part.specimen.f, dtype=float)
+        f = np.asarray(getattr(part, "f_loss", part.specimen.f), dtype=float)  # the samples the RMSE is of
         spread = float(np.std(f))
         if row["rmse_N"] > spread:
             hint = (

@@ -17,7 +17,9 @@
   on its physical limit that the unbounded solve would put beyond it, and a searched parameter on a
   box edge that is a physical limit, are findings about the model or the data — not box warnings;
 - plausibility of every fitted parameter with its physical meaning (``Model.plausibility``);
-- the model's initial state on the record (``Model.initial_state``).
+- how the record was started, the same for every model (``bwbench.models.start``).
+
+Every check is of the samples in the loss: a warm-up left out of the loss is left out of them too.
 """
 
 from __future__ import annotations
@@ -88,15 +90,15 @@ def linear_branches(problem, params) -> dict:
     if getattr(problem, "formulation", "") != "identifiable":
         return {}
     theta = np.asarray(params, dtype=float)
-    w = problem.model.trajectories(theta[None, :], problem.signal, problem.state)[0]
-    return problem.model.linear_branches(theta, w, problem.signal, problem.state)
+    w = problem.record_trajectories(theta)[0][problem.start.loss]
+    return problem.model.linear_branches(theta, w, problem.loss_signal, problem.state)
 
 
 def energy_per_cycle(problem, params) -> tuple[float, float, float]:
     """(∮F·dx per cycle of the fitted model in N·mm, cycles, the size below which its sign is not called:
     ``LOOP_SIGN_FRACTION`` × 2·amplitude × force range, N·mm)."""
-    force = problem.simulate(np.asarray(params, dtype=float))
-    x = problem.signal.x
+    force = problem.simulate(np.asarray(params, dtype=float))[problem.start.loss]
+    x = problem.loss_signal.x
     if not np.all(np.isfinite(force)):
         return float("nan"), 0.0, 0.0
     per_cycle, cycles = loop_work(x, force)
@@ -113,7 +115,14 @@ def check(problem, params, synthetic: bool = False, at_bound: dict | None = None
         return out
     work, cycles, threshold = energy_per_cycle(problem, params)
     out.json["energy_per_cycle_Nmm"] = work
-    if np.isfinite(work) and cycles >= 0.5:
+    shape = record_protocol(problem)
+    if shape is not None and not shape.periodic:
+        out.json["periodic_checks"] = f"skipped: {shape.describe()}"
+        out.notes.append(
+            f"periodic-motion checks skipped (energy per cycle, its split by branch and reversal zone, the "
+            f"residual's reversal statistics): the record is {shape.describe()}"
+        )
+    elif np.isfinite(work) and cycles >= 0.5:
         out.notes.append(
             f"energy dissipated per cycle by the fitted model: ∮F·dx = {work:.4g} N·mm ({work / 1000:.3g} J)"
         )
@@ -139,12 +148,12 @@ def check(problem, params, synthetic: bool = False, at_bound: dict | None = None
             if at_bound.get(f"xy{b}") == "upper":
                 out.explained.add(f"xy{b}")
     physical_limit_findings(problem, params, at_bound, out)
+    edge_findings(problem, params, at_bound, out)
     failing_checks(problem, params, out)
     plausibility_findings(problem, params, out)
-    start = problem.model.initial_state(problem.signal, problem.state) if hasattr(problem, "signal") else ""
-    if start:
-        out.json["initial_state"] = start
-        out.notes.append(f"initial state: {start}")
+    if hasattr(problem, "start"):
+        out.json["initial_state"] = problem.start.describe()
+        out.notes.append(f"initial state: {problem.start.describe()}")
     error = expected_force_error(problem, params)
     if error is not None:
         out.json["velocity_estimate"] = error
@@ -217,6 +226,30 @@ def physical_limit_findings(problem, params, at_bound: dict, out: FitChecks) -> 
         )
 
 
+def edge_findings(problem, params, at_bound: dict, out: FitChecks) -> None:
+    """The box edges no other check explains, classified (``edges.classify``): an undetermined one is a
+    note, not a "widen" warning; a box too small keeps its warning."""
+    from bwbench.problems.hysteresis import edges
+
+    for edge in edges.classify(problem, params, {n: s for n, s in at_bound.items() if n not in out.explained}):
+        out.json.setdefault("edges", {})[edge.name] = edge.to_json()
+        if edge.kind == edges.UNDETERMINED:
+            out.explained.add(edge.name)
+            out.notes.append(edge.text)
+        elif edge.kind == edges.MODEL_LIMIT:
+            out.explained.add(edge.name)
+            out.findings.append(edge.text)
+
+
+def record_protocol(problem):
+    """The loading protocol (``models.protocol``) of a one-file problem's displacement; None for a joint one."""
+    if not hasattr(problem, "specimen") or not hasattr(problem, "signal"):
+        return None
+    from bwbench.models.protocol import protocol
+
+    return protocol(problem.signal.x)
+
+
 def failing_checks(problem, params, out: FitChecks) -> None:
     """The energy split and the residual structure of ``residual_checks`` (one file; a joint fit: each
     file's own), as JSON and, where they fail, findings."""
@@ -225,10 +258,25 @@ def failing_checks(problem, params, out: FitChecks) -> None:
 
     if not hasattr(problem, "simulate") or not hasattr(problem, "specimen"):
         return
-    force = problem.simulate(np.asarray(params, dtype=float))
+    force = problem.simulate(np.asarray(params, dtype=float))[problem.start.loss]
     if not np.all(np.isfinite(force)):
         return
-    signal, measured = problem.signal, np.asarray(problem.specimen.f, dtype=float)
+    signal, measured = problem.loss_signal, np.asarray(problem.f_loss, dtype=float)
+    shape = record_protocol(problem)
+    if shape is not None and not shape.periodic:  # per-cycle quantities of an irregular record mean nothing
+        structure = residual_checks.residual_structure(
+            signal.t, signal.x, force - measured, force_noise(measured), None
+        )
+        out.json["residual_structure"] = structure
+        text = (
+            f"residual: RMSE {structure['rmse_N']:.3g} N = {structure['rmse_over_noise']:.2g} × the force noise "
+            f"{structure['noise_N']:.3g} N; autocorrelation {structure['autocorrelation']:.2f} at 1 sample"
+        )
+        if structure["model_error_dominates"]:
+            out.findings.append(f"{text}: model error, not noise, dominates the residual")
+        else:
+            out.notes.append(f"{text}: the residual is close to the noise")
+        return
     energy = residual_checks.energy_split(signal.x, signal.v, force, measured)
     out.json["energy_check"] = energy
     if not energy["passed"]:

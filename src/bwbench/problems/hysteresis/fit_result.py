@@ -20,6 +20,7 @@ import numpy as np
 
 from bwbench.data.strict_json import finite_or_null
 from bwbench.engine.result import Result
+from bwbench.problems.hysteresis.model_problem import start_settings
 
 # Two normalisations of the RMSE: by the largest force magnitude (bwbench's ``nrmse``, symmetric in the
 # sign of F) and by the largest force (``nrmse_max_F``), the one the MR-damper literature reports (e.g.
@@ -210,17 +211,31 @@ class FitResult:
         from bwbench.problems.hysteresis.fitted_model import FittedModel
 
         p = self.problem
+        if hasattr(p, "laws_json"):  # one model across the control range: its laws with it
+            from bwbench.problems.hysteresis.control.fitted import of_problem
+
+            return of_problem(p, dict(self.result.params))
+        initial_state, warmup_s = start_settings(p)
         return FittedModel(
-            p.model.name, p.formulation, dict(self.result.params), p.state, p.excitation, dict(self.result.units)
+            p.model.name,
+            p.formulation,
+            dict(self.result.params),
+            p.state,
+            p.excitation,
+            dict(self.result.units),
+            initial_state,
+            warmup_s,
         )
 
-    def predict(self, specimen):
+    def predict(self, specimen, refit_offset: bool = False):
         """The force on another test, nothing refitted: ``model.predict(specimen)``.
 
         Parameters
         ----------
         specimen : str, pathlib.Path, Specimen or pandas.DataFrame
             A specimen CSV's path, a ``Specimen`` or a DataFrame with the file's columns.
+        refit_offset : bool, default False
+            Re-solve the constant force on that test (``FittedModel.predict``).
 
         Returns
         -------
@@ -231,7 +246,7 @@ class FitResult:
         --------
         >>> fit.predict("othertest.csv").rmse_N
         """
-        return self.model.predict(specimen)
+        return self.model.predict(specimen, refit_offset=refit_offset)
 
     def table(self):
         """The per-file errors.
@@ -283,6 +298,10 @@ class FitResult:
         """
         from bwbench.problems.hysteresis import fit_summary
 
+        if hasattr(self.problem, "covariance"):  # one model across a control range: its laws' coefficients
+            from bwbench.problems.hysteresis.control.uncertainty import uncertainty
+
+            return uncertainty(self.problem, self.result.params)
         return fit_summary.uncertainty(self)
 
     def summary(self):
@@ -400,6 +419,8 @@ class FitResult:
         if self.problem.state is None:
             out["state"] = None  # say it: this model has no state convention
         out.update(self.extra)
+        if hasattr(self.problem, "result_json") and self.success:  # one model across a control range
+            out.update(self.problem.result_json(self.result.params))
         checks = dict(self.checks.json) if self.checks is not None else {}
         by_file = checks.pop("files", {})  # a joint fit's checks, per file
         out.update(checks)
@@ -408,6 +429,7 @@ class FitResult:
             out["nrmse"] = self.files[0]["nrmse"]
             out["nrmse_max_F"] = self.files[0]["nrmse_max_F"]
         out["nrmse_definitions"] = dict(NRMSE_DEFINITIONS)
+        out["start"] = start_json(self.problem)
         out["units"] = {**self.result.units, **METRIC_UNITS}
         from bwbench.version import __version__
 
@@ -468,6 +490,25 @@ class FitResult:
         strict_json.write(path, self._json_values(), why=self.result.not_finite_reasons())
 
 
+def start_json(problem) -> dict:
+    """The result JSON's "start": the rule as asked and, per file, what it resolved to.
+
+    Each file's as ``bwbench.models.start.Start.to_json`` writes it.
+    """
+    parts = getattr(problem, "parts", None)
+    if not parts:
+        return problem.start.to_json()
+    initial_state, warmup_s = start_settings(problem)
+    first = parts[0].start.to_json()
+    return {
+        "initial_state": initial_state,
+        "warmup_s": warmup_s,
+        "rule": first["rule"],
+        "files": {p.specimen.name: p.start.to_json() for p in parts},
+        "units": first["units"],
+    }
+
+
 def per_file(problem, result: Result) -> tuple:
     """Each file's errors at the best parameters of ``result``.
 
@@ -485,7 +526,7 @@ def per_file(problem, result: Result) -> tuple:
     """
     if hasattr(problem, "per_file"):
         params = np.array([result.params.get(n, np.nan) for n in problem.param_names])
-        specimens = [p.specimen for p in problem.parts]
+        scored = [p.f_loss for p in problem.parts]  # the force after each file's warm-up
         if np.all(np.isfinite(params)):
             rows = list(problem.per_file(params))
         else:
@@ -500,10 +541,8 @@ def per_file(problem, result: Result) -> tuple:
                 }
                 for p, w in zip(problem.parts, problem.file_weight)
             ]
-        return tuple(
-            {**row, "nrmse_max_F": _over_max_force(row["rmse_N"], spec.f)} for row, spec in zip(rows, specimens)
-        )
-    peak = float(np.max(np.abs(problem.specimen.f)))
+        return tuple({**row, "nrmse_max_F": _over_max_force(row["rmse_N"], f)} for row, f in zip(rows, scored))
+    peak = float(np.max(np.abs(problem.f_loss)))
     return (
         {
             "specimen": problem.specimen.name,
@@ -512,9 +551,20 @@ def per_file(problem, result: Result) -> tuple:
             "mse": result.mse,
             "rmse_N": result.rmse_N,
             "nrmse": result.rmse_N / peak if peak > 0 else math.inf,
-            "nrmse_max_F": _over_max_force(result.rmse_N, problem.specimen.f),
+            "nrmse_max_F": _over_max_force(result.rmse_N, problem.f_loss),
         },
     )
+
+
+def nrmse_text(nrmse: float, nrmse_max_F: float, digits: int = 4) -> str:
+    """The NRMSE of one record in words.
+
+    RMSE/max F (the literature's) first where the force has a positive peak, else RMSE/max|F| alone,
+    defined for any sign of force (a record whose force is all negative).
+    """
+    if nrmse_max_F is None or not math.isfinite(nrmse_max_F):
+        return f"NRMSE {nrmse:.{digits}g} (RMSE/max|F|; the force is never positive, so RMSE/max F is undefined)"
+    return f"NRMSE {nrmse_max_F:.{digits}g} (RMSE/max F, the literature's; {nrmse:.{digits}g} RMSE/max|F|)"
 
 
 def _over_max_force(rmse: float, f) -> float:
@@ -628,7 +678,12 @@ def run_fit(
     if stop == "agreed" and "stop_agree" in registry.get(optimizer).options and not options.get("stop_agree"):
         options["stop_agree"] = AGREEING_SEARCHES
     result = fitting.run(problem, optimizer, budget, seed, options)
+    from bwbench.problems.hysteresis.edges import widen
+
+    result, widened = widen(problem, result, optimizer, budget, seed, options)  # a box too small, on the rest
     checks = problem.fit_checks(result, synthetic) if hasattr(problem, "fit_checks") else None
+    if checks is not None:
+        checks.notes[:0] = widened
     box = {name: [float(lo), float(hi)] for name, lo, hi in zip(problem.param_names, problem.lower, problem.upper)}
     return FitResult(
         result, problem, per_file(problem, result), checks, {**(extra or {}), "bounds": box}, budget, synthetic

@@ -63,11 +63,11 @@ class Uncertainty:
 
 
 def _parts(problem):
-    """[(signal, measured force, residual weights)] of each file of ``problem``."""
+    """[(signal, measured force, the samples in the loss, their residual weights)] of each file of ``problem``."""
     if hasattr(problem, "parts"):
         sw = np.sqrt(problem.sample_weight)
-        return [(p.signal, p.specimen.f, sw[s]) for p, s in zip(problem.parts, problem.signal.segments)]
-    return [(problem.signal, problem.specimen.f, np.ones(problem.n_data))]
+        return [(p.signal, p.specimen.f, p.start.loss, sw[s]) for p, s in zip(problem.parts, problem.signal.segments)]
+    return [(problem.signal, problem.specimen.f, problem.start.loss, np.ones(problem.n_data))]
 
 
 class _FreeVector:
@@ -108,12 +108,12 @@ class _FreeVector:
         if self.design is None:
             return self.problem.residual_batch(theta[None, :])[0]
         from bwbench.problems.hysteresis.fitted_model import FittedModel
+        from bwbench.problems.hysteresis.model_problem import start_settings
 
         p = self.problem
-        model = FittedModel(
-            p.model.name, "identifiable", {**dict(zip(self.searched, map(float, theta))), **coef}, p.state, p.excitation
-        )
-        return np.concatenate([(model.force(signal) - f) * w for signal, f, w in self._parts])
+        values = {**dict(zip(self.searched, map(float, theta))), **coef}
+        model = FittedModel(p.model.name, "identifiable", values, p.state, p.excitation, {}, *start_settings(p))
+        return np.concatenate([(model.force(signal, f) - f)[loss] * w for signal, f, loss, w in self._parts])
 
     def derived(self, v) -> dict:
         """Tied offsets and the model's direct parameters of the same force, by name."""

@@ -5,11 +5,13 @@ state and excitation and holds every parameter by name. ``FittedModel`` rebuilds
 those numbers alone, nothing refitted:
 
 - direct formulation: the model's own parameters through ``Model.force_batch``;
-- identifiable: the θ-dependent column w(θ) simulated on the new excitation (from the model's own
-  initial state for that record), then F = Σ β_j·g_j with the **stored** linear coefficients β
-  (``linear_columns``; a branched model's '+' set where ẋ ≥ 0, its '−' set where ẋ < 0).
+- identifiable: the θ-dependent column w(θ) simulated on the new excitation, then F = Σ β_j·g_j with
+  the **stored** linear coefficients β (``linear_columns``; a branched model's '+' set where ẋ ≥ 0,
+  its '−' set where ẋ < 0).
 
-``predict`` adds the errors: RMSE (N), and NRMSE = RMSE / max|F_measured| (–), the measure the MR-damper
+Every record starts as the fit's did (``initial_state``, ``warmup_s``: the rule of
+``bwbench.models.start``, stored in the fit's JSON under "start"). ``predict`` adds the errors over
+the samples after the warm-up: RMSE (N), and NRMSE = RMSE / max|F_measured| (–), the measure the MR-damper
 literature reports. It is what ``bwbench predict``, ``evaluate``/``simulate`` given a fit result, the
 report's held-out check and ``bwbench.FittedModel`` all use.
 """
@@ -28,12 +30,18 @@ IDENTIFIABLE = "identifiable"
 EXCITATIONS = ("measured", "sine")
 
 
+def _bare_unit(unit: str) -> str:
+    """A unit without its note ("kg (the mass ...)" -> "kg") or spaces, for comparing."""
+    return unit.split(" (", 1)[0].replace(" ", "")
+
+
 @dataclass(frozen=True)
 class Prediction:
     """The force a fitted model predicts on one record, against the measured one.
 
     Made by ``FittedModel.predict``. Its errors ``rmse_N`` (N), ``nrmse`` = RMSE/max|measured| (–)
-    and ``mse`` (N²) are +inf when the model blows up on this record.
+    and ``mse`` (N²) are over the samples after the first ``warmup`` (the warm-up: simulated, not
+    scored), and +inf when the model blows up on this record.
 
     Parameters
     ----------
@@ -49,6 +57,13 @@ class Prediction:
         The measured force (N).
     velocity_mm_s : numpy.ndarray or None, default None
         The velocity that drove the model (mm/s), for the F–v loop.
+    warmup : int, default 0
+        Samples at the start simulated but not scored.
+    quasi_static : bool, default False
+        No time: ``time_s`` is the point's index, the velocity the direction of motion.
+    offset_N : float or None, default None
+        The constant force (N) re-solved on this record (``refit_offset``); None when every
+        coefficient is as stored.
 
     Examples
     --------
@@ -63,16 +78,28 @@ class Prediction:
     force_N: np.ndarray
     measured_N: np.ndarray
     velocity_mm_s: np.ndarray | None = field(default=None, repr=False)  # what drove the model (for the F–v loop)
+    warmup: int = 0  # samples at the start simulated but not scored
+    quasi_static: bool = False  # no time: time_s is the point's index, the velocity the direction of motion
+    # The constant force (N) re-solved on this record and added to the stored model's (``refit_offset``);
+    # None when every coefficient is as stored.
+    offset_N: float | None = None
 
     @property
     def n(self) -> int:
-        """The number of samples L.
+        """The number of samples scored (after the warm-up).
 
         Returns
         -------
         int
         """
-        return len(self.measured_N)
+        return len(self.measured_N) - self.warmup
+
+    @property
+    def reversals(self) -> int:
+        """How many times the motion reverses (``models.protocol.reversals``): a figure zooms in on a long record."""
+        from bwbench.models.protocol import reversals
+
+        return len(reversals(self.displacement_mm))
 
     @property
     def mse(self) -> float:
@@ -84,7 +111,7 @@ class Prediction:
             MSE (N²); +inf when the model blows up on this record.
         """
         with np.errstate(over="ignore", invalid="ignore"):
-            value = float(np.mean((self.force_N - self.measured_N) ** 2))
+            value = float(np.mean((self.force_N - self.measured_N)[self.warmup :] ** 2))
         return value if math.isfinite(value) else math.inf
 
     @property
@@ -105,10 +132,16 @@ class Prediction:
         Returns
         -------
         float
-            RMSE / max|F measured| (–); +inf when the model blows up or the force is zero.
+            RMSE / max|F measured| (–) over the samples scored; +inf when the model blows up or the
+            force is zero.
         """
-        peak = float(np.max(np.abs(self.measured_N)))
+        peak = float(np.max(np.abs(self.measured_N[self.warmup :])))
         return self.rmse_N / peak if peak > 0 else math.inf
+
+    @property
+    def warmup_s(self) -> float:
+        """The span of the warm-up (s)."""
+        return float(self.time_s[self.warmup] - self.time_s[0]) if self.warmup else 0.0
 
     def metrics(self) -> dict:
         """The numbers of this prediction by name, and their units.
@@ -129,13 +162,17 @@ class Prediction:
             "mse": self.mse,
             "rmse_N": self.rmse_N,
             "nrmse": self.nrmse,
-            "max_abs_force_N": float(np.max(np.abs(self.measured_N))),
+            "max_abs_force_N": float(np.max(np.abs(self.measured_N[self.warmup :]))),
+            "warmup_samples": self.warmup,
+            **({} if self.offset_N is None else {"refitted_offset_N": self.offset_N}),
             "units": {
+                **({} if self.offset_N is None else {"refitted_offset_N": "N (added to the stored constant force)"}),
                 "mse": "N²",
                 "rmse_N": "N",
                 "nrmse": "– (RMSE / max|F measured|)",
                 "max_abs_force_N": "N",
-                "n": "samples",
+                "n": "samples (after the warm-up)",
+                "warmup_samples": "samples",
             },
         }
 
@@ -215,6 +252,11 @@ class FittedModel:
         "measured" or "sine".
     units : dict, default {}
         Their units (for the record).
+    initial_state : str, default "auto"
+        How every record starts ("auto", "rest", "pre-roll": ``bwbench.models.start``), as the fit
+        started its own.
+    warmup_s : float, default 0
+        Seconds at the start of each record simulated but not scored.
 
     Raises
     ------
@@ -236,6 +278,8 @@ class FittedModel:
     state: str | None = None
     excitation: str = "measured"
     units: dict = field(default_factory=dict)
+    initial_state: str = "auto"
+    warmup_s: float = 0.0
 
     def __post_init__(self):
         from bwbench.models import registry
@@ -253,6 +297,9 @@ class FittedModel:
             raise UserError(f'"excitation" is {self.excitation!r}: it must be one of {", ".join(EXCITATIONS)}')
         if self.state is not None and not isinstance(self.state, str):
             raise UserError(f'"state" is {self.state!r}: it must be a name or null')
+        from bwbench.models import start
+
+        start.check(self.initial_state, self.warmup_s, ('"start.initial_state"', '"start.warmup_s"'))
         model = registry.get(self.model)
         if self.formulation not in model.formulations:
             raise UserError(
@@ -266,6 +313,30 @@ class FittedModel:
                 "not in these parameters"
             )
         self._check_domain()
+        self._check_units()
+
+    def _check_units(self) -> None:
+        """Refuse a parameter whose stated unit is not the one bwbench computes with.
+
+        ``UserError`` naming the key: a fit converted by hand to SI (m, m^-n) would otherwise be read
+        in mm and its force be off by orders of magnitude, with no word.
+        """
+        model = self._model
+        expected = {p.name: p.unit for p in model.direct_parameters(self.state)}
+        expected.update({p.name: p.unit for p in model.hysteretic_parameters(self.state)})
+        if self.formulation == IDENTIFIABLE:
+            from bwbench.problems.hysteresis.linear.columns import coefficient_units
+
+            expected.update(coefficient_units(model.linear_layout(self.state)))
+        for name in self.needed():
+            stated, unit = self.units.get(name), expected.get(name)
+            if not isinstance(stated, str) or unit is None:
+                continue  # not stated (a hand-written parameter file): read in bwbench's units
+            if _bare_unit(stated) != _bare_unit(unit):
+                raise UserError(
+                    f'units.{name} is "{stated}", but bwbench computes {name} in "{_bare_unit(unit)}" (mm, N, s): '
+                    "convert the value back, or refit in those units"
+                )
 
     def _check_domain(self) -> None:
         """``UserError`` naming the key for a parameter outside its model's domain.
@@ -345,6 +416,7 @@ class FittedModel:
                 "to read it as a parameter file"
             )
         name = data.get("model") or registry.DEFAULT
+        start = data.get("start", {})  # absent (a result written before the rule, or by hand): the default
         # null is how strict JSON writes a coefficient the fit could not have (a branch without samples)
         params = {
             k: math.nan if v is None else v
@@ -357,15 +429,24 @@ class FittedModel:
                 raise UserError(f'"units" is a JSON {type(units).__name__}, not an object of name -> unit')
             if not isinstance(name, str):
                 raise UserError(f'"model" is {name!r}: it must be a model name (see `bwbench models`)')
+            if not isinstance(start, dict):
+                raise UserError(f'"start" is {start!r}: it must be an object with initial_state and warmup_s')
             return cls(
-                name, data["formulation"], params, data.get("state"), data.get("excitation", "measured"), dict(units)
+                name,
+                data["formulation"],
+                params,
+                data.get("state"),
+                data.get("excitation", "measured"),
+                dict(units),
+                start.get("initial_state", "auto"),
+                start.get("warmup_s", 0.0),
             )
         except UserError as err:
             raise UserError(f"{source}: {err}") from None
 
     @classmethod
-    def from_run(cls, run) -> "FittedModel":
-        """The fitted model of a study's run.
+    def from_run(cls, run, start: dict | None = None) -> "FittedModel":
+        """The fitted model of a study's run, started as the study started its records.
 
         A column the database left empty (NaN, None, "") takes its default: a model without states
         stores none.
@@ -374,6 +455,8 @@ class FittedModel:
         ----------
         run : mapping
             A row of ``Study.runs``: model, formulation, state, excitation, params_json.
+        start : dict or None, default None
+            ``initial_state`` and ``warmup_s`` as the study started its records (None: the defaults).
 
         Returns
         -------
@@ -406,6 +489,7 @@ class FittedModel:
             params,
             text("state", None),
             text("excitation", "measured"),
+            **(start or {}),
         )
 
     @classmethod
@@ -443,7 +527,8 @@ class FittedModel:
             E.g. "spencer (direct formulation, measured excitation)".
         """
         state = f", {self.state} state" if self.state else ""
-        return f"{self.model} ({self.formulation} formulation{state}, {self.excitation} excitation)"
+        start = f", initial state {self.initial_state}" + (f", warm-up {self.warmup_s:g} s" if self.warmup_s else "")
+        return f"{self.model} ({self.formulation} formulation{state}, {self.excitation} excitation{start})"
 
     def signal(self, specimen):
         """The excitation this model is driven by on a specimen.
@@ -462,13 +547,33 @@ class FittedModel:
 
         return excitation.of_specimen(self.excitation, specimen)
 
-    def force(self, signal) -> np.ndarray:
-        """The model force on an excitation.
+    def start(self, signal, f=None):
+        """How a record starts: the fit's rule applied to ``signal``.
 
         Parameters
         ----------
         signal : object
             The excitation: attributes ``t, x, v, a`` (s, mm, mm/s, mm/s²).
+        f : numpy.ndarray or None, default None
+            Its measured force (N), when there is one.
+
+        Returns
+        -------
+        bwbench.models.start.Start
+        """
+        from bwbench.models import start
+
+        return start.plan(signal, self.initial_state, self.warmup_s, f=f)
+
+    def force(self, signal, f=None) -> np.ndarray:
+        """The model force on an excitation, started by the fit's rule.
+
+        Parameters
+        ----------
+        signal : object
+            The excitation: attributes ``t, x, v, a`` (s, mm, mm/s, mm/s²).
+        f : numpy.ndarray or None, default None
+            Its measured force (N), when there is one (None: none known).
 
         Returns
         -------
@@ -487,36 +592,20 @@ class FittedModel:
         >>> model.force(model.signal(read_specimen("othertest.csv")))   # (L,) in N
         """
         model = self._model
+        start = self.start(signal, f)
+        simulated = start.extend(signal)
         if self.formulation != IDENTIFIABLE:
             P = np.array([self.params[n] for n in self.needed()], dtype=float)
-            return model.force_batch(P[None, :], signal, self.state)[0]
-        from bwbench.problems.hysteresis.linear.columns import branch_masks, signal_column
+            return start.crop(model.force_batch(P[None, :], simulated, self.state))[0]
+
+        from bwbench.problems.hysteresis.linear.columns import linear_force
 
         theta = np.array([self.params[p.name] for p in model.hysteretic_parameters(self.state)], dtype=float)
-        w = model.trajectories(theta[None, :], signal, self.state)[0]
-        layout = model.linear_layout(self.state)
-        F = np.zeros(len(signal.x))
-        if layout.mass:
-            F += self.params[layout.mass] * np.asarray(signal.a, dtype=float)
-        for b, mask in branch_masks(layout, signal.v).items():
-            if not mask.any():
-                continue
-            coefficients = {name: self.params[f"{name}{b}"] for name, _ in layout.fixed}
-            coefficients[layout.varying] = self.params[f"{layout.varying}{b}"]
-            unknown = [f"{n}{b}" for n, v in coefficients.items() if not math.isfinite(v)]
-            if unknown:
-                raise UserError(
-                    f"the record moves in branch {b} (ẋ {'≥' if b == '+' else '<'} 0), whose "
-                    f"coefficients ({', '.join(unknown)}) the fit's data never had"
-                )
-            for name, source in layout.fixed:
-                F += coefficients[name] * signal_column(signal, source, mask)
-            with np.errstate(invalid="ignore", over="ignore"):
-                F += coefficients[layout.varying] * np.where(mask, w, 0.0)
-        return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)
+        w = start.crop(model.trajectories(theta[None, :], simulated, self.state))[0]
+        return linear_force(model.linear_layout(self.state), self.params, signal, w, strict=True)
 
-    def predict(self, specimen) -> Prediction:
-        """The force on a specimen against its measured one, nothing refitted.
+    def predict(self, specimen, refit_offset: bool = False) -> Prediction:
+        """The force on a specimen against its measured one.
 
         The file is read and checked as every command does: a dead channel refused, the rest of data
         check's warnings printed.
@@ -526,6 +615,10 @@ class FittedModel:
         specimen : str, pathlib.Path, Specimen or pandas.DataFrame
             A specimen CSV's path, a ``Specimen`` or a DataFrame with the file's columns (``time_s``,
             ``displacement_mm``, ``force_N``, optionally ``velocity_mm_s``, ``acceleration_mm_s2``).
+        refit_offset : bool, default False
+            Re-solve the constant force on this record (least squares: the mean of measured −
+            predicted, added to the stored model's) — for a record from another test set-up, whose
+            load cell reads another zero; every other coefficient as stored.
 
         Returns
         -------
@@ -542,13 +635,23 @@ class FittedModel:
         """
         spec = _specimen(specimen)
         signal = self.signal(spec)
+        start = self.start(signal, spec.f)
+        force = self.force(signal, spec.f)
+        measured = np.asarray(spec.f, dtype=float)
+        offset = None
+        if refit_offset and np.all(np.isfinite(force)):
+            offset = float(np.mean((measured - force)[start.warmup :]))  # over the samples scored
+            force = force + offset
         return Prediction(
             spec.name,
             np.asarray(spec.t, dtype=float),
             np.asarray(signal.x, dtype=float),
-            self.force(signal),
-            np.asarray(spec.f, dtype=float),
+            force,
+            measured,
             np.asarray(signal.v, dtype=float),
+            warmup=start.warmup,
+            quasi_static=bool(getattr(signal, "rate_independent", False)),
+            offset_N=offset,
         )
 
     def simulate(self, specimen):
@@ -585,7 +688,7 @@ class FittedModel:
                 "displacement_mm": s.x,
                 "velocity_mm_s": s.v,
                 "acceleration_mm_s2": s.a,
-                "force_model_N": self.force(s),
+                "force_model_N": self.force(s, spec.f),
                 "force_measured_N": spec.f,
             }
         )
@@ -620,6 +723,7 @@ class FittedModel:
             "excitation": self.excitation,
             "params": dict(self.params),
             "units": dict(self.units),
+            "start": {"initial_state": self.initial_state, "warmup_s": self.warmup_s},
         }
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 from bwbench.data import bounds as bounds_mod
 from bwbench.models import registry
 from bwbench.problems.base import choice
+from bwbench.problems.hysteresis.edges import refuse_past_limits
 
 FORMULATIONS = ("paper", "direct", "identifiable")
 
@@ -88,9 +89,10 @@ def variants(models, formulations=None, paths=None) -> list[tuple[str, str, str]
 def make_problem(specimen, settings: dict):
     """The problem of one specimen, or the joint problem of a list of them (``joint_problem``), for
     settings with model (default: the switched model), state, excitation and optionally formulation
-    (default: the model's own), fix_mass, offsets, weighting (joint fits) and bounds: names of the
-    searched parameters set the search box, names of solved coefficients bound the linear solve
-    (names the formulation does not have are left to the other one)."""
+    (default: the model's own), fix_mass, offsets, weighting (joint fits), bounds (names of the
+    searched parameters set the search box, names of solved coefficients bound the linear solve;
+    names the formulation does not have are left to the other one), initial_state ("auto", "rest" or
+    "pre-roll") and warmup_s (s): how every model starts each record (``bwbench.models.start``)."""
     from bwbench.problems.hysteresis.model_problem import DirectProblem, IdentifiableProblem
 
     if isinstance(specimen, (list, tuple)):
@@ -102,9 +104,10 @@ def make_problem(specimen, settings: dict):
     state = settings.get("state") if model.states else None
     excitation = settings.get("excitation", "measured")
     bounds = settings.get("bounds", {})
+    start = {"initial_state": settings.get("initial_state", "auto"), "warmup_s": settings.get("warmup_s", 0.0)}
     problem: DirectProblem | IdentifiableProblem
     if formulation == "identifiable":
-        solved = _solved_bounds(model, state, bounds)
+        solved = solved_bounds(model, state, bounds)
         problem = IdentifiableProblem(
             model,
             specimen,
@@ -113,15 +116,17 @@ def make_problem(specimen, settings: dict):
             fix_mass=settings.get("fix_mass", "auto"),
             offsets=settings.get("offsets", True),
             coefficient_bounds=solved,
+            **start,
         )
     else:
-        problem = DirectProblem(model, specimen, state, excitation)
+        problem = DirectProblem(model, specimen, state, excitation, **start)
     box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
+    refuse_past_limits(model, problem.state, problem.param_names, problem.lower, problem.upper, box)
     problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
     return problem
 
 
-def _solved_bounds(model, state, bounds: dict) -> dict:
+def solved_bounds(model, state, bounds: dict) -> dict:
     """The entries of ``bounds`` that name a solved coefficient of the model's identifiable formulation."""
     from bwbench.problems.hysteresis.linear.columns import coefficient_names
 
@@ -141,9 +146,10 @@ def _joint_problem(specimens, settings: dict):
         settings.get("weighting", "equal"),
         fix_mass=settings.get("fix_mass", "auto"),
         offsets=settings.get("offsets", True),
-        coefficient_bounds=_solved_bounds(model, state, bounds),
+        coefficient_bounds=solved_bounds(model, state, bounds),
     )
     box = {k: tuple(v) for k, v in bounds.items() if k in problem.param_names}
+    refuse_past_limits(model, problem.state, problem.param_names, problem.lower, problem.upper, box)
     problem.lower, problem.upper = bounds_mod.apply(problem.lower, problem.upper, problem.param_names, box)
     return problem
 

@@ -1,7 +1,9 @@
 """One parameter set fitted to several tests at once: a joint fit (``bwbench fit A.csv B.csv ...``).
 
-Every file is simulated from its own initial state with the same parameters, and the loss combines
-the files' MSEs (N²) with weights w_i (Σ w_i = 1):
+Every file is simulated from its own start with the same parameters (one rule for all files,
+``bwbench.models.start``: each is from rest or pre-rolled as its own record asks, its warm-up left
+out), and the loss combines the files' MSEs (N²) over their samples in the loss with weights w_i
+(Σ w_i = 1):
 
     loss = Σ_i w_i · MSE_i
 
@@ -94,8 +96,8 @@ class JointProblem:
         with np.errstate(divide="ignore", invalid="ignore"):
             self.lower = np.min([p.lower for p in parts], axis=0)
             self.upper = np.max([p.upper for p in parts], axis=0)
-        self.signal = stack_signals([p.signal for p in parts])
-        self.f = np.concatenate([p.specimen.f for p in parts])
+        self.signal = stack_signals([p.loss_signal for p in parts])  # the samples in the loss
+        self.f = np.concatenate([p.f_loss for p in parts])
         self.design = None
         if self.formulation == "identifiable":
             from bwbench.problems.hysteresis.linear.solve import LinearDesign
@@ -177,7 +179,7 @@ class JointProblem:
     def solve(self, P, residual: bool = False):
         """The joint linear solve (``LinearSolution`` over the stacked files) of each θ row of P."""
         theta = np.atleast_2d(np.asarray(P, dtype=float))
-        Z = np.concatenate(self._each_file(lambda p: self.model.trajectories(theta, p.signal, self.state)), axis=1)
+        Z = np.concatenate(self._each_file(lambda p: p.loss_trajectories(theta)), axis=1)
         assert self.design is not None  # the identifiable formulation's: solve is not called otherwise
         return self.design.solve(Z, residual)
 
@@ -185,7 +187,7 @@ class JointProblem:
         """Σ_i w_i·MSE_i (N²) of each row of P (m, d); +inf where the model blows up on any file."""
         P = np.atleast_2d(np.asarray(P, dtype=float))
         if self.design is not None:  # the loss alone (``LinearDesign.mse``): the same numbers as solve(P).mse
-            Z = np.concatenate(self._each_file(lambda p: self.model.trajectories(P, p.signal, self.state)), axis=1)
+            Z = np.concatenate(self._each_file(lambda p: p.loss_trajectories(P)), axis=1)
             return self.design.mse(Z)
         losses = sum(w * loss for w, loss in zip(self.file_weight, self._each_file(lambda p: p.loss_batch(P))))
         return np.where(np.isfinite(losses), losses, np.inf)
@@ -215,7 +217,7 @@ class JointProblem:
         if self.design is None:
             return None
         theta = np.asarray(params, dtype=float)
-        found = self._each_file(lambda p: self.model.trajectory_sensitivities(theta, p.signal, self.state))
+        found = self._each_file(lambda p: p.loss_sensitivities(theta))
         if any(f is not None and f[1] is None for f in found):
             return np.full(self.design.L, np.inf), None  # a file's simulation did not finish: no plain one either
         if any(f is None for f in found):
@@ -249,21 +251,26 @@ class JointProblem:
         return identifiable_parameters(self, params)
 
     def forces(self, params) -> list[np.ndarray]:
-        """The model force (N) on each file with these parameters (one set for all); +inf on blow-up."""
+        """The model force (N) on each file's samples (its warm-up's too) with these parameters (one set
+        for all); +inf on blow-up."""
         params = np.asarray(params, dtype=float)
         if self.design is None:
             return [p.simulate(params) for p in self.parts]
+        if any(p.start.warmup for p in self.parts):
+            coef = self.linear(params)
+            return [p.force_with(params, coef) for p in self.parts]
         residual = self.solve(params[None, :], residual=True).residual[0]
         return [residual[s] + p.specimen.f for s, p in zip(self.signal.segments, self.parts)]
 
     def per_file(self, params) -> list[dict]:
-        """Each file's name, samples, weight, MSE (N²), RMSE (N) and NRMSE (RMSE/max|F|) at ``params``."""
+        """Each file's name, samples, weight, MSE (N²), RMSE (N) and NRMSE (RMSE/max|F|) at ``params``, over
+        its samples in the loss."""
         out = []
         for force, p, w in zip(self.forces(params), self.parts, self.file_weight):
             with np.errstate(over="ignore", invalid="ignore"):
-                mse = float(np.mean((force - p.specimen.f) ** 2))
+                mse = float(np.mean((force[p.start.loss] - p.f_loss) ** 2))
             mse = mse if np.isfinite(mse) else float("inf")
-            peak = float(np.max(np.abs(p.specimen.f)))
+            peak = float(np.max(np.abs(p.f_loss)))
             out.append(
                 {
                     "specimen": p.specimen.name,
@@ -288,7 +295,7 @@ class JointProblem:
         values = result.params
         findings = []
         for force, part in zip(self.forces(params), self.parts):
-            view = _FileView(part, force, values)
+            view = FileView(part, force, values)
             checks = fit_checks.check(view, params, synthetic, result.at_bound)
             merged.json.setdefault("files", {})[part.specimen.name] = checks.json
             merged.notes += [f"{part.specimen.name}: {n}" for n in checks.notes]
@@ -303,12 +310,14 @@ class JointProblem:
         return merged
 
 
-class _FileView:
+class FileView:
     """One file of a joint fit as ``fit_checks`` sees a problem: its signal, and the joint fit's force."""
 
     def __init__(self, part, force, values):
         self.model, self.state, self.formulation = part.model, part.state, part.formulation
         self.signal, self.specimen = part.signal, part.specimen
+        self.start, self.loss_signal, self.f_loss = part.start, part.loss_signal, part.f_loss
+        self.record_trajectories = part.record_trajectories
         self._force, self._values = force, values
 
     def simulate(self, params):

@@ -5,6 +5,10 @@ switched model). ``IdentifiableProblem``: the model's symmetry-free nonlinear pa
 in a box scaled from the data, the coefficients that enter the force linearly solved by least
 squares for every simulated trajectory (``linear_solve``). One evaluation is one simulation either
 way. Both know nothing of optimisers (``bwbench.engine.objective.Objective`` wraps them).
+
+Both start every model the same way (``bwbench.models.start``): the models simulate ``sim_signal`` (the
+record, after a pre-roll of its own motion where the rule asks for one) and the loss takes the record's
+samples after the warm-up (``loss_signal``, ``f_loss``; ``n_data`` of them).
 """
 
 from __future__ import annotations
@@ -22,10 +26,25 @@ class ModelFit:
 
     formulation = ""
 
-    def _setup(self, model, specimen, state, excitation):
+    def _setup(self, model, specimen, state, excitation, initial_state="auto", warmup_s=0.0):
         self.model, self.specimen, self.excitation = model, specimen, excitation
         self.state = model.check_state(state)
+        if getattr(specimen, "quasi_static", False):
+            refuse_quasi_static(model, self.formulation, specimen)
         self.signal = excitation_mod.of_specimen(excitation, specimen)
+        self.set_start(initial_state, warmup_s)
+
+    def set_start(self, initial_state="auto", warmup_s=0.0) -> None:
+        """The start of the record (``bwbench.models.start.plan``) and what follows from it: the excitation
+        the model simulates (``sim_signal``), and the samples in the loss (``loss_signal``, ``f_loss``)."""
+        from bwbench.models import start as start_mod
+
+        where = getattr(self.specimen, "path", None) or self.specimen.name  # the file, to name in an error
+        f = np.asarray(self.specimen.f, dtype=float)
+        self.start = start_mod.plan(self.signal, initial_state, warmup_s, str(where), f)
+        self.sim_signal = self.start.extend(self.signal)
+        self.f_loss = f if self.start.warmup == 0 else f[self.start.loss]
+        self.loss_signal = self.signal if self.start.warmup == 0 else start_mod.cut(self.signal, self.start.loss)
 
     @property
     def name(self) -> str:
@@ -37,8 +56,30 @@ class ModelFit:
 
     @property
     def n_data(self) -> int:
-        """Number of force samples the loss averages over (the L of eq 6)."""
-        return self.specimen.n_samples
+        """Number of force samples the loss averages over (the L of eq 6): the record's after its warm-up."""
+        return len(self.f_loss)
+
+    def record_forces(self, P) -> np.ndarray:
+        """The model force (N) of each direct row of P at the record's samples, (m, L), from the start."""
+        return self.start.crop(
+            self.model.force_batch(np.atleast_2d(np.asarray(P, dtype=float)), self.sim_signal, self.state)
+        )
+
+    def record_trajectories(self, theta) -> np.ndarray:
+        """The θ-dependent column of each θ row at the record's samples, (m, L), from the start."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        return self.start.crop(self.model.trajectories(theta, self.sim_signal, self.state))
+
+    def loss_trajectories(self, theta) -> np.ndarray:
+        """``record_trajectories`` at the samples in the loss, (m, n_data)."""
+        Z = self.record_trajectories(theta)
+        return Z if self.start.warmup == 0 else Z[:, self.start.loss]
+
+    def loss_sensitivities(self, theta):
+        """The model's ``trajectory_sensitivities`` of one θ at the samples in the loss (None, or (z all
+        +inf, None), as the model gives them)."""
+        found = self.model.trajectory_sensitivities(np.asarray(theta, dtype=float), self.sim_signal, self.state)
+        return _in_loss(self.start, found)
 
     @property
     def info(self) -> dict:
@@ -78,6 +119,9 @@ class ModelFit:
         return box_to_unit(P, self.lower, self.upper, self.log_scaled)
 
     def _box(self, box, bounds):
+        from bwbench.problems.hysteresis.edges import refuse_past_limits
+
+        refuse_past_limits(self.model, self.state, box.names, box.lower, box.upper, bounds)
         self.param_names = tuple(box.names)
         self.log_scaled = np.array(box.log, dtype=bool)
         self.lower, self.upper = bounds_mod.apply(box.lower, box.upper, self.param_names, bounds or {})
@@ -86,21 +130,39 @@ class ModelFit:
 class DirectProblem(ModelFit):
     """The model's own parameters fitted to one specimen (loss: MSE in N²)."""
 
-    def __init__(self, model, specimen, state=None, excitation: str = "measured", *, bounds: dict | None = None):
-        self._setup(model, specimen, state, excitation)
+    def __init__(
+        self,
+        model,
+        specimen,
+        state=None,
+        excitation: str = "measured",
+        *,
+        bounds: dict | None = None,
+        initial_state: str = "auto",
+        warmup_s: float = 0.0,
+    ):
+        self._setup(model, specimen, state, excitation, initial_state, warmup_s)
         self.formulation = model.direct_name
+        self._setup(model, specimen, state, excitation)
         self.parameter_list = model.direct_parameters(self.state)
         self._box(model.direct_box(self.signal, specimen.f, self.state), bounds)
 
     def loss_batch(self, P) -> np.ndarray:
-        """MSE (N²) of each row of P (physical units, (m, d)); +inf where the model blows up."""
-        return self.model.mse_batch(np.atleast_2d(np.asarray(P, dtype=float)), self.signal, self.specimen.f, self.state)
+        """MSE (N²) of each row of P (physical units, (m, d)) over the samples in the loss; +inf where the
+        model blows up."""
+        P = np.atleast_2d(np.asarray(P, dtype=float))
+        if self.start.plain:  # the model's own (a fused kernel where it has one)
+            return self.model.mse_batch(P, self.signal, self.specimen.f, self.state)
+        with np.errstate(invalid="ignore", over="ignore"):
+            mse = np.mean(self.residual_batch(P) ** 2, axis=1)
+        return np.where(np.isfinite(mse), mse, np.inf)
 
     def residual_batch(self, P) -> np.ndarray:
-        """Model − measured force (N), (m, L); rows of +inf where the model blows up."""
-        F = self.model.force_batch(np.atleast_2d(np.asarray(P, dtype=float)), self.signal, self.state)
+        """Model − measured force (N) at the samples in the loss, (m, n_data); rows of +inf where the model
+        blows up."""
+        F = self.record_forces(P)
         with np.errstate(invalid="ignore"):
-            R = F - self.specimen.f
+            R = F[:, self.start.loss] - self.f_loss
         return np.where(np.all(np.isfinite(R), axis=1)[:, None], R, np.inf)
 
     @property
@@ -111,15 +173,17 @@ class DirectProblem(ModelFit):
     def residual_jacobian(self, params):
         """(model − measured force (L,) N, its Jacobian (L, d) in physical units) of one direct vector,
         exact (``force_sensitivities`` of the model); None where it cannot be had."""
-        found = self.model.force_sensitivities(np.asarray(params, dtype=float), self.signal, self.state)
+        found = _in_loss(
+            self.start, self.model.force_sensitivities(np.asarray(params, dtype=float), self.sim_signal, self.state)
+        )
         if found is None:
             return None
         F, dF = found
-        return F - self.specimen.f, dF
+        return F - self.f_loss, dF
 
     def simulate(self, params) -> np.ndarray:
-        """Model force (N) at the specimen's samples; +inf everywhere on blow-up."""
-        return self.model.force_batch(np.asarray(params, dtype=float)[None, :], self.signal, self.state)[0]
+        """Model force (N) at the specimen's samples (the warm-up's too); +inf everywhere on blow-up."""
+        return self.record_forces(np.asarray(params, dtype=float)[None, :])[0]
 
     def parameters(self, params) -> dict:
         return dict(zip(self.param_names, map(float, params)))
@@ -146,15 +210,17 @@ class IdentifiableProblem(ModelFit):
         offsets=True,
         bounds: dict | None = None,
         coefficient_bounds: dict | None = None,
+        initial_state: str = "auto",
+        warmup_s: float = 0.0,
     ):
         from bwbench.problems.hysteresis.linear.columns import coefficient_units
         from bwbench.problems.hysteresis.linear.solve import LinearDesign
 
-        self._setup(model, specimen, state, excitation)
+        self._setup(model, specimen, state, excitation, initial_state, warmup_s)
         layout = model.linear_layout(self.state)
-        solved, notes = coefficient_bounds_of(model, layout, self.signal, specimen.f, coefficient_bounds)
+        solved, notes = coefficient_bounds_of(model, layout, self.loss_signal, self.f_loss, coefficient_bounds)
         self.design = LinearDesign(
-            self.signal, specimen.f, layout, fix_mass=fix_mass, offsets=offsets, bounds=solved, notes=notes
+            self.loss_signal, self.f_loss, layout, fix_mass=fix_mass, offsets=offsets, bounds=solved, notes=notes
         )
         self.linear_names = self.design.names
         self.linear_units = coefficient_units(layout)
@@ -172,13 +238,11 @@ class IdentifiableProblem(ModelFit):
 
     def solve(self, P, residual: bool = False):
         """The linear solve (``LinearSolution``) of each θ row of P (m, d)."""
-        theta = np.atleast_2d(np.asarray(P, dtype=float))
-        return self.design.solve(self.model.trajectories(theta, self.signal, self.state), residual)
+        return self.design.solve(self.loss_trajectories(P), residual)
 
     def loss_batch(self, P) -> np.ndarray:
         """MSE (N²) of each row of P with its linear coefficients solved; +inf on blow-up."""
-        theta = np.atleast_2d(np.asarray(P, dtype=float))
-        return self.design.mse(self.model.trajectories(theta, self.signal, self.state))
+        return self.design.mse(self.loss_trajectories(P))
 
     def log_likelihood_batch(self, P) -> tuple[np.ndarray, np.ndarray]:
         """(MSE in N², log marginal likelihood) of each row of P from one simulation each: the linear
@@ -190,7 +254,8 @@ class IdentifiableProblem(ModelFit):
         return solution.mse, log_marginal(solution, prior="scale-free", varying=len(self.design.w_names))
 
     def residual_batch(self, P) -> np.ndarray:
-        """F_model − F_measured (N), (m, L); rows of +inf where the model blows up."""
+        """F_model − F_measured (N) at the samples in the loss, (m, n_data); rows of +inf where the model
+        blows up."""
         solution = self.solve(P, residual=True)
         R = solution.residual
         ok = np.isfinite(solution.mse) & np.all(np.isfinite(R), axis=1)
@@ -205,7 +270,7 @@ class IdentifiableProblem(ModelFit):
         """(residual (L,) N, ∂residual/∂θ (L, d) in physical units) of one θ vector, exact (the model's
         sensitivities through the linear solve: ``LinearDesign.residual_jacobian``); None where they
         cannot be had (then take differences); (+inf residual, None) where the simulation did not finish."""
-        found = self.model.trajectory_sensitivities(np.asarray(params, dtype=float), self.signal, self.state)
+        found = self.loss_sensitivities(params)
         if found is not None and found[1] is None:
             return np.full(self.design.L, np.inf), None  # the simulation did not finish: no plain one either
         return None if found is None else self.design.residual_jacobian(*found)
@@ -215,12 +280,60 @@ class IdentifiableProblem(ModelFit):
         return self.solve(np.asarray(params, dtype=float)[None, :]).coef[0]
 
     def simulate(self, params) -> np.ndarray:
-        """Model force (N) at the specimen's samples, linear coefficients solved; +inf on blow-up."""
-        return self.residual_batch(np.asarray(params, dtype=float)[None, :])[0] + self.specimen.f
+        """Model force (N) at the specimen's samples (the warm-up's too), linear coefficients solved; +inf
+        on blow-up."""
+        params = np.asarray(params, dtype=float)
+        if self.start.warmup == 0:
+            return self.residual_batch(params[None, :])[0] + self.specimen.f
+        return self.force_with(params, self.linear(params))
+
+    def force_with(self, params, coef) -> np.ndarray:
+        """Model force (N) at the record's samples of one θ vector with the linear coefficients ``coef``
+        (``linear_names``, e.g. a joint fit's); +inf everywhere on blow-up."""
+        from bwbench.problems.hysteresis.linear.columns import linear_force
+
+        w = self.record_trajectories(params)[0]
+        values = dict(zip(self.linear_names, map(float, coef)))
+        return linear_force(self.model.linear_layout(self.state), values, self.signal, w)
 
     def parameters(self, params) -> dict:
         """θ, the solved coefficients and the model's direct parameters of the same force, where they exist."""
         return identifiable_parameters(self, params)
+
+
+def start_settings(problem) -> tuple[str, float]:
+    """(initial_state, warmup_s) as asked of a fit's problem (one file or joint: every file the same)."""
+    first = (getattr(problem, "parts", None) or [problem])[0]
+    return first.start.initial_state, first.start.warmup_s
+
+
+def _in_loss(start, found):
+    """(values (L_sim,), derivatives (L_sim, d)) simulated from ``start`` cut to the samples in the loss; None
+    and (z, None) (a simulation that did not finish) passed on, cut likewise."""
+    if found is None:
+        return None
+    z, dz = found
+    part = start.loss
+    z = start.crop(z)[part]
+    return z, None if dz is None else np.asarray(dz)[start.preroll :][part]
+
+
+def refuse_quasi_static(model, formulation: str, specimen) -> None:
+    """``UserError`` when ``model`` in ``formulation`` cannot be fitted to the quasi-static ``specimen``
+    (no time): a rate-dependent model, or a direct formulation, whose parameters hold a viscous or
+    inertia force that a record without time cannot give."""
+    from bwbench.errors import UserError
+
+    where = f"{specimen.path}: a quasi-static test (no time_s column)"
+    if not getattr(model, "rate_independent", False):
+        raise UserError(
+            f"{where}: the {model.name} model is rate-dependent and needs time; fit a Bouc-Wen model (bouc-wen, switched-bouc-wen, bwbn)"
+        )
+    if formulation != "identifiable":
+        raise UserError(
+            f"{where}: the {formulation} formulation has viscous and inertia terms in its parameters; "
+            "use --formulation identifiable (they are held at 0 there)"
+        )
 
 
 def identifiable_parameters(problem, params) -> dict:

@@ -39,6 +39,7 @@ class FitSetup:
     bounds_file: str | None = None
     box_probe_s: float | None = None
     paths: tuple = field(default_factory=tuple)
+    controlled: bool = False  # one model across a control range (``control``, ``laws``)
 
 
 def checked_settings(
@@ -163,13 +164,25 @@ def setup_fit(
     name: str | None = None,
     force_needed: bool = True,
     log=None,
+    control=None,
+    control_levels: dict | None = None,
+    laws=None,
+    control_filter: bool = False,
+    law_search: tuple | None = None,
+    initial_state: str = "auto",
+    warmup: float = 0.0,
 ) -> FitSetup:
     """The ``FitSetup`` of ``data`` (a path, ``Specimen`` or DataFrame, or a list of them: a joint fit)
     with these settings (see ``checked_settings``). ``bounds``: {name: (lower, upper)} or the path of
     a JSON file of them (searched names set the search box, solved coefficients bound the linear
     solve); a given box is probed at its corners before any fit, the probe announced on ``log``.
-    ``force_needed``: refuse a file without force (a fit; not a simulation). ``UserError`` for any
-    bad setting or file, naming it, before any work."""
+    ``force_needed``: refuse a file without force (a fit; not a simulation). ``initial_state`` ("auto",
+    "rest", "pre-roll") and ``warmup`` (s): how every model starts each record and what the loss leaves
+    out (``bwbench.models.start``). ``control`` (a column
+    ``<quantity>_<unit>`` or ``COLUMN=VALUE``), ``control_levels`` ({file: level}), ``laws``
+    ({parameter: law} or "auto"), ``control_filter``: one model across a control range
+    (``problems.hysteresis.control``; ``law_search``: optimizer, budget, seed of ``auto``'s per-level
+    fits). ``UserError`` for any bad setting or file, naming it, before any work."""
     from bwbench.data import bounds as bounds_mod
     from bwbench.data import manifest, plausibility
     from bwbench.data.specimen import Specimen
@@ -195,7 +208,21 @@ def setup_fit(
         raise UserError(f"bounds must be a dict of name -> (lower, upper) or a JSON file, got {bounds!r}")
     paths = tuple(d.path if isinstance(d, Specimen) else d for d in items)
     refuse_same_file(paths)
-    specimens = tuple(as_specimen(d, name) for d in items)
+    if len(items) == 1 and settings["weighting"] != "equal":
+        raise UserError(
+            f"--weighting {settings['weighting']} weighs the files of a joint fit; one file has nothing to weigh"
+        )
+    if len(items) > 1:
+        from bwbench.data.input_files import refuse_same_content
+
+        refuse_same_content([p for p in paths if isinstance(p, (str, Path)) and str(p)])  # a copy counted twice
+    from bwbench.problems.hysteresis.control import setup as control_setup
+
+    controlled = control_setup.wanted(control, laws, control_filter)
+    if controlled:
+        specimens, laws = control_setup.read_controlled(items, name, control, control_levels, laws, control_filter)
+    else:
+        specimens = tuple(as_specimen(d, name) for d in items)
     # data check's refusals (a dead channel; for a fit, no force), before any work; its warnings are
     # the fit's findings
     plausibility.screen(specimens, force_needed=force_needed, warn=False)
@@ -217,10 +244,18 @@ def setup_fit(
             settings["bounds"] = bounds_mod.validate(table, names, bounds_file or "bounds")
         except InputFileError as err:
             raise _other_formulation_hint(err, table, chosen, settings, chosen_from_data) from None
+    from bwbench.models import start as start_rule
+
+    settings["initial_state"], settings["warmup_s"] = start_rule.check(initial_state, warmup)
+    if controlled and settings["warmup_s"]:
+        raise UserError("--warmup does not apply to a fit across a control yet: its files are scored whole")
     problem_settings = {k: v for k, v in settings.items() if v is not None or k == "fix_mass"}
     if problem_settings.get("offsets") is None:
         problem_settings.pop("offsets", None)
-    problem = make_problem(list(specimens) if len(specimens) > 1 else specimens[0], problem_settings)
+    if controlled:
+        problem = control_setup.build_controlled(specimens, problem_settings, laws, control_filter, law_search, log)
+    else:
+        problem = make_problem(list(specimens) if len(specimens) > 1 else specimens[0], problem_settings)
     probe_s = None
     if "bounds" in settings:
         where = f"--bounds {bounds_file}" if bounds_file else "bounds"
@@ -236,7 +271,7 @@ def setup_fit(
         if log is not None:
             print(f"probing the search box: done in {probe_s:.1f} s", file=log, flush=True)
     synthetic = bool(file_paths) and len(file_paths) == len(paths) and all(manifest.is_synthetic(p) for p in file_paths)
-    return FitSetup(problem, specimens, settings, synthetic, reason, bounds_file, probe_s, paths)
+    return FitSetup(problem, specimens, settings, synthetic, reason, bounds_file, probe_s, paths, controlled)
 
 
 def _other_formulation_hint(err, table, model, settings, chosen_from_data: bool):

@@ -11,6 +11,8 @@ Its ``[study]`` keys and ``[specimens]`` / ``[bounds]`` / ``[validation]`` table
     excitation = "measured"   # or "sine"
     fix_mass = "auto"         # identifiable: "auto" (the inertia rule), "fit", or a mass in N·s²/mm
     offsets = "branch"        # identifiable, switched model: or "continuous" (one constant force)
+    initial_state = "auto"    # how every model starts each record: "auto", "rest" or "pre-roll"
+    warmup_s = 0.0            # seconds at the start of each record simulated but left out of the loss
     data = "../data/specimens"   # only with manifest filters: a folder with manifest.json
 
     [specimens]               # either files (no manifest needed) ...
@@ -63,9 +65,10 @@ def mass_setting(fail, label: str, value):
         except ValueError:
             number = math.nan
         value = number if math.isfinite(number) else value
-    if value == "auto" or (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0):
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if value == "auto" or (number and math.isfinite(value) and value >= 0):  # inf (TOML's inf) is no mass
         return value
-    fail(f'{label} must be "auto", "fit" or a mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}')
+    fail(f'{label} must be "auto", "fit" or a finite mass ≥ 0 in N·s²/mm (1 N·s²/mm = 1 t), got {value!r}')
 
 
 class HysteresisProblem(ProblemType):
@@ -76,7 +79,17 @@ class HysteresisProblem(ProblemType):
     )
     loss_unit = "N²"
     residual_unit = "N"
-    study_keys = ("model", "state", "excitation", "data", "formulation", "fix_mass", "offsets")
+    study_keys = (
+        "model",
+        "state",
+        "excitation",
+        "data",
+        "formulation",
+        "fix_mass",
+        "offsets",
+        "initial_state",
+        "warmup_s",
+    )
     tables = ("specimens", "bounds", "validation")
 
     # ------------------------------------------------------------------------ configuration
@@ -90,6 +103,7 @@ class HysteresisProblem(ProblemType):
         check_pairs(fail, model_names, formulations)
         fix_mass = mass_setting(fail, "[study] fix_mass", study.get("fix_mass", "auto"))
         offsets = choice(fail, "[study] offsets", study.get("offsets", "branch"), OFFSETS)
+        start = start_setting(fail, study.get("initial_state", "auto"), study.get("warmup_s", 0.0), "[study] ")
         table = document.get("specimens", {})
         if not isinstance(table, dict):
             fail("[specimens] must be a table: files = [...] or manifest filters")
@@ -114,7 +128,9 @@ class HysteresisProblem(ProblemType):
                 bounds = validate(document["bounds"], names, "[bounds]")
             except InputFileError as err:
                 fail(err.problem if err.problem.startswith("[") else f"[bounds] {err.problem}")
-        return self.setup(state, excitation, entries, available, bounds, formulations, fix_mass, model_names, offsets)
+        return self.setup(
+            state, excitation, entries, available, bounds, formulations, fix_mass, model_names, offsets, start
+        )
 
     def held_out_entries(self, fail, files, base_dir, label: str) -> list:
         """The held-out specimens (``[validation] files`` or ``--validate``): like ``[specimens] files``."""
@@ -132,6 +148,8 @@ class HysteresisProblem(ProblemType):
         model=None,
         fix_mass="auto",
         offsets="branch",
+        initial_state="auto",
+        warmup_s=0.0,
     ):
         model_names = parse_models(
             fail, model.split(",") if isinstance(model, str) else model or model_registry.DEFAULT
@@ -151,6 +169,7 @@ class HysteresisProblem(ProblemType):
         entries = specimens_from_files(fail, files, base_dir, "--specimens")
         paths = [e.path for e in entries]
         _refuse_unused(fail, "--", model_names, formulations, fix_mass, offsets, paths)
+        start = start_setting(fail, initial_state, warmup_s, "--")
         bounds = None
         if bounds_file is not None:
             from bwbench.data import bounds as bounds_mod
@@ -165,6 +184,7 @@ class HysteresisProblem(ProblemType):
             fix_mass=fix_mass,
             models=model_names,
             offsets=offsets,
+            start=start,
         )
 
     def setup(
@@ -178,13 +198,16 @@ class HysteresisProblem(ProblemType):
         fix_mass="auto",
         models=(model_registry.DEFAULT,),
         offsets="branch",
+        start=None,
     ) -> ProblemSetup:
         """The ``ProblemSetup`` of these specimens (``SpecimenEntry`` with ``meta["sha256"]``); several
-        models or formulations are variants compared side by side."""
+        models or formulations are variants compared side by side, every one started by the same rule
+        (``start``: {"initial_state", "warmup_s"}, absent when the defaults)."""
         from bwbench.problems.hysteresis.formulations import variants as variant_list
 
         bounds = {k: list(v) for k, v in (bounds or {}).items()}
         settings = {"state": state, "excitation": excitation, **({"bounds": bounds} if bounds else {})}
+        settings.update(start or {})  # absent for the defaults: studies stored before stay the same
         identity = dict(settings)
         pairs = variant_list(models, formulations, [e.path for e in entries])
         if list(models) != [model_registry.DEFAULT]:  # absent for the paper's model: stored studies stay the same
@@ -227,6 +250,8 @@ class HysteresisProblem(ProblemType):
             fix_mass=settings.get("fix_mass", "auto") if layout is not None and layout.mass else "auto",
             offsets=settings.get("offsets") if layout is not None and layout.branched else None,
             bounds=bounds or None,
+            initial_state=settings.get("initial_state", "auto"),
+            warmup=settings.get("warmup_s", 0.0),
         ).problem
 
     def record_columns(self, settings, entry, result=None) -> dict:
@@ -283,6 +308,7 @@ class HysteresisProblem(ProblemType):
             "excitation": s.get("excitation", "measured"),
             "model": model_name,
             "formulation": model.direct_name,
+            **{k: s[k] for k in ("initial_state", "warmup_s") if k in s},
         }
         problem = self.make_problem(settings, SpecimenEntry(specimen, str(study.specimen_path(specimen))))
         return float(problem.loss_batch(truth[None, :])[0])
@@ -306,6 +332,21 @@ class HysteresisProblem(ProblemType):
         from bwbench.problems.hysteresis.report import sections
 
         return sections.limits(report)
+
+
+def start_setting(fail, initial_state, warmup_s, prefix: str) -> dict:
+    """{"initial_state", "warmup_s"} of a study, checked (``bwbench.models.start.check``); {} for the
+    defaults, so that a study's identity stays what it was before the keys."""
+    from bwbench.errors import UserError
+    from bwbench.models import start
+
+    flags = ("--initial-state", "--warmup") if prefix == "--" else ("[study] initial_state", "[study] warmup_s")
+    try:
+        initial_state, warmup_s = start.check(initial_state, warmup_s, flags)
+    except UserError as err:
+        fail(str(err))
+    out = {"initial_state": initial_state} if initial_state != "auto" else {}
+    return {**out, "warmup_s": warmup_s} if warmup_s else out
 
 
 def _refuse_unused(fail, prefix: str, models, formulations, fix_mass, offsets, paths) -> None:

@@ -90,7 +90,9 @@ def report_intro(report) -> None:
         report.best_backend,
         [n for n in report.verdict.peers if n not in report.verdict.avoid],
     )
-    c["results"].to_csv(report.out / "benchmark_results.csv", index=False)
+    from bwbench.data.output_paths import write_frame
+
+    write_frame(c["results"], report.out / "benchmark_results.csv", index=False)
 
 
 def ranking_columns(report, table) -> dict:

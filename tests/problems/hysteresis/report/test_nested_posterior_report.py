@@ -16,7 +16,7 @@ from bwbench.problems.hysteresis.report.posterior_draws import log_posterior, po
 from paper_problems import SwitchedBoucWenProblem
 from study_fixture import DATA_DIR, SPECIMENS, make_study_db
 
-RUNS, DRAWS = 4, 150
+RUNS, DRAWS = 4, 400
 
 
 def nested_posterior(db, rng):
@@ -65,7 +65,7 @@ def test_a_nested_posterior_is_read_with_its_runs_modes_and_evidence(study):
     assert [round(m.mass, 2) for m in v["modes"]] == pytest.approx([0.7, 0.3], abs=0.05)
     assert v["evidence"]["log_z"] == pytest.approx(-10.0, abs=0.05) and v["evidence"]["agree"]
     assert v["best_fit_place"]["where"] in ("mode", "below")  # the fixture's cmaes fits sit at the truth
-    assert len(pc.unit_draws()) == min(RUNS * DRAWS, 1000)  # the whole posterior, every mode
+    assert len(pc.unit_draws()) == RUNS * DRAWS // -(-RUNS * DRAWS // 1000)  # the whole posterior, thinned
 
 
 def test_the_report_shows_runs_modes_masses_evidence_and_writes_the_draws(study, tmp_path):
@@ -75,6 +75,14 @@ def test_the_report_shows_runs_modes_masses_evidence_and_writes_the_draws(study,
     report.build_report(study, out, profile_params=1, profile_grid=2)
     md = (out / "report.md").read_text(encoding="utf-8")
     part = md.split("## Posterior sampling")[1]
+    # the verdict first, in the words the API and the terminal use, then what it rests on
+    subsection = part.split("### ")[1]
+    (pc,) = posterior_chains(results_db.load_study(study))
+    first = next(line for line in subsection.splitlines()[1:] if line.strip())
+    assert pc.verdict_line in first
+    assert "| check | result | detail |" in subsection and "| ln Z agree | pass |" in subsection
+    assert "| parameter | pooled mean | 5 % | 95 % | runs' means | within target |" in subsection
+    assert "| region | pooled mass | runs' masses | spread |" in subsection
     assert "| parameter | R̂ | bulk ESS |" in part
     assert "Nested sampling (UltraNest)" in part and "uniform on the search box" in part
     assert "| mode | mass | best log-likelihood |" in part

@@ -60,9 +60,12 @@ def fixed_columns(signal, layout, masks, offsets=True):
     mode = offsets_mode(offsets)
     names, cols = [], []
     present = [(b, mask) for b, mask in masks.items() if mask.any()]
+    rates = getattr(signal, "rate_independent", False)  # a quasi-static record: no viscous or inertia term
     for b, mask in present:
         for name, source in layout.fixed:
             if source == "1" and (mode == "none" or (mode == "continuous" and b != present[0][0])):
+                continue
+            if rates and source in ("v", "a"):
                 continue
             names.append(f"{name}{b}")
             whole = mode == "continuous" and source == "1"
@@ -76,3 +79,34 @@ def tied_offsets(layout, masks, offsets) -> dict:
     if offsets_mode(offsets) != "continuous" or len(present) < 2:
         return {}
     return {f"{name}{b}": f"{name}{present[0]}" for name, source in layout.fixed if source == "1" for b in present[1:]}
+
+
+def linear_force(layout, coefficients: dict, signal, w, strict: bool = False) -> np.ndarray:
+    """F = Σ β_j·g_j (N) on ``signal`` (t, x, v, a) with the coefficients by name (every one of
+    ``coefficient_names(layout)``) and the θ-dependent column ``w`` (L,); +inf everywhere when it is
+    not finite. A branch the record moves in whose coefficients are not finite (a fit's data never had
+    it): ``UserError`` when ``strict``, else +inf. A quasi-static record (``signal.rate_independent``:
+    no time) has no viscous or inertia force: those columns are left out."""
+    from bwbench.errors import UserError
+
+    F = np.zeros(len(signal.x))
+    quasi = getattr(signal, "rate_independent", False)
+    if layout.mass and not quasi:
+        F += coefficients[layout.mass] * np.asarray(signal.a, dtype=float)
+    for b, mask in branch_masks(layout, signal.v).items():
+        if not mask.any():
+            continue
+        values = {name: coefficients[f"{name}{b}"] for name, _ in layout.fixed}
+        values[layout.varying] = coefficients[f"{layout.varying}{b}"]
+        unknown = [f"{n}{b}" for n, v in values.items() if not np.isfinite(v)]
+        if unknown and strict:
+            raise UserError(
+                f"the record moves in branch {b} (ẋ {'≥' if b == '+' else '<'} 0), whose "
+                f"coefficients ({', '.join(unknown)}) the fit's data never had"
+            )
+        for name, source in layout.fixed:
+            if not (quasi and source in ("v", "a")):
+                F += values[name] * signal_column(signal, source, mask)
+        with np.errstate(invalid="ignore", over="ignore"):
+            F += values[layout.varying] * np.where(mask, w, 0.0)
+    return F if np.all(np.isfinite(F)) else np.full(len(F), np.inf)

@@ -143,9 +143,17 @@ class LinearDesign:
             self.notes.append(
                 "offsets continuous across a reversal: " + ", ".join(f"{a} = {b}" for a, b in self.tied.items())
             )
-        self.inertia = inertia_check(s, self.f, layout, self.offsets, self.m_ref) if layout.mass else None
-        if not layout.mass:
-            self.mass = 0.0  # no inertia term in this model
+        quasi_static = getattr(s, "rate_independent", False)  # no time: no rate (``fixed_columns``)
+        if quasi_static:
+            held = [n for n, source in layout.fixed if source in ("v", "a")] + ([layout.mass] if layout.mass else [])
+            self.notes.append(
+                f"quasi-static record (no time column): {', '.join(held)} held at 0 — no viscous or inertia force"
+            )
+        self.inertia = (
+            inertia_check(s, self.f, layout, self.offsets, self.m_ref) if layout.mass and not quasi_static else None
+        )
+        if not layout.mass or quasi_static:
+            self.mass = 0.0  # no inertia term in this model, or none on a quasi-static record
         elif isinstance(self.fix_mass, str):
             if self.fix_mass != "auto":
                 raise ValueError(f"fix_mass must be 'auto', None or a number, got {self.fix_mass!r}")

@@ -78,12 +78,12 @@ def table(study, specimens) -> pd.DataFrame:
         fitted = problem.simulate(run[list(problem.param_names)].to_numpy(dtype=float))
         if not np.all(np.isfinite(fitted)):
             continue
-        spec = problem.specimen
+        scored = problem.start.loss  # the samples in the loss (after a warm-up)
         rows.append(
             {
                 "specimen": specimen,
                 "best run": f"{run['optimizer']} seed {int(run['replicate'])}",
-                **residual_summary(spec.x, spec.f, fitted),
+                **residual_summary(problem.loss_signal.x, problem.f_loss, fitted[scored]),
             }
         )
     return pd.DataFrame(rows)

@@ -51,8 +51,14 @@ def synthetic(study, specimens) -> str:
 
 
 def conditions(problem) -> str:
-    """ "shared state, measured excitation" (no state for a model without state conventions)."""
-    return (f"{problem.state} state, " if problem.state else "") + f"{problem.excitation} excitation"
+    """ "shared state, measured excitation, start from rest" (no state for a model without state
+    conventions; the start as the common rule resolved it, ``bwbench.models.start``)."""
+    out = (f"{problem.state} state, " if problem.state else "") + f"{problem.excitation} excitation"
+    start = getattr(problem, "start", None)
+    if start is not None:
+        out += ", start after a pre-roll" if start.resolved == "pre-roll" else ", start from rest"
+        out += f", warm-up {start.warmup_s:g} s" if start.warmup else ""
+    return out
 
 
 def truth(study, specimen):

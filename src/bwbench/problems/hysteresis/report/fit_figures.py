@@ -25,6 +25,7 @@ from bwbench.problems.hysteresis.report.figure_common import (
     travel_arrows,
     truth,
 )
+from bwbench.render.fit_plots import WARMUP, shade_warmup, warmup_label
 from bwbench.render.palette import (
     MAX_WIDTH_IN,
     OKABE_ITO,
@@ -100,7 +101,7 @@ def _draw_measured(loop, force, t, x, f, fitted, style: Style, turns, x_model=No
     force.set_title("force against time", loc="left")
 
 
-def _mark_reversals(axes, t, turns) -> None:
+def mark_reversals(axes, t, turns) -> None:
     for ax in axes:
         for i in turns:
             ax.axvline(t[i], color="0.45", lw=0.8, ls=":", zorder=1)
@@ -120,7 +121,7 @@ REVERSAL = Line2D(
 )
 
 
-def _residual_limit(residuals: dict, skip=()) -> float:
+def residual_limit(residuals: dict, skip=()) -> float:
     """Symmetric y range of the residual panel: the lines of ``residuals`` not in ``skip`` fit; a
     far worse one (random search) runs off the edge instead of flattening the others."""
     kept = [np.abs(r[np.isfinite(r)]) for name, r in residuals.items() if name not in skip]
@@ -130,7 +131,8 @@ def _residual_limit(residuals: dict, skip=()) -> float:
 
 def plot_fit(problem, result, path, synthetic: bool = False) -> None:
     """One fit: the loop with its direction of travel, force against time, and the residual against
-    time with its RMSE; PNG at ``path``. The title names the formulation when the problem has one."""
+    time with its RMSE; PNG at ``path``. The title names the formulation when the problem has one (a
+    long record: ``record_fit_figure``)."""
     theme()
     from bwbench.data.steady_part import steady_part
 
@@ -154,17 +156,18 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
         steady=steady.part if steady.ramped else None,
     )
     error = fitted - spec.f
-    rmse = float(np.sqrt(np.mean(error**2)))
+    scored = problem.start.loss  # a warm-up is simulated and drawn, but not in the loss: shaded
+    rmse = float(np.sqrt(np.mean(error[scored] ** 2)))
     residual.plot(spec.t, error, **style.line(lw=0.9, ls="-"))
+    shade_warmup([force, residual], spec.t, problem.start.warmup)
     residual.axhline(0.0, color="black", lw=0.8)
-    limit = _residual_limit({"fit": error})
+    limit = residual_limit({"fit": error})
     residual.set_ylim(-limit, limit)
     residual.set_ylabel("model − measured (N)")
-    residual.set_xlabel("time t (s)")
-    residual.set_title(f"residual: RMSE {rmse:.3g} N, NRMSE {nrmse_pair(rmse, spec.f)[1]:.3g} (RMSE/max F)", loc="left")
-    _mark_reversals([force, residual], spec.t, turns)
-    formulation = getattr(problem, "formulation", "paper")
-    handles = [
+    residual.set_xlabel(time_label(problem))
+    residual.set_title(f"residual: RMSE {rmse:.3g} N, {nrmse_short(rmse, problem.f_loss)}", loc="left")
+    mark_reversals([force, residual], spec.t, turns)
+    handles: list = [
         Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"}),
         style.handle(f"fitted model ({result.optimizer})", marker=False),
         REVERSAL,
@@ -181,15 +184,39 @@ def plot_fit(problem, result, path, synthetic: bool = False) -> None:
                 label=f"ramp cycles, lighter ({steady.describe()})",
             )
         )
-    legend(fig, handles, ncol=2 if steady.ramped else 3)
-    nrmse_abs, nrmse_max = nrmse_pair(rmse, spec.f)
-    title(
-        fig,
-        f"{spec.name} — {problem.model.name} ({formulation} formulation), {result.optimizer}, seed "
-        f"{result.seed}, {result.nfev} evaluations\nRMSE {result.rmse_N:.3g} N, NRMSE {nrmse_max:.3g} "
-        f"(RMSE/max F; {nrmse_abs:.3g} RMSE/max|F|); {conditions(problem)}, {_velocity_source(problem)}",
-    )
+    if problem.start.warmup:
+        handles.append(Patch(**WARMUP, label=warmup_label(problem.start.warmup_s)))
+    legend(fig, handles, ncol=2 if len(handles) > 3 else 3)
+    title(fig, fit_title(problem, result))
     write_png(fig, path, synthetic)
+
+
+def fit_title(problem, result) -> str:
+    spec = problem.specimen
+    formulation = getattr(problem, "formulation", "paper")
+    return (
+        f"{spec.name} — {problem.model.name} ({formulation} formulation), {result.optimizer}, seed "
+        f"{result.seed}, {result.nfev} evaluations\nRMSE {result.rmse_N:.3g} N, "
+        f"{_nrmse_words(result.rmse_N, problem.f_loss, 3)}; {conditions(problem)}, {_velocity_source(problem)}"
+    )
+
+
+def _nrmse_words(rmse: float, f, digits: int) -> str:
+    from bwbench.problems.hysteresis.fit_result import nrmse_text
+
+    nrmse_abs, nrmse_max = nrmse_pair(rmse, f)
+    return nrmse_text(nrmse_abs, nrmse_max, digits)
+
+
+def nrmse_short(rmse: float, f) -> str:
+    """A panel's NRMSE: RMSE/max F where the force has a positive peak, else RMSE/max|F|."""
+    nrmse_abs, nrmse_max = nrmse_pair(rmse, f)
+    return f"NRMSE {nrmse_max:.3g} (RMSE/max F)" if np.isfinite(nrmse_max) else f"NRMSE {nrmse_abs:.3g} (RMSE/max|F|)"
+
+
+def time_label(problem) -> str:
+    quasi = getattr(problem.signal, "rate_independent", False)
+    return "point along the path (quasi-static: no time)" if quasi else "time t (s)"
 
 
 def nrmse_pair(rmse: float, f) -> tuple[float, float]:
@@ -201,6 +228,8 @@ def nrmse_pair(rmse: float, f) -> tuple[float, float]:
 
 def _velocity_source(problem) -> str:
     """ "velocity recorded", "velocity estimated from the displacement" or "velocity of the sine fit"."""
+    if getattr(problem.signal, "rate_independent", False):
+        return "quasi-static: the displacement path and its direction of motion, no time"
     source = problem.signal.sources.get("velocity", "")
     return {"measured": "velocity recorded", "estimated": "velocity estimated from the displacement"}.get(
         source, f"velocity of the {source}" if source else "velocity"
@@ -302,7 +331,7 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     for rank, optimizer in reversed(list(enumerate(shown))):  # the best drawn last, on top
         residual.plot(spec.t, residuals[optimizer], **look[optimizer].line(lw=0.9), zorder=3 + len(shown) - rank)
     residual.axhline(0.0, color="black", lw=0.8, zorder=2)
-    limit = _residual_limit(residuals, skip=randoms)
+    limit = residual_limit(residuals, skip=randoms)
     residual.set_ylim(-limit, limit)
     off = [o for o in randoms if np.nanmax(np.abs(residuals[o])) > limit]
     if off:
@@ -320,13 +349,16 @@ def hysteresis_loops(study, out_dir, specimen: str, order=None, backends: int = 
     residual.set_ylabel("model − measured (N)")
     residual.set_xlabel("time t (s)")
     residual.set_title("residual of the best run of each backend", loc="left")
-    _mark_reversals([force_ax, residual], spec.t, turns)
+    mark_reversals([force_ax, residual], spec.t, turns)
+    shade_warmup([force_ax, residual], spec.t, best_problem.start.warmup)
     text = {o: f"{o}: RMSE {np.sqrt(fits[o][0]['mse']):.3g} N (seed {int(fits[o][0]['replicate'])})" for o in shown}
     handles: list[Any] = [Line2D([], [], label="measured", **{k: v for k, v in MEASURED.items() if k != "rasterized"})]
     handles += backend_handles(look, shown, text, marker=False)
     handles.append(REVERSAL)
     if noise is not None:
         handles.append(Patch(color="0.85", label=f"±2σ of the noise (truth's residual, σ = {noise:.2g} N)"))
+    if best_problem.start.warmup:
+        handles.append(Patch(**WARMUP, label=warmup_label(best_problem.start.warmup_s)))
     if band is not None:
         handles.append(
             Patch(
@@ -362,5 +394,5 @@ def _noise_band(study, specimen, cache):
     if params is None:
         return None
     problem = problem_for(study, specimen, "paper", cache)
-    error = problem.simulate(params) - problem.specimen.f
+    error = (problem.simulate(params) - problem.specimen.f)[problem.start.loss]
     return float(np.sqrt(np.mean(error**2))) if np.all(np.isfinite(error)) else None

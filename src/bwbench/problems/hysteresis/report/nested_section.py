@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from bwbench.analysis.mcmc import ESS_MIN, R_HAT_MAX
 from bwbench.problems.hysteresis.report.posterior_draws import axis, parameters
 from bwbench.problems.hysteresis.report.posterior_tables import (
     LEVEL,
     convergence_table,
+    model_name,
     summary_against_truth,
     write_inference_data,
 )
@@ -26,45 +26,30 @@ PRIOR_TEXT = (
 )
 
 
-def nested_text(pc) -> list[str]:
-    """Paragraphs on a nested-sampling posterior: the verdict with the criteria that failed, and where
-    the best ranking fit lies."""
-    v = pc.nested
-    ev = v["evidence"]
-    out = []
-    if v["converged"]:
-        out.append(
-            f"**Converged** across {pc.chain.walkers} independent runs: R̂ ≤ {R_HAT_MAX:g} and bulk ESS ≥ "
-            f"{ESS_MIN} for every parameter (each run's equal-weight draws one chain), the runs agree on ln Z "
-            f"(χ² p = {number(ev['p'], 2)}) and on every mode's mass, and no run was cut by the budget."
+def best_fit_text(pc) -> str | None:
+    """Where the best ranking fit lies against a nested posterior, in a sentence; None without one."""
+    place = pc.nested.best_fit_place
+    if place is None:
+        return None
+    if place["where"] == "mode":
+        return f"The best ranking fit lies in mode {place['mode'] + 1} of the posterior."
+    if place["where"] == "below":
+        return (
+            f"The best ranking fit lies below the posterior's support by Δ log p = {place['delta']:.1f} "
+            "(the sampler's draws are all more probable)."
         )
-    else:
-        out.append("NOT converged — " + "; ".join(v["failed"]) + ".")
-    place = v.get("best_fit_place")
-    if place is not None:
-        if place["where"] == "mode":
-            out.append(f"The best ranking fit lies in mode {place['mode'] + 1} of the posterior.")
-        elif place["where"] == "below":
-            out.append(
-                f"The best ranking fit lies below the posterior's support by Δ log p = {place['delta']:.1f} "
-                "(the sampler's draws are all more probable)."
-            )
-        else:
-            out.append(
-                "The best ranking fit lies where no draw goes (outside every draw, or more probable than "
-                "any draw), at least as probable as the draws: the sampler missed a mode at least as "
-                "probable as it."
-            )
-    return out
+    return (
+        "The best ranking fit lies where no draw goes (outside every draw, or more probable than any draw), at "
+        "least as probable as the draws: the sampler missed a mode at least as probable as it."
+    )
 
 
 def good_fits_placed(study, pc) -> pd.DataFrame:
-    """Every good ranking fit (``spread_decomposition.good_fits``) against a nested posterior's draws
+    """Every good ranking fit (``posterior_draws.good_fits``) against a nested posterior's draws
     (``nested.locate``): in which mode, or below the posterior's support by how much, or outside every
     draw while as probable (a mode the sampler missed)."""
     from bwbench.analysis import nested
-    from bwbench.problems.hysteresis.report.posterior_draws import in_coordinates, log_posterior
-    from bwbench.problems.hysteresis.report.spread_decomposition import good_fits
+    from bwbench.problems.hysteresis.report.posterior_draws import good_fits, in_coordinates, log_posterior
 
     rows = []
     for _, run in good_fits(study, pc.chain.specimen).sort_values("mse").iterrows():
@@ -134,25 +119,53 @@ def nested_modes_table(pc) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def evidence_table(chains) -> pd.DataFrame:
+    """``| specimen | model | ln Z | ± | ln B |``: each nested posterior's pooled ln Z, and the Bayes factor
+    (log) against the best model of the same specimen."""
+    from bwbench.analysis import nested
+
+    rows = [
+        {
+            "specimen": pc.chain.specimen,
+            "model": model_name(pc),
+            "ln Z": pc.nested["evidence"]["log_z"],
+            "±": pc.nested["evidence"]["err"],
+        }
+        for pc in chains
+        if pc.nested is not None
+    ]
+    if not rows:
+        return pd.DataFrame()
+    frame = pd.DataFrame(rows)
+    for _, group in frame.groupby("specimen", sort=False):
+        factors = nested.bayes_factors(dict(zip(group.index, group["ln Z"])))
+        frame.loc[group.index, "ln B against the best"] = [factors[i] for i in group.index]
+    return frame
+
+
 def nested_subsection(report, pc, rng, order):
     from bwbench.problems.hysteresis.report import parameter_figures as figures
+    from bwbench.problems.hysteresis.report.posterior_runs import box_block, verdict_block
 
     doc, study, chain, v = report.doc, report.study, pc.chain, pc.nested
-    table = v["diagnostics"]
-    worst, least = float(table["r_hat"].max()), float(table["ess_bulk"].min())
     doc.h(3, f"{chain.specimen} ({chain.optimizer}, {pc.problem.formulation} formulation)")
+    verdict_block(doc, pc)  # the verdict in one line first, then what it rests on
     ev = chain.evidence
     nfev = pc.run.get("nfev")
-    doc.table(
-        convergence_table(pc),
-        f"{chain.walkers} independent runs × {chain.steps:,} equal-weight draws"
-        + (f", {int(nfev):,} evaluations" if nfev == nfev and nfev else "")
-        + f"; ln Z per run: {', '.join(f'{z:.2f} ± {e:.2f}' for z, e in zip(ev['log_z'], ev['log_z_err']))}",
+    wall = pc.run.get("wall_s")
+    doc.p(
+        f"{chain.walkers} independent runs × {chain.steps:,} equal-weight draws each"
+        + (f"; {int(nfev):,} evaluations" if nfev == nfev and nfev else "")
+        + (f" in {float(wall) / 60:.1f} min" if wall == wall and wall else "")
+        + f"; ln Z per run: {', '.join(f'{z:.2f} ± {e:.2f}' for z, e in zip(ev['log_z'], ev['log_z_err']))}"
+        + ("; effective draws per run: " + ", ".join(f"{e:,.0f}" for e in ev["run_ess"]) if ev.get("run_ess") else "")
+        + "."
     )
-    for text in nested_text(pc):
-        (doc.p if v["converged"] or not text.startswith("NOT") else doc.banner)(text)
-    if pc.run.get("message"):
-        doc.p(f"What the sampler did and why it stopped: {pc.run['message']}.")
+    if v.diagnostics is not None:
+        doc.table(convergence_table(pc), f"R̂ and ESS on each run's first {v.badge['draws']:,} draws (the badge)")
+    placed_text = best_fit_text(pc)
+    if placed_text:
+        doc.p(placed_text)
     doc.table(
         nested_modes_table(pc),
         "Modes: posterior mass (± run-to-run spread), best log-likelihood, median "
@@ -163,6 +176,7 @@ def nested_subsection(report, pc, rng, order):
         doc.table(
             placed, "The good ranking fits (final MSE within 10 % of the best known) against the posterior's draws"
         )
+    box_block(doc, pc, study, order)
     summary_against_truth(doc, study, pc, rng, f"Posterior medians and central {LEVEL:.0%} intervals over every mode")
     written = write_inference_data(pc, doc.out_dir)
     if written:
@@ -173,13 +187,15 @@ def nested_subsection(report, pc, rng, order):
         f"{chain.specimen}: posterior marginals and the most correlated pairs, with the best fit on the "
         "specimen and the truth",
     )
+    table = v.diagnostics
     return (
         chain,
         {
-            "converged": v["converged"],
+            "converged": v.converged,
             "steps": chain.steps,
-            "worst_r_hat": worst,
-            "min_ess": least,
-            "modes": len(v["modes"]),
+            "worst_r_hat": float(table["r_hat"].max()) if table is not None else float("nan"),
+            "min_ess": float(table["ess_bulk"].min()) if table is not None else float("nan"),
+            "modes": len(v.modes),
+            "line": v.line,
         },
     )

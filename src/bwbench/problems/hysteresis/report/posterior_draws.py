@@ -13,10 +13,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from bwbench.analysis import mcmc
 from bwbench.models.switched import parameters as switched_parameters
 
+TOLERANCE = 0.10  # good fits: final MSE within 10 % of the best known for the specimen
+EDGE = 1e-3  # a fit within this of an edge of the box (unit coordinates) lies on it
 DRAWS = 1000  # kept draws summarised and pushed through the model (thinned evenly)
 
 
@@ -33,13 +36,39 @@ class PosteriorChain:
     assessment: dict
     names: list
     fixed: list = field(default_factory=list)
-    # a nested-sampling posterior: ``bwbench.analysis.nested.assess`` of its runs (the chain's walkers are
-    # the runs, its steps their equal-weight draws); ``assessment`` then has one "mode" holding every run
-    nested: dict | None = None
+    # a nested-sampling posterior: ``posterior_verdict.judge`` of its runs, a ``Verdict`` (the chain's
+    # walkers are the runs, its steps their equal-weight draws); ``assessment`` then has one "mode"
+    nested: Any = None
 
     @property
     def burn(self) -> int:
         return 0 if self.nested is not None else self.chain.steps // 2
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.nested.converged if self.nested is not None else self.assessment["converged"])
+
+    @property
+    def reasons(self) -> list:
+        """Why the posterior is not converged (empty when it is), in the report's words."""
+        if self.nested is not None:
+            return list(self.nested.reasons)
+        return [] if self.assessment["converged"] else list(self.assessment.get("why") or ["R̂ or ESS off target"])
+
+    @property
+    def verdict_line(self) -> str:
+        """The verdict in one line: what the report's posterior section, the terminal and the API show."""
+        from bwbench.analysis import posterior_verdict
+
+        if self.nested is not None:
+            return self.nested.line
+        return posterior_verdict.sentence(
+            self.converged,
+            self.reasons,
+            "R̂ ≤ 1.01 and bulk ESS ≥ 400 for every sampled parameter"
+            + (f", parameters held by a reduced model: {', '.join(self.fixed)}" if self.fixed else "")
+            + ", and the best ranking fit lies within the draws",
+        )
 
     @property
     def main(self):
@@ -156,11 +185,64 @@ def posterior_chains(study, chains=None) -> list[PosteriorChain]:
             ensembles = 1
         assessment = mcmc.assess(chain.samples, chain.log_prob, ensembles, names)
         moving = mcmc.sampled(chain.samples)
-        out.append(
-            PosteriorChain(
-                chain, problem, run, ensembles, assessment, names, [n for n, m in zip(names, moving) if not m]
-            )
+        pc = PosteriorChain(
+            chain, problem, run, ensembles, assessment, names, [n for n, m in zip(names, moving) if not m]
         )
+        _best_fit_covered(study, pc)
+        out.append(pc)
+    return out
+
+
+def _best_fit_covered(study, pc: PosteriorChain) -> None:
+    """An emcee posterior is not converged when the best ranking fit lies where none of its kept draws go
+    while as probable as them (``nested.locate``: "missed"): the chain missed a mode, whatever R̂ says.
+    The reason joins ``pc.assessment["why"]``."""
+    from bwbench.analysis import nested
+
+    fits = good_ranking_fits(study, pc.problem, pc.chain.specimen)
+    if not fits or pc.chain.log_prob is None:
+        return
+    kept = pc.chain.samples[pc.burn :]
+    lp = pc.chain.log_prob[pc.burn :]
+    modes, cut, unit = nested.find_modes(kept, lp)
+    for point, like, label in fits:
+        place = nested.locate(point, like, kept, lp, {"scale": unit, "cut": cut, "modes": modes})
+        if place["where"] != "missed":
+            continue
+        pc.assessment["converged"] = False
+        pc.assessment["why"] = [
+            *pc.assessment.get("why", []),
+            f"the sampler missed a mode at least as probable as {label} (log-likelihood {like:.1f}, where no "
+            f"kept draw goes; the draws' best {np.nanmax(lp):.1f})",
+        ]
+        return
+
+
+def good_fits(study, specimen: str, tolerance: float = TOLERANCE) -> pd.DataFrame:
+    """Ranking runs on ``specimen`` whose final MSE is within ``tolerance`` of the best known."""
+    from bwbench.analysis import statistics
+
+    best = statistics.best_known(study.runs)[specimen]
+    runs = study.ranking[(study.ranking["specimen"] == specimen) & (study.ranking["status"] == "ok")]
+    return runs[runs["mse"] <= best * (1 + tolerance)]
+
+
+def good_ranking_fits(study, problem, specimen: str) -> list:
+    """[(unit point, log-likelihood, label)] of the ranking's good fits on ``specimen`` (final MSE within
+    10 % of the best known: ``good_fits``), best first, in ``problem``'s coordinates;
+    fits outside the box, on its edge (a search stopped by its box: a sliver of the prior the draws seldom
+    reach) or of another model are left out."""
+    out: list = []
+    for _, row in good_fits(study, specimen).sort_values("mse").iterrows():
+        theta = in_coordinates(row.to_dict(), problem)
+        if theta is None:
+            continue
+        u = np.asarray(problem.to_unit(theta[None, :]), dtype=float)[0]
+        if np.any(u <= EDGE) or np.any(u >= 1 - EDGE):
+            continue
+        like = float(log_posterior(problem, theta[None, :])[0])
+        best = "the best ranking fit" if not out else "the good ranking fit"
+        out.append((u, like, f"{best} ({row['optimizer']}, seed {int(row['replicate']) + 1}, MSE {row['mse']:.4g} N²)"))
     return out
 
 
@@ -184,35 +266,48 @@ def best_ranking_fit(study, problem, specimen: str):
 
 
 def nested_chain(study, chain, problem, run: dict, names) -> PosteriorChain:
-    """A nested-sampling posterior read for the report: the runs' verdict (``nested.assess``, with the
-    best ranking fit located against the draws) and a single "mode" holding every run, so that the
-    summaries, figures and the decomposition read the whole posterior, every mode with its mass."""
-    from bwbench.analysis import nested
+    """A nested-sampling posterior read for the report and the API: its verdict (``posterior_verdict.judge``
+    on the stored runs, with the best ranking fit located against the draws) and a single "mode" holding
+    every run, so that the summaries, figures and the decomposition read the whole posterior, every mode
+    with its mass."""
+    verdict = verdict_of(study, chain, problem, names)
+    lp = chain.log_prob
+    whole = mcmc.Mode(
+        tuple(range(chain.walkers)), np.arange(chain.walkers), float(np.median(lp)) if lp is not None else float("nan")
+    )
+    assessment = {
+        "converged": verdict.converged,
+        "modes": [whole],
+        "diagnostics": [verdict.diagnostics] if verdict.diagnostics is not None else [],
+        "why": verdict.reasons,
+        "modes_text": "",
+        "steps": chain.steps,
+    }
+    return PosteriorChain(chain, problem, run, chain.walkers, assessment, list(names), [], verdict)
+
+
+def verdict_of(study, chain, problem, names):
+    """``posterior_verdict.judge`` of a stored nested-sampling chain: what the report, the terminal and the
+    API say of it (the best ranking fit of its specimen located against the draws)."""
+    from bwbench.analysis import posterior_verdict
 
     ev = chain.evidence
-    best = best_ranking_fit(study, problem, chain.specimen)
-    verdict = nested.assess(
+    table = parameters(problem)
+    return posterior_verdict.judge(
         chain.samples,
         chain.log_prob,
         ev["log_z"],
         ev["log_z_err"],
         names,
         complete=ev.get("run_complete"),
-        best_fit=best,
+        ess=ev.get("run_ess"),
+        insertion=ev.get("insertion"),
+        run_nfev=ev.get("run_nfev"),
+        steps=ev.get("run_steps"),
+        best_fit=good_ranking_fits(study, problem, chain.specimen),
+        from_unit=problem.from_unit,
+        labels=[axis(problem, n, table) for n in names],
     )
-    lp = chain.log_prob
-    whole = mcmc.Mode(
-        tuple(range(chain.walkers)), np.arange(chain.walkers), float(np.median(lp)) if lp is not None else float("nan")
-    )
-    assessment = {
-        "converged": verdict["converged"],
-        "modes": [whole],
-        "diagnostics": [verdict["diagnostics"]],
-        "why": verdict["failed"],
-        "modes_text": "",
-        "steps": chain.steps,
-    }
-    return PosteriorChain(chain, problem, run, chain.walkers, assessment, list(names), [], verdict)
 
 
 def in_coordinates(values: dict, problem):

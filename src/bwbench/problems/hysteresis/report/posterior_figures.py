@@ -118,7 +118,8 @@ def posterior(
         keep[posterior.main.walkers] = True
         stuck = ~keep
         if diagnostics is None:
-            diagnostics = posterior.assessment["diagnostics"][posterior.assessment["modes"].index(posterior.main)]
+            found = posterior.assessment["diagnostics"]  # none for runs too small for the R̂ badge
+            diagnostics = found[posterior.assessment["modes"].index(posterior.main)] if found else False
     else:
         names = list(PARAM_NAMES if names is None else names)
         if from_unit is None:  # the paper's 14 in the Table 5 box
@@ -129,10 +130,10 @@ def posterior(
         diagnostics = mcmc.convergence(chain.samples[:, ~stuck], names, burn)
     diagnostics = None if diagnostics is False else pd.DataFrame(diagnostics)
     converged, sentence = verdict(diagnostics)
-    if posterior is not None and posterior.nested is not None and not posterior.nested["converged"]:
-        # nested sampling has criteria beyond R̂ and ESS (ln Z, mode masses, runs cut, a missed mode)
-        converged = False
-        sentence = "NOT converged: " + posterior.nested["failed"][0]
+    if posterior is not None and (posterior.nested is not None or not posterior.converged):
+        # the posterior's own verdict (nested sampling: the runs' checks and precision; emcee: R̂/ESS and the
+        # best ranking fit covered), the same line as the report's and the API's
+        converged, sentence = posterior.converged, posterior.verdict_line
     box = (
         np.vstack([LOWER, UPPER])
         if from_unit is None

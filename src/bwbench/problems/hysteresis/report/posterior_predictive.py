@@ -38,7 +38,7 @@ def predictive(pc, rng, draws: int = DRAWS) -> Band | None:
     from bwbench.problems.hysteresis.marginal import draw_linear
 
     problem = pc.problem
-    f = problem.specimen.f
+    f = problem.f_loss  # the samples in the loss (after a warm-up)
     P = problem.from_unit(pc.unit_draws(size=draws))
     forces, sigmas = [], []
     if getattr(problem, "formulation", "") == "identifiable":
@@ -60,7 +60,7 @@ def predictive(pc, rng, draws: int = DRAWS) -> Band | None:
     else:
         L = len(f)
         for p in P:
-            force = problem.simulate(p)
+            force = problem.simulate(p)[problem.start.loss]
             if not np.all(np.isfinite(force)):
                 continue
             rss = float(np.sum((force - f) ** 2))
@@ -74,15 +74,16 @@ def predictive(pc, rng, draws: int = DRAWS) -> Band | None:
     lo, hi = np.quantile(noisy, [tail, 1 - tail], axis=0)
     mlo, mhi = np.quantile(F, [tail, 1 - tail], axis=0)
     outside = float(np.mean((f < lo) | (f > hi)))
-    return Band(lo, hi, mlo, mhi, outside, len(F), problem.specimen.name)
+    lo, hi, mlo, mhi = (np.concatenate([np.full(problem.start.warmup, np.nan), b]) for b in (lo, hi, mlo, mhi))
+    return Band(lo, hi, mlo, mhi, outside, len(F), problem.specimen.name)  # NaN over a warm-up: not scored
 
 
 def _design_times(problem, theta, shift, row) -> np.ndarray:
     """X(θ)·shift (N): the force change of moving the free linear coefficients by ``shift``."""
     design = problem.design
-    w = problem.model.trajectories(np.asarray(theta)[None, :], problem.signal, problem.state)[0]
+    w = problem.loss_trajectories(theta)[0]
     columns = {}
-    s = problem.signal
+    s = problem.loss_signal
     for b, mask in design.masks.items():
         for name, source in design.layout.fixed:
             columns[f"{name}{b}"] = mask * (1.0 if source == "1" else np.asarray(getattr(s, source), dtype=float))

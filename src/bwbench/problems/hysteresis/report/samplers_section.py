@@ -33,14 +33,13 @@ def unit_draws(pc) -> np.ndarray:
 
 def verdict_text(pc) -> str:
     """The sampler's own R̂/ESS verdict: "converged (R̂ 1.003, ESS 812)" or "not converged (…)"."""
-    diagnostics = pc.assessment["diagnostics"] if pc.nested is None else [pc.nested["diagnostics"]]
-    r_hat = [float(np.nanmax(d["r_hat"])) for d in diagnostics if len(d)]
-    ess = [float(np.nanmin(d["ess_bulk"])) for d in diagnostics if len(d)]
+    diagnostics = pc.assessment["diagnostics"] if pc.nested is None else [pc.nested.diagnostics]
+    r_hat = [float(np.nanmax(d["r_hat"])) for d in diagnostics if d is not None and len(d)]
+    ess = [float(np.nanmin(d["ess_bulk"])) for d in diagnostics if d is not None and len(d)]
     numbers = (
         f"worst R̂ {max(r_hat):.3f}, least bulk ESS {min(ess):,.0f}" if r_hat and np.isfinite(max(r_hat)) else "no R̂"
     )
-    converged = pc.assessment["converged"] if pc.nested is None else pc.nested["converged"]
-    return f"{'converged' if converged else 'not converged'} ({numbers})"
+    return f"{'converged' if pc.converged else 'not converged'} ({numbers})"
 
 
 def comparison_table(by_backend: dict) -> pd.DataFrame:

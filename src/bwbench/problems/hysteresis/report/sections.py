@@ -22,6 +22,7 @@ from bwbench.render.labels import split_label
 
 def setup_text(report) -> str:
     from bwbench.models import registry
+    from bwbench.models.start import rule_text
 
     s = report.study.settings
     models = s.get("model", registry.DEFAULT)
@@ -44,9 +45,10 @@ def setup_text(report) -> str:
         titles = [f"{m} ({registry.get(m).title})" for m in models]
         model_text = ("models compared side by side: " if len(models) > 1 else "model: ") + ", ".join(titles) + "; "
     state = f"state convention **{s.get('state', '?')}**, " if any(registry.get(m).states for m in models) else ""
+    start = rule_text(s.get("initial_state", "auto"), s.get("warmup_s", 0.0))
     return (
         f"{model_text[:1].upper() + model_text[1:]}{'m' if model_text else 'M'}odel {state}excitation "
-        f"**{s.get('excitation', '?')}**; {label}: {text}."
+        f"**{s.get('excitation', '?')}**; every model starts each record the same way: {start}; {label}: {text}."
     )
 
 
@@ -237,7 +239,9 @@ def limits(report) -> list[str]:
     for chain, d in report.options.get("chain_diagnostics", []):
         if not d["converged"]:
             items.append(
-                f"The posterior chain on {chain.specimen} has not converged ({d['steps']:,} steps; worst "
+                f"The posterior on {chain.specimen}: {d['line'][0].lower()}{d['line'][1:]}; its summaries are not reliable."
+                if d.get("line")
+                else f"The posterior chain on {chain.specimen} has not converged ({d['steps']:,} steps; worst "
                 f"R̂ {d['worst_r_hat']:.3f}, least bulk ESS {d['min_ess']:,.0f}): its summaries are not reliable."
             )
     return items

@@ -14,18 +14,18 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from bwbench.analysis import spread, statistics
-from bwbench.problems.hysteresis.report.posterior_draws import axis, in_coordinates, log_posterior, parameters, truth
+from bwbench.analysis import spread
+from bwbench.problems.hysteresis.report.posterior_draws import (
+    TOLERANCE,
+    axis,
+    good_fits,
+    in_coordinates,
+    log_posterior,
+    parameters,
+    truth,
+)
 
-TOLERANCE = 0.10  # good fits: final MSE within 10 % of the best known for the specimen
 CLASS_COLOURS = {spread.DATA: "#009E73", spread.EARLY: "#D55E00", spread.ELSEWHERE: "#CC79A7"}
-
-
-def good_fits(study, specimen: str, tolerance: float = TOLERANCE) -> pd.DataFrame:
-    """Ranking runs on ``specimen`` whose final MSE is within ``tolerance`` of the best known."""
-    best = statistics.best_known(study.runs)[specimen]
-    runs = study.ranking[(study.ranking["specimen"] == specimen) & (study.ranking["status"] == "ok")]
-    return runs[runs["mse"] <= best * (1 + tolerance)]
 
 
 def symmetry_part(study, pc, runs: pd.DataFrame) -> dict:

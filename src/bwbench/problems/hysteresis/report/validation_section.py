@@ -24,6 +24,12 @@ def held_out_names(study) -> list[str]:
     return list((study.config.get("validation") or {}).keys())
 
 
+def start_of(study) -> dict:
+    """How the study started every record (its [study] initial_state and warmup_s; the defaults when absent)."""
+    settings = study.settings or {}
+    return {"initial_state": settings.get("initial_state", "auto"), "warmup_s": settings.get("warmup_s", 0.0)}
+
+
 def predictions_table(study) -> pd.DataFrame:
     """One row per (ranking run, held-out file): label, specimen (training), replicate, held_out, rmse_N,
     nrmse and ``failure``: "" for a prediction, else why there is none (the run found nothing finite,
@@ -42,7 +48,7 @@ def predictions_table(study) -> pd.DataFrame:
             failure = "the fit found nothing finite"
         else:
             try:
-                fitted = FittedModel.from_run(run)
+                fitted = FittedModel.from_run(run, start_of(study))
             except UserError as err:
                 failure = f"its parameters make no model: {err}"
         for name, spec in held.items():
@@ -161,7 +167,9 @@ def section(report) -> None:
         )
         return
     table = predictions_table(study)
-    table.to_csv(report.out / "held_out.csv", index=False)
+    from bwbench.data.output_paths import write_frame
+
+    write_frame(table, report.out / "held_out.csv", index=False)
     ranked = ranking(report, table)
     doc.p(
         f"Every ranking run's fit predicts the {len(names)} held-out test(s) ({', '.join(names)}), never fitted, "
@@ -215,7 +223,7 @@ def _figure(report, table, label, names):
     specimen, replicate = mine.idxmin()
     runs = study.ranking
     run = runs[(runs["optimizer"] == label) & (runs["specimen"] == specimen) & (runs["replicate"] == replicate)].iloc[0]
-    fitted = FittedModel.from_run(run)
+    fitted = FittedModel.from_run(run, start_of(study))
     predictions = [fitted.predict(read_specimen(study.specimen_path(n))) for n in names[:FIGURE_TESTS]]
     fig = draw_predictions(predictions, f"{label}, fitted to {specimen} (seed {replicate}): held-out tests predicted")
     frame = pd.concat([p.frame().assign(held_out=p.specimen) for p in predictions], ignore_index=True)

@@ -1,0 +1,1 @@
+"""The Bouc-Wen-Baber-Noori model: degradation and pinching for structural tests."""
