@@ -160,16 +160,22 @@ def minimize(
         if lost or not all(r["complete"] for r in results):
             break  # runs cut: more runs on smaller shares would be cut too
         plan = _next_plan(results, objective, job, max_runs, reserve)
-    if not results and not objective.exhausted:
-        # not enough budget for one run: the budget goes to prior draws, so there is a best point to report
-        log_like = _LogLike(objective, n_data, stop=objective.budget, raise_when_spent=False)
-        log_like(rng.random((objective.remaining, d)))
-        return {
-            "message": f"budget of {objective.budget:,} evaluations too small for one nested-sampling run "
-            f"(at least {4 * MIN_LIVE * runs:,} for {runs} runs): spent on uniform draws from the "
-            "prior, nothing sampled",
-            "converged": False,
-        }
+    if not results:
+        # not enough budget for one run: what is left goes to prior draws, so there is a best point to report
+        if not objective.exhausted:
+            log_like = _LogLike(objective, n_data, stop=objective.budget, raise_when_spent=False)
+            log_like(rng.random((objective.remaining, d)))
+        if lost:
+            why = (
+                f"every run ({lost}) spent its share of the {objective.budget:,} evaluations inside one UltraNest "
+                "iteration and was lost (fewer live points or a larger budget): nothing sampled"
+            )
+        else:
+            why = (
+                f"budget of {objective.budget:,} evaluations too small for one nested-sampling run (at least "
+                f"{4 * MIN_LIVE * runs:,} for {runs} runs): spent on uniform draws from the prior, nothing sampled"
+            )
+        return {"message": why, "converged": False}
     extras = _extras(results, rng, objective, live_points, runs)
     if reserve and objective.remaining >= reserve:
         flat, lp = extras["chain"].reshape(-1, d), extras["log_prob"].reshape(-1)

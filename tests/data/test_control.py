@@ -14,10 +14,10 @@ from bwbench.errors import UserError
 HEADER = "time_s,displacement_mm,force_N"
 
 
-def _write(path, control_column: str | None = None, values=None, n: int = 200):
+def _write(path, control_column: str | None = None, values=None, n: int = 200, force_N: float = 40.0):
     t = np.arange(n) * 0.01
     x = 5 * np.sin(2 * np.pi * t)
-    f = 40 * np.cos(2 * np.pi * t) + 3 * x
+    f = force_N * np.cos(2 * np.pi * t) + 3 * x
     rows = [HEADER + (f",{control_column}" if control_column else "")]
     for k in range(n):
         cells = [f"{t[k]:.4f}", f"{x[k]:.5f}", f"{f[k]:.4f}"]
@@ -93,7 +93,7 @@ def test_bad_control_input_is_one_line_and_exit_2(tmp_path, capsys, content, fla
     ],
 )
 def test_bad_laws_are_one_line_and_exit_2(tmp_path, capsys, flags, message):
-    paths = [_write(tmp_path / f"{k}.csv") for k in "ab"]
+    paths = [_write(tmp_path / f"{k}.csv", force_N=f) for k, f in (("a", 40.0), ("b", 50.0))]  # two tests, not copies
     status = main(["fit", *paths, "--model", "spencer", "--out", str(tmp_path / "fit.json"), *flags])
     err = capsys.readouterr().err
     assert status == 2 and err.count("\n") == 1 and message in err, err

@@ -11,6 +11,7 @@ from bwbench.data.specimen_input import from_frame
 from bwbench.models.protocol import protocol
 from bwbench.problems.hysteresis import fit_checks
 from bwbench.problems.hysteresis.fit_result import nrmse_text
+from bwbench.problems.hysteresis.fitted_model import Prediction
 from bwbench.problems.hysteresis.formulations import make_problem
 from bwbench.problems.hysteresis.report import prediction_figures, record_fit_figure
 from bwbench.render.format import files_text
@@ -76,11 +77,8 @@ def test_many_files_are_named_by_a_count_and_the_first_few_and_figures_say_which
     frame = broadband(seconds=2.0)
     rows = []
     for k in range(46):
-        p = type("P", (), {})()
-        p.specimen, p.time_s, p.displacement_mm = f"test_{k:02d}", frame.time_s.values, frame.displacement_mm.values
-        p.force_N = p.measured_N = frame.force_N.values
-        p.rmse_N, p.nrmse = 0.0, 0.0
-        rows.append(p)
+        force = frame.force_N.values
+        rows.append(Prediction(f"test_{k:02d}", frame.time_s.values, frame.displacement_mm.values, force, force))
     fig = prediction_figures.draw_predictions(rows, "joint fit of 46 tests: a model", what="fitted")
     suptitle = fig.get_suptitle()
     assert "shown: the first 8 of 46 tests, one per row (test_00 … test_07)" in suptitle

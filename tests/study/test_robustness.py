@@ -144,10 +144,12 @@ def test_a_second_compare_on_a_database_being_written_is_refused(tmp_path):
         before = db.read_bytes()
         second = run_compare("--config", config, "--db", db, "--workers", "1")
         assert second.returncode == 2
-        assert second.stderr.splitlines() == [
+        *said, refusal = second.stderr.splitlines()
+        assert refusal == (
             f"error: {db}: another bwbench compare (pid {first.pid}) is writing this study; "
             "wait for it or pass another --db"
-        ]
+        )
+        assert all(line.startswith("warning: [posterior]") for line in said), said  # the config's, read first
         assert db.read_bytes() == before  # nothing written
         assert first.poll() is None  # and the first study goes on
         first.kill()  # SIGKILL: the lock must die with it

@@ -620,11 +620,11 @@ def test_saving_a_fit_onto_its_own_bounds_file_is_refused(lab):
     import bwbench
 
     box = lab / "box.json"
-    box.write_text('{"xi+": [1.0, 50.0]}\n')
+    box.write_text('{"xy+": [1.0, 50.0]}\n')
     fit = bwbench.fit(str(lab / "in" / "mr.csv"), optimizer="random", budget=5, bounds=str(box))
     with pytest.raises(UserError, match="is an input of this command"):
         fit.save(lab / "." / "box.json")
-    assert box.read_text() == '{"xi+": [1.0, 50.0]}\n'
+    assert box.read_text() == '{"xy+": [1.0, 50.0]}\n'
 
 
 # ------------------------------------------------------------------ the third sweep's leftovers

@@ -50,7 +50,9 @@ def test_a_model_and_a_backend_from_files_fit_without_installing_anything(elsewh
         "--optimizer", "example-coordinate-search", "--budget", "300", "--out", "fit.json",
     )  # fmt: skip
     assert fit.returncode == 0, fit.stderr
-    assert fit.stdout.startswith("example-coordinate-search: MSE ")
+    first, second = fit.stdout.splitlines()[:2]
+    assert first == "fitting test.csv: linear-damper in its direct formulation (its only one)"
+    assert second.startswith("example-coordinate-search: MSE ")
     import json
 
     params = json.loads(Path("fit.json").read_text())["params"]

@@ -58,7 +58,8 @@ def test_threads_opts_in_to_more(tmp_path):
         from bwbench.engine import fitting
         seen, real = [], fitting.run
         fitting.run = lambda *a, **k: seen.append(numba.get_num_threads()) or real(*a, **k)
-        code = main(["fit", {str(SPECIMEN)!r}, "--optimizer", "random", "--budget", "20", "--out", "r.json", "--threads", "2"])
+        code = main(["fit", {str(SPECIMEN)!r}, "--optimizer", "random", "--budget", "20", "--formulation", "identifiable",
+                     "--out", "r.json", "--threads", "2"])  # identifiable: 20 random points fit (exit 0)
         print(code, seen)
     """)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, cwd=tmp_path)

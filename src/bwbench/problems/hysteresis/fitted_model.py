@@ -328,7 +328,9 @@ class FittedModel:
             from bwbench.problems.hysteresis.linear.columns import coefficient_units
 
             expected.update(coefficient_units(model.linear_layout(self.state)))
-        for name in self.needed():
+        # every stated parameter, not only the needed ones: an identifiable fit also stores the paper's
+        # form, and a file converted there is as wrong as one converted in the coefficients it uses
+        for name in dict.fromkeys([*self.needed(), *self.params]):
             stated, unit = self.units.get(name), expected.get(name)
             if not isinstance(stated, str) or unit is None:
                 continue  # not stated (a hand-written parameter file): read in bwbench's units

@@ -307,6 +307,7 @@ class JointProblem:
         merged.findings += [f for f in findings[0][1] if f in common] if findings else []
         merged.findings += [f"{name}: {f}" for name, fs in findings for f in fs if f not in common]
         fit_checks.physical_limit_findings(self, params, {}, merged)  # the solved coefficients, jointly
+        fit_checks.edge_findings(self, params, result.at_bound, merged)  # the box edges, on the joint loss
         return merged
 
 

@@ -143,7 +143,6 @@ class DirectProblem(ModelFit):
     ):
         self._setup(model, specimen, state, excitation, initial_state, warmup_s)
         self.formulation = model.direct_name
-        self._setup(model, specimen, state, excitation)
         self.parameter_list = model.direct_parameters(self.state)
         self._box(model.direct_box(self.signal, specimen.f, self.state), bounds)
 

@@ -111,8 +111,9 @@ class ControlledModel:
             self.excitation,
         )
 
-    def predict(self, specimen):
-        """The force on ``specimen`` (a ``Specimen`` with its control) against its measured one."""
+    def predict(self, specimen, refit_offset: bool = False):
+        """The force on ``specimen`` (a ``Specimen`` with its control) against its measured one;
+        ``refit_offset``: the constant force re-solved on this record (as ``FittedModel.predict``)."""
         from bwbench.problems.hysteresis.fitted_model import Prediction
 
         specimen = self._read(specimen)  # a path or a DataFrame: read with this model's control
@@ -127,13 +128,19 @@ class ControlledModel:
             force = plain.force(signal)
         else:
             force = self.force_varying(signal, u, np.diff(np.asarray(specimen.t, dtype=float)))
+        measured = np.asarray(specimen.f, dtype=float)
+        offset = None
+        if refit_offset and np.all(np.isfinite(force)):
+            offset = float(np.mean(measured - force))  # least squares: the mean of measured − predicted
+            force = force + offset
         return Prediction(
             specimen.name,
             np.asarray(specimen.t, dtype=float),
             np.asarray(signal.x, dtype=float),
             force,
-            np.asarray(specimen.f, dtype=float),
+            measured,
             np.asarray(signal.v, dtype=float),
+            offset_N=offset,
         )
 
     def simulate(self, specimen):
