@@ -166,7 +166,14 @@ LAYERS = (
     ("bwbench.models",),
     ("bwbench.render",),
     ("bwbench.data", "bwbench.analysis"),
-    ("bwbench.plugins", "bwbench.limits", "bwbench.threads", "bwbench.version", "bwbench.notices", "bwbench.text_streams"),
+    (
+        "bwbench.plugins",
+        "bwbench.limits",
+        "bwbench.threads",
+        "bwbench.version",
+        "bwbench.notices",
+        "bwbench.text_streams",
+    ),
     ("bwbench.errors",),
 )
 ROOMS = {room: depth for depth, layer in enumerate(LAYERS) for room in layer}

@@ -3,8 +3,8 @@ predicted with the constant force re-solved on it (and said), every other coeffi
 Records from an independent solve_ivp reference, commands run from another folder."""
 
 import json
-import re
 import os
+import re
 
 import numpy as np
 import pandas as pd
