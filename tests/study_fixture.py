@@ -42,8 +42,9 @@ CREATE TABLE study (key TEXT PRIMARY KEY, value TEXT);
 CREATE TABLE runs (
     {_KEY}, seed_entropy TEXT, status TEXT, error TEXT, budget INTEGER, nfev INTEGER,
     mse REAL, f_err REAL, rmse_N REAL, success INTEGER, message TEXT, state TEXT, excitation TEXT,
-    material TEXT, underpressure_MPa REAL, repeat INTEGER, options_json TEXT,
-    problem TEXT, params_json TEXT, metrics_json TEXT, model TEXT, formulation TEXT, variant TEXT, {_PK});
+    options_json TEXT,
+    problem TEXT, params_json TEXT, metrics_json TEXT, model TEXT, formulation TEXT, variant TEXT, meta_json TEXT,
+    {_PK});
 CREATE TABLE timings ({_KEY}, wall_s REAL, worker TEXT, finished_utc TEXT, {_PK});
 CREATE TABLE traces ({_KEY}, nfev INTEGER, mse REAL);
 CREATE TABLE chains ({_KEY}, steps INTEGER, walkers INTEGER, dim INTEGER, chain BLOB, log_prob BLOB,
@@ -67,9 +68,6 @@ RUN_COLUMNS = (
     "message",
     "state",
     "excitation",
-    "material",
-    "underpressure_MPa",
-    "repeat",
     "options_json",
     "problem",
     "params_json",
@@ -77,6 +75,7 @@ RUN_COLUMNS = (
     "model",
     "formulation",
     "variant",
+    "meta_json",
 )
 
 
@@ -171,9 +170,7 @@ def make_study_db(
             budget=budget if kind == "ranking" else nfev,
             state="shared",
             excitation="measured",
-            material=entry["material"],
-            underpressure_MPa=entry["underpressure_MPa"],
-            repeat=entry["repeat"],
+            meta_json=json.dumps({k: entry[k] for k in ("material", "underpressure_MPa", "repeat")}, sort_keys=True),
             options_json=json.dumps(options, sort_keys=True),
             success=0,
             problem="switched-bouc-wen",

@@ -134,3 +134,17 @@ def _numba_reread() -> None:
         from numba.core import config
 
         config.reload_config()
+
+
+def settle_numba_environment() -> None:
+    """Make ``NUMBA_NUM_THREADS`` in the environment say the size numba's running pool has. Numba re-reads
+    the variable at every compilation and raises if it differs from the launched pool's; a library
+    imported late compiles at import (ArviZ), so call this before importing one. Nothing when the pool
+    has not started or the two agree."""
+    if not _numba_pool_started():
+        return
+    from numba.core import config
+
+    size = str(config.NUMBA_NUM_THREADS)
+    if os.environ.get("NUMBA_NUM_THREADS", size) != size:
+        os.environ["NUMBA_NUM_THREADS"] = size

@@ -52,10 +52,10 @@ def test_a_toy_problem_runs_through_compare_and_report(registered, tmp_path, cap
     assert "median RMSE (mV)" in out
     with closing(sqlite3.connect(db)) as conn:
         rows = conn.execute(
-            "SELECT problem, specimen, status, params_json, metrics_json, material FROM runs"
+            "SELECT problem, specimen, status, params_json, metrics_json, meta_json FROM runs"
         ).fetchall()
     assert len(rows) == 2 * 3 * 2 and {r[0] for r in rows} == {"toy-decay"} and {r[2] for r in rows} == {"ok"}
-    assert all('"a":' in r[3] and '"a_error":' in r[4] and r[5] is None for r in rows)
+    assert all('"a":' in r[3] and '"a_error":' in r[4] and r[5] == "{}" for r in rows)  # no specimen facts
 
     assert main(["report", "--db", str(db), "--out", str(tmp_path / "report")]) == 0
     md = (tmp_path / "report" / "report.md").read_text(encoding="utf-8")

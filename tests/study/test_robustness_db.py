@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from bwbench.commands.compare import run_cli
+from bwbench.database import reader
 from bwbench.database.writer import open_database
 from bwbench.engine import registry
 from bwbench.study import execute, failures
@@ -72,7 +73,7 @@ def test_failures_summary_groups_errors_with_counts_and_keys():
 )
 def test_environment_faults_are_transient_and_the_rest_deterministic(err, transient):
     assert failures.is_transient(err) is transient
-    assert failures.is_transient_text(failures.one_line(err)) is transient
+    assert reader.is_transient_text(failures.one_line(err)) is transient
 
 
 # ------------------------------------------------------------------------------ 3. failed runs
@@ -351,10 +352,10 @@ def test_a_full_disk_mid_study_stops_with_one_line_and_what_was_committed_resume
     config = write_config(tmp_path / "full.toml", budget=100, seeds=4)
     db = tmp_path / "full.sqlite"
 
-    def open_with_no_room_to_grow(path, config, planned_runs=None):
+    def open_with_no_room_to_grow(path, config, planned_runs=None, **facts):
         # SQLite's own limit: once the file has this many pages a write fails with SQLITE_FULL, as on
         # a full disk; the runs fit in the pages the new tables already have until one needs another.
-        conn = open_database(path, config, planned_runs)
+        conn = open_database(path, config, planned_runs, **facts)
         pages = conn.execute("PRAGMA page_count").fetchone()[0]
         conn.execute(f"PRAGMA max_page_count = {pages}")
         return conn

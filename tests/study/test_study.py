@@ -286,7 +286,7 @@ def test_a_database_from_before_the_generic_columns_resumes_and_reads(tmp_path):
     with closing(sqlite3.connect(db)) as conn:
         got = conn.execute(f"SELECT specimen, problem, params_json FROM runs {KEY_ORDER}").fetchall()
     assert got[0][1:] == (None, None)
-    assert got[1][1] == "switched-bouc-wen" and set(json.loads(got[1][2])) == set(PARAM_NAMES)
+    assert got[1][1] == "hysteresis" and set(json.loads(got[1][2])) == set(PARAM_NAMES)
     assert len(results_db.load_study(db).runs) == 2
 
 

@@ -12,6 +12,8 @@ import pytest
 
 import bwbench.plugins as plugins
 from bwbench.cli import main
+from bwbench.engine import registry as backend_registry
+from bwbench.models import registry as model_registry
 
 REPO = Path(__file__).resolve().parents[2]
 MODEL_FILE = REPO / "examples" / "model_plugin" / "bwbench_linear_damper.py"
@@ -33,7 +35,12 @@ def elsewhere(tmp_path, monkeypatch):
     np.savetxt(
         "test.csv", np.column_stack([t, x, f]), delimiter=",", header="time_s,displacement_mm,force_N", comments=""
     )
-    return tmp_path
+    registries = (model_registry.REGISTRY, backend_registry.REGISTRY)
+    before = [dict(r.items) for r in registries]
+    yield tmp_path
+    for registry, items in zip(registries, before):  # what a test loaded in this process, forgotten
+        registry.items.clear()
+        registry.items.update(items)
 
 
 def run(*args):

@@ -117,3 +117,23 @@ def test_numba_imported_before_the_environment_starts_its_pool_with_it_and_compi
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "1"
+
+
+def test_a_late_import_that_compiles_meets_the_running_pools_size(tmp_path):
+    # The pool started at the machine's size; a variable set since (as a block of ``environment`` may
+    # leave it) made ArviZ's import-time compilation raise "Cannot set NUMBA_NUM_THREADS ...".
+    script = textwrap.dedent("""
+        import os
+        os.environ.pop("NUMBA_NUM_THREADS", None)
+        import numba
+        numba.get_num_threads()  # launches the pool
+        size = numba.config.NUMBA_NUM_THREADS
+        os.environ["NUMBA_NUM_THREADS"] = str(size + 1)
+        from bwbench.threads import settle_numba_environment
+        settle_numba_environment()
+        numba.njit(lambda x: x + 1)(1)  # compiles: re-reads the variable
+        print(os.environ["NUMBA_NUM_THREADS"] == str(size))
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "True"

@@ -98,6 +98,9 @@ def convergence(samples: np.ndarray, names, burn: int | None = None) -> "pd.Data
 
     Read with Vehtari et al. (2021): converged when R̂ ≤ 1.01 and both ESS ≥ 400.
     """
+    from bwbench.threads import settle_numba_environment
+
+    settle_numba_environment()  # ArviZ compiles numba code at import
     import arviz as az
     import pandas as pd
 

@@ -206,6 +206,9 @@ def inference_data(study, specimen: str, thin: int | None = None):
     --------
     >>> inference_data(stored, "mytest").posterior.attrs["units"]
     """
+    from bwbench.threads import settle_numba_environment
+
+    settle_numba_environment()  # ArviZ compiles numba code at import
     import arviz as az
 
     posterior = chain_of(study, specimen)

@@ -118,8 +118,8 @@ def _serve(conn, parent_pid: int, threads: int, run) -> None:
     from bwbench.threads import limited
 
     _init_worker(parent_pid)
-    conn.send(_READY)
-    with limited(threads):
+    with limited(threads):  # imports numba: a worker numba refuses dies here, before it says it started
+        conn.send(_READY)
         while True:
             try:
                 task = conn.recv()

@@ -174,7 +174,7 @@ def test_a_record_from_rest_is_simulated_from_rest_with_its_sensitivities_too():
     Jacobians (and, with lsq-trf's fused evaluations, its residuals) are those of a pre-rolled start
     (measured: 17 mm/s of ẏ apart on a 62 mm/s range)."""
     from bwbench.models import excitation
-    from bwbench.models.spencer.start import starts_from_rest
+    from bwbench.models.start import starts_from_rest
 
     t = np.arange(0.0, 3.0, 0.002)
     x = 25.0 * np.sin(2 * np.pi * t) * np.minimum(1.0, t / 0.5) ** 2

@@ -13,7 +13,7 @@ from bwbench.cli import main
 from bwbench.data.specimen import read_specimen
 from bwbench.data.steady_part import steady_part
 from bwbench.models import excitation, registry
-from bwbench.models.spencer.start import starts_from_rest
+from bwbench.models.start import starts_from_rest
 from bwbench.problems.hysteresis import fit_checks
 from bwbench.problems.hysteresis.inertia_rule import SINE_TOLERANCE, inertia_check, sine_test
 from bwbench.problems.hysteresis.model_problem import IdentifiableProblem

@@ -144,7 +144,7 @@ def evidence_table(chains) -> pd.DataFrame:
 
 
 def nested_subsection(report, pc, rng, order):
-    from bwbench.problems.hysteresis.report import parameter_figures as figures
+    from bwbench.problems.hysteresis.report import posterior_figures
     from bwbench.problems.hysteresis.report.posterior_runs import box_block, verdict_block
 
     doc, study, chain, v = report.doc, report.study, pc.chain, pc.nested
@@ -181,7 +181,7 @@ def nested_subsection(report, pc, rng, order):
     written = write_inference_data(pc, doc.out_dir)
     if written:
         doc.p(f"The draws in physical units, one chain per run, are in `{written}` (ArviZ InferenceData, netCDF).")
-    png = figures.posterior(study, doc.out_dir, chain, problem=pc.problem, posterior=pc, order=order)
+    png = posterior_figures.posterior(study, doc.out_dir, chain, problem=pc.problem, posterior=pc, order=order)
     doc.figure(
         png,
         f"{chain.specimen}: posterior marginals and the most correlated pairs, with the best fit on the "

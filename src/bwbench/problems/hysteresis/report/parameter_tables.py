@@ -58,6 +58,15 @@ def headings(problem) -> dict:
     return out
 
 
+FACTS = ("material", "underpressure_MPa", "repeat")  # a manifest's facts of a specimen (meta_json)
+
+
+def with_facts(runs: pd.DataFrame) -> pd.DataFrame:
+    """``runs`` with a column for each of ``FACTS``, NaN where no specimen had a manifest to say it."""
+    missing = {name: np.nan for name in FACTS if name not in runs}
+    return runs.assign(**missing) if missing else runs
+
+
 def section(report, formulation: str, paper_data: bool) -> None:
     doc, study = report.doc, report.study
     shown = (
@@ -82,7 +91,8 @@ def section(report, formulation: str, paper_data: bool) -> None:
         + (", and the truth the synthetic specimen was generated from" if paper else "")
         + "."
     )
-    ranking = study.ranking.assign(material=study.ranking["material"].fillna("Specimens"))  # no manifest: one group
+    ranking = with_facts(study.ranking)
+    ranking = ranking.assign(material=ranking["material"].fillna("Specimens"))  # no manifest: one group
     ok = ranking[(ranking["status"] == "ok") & np.isfinite(ranking["mse"].astype(float))]
     ok = ok[[variant_of(study, o) == variant for o in ok["optimizer"]]]
     if ok.empty:

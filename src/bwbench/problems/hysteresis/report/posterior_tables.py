@@ -107,6 +107,9 @@ def write_inference_data(pc, out_dir) -> str | None:
     """The posterior's draws in physical units as an ArviZ InferenceData (netCDF) beside the report: one
     chain per run, equal weights; the log-likelihood in sample_stats. Returns the file name, or None
     when it cannot be written (no netCDF engine)."""
+    from bwbench.threads import settle_numba_environment
+
+    settle_numba_environment()  # ArviZ compiles numba code at import
     import arviz as az
 
     samples = pc.chain.samples  # (draws, runs, d)

@@ -200,7 +200,7 @@ def add_sections(report) -> None:
         # and, when the recommended backend searched the identifiable coordinates, its fits mapped back.
         shown = [b for b in order if formulation_of(study, b) == "paper"][:1]
         shown += [report.best_backend] if report.best_backend not in shown else []
-        for material in study.ranking["material"].dropna().unique():
+        for material in parameter_tables.with_facts(study.ranking)["material"].dropna().unique():
             for backend in shown:
                 doc.figure(
                     figures.parameters_vs_underpressure(study, out, backend, material, order=order),
