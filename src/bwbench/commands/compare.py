@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+import bwbench.notices as notices
 import bwbench.threads as threads
 from bwbench.errors import UserError
 
@@ -108,7 +109,8 @@ def run_cli(argv=None, prog: str | None = None) -> int:
     add_arguments(parser)
     args = parser.parse_args(argv)
     try:
-        with threads.environment(getattr(args, "threads", 1)):  # as bwbench's own entry point does
+        # as bwbench's own entry point does: its thread variables, and warnings in words
+        with threads.environment(getattr(args, "threads", 1)), notices.command_line_warnings():
             return main(args)
     except UserError as err:
         print(f"error: {err}", file=sys.stderr)
