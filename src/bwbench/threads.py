@@ -145,6 +145,6 @@ def settle_numba_environment() -> None:
         return
     from numba.core import config
 
-    size = str(config.NUMBA_NUM_THREADS)
+    size = str(config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
     if os.environ.get("NUMBA_NUM_THREADS", size) != size:
         os.environ["NUMBA_NUM_THREADS"] = size
