@@ -36,11 +36,19 @@ def elsewhere(tmp_path, monkeypatch):
         "test.csv", np.column_stack([t, x, f]), delimiter=",", header="time_s,displacement_mm,force_N", comments=""
     )
     registries = (model_registry.REGISTRY, backend_registry.REGISTRY)
-    before = [dict(r.items) for r in registries]
+    before = [(dict(r.items), set(r.from_entry_points)) for r in registries]
+    files = dict(plugins._FILE_MODULES)  # noqa: SLF001 (the process's loaded files, restored below)
     yield tmp_path
-    for registry, items in zip(registries, before):  # what a test loaded in this process, forgotten
+    # What a test loaded in this process, forgotten: the files, their declaration to workers (set by
+    # ``load_files`` itself, so monkeypatch has nothing to undo) and what the registries took from them.
+    os.environ.pop(plugins.FILES_VARIABLE, None)
+    plugins._FILE_MODULES.clear()  # noqa: SLF001
+    plugins._FILE_MODULES.update(files)  # noqa: SLF001
+    for registry, (items, named) in zip(registries, before):
         registry.items.clear()
         registry.items.update(items)
+        registry.from_entry_points.clear()
+        registry.from_entry_points.update(named)
 
 
 def run(*args):
