@@ -271,7 +271,8 @@ def runs_figure(study, out_dir, pc, profile):
             Patch(color=OKABE_ITO[1], alpha=0.25, label="undetermined: the data allow all of it"),
         ]
     legend(fig, handles, ncol=min(len(handles), 5))
-    title(fig, f"{pc.chain.specimen}: {runs} runs' marginals overlaid, with the profile likelihood\n{pc.nested.line}")
+    shown = ", with the profile likelihood" if profile else " (no profile: the budget left none for it)"
+    title(fig, f"{pc.chain.specimen}: {runs} runs' marginals overlaid{shown}\n{pc.nested.line}")
     return save(
         fig,
         out_dir,
