@@ -12,9 +12,9 @@ Spencer's model y = x, z = 0). The rule decides what that first sample is (``ini
   state that cycle leads to (for a periodic test, its steady state). The pre-rolled samples are not
   in the loss. A record without a full cycle, or whose first velocity sample is 0, starts from rest.
 - ``"auto"`` (the default): from rest when the record starts from rest (``starts_from_rest``: still
-  at mid-stroke or ramping in; else judged by its force, which a record cut from a running test repeats
-  a cycle of its own motion later and a specimen set moving from rest does not), else after the
-  pre-roll.
+  at mid-stroke or ramping in, or a loading protocol of growing amplitude; else judged by its force,
+  which a record cut from a running test repeats a cycle of its own motion later and a specimen set
+  moving from rest does not), else after the pre-roll.
 
 ``warmup_s``: the record's first seconds are simulated but left out of the loss, of the per-file
 errors and of the checks of the residual (a record cut from a running test whose state the pre-roll
@@ -66,7 +66,9 @@ def starts_from_rest(t, x, v, f=None) -> bool:
     with the force a cycle of the record's own motion later (``preroll_end``) at the same displacement
     and direction: a record cut from a running test is in its steady state and repeats it, a specimen
     started from rest has not yet built up its hysteresis. Still at an end of its stroke (a machine's
-    ramp test): from rest unless the two agree within ``LOADED_MATCH`` × the force range. Already
+    ramp test): from rest unless the two agree within ``LOADED_MATCH`` × the force range. A loading
+    protocol of growing amplitude (``models.protocol``) starts its specimen from rest: such a test begins
+    at its smallest cycle, and none of its cycles is the record's steady state. Already
     moving: from rest when they differ by more than ``MOVING_MATCH`` × the range while the motion
     itself repeats there (velocity within ``REPEAT_VELOCITY`` × max|ẋ|); where it does not repeat (a
     two-tone or random motion) the force cannot tell, and the record is taken as in motion. Without
@@ -80,6 +82,8 @@ def starts_from_rest(t, x, v, f=None) -> bool:
     mid, amplitude = 0.5 * (x.max() + x.min()), 0.5 * float(np.ptp(x))
     if still and (abs(x[0] - mid) <= REST_POSITION * amplitude or steady_part(t, x).ramp_in_cycles > 0):
         return True
+    if growing(x):
+        return True
     if f is None:
         return False
     k = preroll_end(x, v)
@@ -91,6 +95,13 @@ def starts_from_rest(t, x, v, f=None) -> bool:
         return bool(apart > LOADED_MATCH)
     repeats = abs(float(np.median(v[:3])) - float(np.median(v[k : k + 3]))) <= REPEAT_VELOCITY * fastest
     return bool(repeats and apart > MOVING_MATCH)
+
+
+def growing(x) -> bool:
+    """Whether the displacement ``x`` (mm) is a loading protocol of growing amplitude (``models.protocol``)."""
+    from bwbench.models.protocol import protocol
+
+    return protocol(x).kind == "growing amplitude"
 
 
 def preroll_end(x, v) -> int:
@@ -230,12 +241,15 @@ def plan(signal, initial_state: str = "auto", warmup_s: float = 0.0, name: str =
         return dataclasses.replace(base, reason="initial state 'rest' asked")
     if initial_state == "auto" and starts_from_rest(t, x, v, f):
         moving = np.median(np.abs(v[:3])) > REST_VELOCITY * float(np.max(np.abs(v)))
-        why = (
-            "the record starts moving, but not in a steady state: its force there is not the one a cycle "
-            "later (a specimen set moving from rest)"
-            if moving
-            else "the record starts from rest"
-        )
+        if not moving:
+            why = "the record starts from rest"
+        elif growing(x):
+            why = "the record is a loading protocol of growing amplitude, which starts its specimen from rest"
+        else:
+            why = (
+                "the record starts moving, but not in a steady state: its force there is not the one a cycle "
+                "later (a specimen set moving from rest)"
+            )
         return dataclasses.replace(base, reason=why)
     k = preroll_end(x, v)
     if k == 0:

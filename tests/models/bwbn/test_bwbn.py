@@ -87,9 +87,9 @@ def test_identifiable_jacobian_through_the_linear_solve_matches_central_differen
 def test_a_fit_recovers_an_independently_simulated_degrading_column():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", bwbench.FitWarning)
-        # A virgin specimen set moving at its first cycle's full speed: from rest. (The default cannot tell:
-        # the motion a cycle later is larger, so its force says nothing of the start; real tests start still.)
-        fit = bwbench.fit(degrading_frame(), model="bwbn", budget=600, seed=1, name="column", initial_state="rest")
+        fit = bwbench.fit(degrading_frame(), model="bwbn", budget=600, seed=1, name="column")
+    # a loading protocol of growing cycles starts its specimen from rest (pre-rolled it fitted at 27 N)
+    assert fit.problem.start.resolved == "rest" and "growing amplitude" in fit.problem.start.reason
     assert fit.rmse_N < 5.3  # the 5 N noise
     p = fit.params
     assert p["k0"] == pytest.approx(100.0, rel=0.01) and p["alpha"] == pytest.approx(0.05, abs=0.005)
