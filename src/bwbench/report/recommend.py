@@ -123,7 +123,9 @@ def variant_text(verdict: Verdict, noun: str) -> str:
             f"In the {winner} {noun}, {len(better)} of {len(g)} backends end at lower final losses than in the "
             f"{loser} {noun} ({loser} over {winner}: Hodges–Lehmann ratio "
             + (
-                f"{ratio_number(better['ratio'].min())} to {ratio_number(better['ratio'].max())}"
+                ratio_number(better["ratio"].min())
+                if len(better) == 1
+                else f"{ratio_number(better['ratio'].min())} to {ratio_number(better['ratio'].max())}"
                 if len(better)
                 else "–"
             )
