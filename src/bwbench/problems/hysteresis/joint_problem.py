@@ -22,6 +22,7 @@ another test needs. The search box is the envelope of the files' own data-scaled
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -70,7 +71,60 @@ def file_weights(lengths, weighting: str = "equal") -> np.ndarray:
     raise ValueError(f"weighting must be one of {WEIGHTINGS}, got {weighting!r}")
 
 
-class JointProblem:
+class PartsProblem:
+    """What a problem made of several files' parts says of itself, shared by a joint fit and a fit across
+    a control: needs ``parts``, ``param_names``, ``N``, ``design``, ``model``, ``state``, ``excitation``,
+    ``formulation`` and ``weighting``."""
+
+    parts: list
+    param_names: Any
+    N: int
+    design: Any
+    model: Any
+    state: str | None
+    excitation: str
+    formulation: str
+    weighting: str
+
+    @property
+    def specimens(self) -> list:
+        return [p.specimen for p in self.parts]
+
+    @property
+    def name(self) -> str:
+        return " + ".join(p.specimen.name for p in self.parts)
+
+    @property
+    def dim(self) -> int:
+        return len(self.param_names)
+
+    @property
+    def n_data(self) -> int:
+        return self.N
+
+    @property
+    def notes(self) -> list[str]:
+        return list(self.design.notes) if self.design is not None else []
+
+    def parts_info(self, **extra) -> dict:
+        """The result's description of the problem; ``extra`` after the weighting (a control's)."""
+        out = {
+            "specimen": self.name,
+            "specimens": [p.specimen.name for p in self.parts],
+            "model": self.model.name,
+            "excitation": self.excitation,
+            "formulation": self.formulation,
+            "weighting": self.weighting,
+            **extra,
+        }
+        if self.state is not None:
+            out["state"] = self.state
+        if self.design is not None:
+            out["linear_solve"] = "; ".join(self.notes)
+        return out
+
+
+class JointProblem(PartsProblem):
     """The problems of several specimens (``parts``: ``DirectProblem`` or ``IdentifiableProblem`` of
     one model, formulation, state and excitation) as one fit; see the module docstring."""
 
@@ -119,40 +173,8 @@ class JointProblem:
 
     # -- what the objective, the runner and the result need -----------------------------------
     @property
-    def specimens(self) -> list:
-        return [p.specimen for p in self.parts]
-
-    @property
-    def name(self) -> str:
-        return " + ".join(p.specimen.name for p in self.parts)
-
-    @property
-    def dim(self) -> int:
-        return len(self.param_names)
-
-    @property
-    def n_data(self) -> int:
-        return self.N
-
-    @property
-    def notes(self) -> list[str]:
-        return list(self.design.notes) if self.design is not None else []
-
-    @property
     def info(self) -> dict:
-        out = {
-            "specimen": self.name,
-            "specimens": [p.specimen.name for p in self.parts],
-            "model": self.model.name,
-            "excitation": self.excitation,
-            "formulation": self.formulation,
-            "weighting": self.weighting,
-        }
-        if self.state is not None:
-            out["state"] = self.state
-        if self.design is not None:
-            out["linear_solve"] = "; ".join(self.notes)
-        return out
+        return self.parts_info()
 
     def exploration(self):
         """A copy simulating more cheaply for a fit's exploring searches, or None (``exploration``)."""

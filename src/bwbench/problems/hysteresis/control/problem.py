@@ -27,10 +27,10 @@ import numpy as np
 from bwbench.errors import UserError
 from bwbench.problems.hysteresis.control import laws as laws_mod
 from bwbench.problems.hysteresis.control.lag import FILTER, filtered
-from bwbench.problems.hysteresis.joint_problem import file_weights, stack_signals
+from bwbench.problems.hysteresis.joint_problem import PartsProblem, file_weights, stack_signals
 
 
-class ControlledProblem:
+class ControlledProblem(PartsProblem):
     """See the module docstring. ``parts``: the plain problems of the files (``DirectProblem`` or
     ``IdentifiableProblem`` of one model, formulation and state), each specimen with its control;
     ``laws``: {parameter name: law name or ``Law``}; names the formulation does not have are refused."""
@@ -327,41 +327,8 @@ class ControlledProblem:
 
     # -- what the objective, the runner and the result need ---------------------------------------------------
     @property
-    def specimens(self) -> list:
-        return [p.specimen for p in self.parts]
-
-    @property
-    def name(self) -> str:
-        return " + ".join(p.specimen.name for p in self.parts)
-
-    @property
-    def dim(self) -> int:
-        return len(self.param_names)
-
-    @property
-    def n_data(self) -> int:
-        return self.N
-
-    @property
-    def notes(self) -> list[str]:
-        return list(self.design.notes) if self.design is not None else []
-
-    @property
     def info(self) -> dict:
-        out = {
-            "specimen": self.name,
-            "specimens": [p.specimen.name for p in self.parts],
-            "model": self.model.name,
-            "excitation": self.excitation,
-            "formulation": self.formulation,
-            "weighting": self.weighting,
-            "control": self.control_info(),
-        }
-        if self.state is not None:
-            out["state"] = self.state
-        if self.design is not None:
-            out["linear_solve"] = "; ".join(self.notes)
-        return out
+        return self.parts_info(control=self.control_info())
 
     def control_info(self) -> dict:
         return {
